@@ -1,0 +1,29 @@
+"""granalytics: granule analytics for wet-granulation DEM simulations.
+
+Public API (SI units throughout; angles in degrees only where a name says ``_deg``):
+
+- data model: :class:`Snapshot`, :class:`RunMeta`
+- run files: :class:`RunWriter`, :func:`open_run`, :class:`Run`
+- identification: :func:`identify`, :class:`GraphNetworkAnalysis`, :class:`IdentificationResult`
+- statistics: :func:`granule_table`, :func:`frame_stats`, :func:`run_stats`,
+  :func:`steady_state`, :func:`size_distribution`
+- errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
+  :class:`ParameterError`
+"""
+
+__version__ = "0.1.0"
+
+from .errors import GranalyticsError, ParameterError, RunFileError, ValidationError
+from .identify import GraphNetworkAnalysis, IdentificationResult, identify
+from .io import Run, RunSlice, RunWriter, open_run
+from .snapshot import RunMeta, Snapshot
+from .stats import frame_stats, granule_table, run_stats, size_distribution, steady_state
+
+__all__ = [
+    "__version__",
+    "Snapshot", "RunMeta",
+    "RunWriter", "open_run", "Run", "RunSlice",
+    "identify", "GraphNetworkAnalysis", "IdentificationResult",
+    "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
+    "GranalyticsError", "ValidationError", "RunFileError", "ParameterError",
+]

@@ -1,0 +1,199 @@
+"""Command-line interface: ``granalytics info|identify|stats``.
+
+Errors about the input (files, frames, parameters) are printed as one line on stderr with exit
+status 2, never as a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+
+import numpy as np
+
+from . import __version__
+from .errors import GranalyticsError, ParameterError
+from .identify import BACKENDS, make_identifier
+from .io import open_run
+from .stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
+
+
+def _interval(text):
+    """Parse ``A:B`` into a pair of floats."""
+    try:
+        lo, hi = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected START:STOP (two numbers), got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+        raise argparse.ArgumentTypeError(f"expected START <= STOP, got {text!r}")
+    return lo, hi
+
+
+def _add_gna_options(parser):
+    group = parser.add_argument_group("granule identification (graph network analysis, paper §2.2)")
+    group.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold: keep F_coh >= C_agg·2πγR (default 0.6)")
+    group.add_argument("--a-agg-deg", type=float, default=20.0, help="co-motion threshold angle A_agg in degrees (default 20)")
+    group.add_argument("--radius", choices=("pair", "mean"), default="pair",
+                       help="R in 2πγR: pair effective radius 2RiRj/(Ri+Rj) or the run's mean radius (default pair)")
+    group.add_argument("--backend", choices=sorted(BACKENDS), default="fast", help="connected-components backend (default fast)")
+    group.add_argument("--window-rev", type=_interval, default=None, metavar="R0:R1",
+                       help="only frames within this revolution window (default: all frames)")
+
+
+def _identifier(args):
+    return make_identifier(
+        "gna", c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend
+    )
+
+
+def _frames(run, args):
+    frames = run if args.window_rev is None else run.select(revolutions=args.window_rev)
+    if not len(frames):
+        raise ParameterError(f"{run.path}: no frame in the selection (the run has {len(run)} frames)")
+    return frames
+
+
+def _progress(args):
+    return not args.quiet
+
+
+def cmd_info(args):
+    with open_run(args.run) as run:
+        info = run.info()
+        meta = run.meta.to_dict()
+    if args.json:
+        print(json.dumps({"file": info, "meta": meta}, indent=2, default=str))
+        return 0
+    width = max(len(k) for k in list(info) + list(meta))
+    print("file")
+    for key, value in info.items():
+        print(f"  {key:<{width}}  {value}")
+    print("run metadata (SI units; contact_angle in rad)")
+    for key, value in meta.items():
+        if key in ("sim_config", "provenance"):
+            value = json.dumps(value) if value else "{}"
+            if len(value) > 100:
+                value = value[:97] + "..."
+        print(f"  {key:<{width}}  {value}")
+    return 0
+
+
+def cmd_identify(args):
+    import h5py
+    from tqdm.auto import tqdm
+
+    identifier = _identifier(args)
+    with open_run(args.run) as run:
+        frames = _frames(run, args)
+        n_frames, n = len(frames), run.n_particles
+        try:
+            out = h5py.File(args.out, "w")
+        except OSError as exc:
+            raise GranalyticsError(f"{args.out}: cannot create labels file ({exc})") from None
+        with out:
+            out.attrs["format"] = "granalytics-labels"
+            out.attrs["run"] = os.path.abspath(args.run)
+            out.attrs["method"] = identifier.method
+            out.attrs["params"] = json.dumps(identifier.params())
+            out["frame_index"] = frames.frame_indices
+            out["time"] = frames.times
+            out["time"].attrs["unit"] = "s"
+            labels = out.create_dataset("labels", (n_frames, n), dtype=np.int32, chunks=(1, n), compression="gzip", shuffle=True)
+            ids = out.create_dataset("ids", (n_frames, n), dtype=np.int64, chunks=(1, n), compression="gzip", shuffle=True)
+            n_granules = out.create_dataset("n_granules", (n_frames,), dtype=np.int64)
+            for k, snapshot in enumerate(tqdm(frames, disable=not _progress(args), unit="frame", desc="identify")):
+                result = identifier.identify(snapshot)
+                labels[k] = result.labels
+                ids[k] = snapshot.ids
+                n_granules[k] = result.n_granules
+            counts = n_granules[:]
+    print(f"wrote {args.out}: labels of {n} particles in {n_frames} frames "
+          f"(granules per frame: min {counts.min()}, mean {counts.mean():.1f}, max {counts.max()})")
+    return 0
+
+
+def cmd_stats(args):
+    import pandas as pd
+
+    with open_run(args.run) as run:
+        frames = _frames(run, args)
+        ts, sizes = run_stats(
+            frames, "gna", progress=_progress(args), return_sizes=True,
+            c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+        )
+    ts["frame"] = frames.frame_indices
+    if args.out:
+        _write_table(ts, args.out)
+        print(f"wrote time series ({len(ts)} frames) to {args.out}")
+    steady = steady_state(ts, window=args.window)
+    in_window = (ts["revolutions"] >= args.window[0]) & (ts["revolutions"] <= args.window[1])
+    dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
+    if args.sizes_out:
+        _write_table(dist, args.sizes_out)
+        print(f"wrote size distribution to {args.sizes_out}")
+    lo, hi = args.window
+    print(f"steady state over revolutions [{lo:g}, {hi:g}] (C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°):")
+    with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
+        print(steady.to_string())
+    return 0
+
+
+def _write_table(table, path):
+    ext = os.path.splitext(path)[1].lower()
+    try:
+        if ext == ".csv":
+            table.to_csv(path, index=False)
+        elif ext in (".parquet", ".pq"):
+            table.to_parquet(path, index=False)
+        else:
+            raise ParameterError(f"{path}: unknown table format {ext!r} (use .csv or .parquet)")
+    except OSError as exc:
+        raise GranalyticsError(f"{path}: cannot write ({exc})") from None
+
+
+def build_parser():
+    parser = argparse.ArgumentParser(prog="granalytics", description="Granule analytics for wet-granulation DEM runs.")
+    parser.add_argument("--version", action="version", version=f"granalytics {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("info", help="what a run file holds", description="Print what a run file holds: frames, particles, time span, metadata.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("identify", help="granule labels per frame to a file",
+                       description="Identify granules in every frame and write the labels (−1 = free particle) to an HDF5 file.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--out", required=True, help="labels file to write (.h5): datasets labels, ids, time, frame_index, n_granules")
+    _add_gna_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_identify)
+
+    p = sub.add_parser("stats", help="granulation time series and steady-state table",
+                       description="Granule number, mean volume and yield per frame; steady-state averages over a revolution window.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--window", type=_interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
+                   help="steady-state window in revolutions (default 3:6)")
+    p.add_argument("--out", help="time series table to write (.csv or .parquet)")
+    p.add_argument("--sizes-out", help="particles-per-granule distribution over the window (.csv or .parquet)")
+    _add_gna_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_stats)
+    return parser
+
+
+def main(argv=None):
+    """Entry point of the ``granalytics`` console script; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except GranalyticsError as exc:
+        print(f"granalytics: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

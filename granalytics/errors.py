@@ -1,0 +1,69 @@
+"""Exceptions raised by granalytics.
+
+Every problem with user input (a file, a frame, a parameter) raises a subclass of
+:class:`GranalyticsError`. The command-line interface turns these into one line on stderr
+and exit status 2; the Python API lets them propagate.
+"""
+
+from __future__ import annotations
+
+__all__ = ["GranalyticsError", "ValidationError", "RunFileError", "ParameterError"]
+
+
+class GranalyticsError(Exception):
+    """Base class of every error granalytics raises about its input."""
+
+
+class ValidationError(GranalyticsError, ValueError):
+    """Snapshot data violates the data model.
+
+    Parameters
+    ----------
+    field : str
+        Name of the offending field (e.g. ``"position"``, ``"contact_i"``).
+    message : str
+        What is wrong, including the first offending value.
+    index : int, optional
+        First offending index along the field's first axis.
+    frame : int, optional
+        Frame index in the run, when the snapshot came from a file.
+    path : str, optional
+        File the snapshot was read from.
+    """
+
+    def __init__(self, field, message, index=None, frame=None, path=None):
+        self.field = field
+        self.detail = message
+        self.index = index
+        self.frame = frame
+        self.path = None if path is None else str(path)
+        super().__init__(self._format())
+
+    def located(self, path=None, frame=None):
+        """Return a copy of this error that also names ``path`` and ``frame``."""
+        return ValidationError(
+            self.field,
+            self.detail,
+            index=self.index,
+            frame=self.frame if frame is None else frame,
+            path=self.path if path is None else path,
+        )
+
+    def _format(self):
+        where = []
+        if self.path is not None:
+            where.append(f"file {self.path}")
+        if self.frame is not None:
+            where.append(f"frame {self.frame}")
+        where.append(f"field '{self.field}'")
+        if self.index is not None:
+            where.append(f"index {self.index}")
+        return ", ".join(where) + ": " + self.detail
+
+
+class RunFileError(GranalyticsError, OSError):
+    """A run file cannot be opened, is not a granalytics run, or is structurally broken."""
+
+
+class ParameterError(GranalyticsError, ValueError):
+    """A parameter passed to an analysis is outside its valid range."""

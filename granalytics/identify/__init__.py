@@ -1,0 +1,48 @@
+"""Granule identification methods behind one interface.
+
+Every method is an object with parameters in its constructor and ``identify(snapshot)``
+returning an :class:`IdentificationResult`; :func:`identify` is the functional shortcut.
+"""
+
+from __future__ import annotations
+
+from ..errors import ParameterError
+from .graph import BACKENDS, GraphNetworkAnalysis
+from .result import IdentificationResult
+
+__all__ = ["identify", "make_identifier", "METHODS", "GraphNetworkAnalysis", "IdentificationResult", "BACKENDS"]
+
+#: method name -> identifier class
+METHODS = {"gna": GraphNetworkAnalysis}
+
+
+def make_identifier(method="gna", **params):
+    """Build the identifier object of ``method`` with ``params``."""
+    try:
+        cls = METHODS[method]
+    except KeyError:
+        raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}") from None
+    try:
+        return cls(**params)
+    except TypeError as exc:
+        raise ParameterError(f"method {method!r}: {exc}") from None
+
+
+def identify(snapshot, method="gna", **params) -> IdentificationResult:
+    """Identify granules in one snapshot.
+
+    Parameters
+    ----------
+    snapshot : Snapshot
+    method : str, default "gna"
+        One of :data:`METHODS`.
+    **params
+        Constructor parameters of the method, e.g. for ``"gna"``: ``c_agg=0.6``,
+        ``a_agg_deg=20.0``, ``radius="pair"``, ``backend="fast"``.
+
+    Examples
+    --------
+    >>> result = identify(snapshot, c_agg=0.6, a_agg_deg=20)    # doctest: +SKIP
+    >>> result.labels, result.granules                          # doctest: +SKIP
+    """
+    return make_identifier(method, **params).identify(snapshot)

@@ -1,0 +1,268 @@
+"""Granule statistics: per granule, per frame, per run (time series and steady state).
+
+Normalisations follow §3.1 of the paper and are CG-aware by construction: counts are divided by
+the run's own particle count and volumes by the run's own mean particle volume, so runs with
+different CG factors α are directly comparable.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+from tqdm.auto import tqdm
+
+from .errors import ParameterError
+from .identify import make_identifier
+from .identify.result import IdentificationResult
+from .snapshot import Snapshot
+
+__all__ = [
+    "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
+    "DEFAULT_WINDOW_REV",
+]
+
+#: Default steady-state window [revolutions] (Fig. 5 of the paper).
+DEFAULT_WINDOW_REV = (3.0, 6.0)
+
+_STEADY_COLUMNS = ("n_granules_norm", "mean_volume_norm", "yield_fraction", "mean_granule_size")
+
+
+def granule_table(snapshot: Snapshot, labels) -> pd.DataFrame:
+    """One row per granule.
+
+    Parameters
+    ----------
+    snapshot : Snapshot
+    labels : (N,) int array
+        Granule labels 0…G−1, −1 for free particles.
+
+    Returns
+    -------
+    DataFrame indexed by ``granule``, columns:
+
+    - ``n_particles``: particle count;
+    - ``volume_m3``: sum of particle volumes [m³];
+    - ``com_x_m``, ``com_y_m``, ``com_z_m``: centre of mass [m] (uniform density);
+    - ``radius_of_gyration_m``: mass-weighted RMS distance of particle centres from the centre
+      of mass [m] (particles as point masses);
+    - ``film_volume_m3``: liquid in the members' films [m³];
+    - ``bridge_volume_m3``: liquid in bridges with both ends in the granule [m³];
+    - ``liquid_volume_m3``: film + bridge liquid [m³];
+    - ``liquid_solid_ratio``: liquid volume / solid volume.
+    """
+    labels = np.asarray(labels)
+    if labels.shape != (snapshot.n_particles,):
+        raise ParameterError(f"labels must have shape ({snapshot.n_particles},), got {labels.shape}")
+    g = int(labels.max()) + 1 if labels.size else 0
+    member = labels >= 0
+    lab = labels[member]
+    vol = snapshot.particle_volume[member]
+    pos = snapshot.position[member]
+    count = np.bincount(lab, minlength=g)
+    volume = np.bincount(lab, weights=vol, minlength=g)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        com = np.column_stack([np.bincount(lab, weights=vol * pos[:, d], minlength=g) for d in range(3)])
+        com /= volume[:, None]
+        d2 = ((pos - com[lab]) ** 2).sum(axis=1)
+        rg = np.sqrt(np.bincount(lab, weights=vol * d2, minlength=g) / volume)
+    film = np.bincount(lab, weights=snapshot.film_volume[member], minlength=g)
+    li, lj = labels[snapshot.contact_i], labels[snapshot.contact_j]
+    internal = (li >= 0) & (li == lj)
+    bridge = np.bincount(li[internal], weights=snapshot.bridge_volume[internal], minlength=g)
+    table = pd.DataFrame(
+        {
+            "n_particles": count,
+            "volume_m3": volume,
+            "com_x_m": com[:, 0],
+            "com_y_m": com[:, 1],
+            "com_z_m": com[:, 2],
+            "radius_of_gyration_m": rg,
+            "film_volume_m3": film,
+            "bridge_volume_m3": bridge,
+            "liquid_volume_m3": film + bridge,
+            "liquid_solid_ratio": (film + bridge) / volume if g else np.zeros(0),
+        }
+    )
+    table.index.name = "granule"
+    return table
+
+
+def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFrame:
+    """Granulation metrics of one frame (one-row DataFrame).
+
+    Columns
+    -------
+    time_s, step, revolutions
+        When (revolutions = t·Ω/2π, NaN without a drum).
+    n_particles, n_contacts, n_kept_contacts
+        Sizes of the frame (kept = passing the method's criteria, NaN if not contact-based).
+    n_granules
+        Number of granules G.
+    n_granules_norm
+        G divided by the run's initial particle count (``meta.n_particles``; the frame's count
+        without metadata) — Fig. 4 of the paper.
+    mean_granule_size
+        Mean particles per granule (NaN without granules).
+    largest_granule_size
+        Particles in the largest granule (0 without granules).
+    mean_volume_m3
+        Mean granule volume [m³] (NaN without granules).
+    mean_volume_norm
+        Mean granule volume divided by the frame's mean particle volume — Fig. 3.
+    yield_fraction
+        Fraction of particles in granules — Fig. 6.
+    """
+    if result.labels.shape != (snapshot.n_particles,):
+        raise ParameterError("result does not belong to this snapshot (label count differs)")
+    n = snapshot.n_particles
+    n_initial = snapshot.meta.n_particles if snapshot.meta is not None else n
+    volume = snapshot.particle_volume
+    g = result.n_granules
+    member = result.labels >= 0
+    mean_volume = volume[member].sum() / g if g else math.nan
+    row = {
+        "time_s": snapshot.time,
+        "step": snapshot.step,
+        "revolutions": snapshot.revolutions,
+        "n_particles": n,
+        "n_contacts": snapshot.n_contacts,
+        "n_kept_contacts": int(result.kept.sum()) if result.kept is not None else math.nan,
+        "n_granules": g,
+        "n_granules_norm": g / n_initial,
+        "mean_granule_size": result.sizes.mean() if g else math.nan,
+        "largest_granule_size": int(result.sizes[0]) if g else 0,
+        "mean_volume_m3": mean_volume,
+        "mean_volume_norm": mean_volume / volume.mean(),
+        "yield_fraction": member.sum() / n,
+    }
+    return pd.DataFrame([row])
+
+
+def run_stats(frames, method="gna", *, progress=False, return_sizes=False, **params):
+    """Time series of :func:`frame_stats` over the frames of a run.
+
+    Parameters
+    ----------
+    frames : Run, RunSlice or sequence of Snapshot
+        For example ``open_run(path)`` or ``run.select(revolutions=(3, 6))``.
+    method : str, default "gna"
+        Identification method; ``params`` go to its constructor (e.g. ``c_agg``, ``a_agg_deg``).
+    progress : bool, default False
+        Show a progress bar over frames.
+    return_sizes : bool, default False
+        Also return the granule sizes (particles per granule) of every frame.
+
+    Returns
+    -------
+    DataFrame
+        One row per frame (columns of :func:`frame_stats`, plus ``frame``: the index within
+        ``frames``); and, with ``return_sizes``, a list of int arrays, one per frame.
+    """
+    identifier = make_identifier(method, **params)
+    rows, sizes = [], []
+    for k, snapshot in enumerate(tqdm(frames, disable=not progress, unit="frame", desc="frames")):
+        result = identifier.identify(snapshot)
+        row = frame_stats(snapshot, result)
+        row.insert(0, "frame", k)
+        rows.append(row)
+        sizes.append(result.sizes)
+    if not rows:
+        raise ParameterError("no frames to analyse (empty run or selection)")
+    table = pd.concat(rows, ignore_index=True)
+    return (table, sizes) if return_sizes else table
+
+
+def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS) -> pd.DataFrame:
+    """Steady-state averages over a revolution window.
+
+    Parameters
+    ----------
+    timeseries : DataFrame
+        Output of :func:`run_stats` (needs a ``revolutions`` column).
+    window : (float, float), default (3, 6)
+        Closed interval of revolutions.
+    columns : sequence of str
+        Metrics to average.
+
+    Returns
+    -------
+    DataFrame indexed by metric with columns ``mean``, ``std`` (over frames), ``sem`` (standard
+    error from per-revolution block means — blocks [lo, lo+1), [lo+1, lo+2), …, the window's
+    closing edge joining the last block — NaN with fewer than two blocks), ``n_frames`` (frames
+    in the window with a finite value), ``n_blocks``.
+    """
+    lo, hi = (float(w) for w in window)
+    if not lo <= hi:
+        raise ParameterError(f"window [{lo}, {hi}] is empty")
+    revs = timeseries["revolutions"].to_numpy(dtype=float)
+    if np.isnan(revs).all():
+        raise ParameterError("the run has no drum rotation (Ω = 0): revolution windows are undefined")
+    inside = timeseries[(revs >= lo) & (revs <= hi)]
+    if inside.empty:
+        raise ParameterError(
+            f"no frame in the window [{lo:g}, {hi:g}] revolutions; the run covers "
+            f"[{np.nanmin(revs):.3g}, {np.nanmax(revs):.3g}]"
+        )
+    # one block per revolution from the window start; the closing edge joins the last block
+    n_blocks = max(1, math.ceil(hi - lo))
+    block = np.minimum(np.floor(inside["revolutions"].to_numpy() - lo), n_blocks - 1).astype(int)
+    out = {}
+    for col in columns:
+        values = inside[col].to_numpy(dtype=float)
+        ok = np.isfinite(values)
+        block_means = pd.Series(values[ok]).groupby(block[ok]).mean().to_numpy()
+        nb = block_means.size
+        out[col] = {
+            "mean": values[ok].mean() if ok.any() else math.nan,
+            "std": values[ok].std(ddof=1) if ok.sum() > 1 else math.nan,
+            "sem": block_means.std(ddof=1) / math.sqrt(nb) if nb > 1 else math.nan,
+            "n_frames": int(ok.sum()),
+            "n_blocks": int(nb),
+        }
+    table = pd.DataFrame(out).T
+    table.index.name = "metric"
+    return table.astype({"n_frames": int, "n_blocks": int})
+
+
+def size_distribution(sizes, bins_per_decade=5, min_size=2) -> pd.DataFrame:
+    """Distribution of particles per granule on logarithmic bins of integers.
+
+    Parameters
+    ----------
+    sizes : int array, or list of int arrays (pooled, e.g. over the frames of a window)
+        Particles per granule.
+    bins_per_decade : int, default 5
+    min_size : int, default 2
+        Smallest granule size.
+
+    Returns
+    -------
+    DataFrame with one row per non-empty-range bin: ``size_min``, ``size_max`` (inclusive
+    integer bounds), ``size_center`` (geometric centre), ``count``, ``probability``
+    (count / total), ``density`` (probability per integer size: probability / integers in bin).
+    """
+    if isinstance(sizes, (list, tuple)):
+        sizes = np.concatenate([np.asarray(s, dtype=np.int64) for s in sizes]) if sizes else np.zeros(0, np.int64)
+    sizes = np.asarray(sizes, dtype=np.int64)
+    if (sizes < min_size).any():
+        raise ParameterError(f"granule sizes must be >= {min_size}, found {sizes.min()}")
+    top = max(int(sizes.max()) if sizes.size else min_size, min_size) + 1
+    n_bins = max(1, math.ceil(bins_per_decade * math.log10(top / min_size)))
+    edges = np.unique(np.ceil(np.geomspace(min_size, top, n_bins + 1)).astype(np.int64))
+    edges[0], edges[-1] = min_size, max(edges[-1], top)
+    count = np.histogram(sizes, bins=edges)[0] if sizes.size else np.zeros(edges.size - 1, np.int64)
+    width = np.diff(edges)
+    total = count.sum()
+    probability = count / total if total else np.zeros_like(count, dtype=float)
+    return pd.DataFrame(
+        {
+            "size_min": edges[:-1],
+            "size_max": edges[1:] - 1,
+            "size_center": np.sqrt(edges[:-1] * (edges[1:] - 1)),
+            "count": count,
+            "probability": probability,
+            "density": probability / width,
+        }
+    )

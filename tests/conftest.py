@@ -1,0 +1,58 @@
+"""Shared test helpers: small hand-built snapshots."""
+
+import math
+
+import numpy as np
+import pytest
+
+from granalytics import RunMeta, Snapshot
+
+GAMMA = 0.1095  # N/m
+R0 = 0.75e-3  # m
+
+
+def make_meta(n_particles, alpha=1.0, **kw):
+    kw.setdefault("surface_tension", GAMMA * alpha)
+    kw.setdefault("density", 2500.0)
+    kw.setdefault("drum_omega", 2.0)
+    kw.setdefault("mean_radius", R0 * alpha)
+    return RunMeta(n_particles=n_particles, alpha=alpha, **kw)
+
+
+def make_snapshot(n, pairs=(), f_norm=(), *, radius=None, velocity=None, angular_velocity=None,
+                  position=None, bridge_volume=None, film_volume=None, time=0.0, step=0, meta=None, ids=None):
+    """A snapshot of n particles with contacts ``pairs`` carrying F_coh = f_norm·2πγR*.
+
+    Velocities default to +x for everyone (all pairs co-moving).
+    """
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    radius = np.full(n, R0) if radius is None else np.asarray(radius, dtype=float)
+    meta = meta if meta is not None else make_meta(n)
+    ci, cj = pairs[:, 0], pairs[:, 1]
+    r_star = 2 * radius[ci] * radius[cj] / (radius[ci] + radius[cj])
+    f_norm = np.broadcast_to(np.asarray(f_norm if len(f_norm) else 1.0, dtype=float), ci.shape)
+    f_cap = f_norm * 2 * math.pi * meta.surface_tension * r_star
+    if velocity is None:
+        velocity = np.tile([1.0, 0.0, 0.0], (n, 1))
+    if angular_velocity is None:
+        angular_velocity = np.tile([0.0, 0.0, 1.0], (n, 1))
+    if position is None:
+        position = np.column_stack([np.arange(n) * 2 * R0, np.zeros(n), np.zeros(n)])
+    return Snapshot(
+        time=time, step=step,
+        ids=np.arange(n) if ids is None else ids,
+        radius=radius, position=position,
+        velocity=np.asarray(velocity, float), angular_velocity=np.asarray(angular_velocity, float),
+        film_volume=np.zeros(n) if film_volume is None else film_volume,
+        contact_i=ci, contact_j=cj, f_cap=f_cap, f_normal=-f_cap,
+        gap=np.full(ci.shape, 1e-5),
+        bridge_volume=np.full(ci.shape, 1e-12) if bridge_volume is None else bridge_volume,
+        meta=meta,
+    )
+
+
+@pytest.fixture
+def small_snapshot():
+    from granalytics.synthetic import synthetic_snapshot
+
+    return synthetic_snapshot(2000, seed=3)
