@@ -118,6 +118,9 @@ def cmd_identify(args):
 def cmd_stats(args):
     import pandas as pd
 
+    for path in (args.out, args.sizes_out):
+        if path:
+            _table_format(path)
     with open_run(args.run) as run:
         frames = _frames(run, args)
         ts, sizes = run_stats(
@@ -141,15 +144,22 @@ def cmd_stats(args):
     return 0
 
 
-def _write_table(table, path):
+_TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
+
+
+def _table_format(path):
     ext = os.path.splitext(path)[1].lower()
+    if ext not in _TABLE_FORMATS:
+        raise ParameterError(f"{path}: unknown table format {ext!r} (use .csv or .parquet)")
+    return _TABLE_FORMATS[ext]
+
+
+def _write_table(table, path):
     try:
-        if ext == ".csv":
+        if _table_format(path) == "csv":
             table.to_csv(path, index=False)
-        elif ext in (".parquet", ".pq"):
-            table.to_parquet(path, index=False)
         else:
-            raise ParameterError(f"{path}: unknown table format {ext!r} (use .csv or .parquet)")
+            table.to_parquet(path, index=False)
     except OSError as exc:
         raise GranalyticsError(f"{path}: cannot write ({exc})") from None
 

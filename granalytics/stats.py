@@ -60,17 +60,19 @@ def granule_table(snapshot: Snapshot, labels) -> pd.DataFrame:
     lab = labels[member]
     vol = snapshot.particle_volume[member]
     pos = snapshot.position[member]
+    def total(weights, which=lab):
+        return np.bincount(which, weights=weights, minlength=g).astype(np.float64, copy=False)
+
     count = np.bincount(lab, minlength=g)
-    volume = np.bincount(lab, weights=vol, minlength=g)
+    volume = total(vol)
     with np.errstate(invalid="ignore", divide="ignore"):
-        com = np.column_stack([np.bincount(lab, weights=vol * pos[:, d], minlength=g) for d in range(3)])
-        com /= volume[:, None]
+        com = np.column_stack([total(vol * pos[:, d]) for d in range(3)]).reshape(g, 3) / volume[:, None]
         d2 = ((pos - com[lab]) ** 2).sum(axis=1)
-        rg = np.sqrt(np.bincount(lab, weights=vol * d2, minlength=g) / volume)
-    film = np.bincount(lab, weights=snapshot.film_volume[member], minlength=g)
+        rg = np.sqrt(total(vol * d2) / volume)
+    film = total(snapshot.film_volume[member])
     li, lj = labels[snapshot.contact_i], labels[snapshot.contact_j]
     internal = (li >= 0) & (li == lj)
-    bridge = np.bincount(li[internal], weights=snapshot.bridge_volume[internal], minlength=g)
+    bridge = total(snapshot.bridge_volume[internal], li[internal])
     table = pd.DataFrame(
         {
             "n_particles": count,
@@ -82,7 +84,7 @@ def granule_table(snapshot: Snapshot, labels) -> pd.DataFrame:
             "film_volume_m3": film,
             "bridge_volume_m3": bridge,
             "liquid_volume_m3": film + bridge,
-            "liquid_solid_ratio": (film + bridge) / volume if g else np.zeros(0),
+            "liquid_solid_ratio": (film + bridge) / volume,
         }
     )
     table.index.name = "granule"

@@ -1,0 +1,101 @@
+import json
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+from granalytics import open_run
+from granalytics.cli import main
+from granalytics.synthetic import write_synthetic_run
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("cli") / "run.h5"
+    return write_synthetic_run(path, n_particles=600, revolutions=4.0, frames_per_revolution=4, seed=2)
+
+
+def test_info_prints_frames_particles_and_metadata(run_file, capsys):
+    assert main(["info", run_file]) == 0
+    out = capsys.readouterr().out
+    assert "frames                   17" in out and "particles" in out and "surface_tension" in out
+    assert main(["info", run_file, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["file"]["frames"] == 17 and data["meta"]["n_particles"] == 600
+
+
+def test_identify_writes_labels_per_frame(run_file, tmp_path, capsys):
+    out = tmp_path / "labels.h5"
+    assert main(["identify", run_file, "--out", str(out), "--c-agg", "0.5", "--window-rev", "1:2", "--quiet"]) == 0
+    assert "wrote" in capsys.readouterr().out
+    with h5py.File(out) as f, open_run(run_file) as run:
+        assert f["labels"].shape == (5, 600) and list(f["frame_index"][:]) == [4, 5, 6, 7, 8]
+        assert json.loads(f.attrs["params"])["c_agg"] == 0.5
+        from granalytics import identify
+        expected = identify(run[6], c_agg=0.5)
+        assert np.array_equal(f["labels"][2], expected.labels)
+        assert np.array_equal(f["ids"][2], run[6].ids)
+
+
+@pytest.mark.parametrize("ext", [".csv", ".parquet"])
+def test_stats_writes_time_series_and_prints_steady_state(run_file, tmp_path, capsys, ext):
+    out = tmp_path / f"ts{ext}"
+    sizes = tmp_path / "sizes.csv"
+    assert main(["stats", run_file, "--window", "2:4", "--out", str(out), "--sizes-out", str(sizes), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "steady state over revolutions [2, 4]" in printed and "yield_fraction" in printed
+    ts = pd.read_csv(out) if ext == ".csv" else pd.read_parquet(out)
+    assert len(ts) == 17 and {"time_s", "revolutions", "n_granules_norm", "mean_volume_norm", "yield_fraction"} <= set(ts.columns)
+    assert pd.read_csv(sizes)["count"].sum() > 0
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "granalytics", *args], capture_output=True, text=True)
+
+
+def assert_one_line_error(proc, *words):
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("granalytics: error:") and "Traceback" not in proc.stderr
+    for word in words:
+        assert word in lines[0]
+
+
+def copy_run(src, dst):
+    dst.write_bytes(open(src, "rb").read())
+    return dst
+
+
+def test_malformed_files_give_one_line_and_exit_2(run_file, tmp_path):
+    data = open(run_file, "rb").read()
+    truncated = tmp_path / "truncated.h5"
+    truncated.write_bytes(data[: len(data) // 3])
+    assert_one_line_error(run_cli("stats", str(truncated)), str(truncated))
+
+    nan = copy_run(run_file, tmp_path / "nan.h5")
+    with h5py.File(nan, "r+") as f:
+        f["particles/position"][2, 41, 0] = np.nan
+    assert_one_line_error(run_cli("stats", str(nan), "--quiet"), str(nan), "frame 2", "'position'", "index 41")
+
+    bad_index = copy_run(run_file, tmp_path / "index.h5")
+    with h5py.File(bad_index, "r+") as f:
+        f["contacts/i"][3] = 600
+    assert_one_line_error(run_cli("identify", str(bad_index), "--out", str(tmp_path / "l.h5"), "--quiet"),
+                          "frame 0", "'contact_i'", "index 3", "out of range")
+
+    assert_one_line_error(run_cli("info", str(tmp_path / "missing.h5")), "no such file")
+
+
+def test_bad_options_exit_2(run_file, tmp_path, capsys):
+    assert main(["stats", run_file, "--window", "9:10", "--quiet"]) == 2
+    assert "no frame in the window" in capsys.readouterr().err
+    assert main(["stats", run_file, "--a-agg-deg", "0", "--quiet"]) == 2
+    assert "a_agg_deg" in capsys.readouterr().err
+    assert main(["stats", run_file, "--out", str(tmp_path / "x.xlsx"), "--quiet"]) == 2
+    with pytest.raises(SystemExit) as exit_:
+        main(["stats", run_file, "--window", "5:1"])
+    assert exit_.value.code == 2

@@ -1,0 +1,141 @@
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import granalytics as ga
+from granalytics import ParameterError, RunWriter, open_run
+from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+from conftest import R0, make_meta, make_snapshot
+
+
+@pytest.fixture
+def three_granules():
+    # granule A: particles 0,1 (equal spheres 2R0 apart), granule B: 2,3,4 in a line; 5, 6 free
+    radius = np.array([R0, R0, R0, R0, 2 * R0, R0, R0])
+    position = np.array([[0, 0, 0], [2 * R0, 0, 0], [0, 1, 0], [0, 1 + 2 * R0, 0], [0, 1 + 5 * R0, 0], [5, 5, 5], [6, 6, 6]], float)
+    film = np.array([1, 2, 3, 4, 5, 6, 7], float) * 1e-12
+    pairs = [(0, 1), (2, 3), (3, 4), (4, 5)]
+    bridge = np.array([10, 20, 30, 40], float) * 1e-12
+    f_norm = [1.0, 1.0, 1.0, 0.1]  # (4,5) too weak: 5 stays free, but its bridge exists
+    return make_snapshot(7, pairs, f_norm, radius=radius, position=position, film_volume=film, bridge_volume=bridge,
+                         meta=make_meta(10), time=math.pi, step=7)
+
+
+def test_granule_table_values(three_granules):
+    s = three_granules
+    r = ga.identify(s)
+    t = r.granules
+    assert list(t.index) == [0, 1] and t.index.name == "granule"
+    v = 4 / 3 * math.pi * R0**3
+    b, a = t.loc[0], t.loc[1]  # B (3 particles) is granule 0
+    assert b.n_particles == 3 and a.n_particles == 2
+    assert a.volume_m3 == pytest.approx(2 * v) and b.volume_m3 == pytest.approx(10 * v)
+    assert (a.com_x_m, a.com_y_m, a.com_z_m) == pytest.approx((R0, 0, 0))
+    assert a.radius_of_gyration_m == pytest.approx(R0)  # two equal point masses 2R0 apart
+    y = np.array([1, 1 + 2 * R0, 1 + 5 * R0])
+    w = np.array([1, 1, 8.0])
+    com = (w * y).sum() / w.sum()
+    assert b.com_y_m == pytest.approx(com)
+    assert b.radius_of_gyration_m == pytest.approx(math.sqrt((w * (y - com) ** 2).sum() / w.sum()))
+    assert a.film_volume_m3 == pytest.approx(3e-12) and b.film_volume_m3 == pytest.approx(12e-12)
+    assert a.bridge_volume_m3 == pytest.approx(10e-12) and b.bridge_volume_m3 == pytest.approx(50e-12)  # (4,5) excluded
+    assert b.liquid_volume_m3 == pytest.approx(62e-12)
+    assert b.liquid_solid_ratio == pytest.approx(62e-12 / (10 * v))
+
+
+def test_granule_table_of_a_frame_without_granules_is_empty():
+    s = make_snapshot(3, [(0, 1)], [0.1])
+    t = ga.identify(s).granules
+    assert len(t) == 0 and "volume_m3" in t.columns
+
+
+def test_frame_stats_normalisations(three_granules):
+    s = three_granules
+    row = ga.frame_stats(s, ga.identify(s)).iloc[0]
+    v = s.particle_volume
+    assert row.n_granules == 2 and row.n_granules_norm == pytest.approx(2 / 10)  # meta.n_particles = 10
+    assert row.yield_fraction == pytest.approx(5 / 7)
+    assert row.mean_volume_m3 == pytest.approx(12 * v[0] / 2)
+    assert row.mean_volume_norm == pytest.approx(6 * v[0] / v.mean())
+    assert row.mean_granule_size == 2.5 and row.largest_granule_size == 3
+    assert row.revolutions == pytest.approx(1.0)  # t = π s at Ω = 2 rad/s
+    assert row.n_kept_contacts == 3 and row.n_contacts == 4
+
+
+def test_frame_stats_without_granules_gives_nan_mean_volume():
+    s = make_snapshot(3, [(0, 1)], [0.1])
+    row = ga.frame_stats(s, ga.identify(s)).iloc[0]
+    assert row.n_granules == 0 and row.yield_fraction == 0 and math.isnan(row.mean_volume_norm)
+
+
+def test_mean_volume_norm_is_cg_invariant_for_planted_granules():
+    # identical lattice structure at α = 1 and α = 2: normalised metrics agree exactly
+    a = synthetic_snapshot(2000, seed=4, alpha=1.0)
+    b = synthetic_snapshot(2000, seed=4, alpha=2.0)
+    ra, rb = ga.frame_stats(a, ga.identify(a)), ga.frame_stats(b, ga.identify(b))
+    for col in ("n_granules_norm", "mean_volume_norm", "yield_fraction"):
+        assert ra[col].iloc[0] == pytest.approx(rb[col].iloc[0], rel=1e-12)
+    assert rb.mean_volume_m3.iloc[0] == pytest.approx(8 * ra.mean_volume_m3.iloc[0])
+
+
+def test_run_stats_time_series_matches_frame_by_frame(tmp_path):
+    meta = synthetic_meta(500)
+    frames = [synthetic_snapshot(500, time=0.3 * k, granulated_fraction=0.1 * k, seed=k, meta=meta) for k in range(4)]
+    with RunWriter(tmp_path / "r.h5", meta) as w:
+        for f in frames:
+            w.append(f)
+    with open_run(tmp_path / "r.h5") as run:
+        ts, sizes = ga.run_stats(run, c_agg=0.5, return_sizes=True)
+        sub = ga.run_stats(run[2:], c_agg=0.5)
+    assert list(ts.frame) == [0, 1, 2, 3]
+    assert ts.revolutions.to_numpy() == pytest.approx(0.3 * np.arange(4) * 2 / (2 * math.pi))
+    for k, f in enumerate(frames):
+        r = ga.identify(f, c_agg=0.5)
+        expected = ga.frame_stats(f, r).iloc[0]
+        assert ts.yield_fraction[k] == expected.yield_fraction
+        assert np.array_equal(sizes[k], r.sizes)
+    assert ts.yield_fraction.is_monotonic_increasing
+    pd.testing.assert_frame_equal(sub.drop(columns="frame"), ts.iloc[2:].drop(columns="frame").reset_index(drop=True))
+    with pytest.raises(ParameterError, match="no frames"):
+        ga.run_stats([])
+
+
+def test_steady_state_window_mean_std_and_block_sem():
+    revs = np.arange(0, 7.01, 0.25)
+    value = np.where(revs < 3, 0.0, 1.0 + np.floor(revs - 3) * 0.1)  # block means 1.0, 1.1, 1.2 (+1.2 at 6.0)
+    ts = pd.DataFrame({"revolutions": revs, "yield_fraction": value})
+    out = ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"])
+    inside = value[(revs >= 3) & (revs <= 6)]
+    row = out.loc["yield_fraction"]
+    assert row["mean"] == pytest.approx(inside.mean()) and row["std"] == pytest.approx(inside.std(ddof=1))
+    assert row.n_frames == 13 and row.n_blocks == 3  # 6.0 joins the [5, 6) block
+    blocks = np.array([1.0, 1.1, (4 * 1.2 + 1.3) / 5])
+    assert row["sem"] == pytest.approx(blocks.std(ddof=1) / math.sqrt(3))
+    with pytest.raises(ParameterError, match="no frame in the window"):
+        ga.steady_state(ts, window=(8, 9), columns=["yield_fraction"])
+    with pytest.raises(ParameterError, match="empty"):
+        ga.steady_state(ts, window=(5, 4), columns=["yield_fraction"])
+
+
+def test_steady_state_skips_nan_frames_and_counts_them():
+    ts = pd.DataFrame({"revolutions": [3.0, 3.5, 4.0, 4.5], "mean_volume_norm": [2.0, np.nan, 4.0, 6.0]})
+    row = ga.steady_state(ts, columns=["mean_volume_norm"]).loc["mean_volume_norm"]
+    assert row["mean"] == 4.0 and row.n_frames == 3
+
+
+def test_size_distribution_log_bins():
+    sizes = [np.array([2, 2, 3, 10]), np.array([2, 150])]
+    d = ga.size_distribution(sizes, bins_per_decade=5)
+    assert d["count"].sum() == 6
+    assert (d.size_min.to_numpy()[1:] == d.size_max.to_numpy()[:-1] + 1).all()  # contiguous integer bins
+    assert d.size_min.iloc[0] == 2 and d.size_max.iloc[-1] >= 150
+    widths = d.size_max - d.size_min + 1
+    assert (d.density * widths).sum() == pytest.approx(1.0)
+    first = d.iloc[0]
+    assert first["count"] == (np.concatenate(sizes) <= first.size_max).sum()
+    ratios = (d.size_max + 1) / d.size_min
+    assert ratios.max() < 10 ** (1 / 5) * 1.5  # about five bins per decade
+    with pytest.raises(ParameterError):
+        ga.size_distribution([np.array([1, 2])])
