@@ -30,7 +30,8 @@ demo: $(STAMP)
 	$(PY) -m granalytics.synthetic --out $(BUILD)/demo-run.h5 --particles 3000 --revolutions 6
 	$(VENV)/bin/granalytics info $(BUILD)/demo-run.h5
 	$(VENV)/bin/granalytics stats $(BUILD)/demo-run.h5 --window 3:6 \
-		--out $(BUILD)/demo-timeseries.csv --sizes-out $(BUILD)/demo-sizes.csv
+		--out $(BUILD)/demo-timeseries.csv --sizes-out $(BUILD)/demo-sizes.csv \
+		--plot $(BUILD)/demo-stats.png
 
 ## bench: benchmark scripts (print tables)
 bench: $(STAMP)

@@ -137,6 +137,15 @@ def cmd_stats(args):
     if args.sizes_out:
         _write_table(dist, args.sizes_out)
         print(f"wrote size distribution to {args.sizes_out}")
+    if args.plot:
+        from .plot import stats_figure
+
+        fig = stats_figure(ts, dist, window=args.window, title=os.path.basename(args.run))
+        try:
+            fig.savefig(args.plot, dpi=120)
+        except (OSError, ValueError) as exc:
+            raise GranalyticsError(f"{args.plot}: cannot write plot ({exc})") from None
+        print(f"wrote plot to {args.plot}")
     lo, hi = args.window
     print(f"steady state over revolutions [{lo:g}, {hi:g}] (C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°):")
     with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
@@ -189,6 +198,7 @@ def build_parser():
                    help="steady-state window in revolutions (default 3:6)")
     p.add_argument("--out", help="time series table to write (.csv or .parquet)")
     p.add_argument("--sizes-out", help="particles-per-granule distribution over the window (.csv or .parquet)")
+    p.add_argument("--plot", help="figure of the time series and size distribution (.png, .pdf, .svg)")
     _add_gna_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_stats)

@@ -52,6 +52,12 @@ def test_stats_writes_time_series_and_prints_steady_state(run_file, tmp_path, ca
     assert pd.read_csv(sizes)["count"].sum() > 0
 
 
+def test_stats_plot_writes_a_png(run_file, tmp_path, capsys):
+    png = tmp_path / "stats.png"
+    assert main(["stats", run_file, "--window", "2:4", "--plot", str(png), "--quiet"]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+
+
 def run_cli(*args):
     return subprocess.run([sys.executable, "-m", "granalytics", *args], capture_output=True, text=True)
 
