@@ -50,7 +50,25 @@ _CONTACT_CHUNK_ROWS = 1 << 12
 _CHUNK_CACHE_BYTES = 64 * 1024**2
 
 
-class RunWriter:
+class _HDF5Handle:
+    """Owns an open h5py file: ``close()`` (idempotent) and context-manager use."""
+
+    _file: h5py.File | None
+
+    def close(self) -> None:
+        """Flush and close the file (idempotent)."""
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class RunWriter(_HDF5Handle):
     """Append snapshots to a new run file, one complete frame at a time.
 
     Parameters
@@ -196,17 +214,6 @@ class RunWriter:
         self._n_particles = n
         f.swmr_mode = True
 
-    def close(self) -> None:
-        """Flush and close the file (idempotent)."""
-        if self._file is not None:
-            self._file.close()
-            self._file = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
 
 def _write_meta(group, meta: RunMeta):
@@ -322,7 +329,7 @@ class _FrameSequence(Sequence):
         return self[int(np.argmin(np.abs(values - target)))]
 
 
-class Run(_FrameSequence):
+class Run(_HDF5Handle, _FrameSequence):
     """A run file opened for lazy reading: a sequence of :class:`Snapshot`.
 
     Frames are read and validated only when accessed. Use :func:`open_run` to create one, and
@@ -447,18 +454,6 @@ class Run(_FrameSequence):
             out["revolutions_first"] = float(revs[0])
             out["revolutions_last"] = float(revs[-1])
         return out
-
-    def close(self) -> None:
-        """Close the file (idempotent)."""
-        if self._file is not None:
-            self._file.close()
-            self._file = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
     def __repr__(self):
         return f"Run({self.path!r}, frames={len(self)}, particles={self.n_particles})"
