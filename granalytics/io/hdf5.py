@@ -124,6 +124,32 @@ class RunWriter(_HDF5Handle):
         """Number of frames committed so far."""
         return self._n_frames
 
+    @classmethod
+    def continue_from(cls, path, n_frames, **kwargs) -> "RunWriter":
+        """Reopen a run for appending after its first ``n_frames`` complete frames.
+
+        Used to resume a killed writer (e.g. a simulation restarted from a checkpoint): the
+        first ``n_frames`` frames and the metadata are copied bit for bit into a new file that
+        then atomically replaces ``path``; later frames of the old file are dropped.
+
+        Raises
+        ------
+        RunFileError
+            If ``path`` holds fewer than ``n_frames`` complete frames.
+        """
+        path = os.fspath(path)
+        tmp = path + ".continue.tmp"
+        with open_run(path) as run:
+            if len(run) < n_frames:
+                raise RunFileError(f"{path}: holds {len(run)} complete frames, cannot continue after frame {n_frames}")
+            writer = cls(tmp, run.meta, overwrite=True, **kwargs)
+            for k in range(n_frames):
+                writer.append(run[k])
+        writer._file.flush()
+        os.replace(tmp, path)  # the open handle follows the file to its new name
+        writer.path = path
+        return writer
+
     def append(self, snapshot: Snapshot) -> None:
         """Write one frame and commit it.
 

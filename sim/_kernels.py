@@ -1,0 +1,382 @@
+"""Numba kernels of the simulator (private): neighbour lists and the time-step loop.
+
+Interactions live in *slots*. Slots 0 … N·W−1 are particle–wall slots (slot i·W + w joins
+particle i and wall body N + w); slots N·W … are particle–particle pairs (i < j) from the
+Verlet list. Every slot carries its own state (alive, bridge volume, tangential spring,
+previous normal), so the per-slot force loop is race-free; per-particle sums then gather the
+slots of each particle in a fixed order. Results are therefore bit-identical for any thread
+count.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from .capillary import capillary_force, rupture_distance, viscous_force
+from .contact import mechanical_force, rotate_spring
+from .drum import wall_contact
+from .liquid import migrate_liquid, spray
+
+# ----------------------------------------------------------------------------- cell lists
+
+
+@njit(cache=True)
+def cell_index(pos, lo, cell_size, n_cells):
+    """Linear cell index of every particle (positions outside the grid are clamped)."""
+    n = pos.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        c = 0
+        for d in range(3):
+            k = int(math.floor((pos[i, d] - lo[d]) / cell_size))
+            if k < 0:
+                k = 0
+            elif k >= n_cells[d]:
+                k = n_cells[d] - 1
+            c = c * n_cells[d] + k
+        out[i] = c
+    return out
+
+
+@njit(cache=True)
+def counting_sort(keys, n_keys):
+    """Stable order of ``keys`` (each in [0, n_keys)) and the start of each key's run."""
+    start = np.zeros(n_keys + 1, dtype=np.int64)
+    for k in keys:
+        start[k + 1] += 1
+    for c in range(n_keys):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    order = np.empty(keys.shape[0], dtype=np.int64)
+    for i in range(keys.shape[0]):
+        order[fill[keys[i]]] = i
+        fill[keys[i]] += 1
+    return order, start
+
+
+@njit(cache=True, inline="always")
+def _unravel(c, n_cells):
+    cz = c % n_cells[2]
+    cy = (c // n_cells[2]) % n_cells[1]
+    cx = c // (n_cells[2] * n_cells[1])
+    return cx, cy, cz
+
+
+@njit(cache=True, parallel=True)
+def count_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach):
+    """Number of partners j > i within R_i + R_j + reach of every particle i."""
+    n = pos.shape[0]
+    count = np.zeros(n, dtype=np.int64)
+    for i in prange(n):
+        cx, cy, cz = _unravel(cell_of[i], n_cells)
+        c_n = 0
+        for ax in range(max(cx - 1, 0), min(cx + 2, n_cells[0])):
+            for ay in range(max(cy - 1, 0), min(cy + 2, n_cells[1])):
+                for az in range(max(cz - 1, 0), min(cz + 2, n_cells[2])):
+                    c = (ax * n_cells[1] + ay) * n_cells[2] + az
+                    for q in range(cell_start[c], cell_start[c + 1]):
+                        j = cell_members[q]
+                        if j <= i:
+                            continue
+                        dx = pos[j, 0] - pos[i, 0]
+                        dy = pos[j, 1] - pos[i, 1]
+                        dz = pos[j, 2] - pos[i, 2]
+                        lim = radius[i] + radius[j] + reach
+                        if dx * dx + dy * dy + dz * dz < lim * lim:
+                            c_n += 1
+        count[i] = c_n
+    return count
+
+
+@njit(cache=True, parallel=True)
+def fill_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, start, pair_j):
+    """Write the partners counted by :func:`count_pairs` into ``pair_j[start[i]:start[i+1]]``,
+    sorted ascending per particle (so the pair keys i·N + j are globally sorted)."""
+    n = pos.shape[0]
+    for i in prange(n):
+        cx, cy, cz = _unravel(cell_of[i], n_cells)
+        q_out = start[i]
+        for ax in range(max(cx - 1, 0), min(cx + 2, n_cells[0])):
+            for ay in range(max(cy - 1, 0), min(cy + 2, n_cells[1])):
+                for az in range(max(cz - 1, 0), min(cz + 2, n_cells[2])):
+                    c = (ax * n_cells[1] + ay) * n_cells[2] + az
+                    for q in range(cell_start[c], cell_start[c + 1]):
+                        j = cell_members[q]
+                        if j <= i:
+                            continue
+                        dx = pos[j, 0] - pos[i, 0]
+                        dy = pos[j, 1] - pos[i, 1]
+                        dz = pos[j, 2] - pos[i, 2]
+                        lim = radius[i] + radius[j] + reach
+                        if dx * dx + dy * dy + dz * dz < lim * lim:
+                            pair_j[q_out] = j
+                            q_out += 1
+        pair_j[start[i]:start[i + 1]] = np.sort(pair_j[start[i]:start[i + 1]])
+
+
+@njit(cache=True)
+def transfer_pair_state(old_key, old_alive, old_vb, old_fs, old_nprev, new_key, new_alive, new_vb, new_fs, new_nprev):
+    """Copy the state of every alive old pair to the same pair in the new (sorted) list.
+
+    Returns the number of alive old pairs missing from the new list (must be 0).
+    """
+    missing = 0
+    for k in range(old_key.shape[0]):
+        if not old_alive[k]:
+            continue
+        q = np.searchsorted(new_key, old_key[k])
+        if q >= new_key.shape[0] or new_key[q] != old_key[k]:
+            missing += 1
+            continue
+        new_alive[q] = True
+        new_vb[q] = old_vb[k]
+        new_fs[q] = old_fs[k]
+        new_nprev[q] = old_nprev[k]
+    return missing
+
+
+@njit(cache=True)
+def build_csr(n_particles, n_walls, pair_i, pair_j, first_pair_slot):
+    """Slot lists per particle (pair slots only, for force gathering) and per body (particles
+    then walls, all slots, for liquid migration), each in ascending slot order."""
+    n_bodies = n_particles + n_walls
+    n_slots = pair_i.shape[0]
+    part_start = np.zeros(n_particles + 1, dtype=np.int64)
+    body_start = np.zeros(n_bodies + 1, dtype=np.int64)
+    for k in range(n_slots):
+        body_start[pair_i[k] + 1] += 1
+        body_start[pair_j[k] + 1] += 1
+        if k >= first_pair_slot:
+            part_start[pair_i[k] + 1] += 1
+            part_start[pair_j[k] + 1] += 1
+    for b in range(n_bodies):
+        body_start[b + 1] += body_start[b]
+    for b in range(n_particles):
+        part_start[b + 1] += part_start[b]
+    body_fill = body_start[:-1].copy()
+    part_fill = part_start[:-1].copy()
+    body_slots = np.empty(body_start[-1], dtype=np.int64)
+    part_slots = np.empty(part_start[-1], dtype=np.int64)
+    for k in range(n_slots):
+        for b in (pair_i[k], pair_j[k]):
+            body_slots[body_fill[b]] = k
+            body_fill[b] += 1
+            if k >= first_pair_slot:
+                part_slots[part_fill[b]] = k
+                part_fill[b] += 1
+    return part_start, part_slots, body_start, body_slots
+
+
+# ----------------------------------------------------------------------------- time steps
+
+
+@njit(cache=True, parallel=True)
+def advance(
+    n_steps, step0, dt, settling,
+    pos, vel, omega_p, radius, mass, inertia, film, x_ref,
+    pair_i, pair_j, alive, created, ruptured, v_b, v_max, fs, nprev,
+    force, torque_i, torque_j, f_normal, f_cap, gap,
+    part_start, part_slots, body_start, body_slots,
+    n_walls, drum_radius, drum_length, n_baffles, baffle_height, drum_omega, gravity,
+    k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact, v_min,
+    spray_interval, spray_dose, spray_radius, n_sprays, half_skin,
+):
+    """Advance up to ``n_steps`` leapfrog steps from step number ``step0`` (t = step·Δt).
+
+    Per step: slot forces (parallel over slots) → liquid migration (sequential) → gather and
+    integrate (parallel over particles) → spray when t crosses the next spray time. Stops early,
+    after the step, when a particle has moved more than half the Verlet skin since the last
+    rebuild. With ``settling`` the drum is at rest (Ω = 0, angle 0) and nothing is sprayed.
+
+    Returns
+    -------
+    steps_done : int
+    n_sprays : int
+        Sprays done so far (updated).
+    sprayed : float
+        Liquid volume added by sprays in this call [m³].
+    """
+    n = pos.shape[0]
+    n_wall_slots = n * n_walls
+    n_slots = pair_i.shape[0]
+    omega_drum = 0.0 if settling else drum_omega
+    sprayed = 0.0
+    done = 0
+    for it in range(n_steps):
+        t = (step0 + it) * dt
+        angle = omega_drum * t
+        for k in prange(n_slots):
+            _slot(k, n_wall_slots, n_walls, dt, angle, omega_drum, pos, vel, omega_p, radius,
+                  pair_i, pair_j, alive, created, ruptured, v_b, fs, nprev, force, torque_i, torque_j,
+                  f_normal, f_cap, gap, drum_radius, drum_length, n_baffles, baffle_height,
+                  k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact)
+        migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min)
+        n_far = 0
+        for i in prange(n):
+            fx = mass[i] * gravity[0]
+            fy = mass[i] * gravity[1]
+            fz = mass[i] * gravity[2]
+            tx = 0.0
+            ty = 0.0
+            tz = 0.0
+            for w in range(n_walls):
+                k = i * n_walls + w
+                fx += force[k, 0]
+                fy += force[k, 1]
+                fz += force[k, 2]
+                tx += torque_i[k, 0]
+                ty += torque_i[k, 1]
+                tz += torque_i[k, 2]
+            for q in range(part_start[i], part_start[i + 1]):
+                k = part_slots[q]
+                if pair_i[k] == i:
+                    fx += force[k, 0]
+                    fy += force[k, 1]
+                    fz += force[k, 2]
+                    tx += torque_i[k, 0]
+                    ty += torque_i[k, 1]
+                    tz += torque_i[k, 2]
+                else:
+                    fx -= force[k, 0]
+                    fy -= force[k, 1]
+                    fz -= force[k, 2]
+                    tx += torque_j[k, 0]
+                    ty += torque_j[k, 1]
+                    tz += torque_j[k, 2]
+            vel[i, 0] += dt * fx / mass[i]
+            vel[i, 1] += dt * fy / mass[i]
+            vel[i, 2] += dt * fz / mass[i]
+            omega_p[i, 0] += dt * tx / inertia[i]
+            omega_p[i, 1] += dt * ty / inertia[i]
+            omega_p[i, 2] += dt * tz / inertia[i]
+            pos[i, 0] += dt * vel[i, 0]
+            pos[i, 1] += dt * vel[i, 1]
+            pos[i, 2] += dt * vel[i, 2]
+            dx = pos[i, 0] - x_ref[i, 0]
+            dy = pos[i, 1] - x_ref[i, 1]
+            dz = pos[i, 2] - x_ref[i, 2]
+            if dx * dx + dy * dy + dz * dz > half_skin * half_skin:
+                n_far += 1
+        done += 1
+        if not settling and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
+            sprayed += spray(film, pos, radius, n, spray_radius, spray_dose)
+            n_sprays += 1
+        if n_far > 0:
+            break
+    return done, n_sprays, sprayed
+
+
+@njit(cache=True)
+def _slot(k, n_wall_slots, n_walls, dt, angle, omega_drum, pos, vel, omega_p, radius,
+          pair_i, pair_j, alive, created, ruptured, v_b, fs, nprev, force, torque_i, torque_j,
+          f_normal, f_cap, gap, drum_radius, drum_length, n_baffles, baffle_height,
+          k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact):
+    """Update slot k's interaction state and compute its force and torques (spec §2, §3)."""
+    created[k] = False
+    ruptured[k] = 0.0
+    i = pair_i[k]
+    ri = radius[i]
+    # contact point velocity of i is v_i + ω_i × (R_i n); of j, v_j + ω_j × (−R_j n)
+    if k < n_wall_slots:
+        ok, nx, ny, nz, u, wvx, wvy = wall_contact(
+            k % n_walls, pos[i, 0], pos[i, 1], pos[i, 2], ri, drum_radius, drum_length,
+            n_baffles, baffle_height, omega_drum, angle)
+        if not ok:
+            u = -1.0
+        rj = math.inf
+        r_eff = ri
+        vjx, vjy, vjz = wvx, wvy, 0.0
+        ojx, ojy, ojz = 0.0, 0.0, omega_drum
+    else:
+        j = pair_j[k]
+        rj = radius[j]
+        dx = pos[j, 0] - pos[i, 0]
+        dy = pos[j, 1] - pos[i, 1]
+        dz = pos[j, 2] - pos[i, 2]
+        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if dist == 0.0:
+            dist = 1e-300
+        nx, ny, nz = dx / dist, dy / dist, dz / dist
+        u = ri + rj - dist
+        r_eff = 2.0 * ri * rj / (ri + rj)
+        ojx, ojy, ojz = omega_p[j, 0], omega_p[j, 1], omega_p[j, 2]
+        vjx = vel[j, 0] - (ojy * nz - ojz * ny) * rj
+        vjy = vel[j, 1] - (ojz * nx - ojx * nz) * rj
+        vjz = vel[j, 2] - (ojx * ny - ojy * nx) * rj
+    if not alive[k]:
+        if u < 0.0:
+            _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
+            return
+        alive[k] = True
+        created[k] = True
+        fs[k, 0] = 0.0
+        fs[k, 1] = 0.0
+        fs[k, 2] = 0.0
+        nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
+    elif u < 0.0 and -u >= rupture_distance(v_b[k], r_eff, theta):
+        alive[k] = False
+        ruptured[k] = v_b[k]
+        v_b[k] = 0.0
+        fs[k, 0] = 0.0
+        fs[k, 1] = 0.0
+        fs[k, 2] = 0.0
+        _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
+        return
+    oix, oiy, oiz = omega_p[i, 0], omega_p[i, 1], omega_p[i, 2]
+    vrx = vel[i, 0] + (oiy * nz - oiz * ny) * ri - vjx
+    vry = vel[i, 1] + (oiz * nx - oix * nz) * ri - vjy
+    vrz = vel[i, 2] + (oix * ny - oiy * nx) * ri - vjz
+    if u >= 0.0:  # mechanical contact
+        twist = 0.5 * dt * (nx * (oix + ojx) + ny * (oiy + ojy) + nz * (oiz + ojz))
+        sx, sy, sz = rotate_spring(fs[k, 0], fs[k, 1], fs[k, 2], nprev[k, 0], nprev[k, 1], nprev[k, 2], nx, ny, nz, twist)
+        f_n, sx, sy, sz, tx, ty, tz = mechanical_force(u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t, c_n, c_t, mu, dt)
+        fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
+        nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
+        f_contact = capillary_force(model, 0.0, v_b[k], r_eff, gamma, theta)
+        f_pull = f_contact if capillary_in_contact else 0.0
+        fn_net = f_n - f_pull  # along −n on i (repulsive when positive)
+        force[k, 0] = -fn_net * nx + tx
+        force[k, 1] = -fn_net * ny + ty
+        force[k, 2] = -fn_net * nz + tz
+        # T_i = (R_i n) × F_t ; T_j = (−R_j n) × (−F_t) = R_j n × F_t
+        cx = ny * tz - nz * ty
+        cy = nz * tx - nx * tz
+        cz = nx * ty - ny * tx
+        torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = ri * cx, ri * cy, ri * cz
+        if k >= n_wall_slots:
+            torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = rj * cx, rj * cy, rj * cz
+        f_normal[k] = fn_net
+        f_cap[k] = f_contact
+    else:  # separated, bridge active (0 < s < s_crit)
+        s = -u
+        f_c = capillary_force(model, s, v_b[k], r_eff, gamma, theta)
+        f_v = 0.0
+        if viscous:
+            f_v = viscous_force(eta, ri, rj, vrx * nx + vry * ny + vrz * nz, s, v_b[k])
+        pull = f_c - f_v  # along +n on i
+        force[k, 0] = pull * nx
+        force[k, 1] = pull * ny
+        force[k, 2] = pull * nz
+        torque_i[k, 0] = 0.0
+        torque_i[k, 1] = 0.0
+        torque_i[k, 2] = 0.0
+        torque_j[k, 0] = 0.0
+        torque_j[k, 1] = 0.0
+        torque_j[k, 2] = 0.0
+        f_normal[k] = -pull
+        f_cap[k] = f_c
+    gap[k] = -u
+
+
+@njit(cache=True)
+def _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap):
+    for d in range(3):
+        force[k, d] = 0.0
+        torque_i[k, d] = 0.0
+        torque_j[k, d] = 0.0
+    f_normal[k] = 0.0
+    f_cap[k] = 0.0
+    gap[k] = 0.0

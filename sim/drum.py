@@ -1,0 +1,75 @@
+"""Analytic drum walls (physics spec §4): a cylinder of radius R_d about the z axis, radial
+baffles of height h = baffle_height·R_d rotating with the drum, and flat end plates at z = 0 and
+z = L. Walls are infinitely massive bodies; their surface velocity at a point c is Ω ẑ × c.
+
+Wall index w: 0 = cylinder, 1 … n_baffles = baffles, then the end plates z = 0 and z = L.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+__all__ = ["n_walls", "wall_contact"]
+
+
+def n_walls(n_baffles: int) -> int:
+    """Number of wall bodies of a drum with ``n_baffles`` baffles."""
+    return 1 + n_baffles + 2
+
+
+@njit(cache=True, inline="always")
+def wall_contact(w, px, py, pz, radius, drum_radius, drum_length, n_baffles, baffle_height, omega, angle):
+    """Geometry of a particle (centre p, radius) against wall w at drum angle ``angle`` [rad].
+
+    Returns
+    -------
+    ok : bool
+        False for degenerate geometry (centre exactly on the axis or on a plate).
+    nx, ny, nz : float
+        Unit normal from the particle towards the wall.
+    u : float
+        Overlap radius − distance [m] (negative: gap).
+    wx, wy : float
+        Wall surface velocity at the closest point [m/s] (z component is 0).
+    """
+    if w == 0:  # cylinder
+        r = math.sqrt(px * px + py * py)
+        if r == 0.0:
+            return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        nx, ny, nz = px / r, py / r, 0.0
+        u = r + radius - drum_radius
+        cx, cy = drum_radius * nx, drum_radius * ny
+    elif w <= n_baffles:  # thin radial plate
+        phi = angle + 2.0 * math.pi * (w - 1) / n_baffles
+        ex, ey = math.cos(phi), math.sin(phi)
+        a = px * ex + py * ey  # radial coordinate along the plate
+        b = -px * ey + py * ex  # signed distance from the plate's plane
+        inner = drum_radius * (1.0 - baffle_height)
+        if a >= inner:
+            if b == 0.0:
+                return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            # towards the plate: −sign(b)·e⊥ with e⊥ = (−e_y, e_x)
+            sign = 1.0 if b > 0.0 else -1.0
+            nx, ny, nz = sign * ey, -sign * ex, 0.0
+            u = radius - abs(b)
+            cx, cy = a * ex, a * ey
+        else:  # the plate's inner edge
+            cx, cy = inner * ex, inner * ey
+            dx, dy = cx - px, cy - py
+            dist = math.sqrt(dx * dx + dy * dy)
+            if dist == 0.0:
+                return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            nx, ny, nz = dx / dist, dy / dist, 0.0
+            u = radius - dist
+    else:  # end plates
+        nx, ny = 0.0, 0.0
+        if w == n_baffles + 1:
+            nz = -1.0
+            u = radius - pz
+        else:
+            nz = 1.0
+            u = radius - (drum_length - pz)
+        cx, cy = px, py
+    return True, nx, ny, nz, u, -omega * cy, omega * cx

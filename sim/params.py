@@ -1,0 +1,212 @@
+"""Simulation parameters: Table 1 defaults, drum presets, and the CG scaling of Table 2.
+
+Units are SI throughout (contact angle in radians). ``SimParams`` is a frozen dataclass: derive
+variants with :func:`dataclasses.replace`, and coarse-grain with :func:`cg_scale`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+__all__ = ["SimParams", "cg_scale", "PRESETS", "preset"]
+
+CAPILLARY_MODEL_NAMES = ("willett_numeric", "willett_analytic", "rabinovich", "lambert")
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Everything that defines a run. Defaults are Table 1 of the paper (α = 1).
+
+    Material and contact (pair values)
+        density [kg/m³], d_mean [m] (diameters uniform in [1 − d_spread, 1 + d_spread]·d_mean),
+        k_n, k_t [N/m], c_n, c_t [N s/m], friction μ.
+    Liquid
+        surface_tension γ [N/m], viscosity η [Pa s], contact_angle θ [rad], capillary_model,
+        viscous (Pitois lubrication force on/off), capillary_in_contact (YADE: False),
+        v_max_coef (V_max = coef·min(R)³), v_min (minimum film [m³]),
+        spray_interval [s], spray_dose (fraction of V_p per spray), spray_radius r_s [m],
+        initial_film (fraction of V_p at t = 0).
+    Drum
+        drum_radius R_d [m], drum_length L [m], n_baffles, baffle_height (fraction of R_d),
+        drum_omega Ω [rad/s] about +z, gravity [m/s²], fill_fraction (bed volume / drum volume at
+        packing 0.6, used only to document presets), n_particles.
+    Numerics
+        dt [s], skin [m] (Verlet skin beyond the bridge range), settle_time [s] (static drum,
+        dry, before t = 0), seed.
+    CG
+        alpha (CG factor of *these* parameters), and the original (α = 1) values are recovered
+        by :func:`cg_scale` metadata.
+    """
+
+    n_particles: int = 5000
+    density: float = 2500.0
+    d_mean: float = 1.5e-3
+    d_spread: float = 0.2
+    k_n: float = 150.0
+    k_t: float = 120.0
+    c_n: float = 0.0011
+    c_t: float = 0.0011
+    friction: float = 0.5
+    surface_tension: float = 0.1095
+    viscosity: float = 0.0015
+    contact_angle: float = 0.0
+    capillary_model: str = "willett_numeric"
+    viscous: bool = True
+    capillary_in_contact: bool = False
+    v_max_coef: float = 0.03
+    v_min: float = 0.0
+    spray_interval: float = 0.2
+    spray_dose: float = 0.01
+    spray_radius: float = 0.063
+    initial_film: float = 0.0
+    drum_radius: float = 0.1
+    drum_length: float = 0.045
+    n_baffles: int = 4
+    baffle_height: float = 0.15
+    drum_omega: float = 2.0
+    gravity: tuple = (0.0, -9.81, 0.0)
+    dt: float = 3e-6
+    skin: float = 0.3e-3
+    settle_time: float = 0.3
+    seed: int = 0
+    alpha: float = 1.0
+
+    def __post_init__(self):
+        positive = ("density", "d_mean", "k_n", "k_t", "surface_tension", "dt", "drum_radius",
+                    "drum_length", "spray_interval", "alpha", "v_max_coef")
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"parameter {name} must be a finite number > 0, got {value!r}")
+        nonneg = ("c_n", "c_t", "friction", "viscosity", "v_min", "spray_dose", "spray_radius",
+                  "initial_film", "skin", "settle_time", "baffle_height")
+        for name in nonneg:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"parameter {name} must be a finite number >= 0, got {value!r}")
+        if not 0 <= self.d_spread < 1:
+            raise ValueError(f"parameter d_spread must be in [0, 1), got {self.d_spread!r}")
+        if not 0 <= self.contact_angle < math.pi / 2:
+            raise ValueError(f"parameter contact_angle must be in [0, π/2) rad, got {self.contact_angle!r}")
+        if self.capillary_model not in CAPILLARY_MODEL_NAMES:
+            raise ValueError(f"parameter capillary_model must be one of {CAPILLARY_MODEL_NAMES}, got {self.capillary_model!r}")
+        if not (isinstance(self.n_particles, int) and self.n_particles > 0):
+            raise ValueError(f"parameter n_particles must be a positive integer, got {self.n_particles!r}")
+        if not (isinstance(self.n_baffles, int) and self.n_baffles >= 0):
+            raise ValueError(f"parameter n_baffles must be a non-negative integer, got {self.n_baffles!r}")
+        if not self.baffle_height < 1:
+            raise ValueError(f"parameter baffle_height must be < 1 (fraction of the drum radius), got {self.baffle_height!r}")
+        if len(self.gravity) != 3:
+            raise ValueError(f"parameter gravity must have 3 components, got {self.gravity!r}")
+        if self.d_mean * (1 + self.d_spread) * 3 > self.drum_length:
+            raise ValueError(f"drum_length {self.drum_length} m is shorter than 3 particle diameters")
+
+    # ---- derived quantities
+    @property
+    def r_mean(self) -> float:
+        """Mean particle radius [m]."""
+        return self.d_mean / 2
+
+    @property
+    def r_max(self) -> float:
+        """Largest particle radius [m]."""
+        return self.r_mean * (1 + self.d_spread)
+
+    @property
+    def revolution_period(self) -> float:
+        """2π/Ω [s] (inf for a static drum)."""
+        return 2 * math.pi / abs(self.drum_omega) if self.drum_omega else math.inf
+
+    def contact_time(self, radius=None) -> float:
+        """Closed-form normal contact time of two equal spheres, π/(ω₀√(1−ζ²)) [s]."""
+        r = self.r_mean if radius is None else radius
+        m = self.density * 4 / 3 * math.pi * r**3
+        m_eff = m / 2
+        w0 = math.sqrt(self.k_n / m_eff)
+        zeta = self.c_n / (2 * math.sqrt(self.k_n * m_eff))
+        return math.pi / (w0 * math.sqrt(1 - zeta**2))
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable form."""
+        out = dataclasses.asdict(self)
+        out["gravity"] = list(self.gravity)
+        return out
+
+    @classmethod
+    def from_dict(cls, data) -> "SimParams":
+        """Inverse of :meth:`to_dict`; unknown keys raise ``ValueError`` naming them."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(f"unknown parameters {unknown}")
+        data = dict(data)
+        if "gravity" in data:
+            data["gravity"] = tuple(data["gravity"])
+        return cls(**data)
+
+
+def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimParams:
+    """Coarse-grain the *original* (α = 1) parameters by a factor α (Table 2, Weber scaling).
+
+    Radii ×α, particle count ×1/α³ (rounded), γ ×α, η ×α, k_n and k_t ×α, c_n and c_t ×α²,
+    Δt ×α (unless ``scale_dt=False``); volumes per particle follow the radius (same fractions of
+    V_p, so V_max, spray dose and initial film coefficients are unchanged); drum, spray zone,
+    Ω, friction, contact angle, density unchanged. Forces then scale as α².
+
+    Raises
+    ------
+    ValueError
+        If ``params`` is already coarse-grained (``alpha != 1``) or ``alpha < 1``.
+    """
+    if params.alpha != 1.0:
+        raise ValueError(f"cg_scale expects original (alpha = 1) parameters, got alpha = {params.alpha}")
+    if not (math.isfinite(alpha) and alpha >= 1):
+        raise ValueError(f"CG factor alpha must be >= 1, got {alpha!r}")
+    return dataclasses.replace(
+        params,
+        alpha=float(alpha),
+        n_particles=max(1, int(round(params.n_particles / alpha**3))),
+        d_mean=params.d_mean * alpha,
+        surface_tension=params.surface_tension * alpha,
+        viscosity=params.viscosity * alpha,
+        k_n=params.k_n * alpha,
+        k_t=params.k_t * alpha,
+        c_n=params.c_n * alpha**2,
+        c_t=params.c_t * alpha**2,
+        dt=params.dt * alpha if scale_dt else params.dt,
+        skin=params.skin * alpha,
+    )
+
+
+def _lab(n_particles):
+    """A smaller drum with the paper's physics: same fill (about 25 % at packing 0.6), axial
+    length L = 0.6 R_d (the paper's drum has 0.45; longer here so that CG3 particles still span
+    four diameters), spray radius at the paper's r_s/R_d = 0.63."""
+    bed_volume = n_particles * math.pi * 1.5e-3**3 / 6 / 0.6
+    radius = (bed_volume / (0.25 * math.pi * 0.6)) ** (1 / 3)
+    return SimParams(n_particles=n_particles, drum_radius=radius, drum_length=0.6 * radius, spray_radius=0.63 * radius)
+
+
+#: original (α = 1) parameter sets; the CG presets derive from them with cg_scale.
+_ORIGINALS = {
+    "paper": SimParams(n_particles=120_000, drum_radius=0.1, drum_length=0.045, spray_radius=0.063),
+    "lab": _lab(8000),
+}
+
+PRESETS = tuple(f"{base}-cg{a}" for base in _ORIGINALS for a in (1, 2, 3))
+
+
+def preset(name: str) -> SimParams:
+    """Parameters of a named preset: ``paper-cg1|2|3`` (120 000 particles at α = 1, R_d = 0.1 m)
+    or ``lab-cg1|2|3`` (8 000 particles at α = 1 in a drum scaled to the same fill)."""
+    try:
+        base, cg = name.rsplit("-cg", 1)
+        original = _ORIGINALS[base]
+        alpha = float(int(cg))
+        if alpha not in (1.0, 2.0, 3.0):
+            raise ValueError
+    except (ValueError, KeyError):
+        raise ValueError(f"unknown preset {name!r}; available: {', '.join(PRESETS)}") from None
+    return original if alpha == 1 else cg_scale(original, alpha)

@@ -1,0 +1,99 @@
+"""Simulation state: a dataclass of plain numpy arrays (checkpointable with ``np.savez``)."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["State", "SLOT_FIELDS", "PARTICLE_FIELDS"]
+
+#: per-particle arrays (permuted together when particles are reordered)
+PARTICLE_FIELDS = ("ids", "pos", "vel", "omega", "radius", "mass", "inertia", "x_ref")
+#: per-slot arrays
+SLOT_FIELDS = ("pair_i", "pair_j", "alive", "created", "ruptured", "v_b", "v_max", "fs", "nprev",
+               "force", "torque_i", "torque_j", "f_normal", "f_cap", "gap")
+
+
+@dataclass
+class State:
+    """Everything that evolves. Particles are rows 0…N−1; bodies are particles then walls.
+
+    Attributes (SI units)
+    ---------------------
+    step : int
+        Steps since t = 0 (t = step·Δt); negative steps are not used (settling has its own clock).
+    n_sprays : int
+        Sprays done so far.
+    sprayed_total : float
+        Total liquid sprayed [m³].
+    ids, pos, vel, omega, radius, mass, inertia, x_ref
+        Particle ids, positions [m], half-step velocities [m/s] and angular velocities [rad/s],
+        radii [m], masses [kg], moments of inertia [kg m²], positions at the last list rebuild.
+    film : (N + W,)
+        Liquid film volume of every body [m³] (walls collect the half of a ruptured wall bridge).
+    pair_i, pair_j, alive, created, ruptured, v_b, v_max, fs, nprev
+        Interaction slots (see ``sim._kernels``): bodies, existence, created / ruptured this
+        step (ruptured holds the returned volume), bridge volume and V_max [m³], tangential
+        spring on i [N], previous contact normal.
+    force, torque_i, torque_j, f_normal, f_cap, gap
+        Per-slot outputs of the last step: force on i [N], torques on i and j [N m], net normal
+        force (positive repulsive) [N], the bridge's cohesive force F_cap(max(s, 0⁺)) [N], gap [m].
+    part_start, part_slots, body_start, body_slots
+        CSR slot lists per particle (pair slots) and per body (all slots).
+    """
+
+    step: int
+    n_sprays: int
+    sprayed_total: float
+    ids: np.ndarray
+    pos: np.ndarray
+    vel: np.ndarray
+    omega: np.ndarray
+    radius: np.ndarray
+    mass: np.ndarray
+    inertia: np.ndarray
+    x_ref: np.ndarray
+    film: np.ndarray
+    pair_i: np.ndarray
+    pair_j: np.ndarray
+    alive: np.ndarray
+    created: np.ndarray
+    ruptured: np.ndarray
+    v_b: np.ndarray
+    v_max: np.ndarray
+    fs: np.ndarray
+    nprev: np.ndarray
+    force: np.ndarray
+    torque_i: np.ndarray
+    torque_j: np.ndarray
+    f_normal: np.ndarray
+    f_cap: np.ndarray
+    gap: np.ndarray
+    part_start: np.ndarray
+    part_slots: np.ndarray
+    body_start: np.ndarray
+    body_slots: np.ndarray
+
+    @property
+    def n_particles(self) -> int:
+        return int(self.radius.shape[0])
+
+    def total_liquid(self) -> float:
+        """Σ films (particles and walls) + Σ bridge volumes of live interactions [m³]."""
+        return float(self.film.sum() + self.v_b[self.alive].sum())
+
+    def save(self, path) -> None:
+        """Write every array and counter to an ``.npz`` file."""
+        np.savez(path, **{f.name: np.asarray(getattr(self, f.name)) for f in dataclasses.fields(self)})
+
+    @classmethod
+    def load(cls, path) -> "State":
+        """Read a file written by :meth:`save`."""
+        with np.load(path) as data:
+            values = {f.name: data[f.name] for f in dataclasses.fields(cls)}
+        for name in ("step", "n_sprays"):
+            values[name] = int(values[name])
+        values["sprayed_total"] = float(values["sprayed_total"])
+        return cls(**values)

@@ -1,0 +1,156 @@
+"""Simulator physics against closed forms: impact restitution and contact time, rolling at 5/7,
+the bridge life cycle in the engine, neighbour lists against brute force, CG scaling."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from sim.capillary import CAPILLARY_MODELS, capillary_force, rupture_distance
+from sim.neighbours import max_rupture_distance, pair_count_reference
+from sim.params import PRESETS, SimParams, cg_scale, preset
+from sim.run import Simulation
+
+R = 0.75e-3
+FREE = SimParams(n_particles=2, n_baffles=0, gravity=(0.0, 0.0, 0.0), drum_omega=0.0,
+                 drum_radius=0.05, drum_length=0.05, viscous=False)
+
+
+def closed_form(p, r):
+    m_eff = p.density * 4 / 3 * math.pi * r**3 / 2
+    w0 = math.sqrt(p.k_n / m_eff)
+    zeta = p.c_n / (2 * math.sqrt(p.k_n * m_eff))
+    return math.pi / (w0 * math.sqrt(1 - zeta**2)), math.exp(-math.pi * zeta / math.sqrt(1 - zeta**2))
+
+
+def head_on(p, r, v):
+    sim = Simulation.from_particles(p, [[-r - 1e-5, 0, 0.025], [r + 1e-5, 0, 0.025]], [r, r],
+                                    velocity=[[v, 0, 0], [-v, 0, 0]])
+    in_contact = 0
+    for _ in range(5000):
+        sim.advance(1)
+        if np.linalg.norm(sim.state.pos[1] - sim.state.pos[0]) < 2 * r:
+            in_contact += 1
+        elif in_contact:
+            break
+    return sim, in_contact
+
+
+@pytest.mark.parametrize("alpha", [1.0, 2.0])
+def test_normal_impact_restitution_and_contact_time(alpha):
+    p = cg_scale(dataclasses.replace(FREE, friction=0.0), alpha) if alpha > 1 else dataclasses.replace(FREE, friction=0.0)
+    p = dataclasses.replace(p, drum_radius=0.05, drum_length=0.05)
+    r = R * alpha
+    t_c, e = closed_form(p, r)
+    assert t_c / p.dt == pytest.approx(127.1, abs=0.2)  # Δt = t_c/127 at every CG level
+    sim, steps = head_on(p, r, 0.05)
+    vel = sim.state.vel[np.argsort(sim.state.ids)]
+    assert (vel[1, 0] - vel[0, 0]) / 0.1 == pytest.approx(e, rel=3e-3)
+    assert steps * p.dt == pytest.approx(t_c, rel=1.5 * p.dt / t_c)
+    assert vel[:, 0].sum() == pytest.approx(0.0, abs=1e-15)  # momentum
+
+
+def test_sphere_sliding_on_a_wall_ends_rolling_at_five_sevenths():
+    p = dataclasses.replace(FREE, gravity=(0.0, 0.0, -9.81), n_particles=1)
+    v0 = 0.05
+    sim = Simulation.from_particles(p, [[0.0, 0.0, R - 2e-7]], [R], velocity=[[v0, 0, 0]])
+    sim.advance(int(0.05 / p.dt))
+    v = sim.state.vel[0]
+    w = sim.state.omega[0]
+    assert v[0] == pytest.approx(5 / 7 * v0, rel=2e-3)
+    assert w[1] * R == pytest.approx(v[0], rel=2e-3)  # rolling without slip: ω_y·R = v_x
+
+
+def test_bridge_forms_at_touch_pulls_while_stretched_and_ruptures_at_s_crit():
+    film = 2e-12
+    p = dataclasses.replace(FREE, friction=0.0)
+    sim = Simulation.from_particles(p, [[-R, 0, 0.025], [R + 1e-7, 0, 0.025]], [R, R],
+                                    velocity=[[1e-3, 0, 0], [-1e-3, 0, 0]], film=[film, film])
+    sim.advance(200)  # touch: the bridge takes both films, capped at V_max = 0.03 R³
+    s = sim.state
+    live = np.flatnonzero(s.alive[2 * sim.n_walls:]) + 2 * sim.n_walls
+    assert live.size == 1
+    v_max = 0.03 * R**3
+    assert s.v_b[live[0]] == pytest.approx(min(2 * film, v_max), rel=1e-12)
+    assert s.film[:2].sum() + s.v_b[live[0]] == pytest.approx(2 * film, rel=1e-12)
+    v_b = s.v_b[live[0]]
+    s_crit = rupture_distance(v_b, R, 0.0)
+    # pull the pair apart (fast enough to beat the bridge); record the capillary force on the way
+    s.vel[:] = 0
+    s.vel[np.argsort(s.ids)] = [[-0.5, 0, 0], [0.5, 0, 0]]
+    model = CAPILLARY_MODELS["willett_numeric"]
+    gaps = []
+    for _ in range(400):
+        order = np.argsort(s.ids)
+        gaps.append(np.linalg.norm(s.pos[order[1]] - s.pos[order[0]]) - 2 * R)
+        sim.advance(1)
+        live = np.flatnonzero(s.alive[2 * sim.n_walls:]) + 2 * sim.n_walls
+        if not live.size:
+            break
+        k = live[0]
+        assert s.gap[k] == pytest.approx(gaps[-1], rel=1e-9, abs=1e-18)
+        expected = capillary_force(model, max(gaps[-1], 0.0), v_b, R, p.surface_tension, 0.0)
+        assert s.f_cap[k] == pytest.approx(expected, rel=1e-12)
+    # it ruptured in the first step that started with s >= s_crit
+    assert not s.alive[2 * sim.n_walls:].any()
+    assert gaps[-2] < s_crit <= gaps[-1]
+    # and gave V_b/2 back to each film
+    assert s.film[:2] == pytest.approx([film - v_b / 2 + v_b / 2] * 2, rel=1e-12)
+
+
+def test_verlet_list_equals_brute_force_and_covers_bridge_range():
+    rng = np.random.default_rng(3)
+    n = 400
+    p = dataclasses.replace(FREE, n_particles=n)
+    pos = rng.uniform([-0.01, -0.01, 0.01], [0.01, 0.01, 0.02], (n, 3))
+    radius = rng.uniform(0.8, 1.2, n) * R
+    sim = Simulation.from_particles(p, pos, radius)
+    s = sim.state
+    nw = n * sim.n_walls
+    reach = max_rupture_distance(p) + p.skin
+    listed = {(int(min(i, j)), int(max(i, j))) for i, j in zip(s.ids[s.pair_i[nw:]], s.ids[s.pair_j[nw:]])}
+    expected = pair_count_reference(pos, radius, reach)
+    assert listed == expected and len(expected) > 100
+    assert (s.pair_i[nw:] < s.pair_j[nw:]).all()
+    key = s.pair_i[nw:] * n + s.pair_j[nw:]
+    assert (np.diff(key) > 0).all()
+    # the reach covers the largest rupture distance of any bridge
+    r_max = p.r_max
+    assert max_rupture_distance(p) >= rupture_distance(0.03 * r_max**3, r_max, 0.0)
+
+
+def test_cg_scaling_follows_table_2():
+    o = SimParams()
+    for alpha in (2.0, 3.0):
+        c = cg_scale(o, alpha)
+        assert c.d_mean == pytest.approx(o.d_mean * alpha)
+        assert c.n_particles == round(o.n_particles / alpha**3)
+        assert c.surface_tension == pytest.approx(o.surface_tension * alpha)
+        assert c.viscosity == pytest.approx(o.viscosity * alpha)
+        assert (c.k_n, c.k_t) == pytest.approx((o.k_n * alpha, o.k_t * alpha))
+        assert (c.c_n, c.c_t) == pytest.approx((o.c_n * alpha**2, o.c_t * alpha**2))
+        assert c.dt == pytest.approx(o.dt * alpha)
+        assert cg_scale(o, alpha, scale_dt=False).dt == o.dt
+        assert (c.spray_radius, c.drum_radius, c.drum_omega, c.friction) == (o.spray_radius, o.drum_radius, o.drum_omega, o.friction)
+        assert (c.v_max_coef, c.spray_dose) == (o.v_max_coef, o.spray_dose)
+        # forces scale as α²: capillary force at contact (γ·R) and the weight of a particle
+        f_o = capillary_force(0, 1e-6, 1e-12, o.r_mean, o.surface_tension, 0.0)
+        f_c = capillary_force(0, 1e-6 * alpha, 1e-12 * alpha**3, c.r_mean, c.surface_tension, 0.0)
+        assert f_c == pytest.approx(alpha**2 * f_o, rel=1e-12)
+        assert closed_form(c, c.r_mean)[1] == pytest.approx(closed_form(o, o.r_mean)[1])  # same restitution
+    with pytest.raises(ValueError):
+        cg_scale(cg_scale(o, 2.0), 2.0)
+    assert preset("paper-cg3").n_particles == 4444 and preset("paper-cg1").n_particles == 120_000
+    assert len(PRESETS) == 6
+    with pytest.raises(ValueError, match="unknown preset"):
+        preset("paper-cg4")
+
+
+def test_bad_parameters_name_the_parameter():
+    with pytest.raises(ValueError, match="k_n"):
+        SimParams(k_n=-1.0)
+    with pytest.raises(ValueError, match="capillary_model"):
+        SimParams(capillary_model="magic")
+    with pytest.raises(ValueError, match="unknown parameters"):
+        SimParams.from_dict({"k_nn": 1})
