@@ -11,7 +11,7 @@ import math
 
 from numba import njit
 
-__all__ = ["n_walls", "wall_contact"]
+__all__ = ["n_walls", "wall_contact", "baffle_directions"]
 
 
 def n_walls(n_baffles: int) -> int:
@@ -19,9 +19,20 @@ def n_walls(n_baffles: int) -> int:
     return 1 + n_baffles + 2
 
 
+@njit(cache=True)
+def baffle_directions(n_baffles, angle, out):
+    """Unit radial direction (cos φ_b, sin φ_b) of every baffle at drum angle ``angle`` [rad],
+    φ_b = angle + 2πb/n_baffles, written to ``out`` (n_baffles, 2)."""
+    for b in range(n_baffles):
+        phi = angle + 2.0 * math.pi * b / n_baffles
+        out[b, 0] = math.cos(phi)
+        out[b, 1] = math.sin(phi)
+
+
 @njit(cache=True, inline="always")
-def wall_contact(w, px, py, pz, radius, drum_radius, drum_length, n_baffles, baffle_height, omega, angle):
-    """Geometry of a particle (centre p, radius) against wall w at drum angle ``angle`` [rad].
+def wall_contact(w, px, py, pz, radius, drum_radius, drum_length, n_baffles, baffle_height, omega, baffle_dir):
+    """Geometry of a particle (centre p, radius) against wall w; ``baffle_dir`` holds the
+    baffles' current directions (:func:`baffle_directions`).
 
     Returns
     -------
@@ -42,8 +53,7 @@ def wall_contact(w, px, py, pz, radius, drum_radius, drum_length, n_baffles, baf
         u = r + radius - drum_radius
         cx, cy = drum_radius * nx, drum_radius * ny
     elif w <= n_baffles:  # thin radial plate
-        phi = angle + 2.0 * math.pi * (w - 1) / n_baffles
-        ex, ey = math.cos(phi), math.sin(phi)
+        ex, ey = baffle_dir[w - 1, 0], baffle_dir[w - 1, 1]
         a = px * ex + py * ey  # radial coordinate along the plate
         b = -px * ey + py * ex  # signed distance from the plate's plane
         inner = drum_radius * (1.0 - baffle_height)

@@ -97,16 +97,28 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
     """
     n_slots = pair_i.shape[0]
     # counting pass (vectorisable), remembering which blocks of _BLOCK slots hold an event
+    # (fixed-length inner loop for full blocks so that it vectorises; then the tail block)
+    n_full = n_slots // _BLOCK
     n_blocks = (n_slots + _BLOCK - 1) // _BLOCK
     block_events = np.zeros(n_blocks, dtype=np.bool_)
     n_rup = 0
     n_new = 0
     for blk in range(n_blocks):
+        lo = blk * _BLOCK
         r = 0
         c = 0
-        for k in range(blk * _BLOCK, min((blk + 1) * _BLOCK, n_slots)):
-            r += ruptured_volume[k] > 0.0
-            c += created[k]
+        if blk < n_full:
+            for t in range(_BLOCK):
+                if ruptured_volume[lo + t] > 0.0:
+                    r += 1
+                if created[lo + t]:
+                    c += 1
+        else:
+            for k in range(lo, n_slots):
+                if ruptured_volume[k] > 0.0:
+                    r += 1
+                if created[k]:
+                    c += 1
         block_events[blk] = r + c > 0
         n_rup += r
         n_new += c

@@ -280,7 +280,7 @@ def reference_step(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, l
             film[b] -= deficit
 
 
-def random_run(seed, v_min, n_steps=400, n_part=12, n_walls=2, check_reference=True):
+def random_run(seed, v_min, n_steps=400, n_part=12, n_walls=2, p_rup=0.15, p_new=0.10, check_reference=True):
     rng = np.random.default_rng(seed)
     n_bodies = n_part + n_walls
     radius = rng.uniform(0.6e-3, 0.9e-3, n_part)
@@ -288,7 +288,8 @@ def random_run(seed, v_min, n_steps=400, n_part=12, n_walls=2, check_reference=T
     pairs += [(i, j) for i in range(n_part) for j in range(i + 1, n_part)]
     pair_i = np.array([p[0] for p in pairs], dtype=np.int64)
     pair_j = np.array([p[1] for p in pairs], dtype=np.int64)
-    r_min = np.where(pair_j >= n_part, radius[pair_i], np.minimum(radius[pair_i], radius[np.minimum(pair_j, n_part - 1)]))
+    r_j = np.where(pair_j >= n_part, np.inf, radius[np.minimum(pair_j, n_part - 1)])  # wall: R_i
+    r_min = np.minimum(radius[pair_i], r_j)
     v_max = 0.03 * r_min**3
     c = len(pairs)
     start, slots, lists = build_csr(n_bodies, pair_i, pair_j, rng=rng)
@@ -304,8 +305,8 @@ def random_run(seed, v_min, n_steps=400, n_part=12, n_walls=2, check_reference=T
         created[:] = False
         ruptured[:] = 0.0
         u = rng.random(c)
-        rup = alive & (u < 0.15)
-        new = ~alive & (u < 0.10)
+        rup = alive & (u < p_rup)
+        new = ~alive & (u < p_new)
         ruptured[rup] = v_b[rup]
         v_b[rup] = 0.0
         alive[rup] = False
@@ -336,6 +337,11 @@ def random_run(seed, v_min, n_steps=400, n_part=12, n_walls=2, check_reference=T
 @pytest.mark.parametrize("v_min", [0.0, 2e-14])
 def test_random_sequence_conserves_liquid(v_min):
     random_run(seed=7, v_min=v_min)
+
+
+def test_random_sequence_many_slots_sparse_events():
+    # 40 particles + 2 walls: 860 slots, several blocks of the event scan, most of them quiet
+    random_run(seed=11, v_min=0.0, n_steps=250, n_part=40, p_rup=0.03, p_new=0.003)
 
 
 def test_random_sequence_is_deterministic():
