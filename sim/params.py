@@ -10,7 +10,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-__all__ = ["SimParams", "cg_scale", "PRESETS", "preset"]
+__all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original"]
 
 CAPILLARY_MODEL_NAMES = ("willett_numeric", "willett_analytic", "rabinovich", "lambert")
 
@@ -198,9 +198,8 @@ _ORIGINALS = {
 PRESETS = tuple(f"{base}-cg{a}" for base in _ORIGINALS for a in (1, 2, 3))
 
 
-def preset(name: str) -> SimParams:
-    """Parameters of a named preset: ``paper-cg1|2|3`` (120 000 particles at α = 1, R_d = 0.1 m)
-    or ``lab-cg1|2|3`` (8 000 particles at α = 1 in a drum scaled to the same fill)."""
+def preset_original(name: str) -> tuple[SimParams, float]:
+    """The original (α = 1) parameters and the CG factor of a named preset."""
     try:
         base, cg = name.rsplit("-cg", 1)
         original = _ORIGINALS[base]
@@ -209,4 +208,11 @@ def preset(name: str) -> SimParams:
             raise ValueError
     except (ValueError, KeyError):
         raise ValueError(f"unknown preset {name!r}; available: {', '.join(PRESETS)}") from None
+    return original, alpha
+
+
+def preset(name: str) -> SimParams:
+    """Parameters of a named preset: ``paper-cg1|2|3`` (120 000 particles at α = 1, R_d = 0.1 m)
+    or ``lab-cg1|2|3`` (8 000 particles at α = 1 in a drum scaled to the same fill)."""
+    original, alpha = preset_original(name)
     return original if alpha == 1 else cg_scale(original, alpha)
