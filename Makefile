@@ -23,19 +23,18 @@ test: $(STAMP)
 test-all: $(STAMP)
 	$(PY) -m pytest -q
 
-## demo: the main job on demo data. Until the simulator's bundled dataset lands, this is a
-## physics-free synthetic run (granalytics.synthetic) generated here, not simulation output.
+## demo: the main job on the bundled dataset (datasets/lab-cg3.h5, made by sim; see datasets/README.md)
 demo: $(STAMP)
 	@mkdir -p $(BUILD)
-	$(PY) -m granalytics.synthetic --out $(BUILD)/demo-run.h5 --particles 3000 --revolutions 6
-	$(VENV)/bin/granalytics info $(BUILD)/demo-run.h5
-	$(VENV)/bin/granalytics stats $(BUILD)/demo-run.h5 --window 3:6 \
+	$(VENV)/bin/granalytics info datasets/lab-cg3.h5
+	$(VENV)/bin/granalytics stats datasets/lab-cg3.h5 --window 3:6 \
 		--out $(BUILD)/demo-timeseries.csv --sizes-out $(BUILD)/demo-sizes.csv \
 		--plot $(BUILD)/demo-stats.png
 
 ## bench: benchmark scripts (print tables)
 bench: $(STAMP)
 	$(PY) benchmarks/identify.py
+	$(PY) benchmarks/sim_throughput.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache

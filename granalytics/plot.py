@@ -42,8 +42,11 @@ def plot_size_distribution(dist, ax=None, label=None):
     import matplotlib.pyplot as plt
 
     ax = ax if ax is not None else plt.gca()
+    from matplotlib.ticker import NullFormatter
+
     shown = dist[dist["count"] > 0]
     ax.loglog(shown["size_center"], shown["density"], marker="o", ms=4, lw=1, label=label)
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("particles per granule")
     ax.set_ylabel("probability density")
     return ax

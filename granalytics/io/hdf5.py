@@ -46,7 +46,7 @@ _CONTACT_LAYOUT = {
 }
 assert tuple(_PARTICLE_LAYOUT) == PARTICLE_FIELDS and tuple(_CONTACT_LAYOUT) == CONTACT_FIELDS
 
-_CONTACT_CHUNK_ROWS = 1 << 12
+_CONTACT_CHUNK_ROWS = 1 << 10
 _CHUNK_CACHE_BYTES = 64 * 1024**2
 
 
@@ -56,7 +56,7 @@ class _HDF5Handle:
     _file: h5py.File | None
 
     def close(self) -> None:
-        """Flush and close the file (idempotent)."""
+        """Close the file (idempotent)."""
         if self._file is not None:
             self._file.close()
             self._file = None
@@ -212,6 +212,26 @@ class RunWriter(_HDF5Handle):
         ds.resize(frame + 1, axis=0)
         ds[frame] = value
         ds.flush()
+
+    def close(self, compact=True) -> None:
+        """Close the file (idempotent).
+
+        With ``compact`` (default), the datasets are then copied into a fresh file that replaces
+        the original: appending in SWMR mode leaves the space of every rewritten partial chunk
+        unused, and the copy drops it (and HDF5's "open for write" flag). A killed writer skips
+        this step; its file stays valid, only larger.
+        """
+        if self._file is None:
+            return
+        super().close()
+        if compact:
+            tmp = self.path + ".compact.tmp"
+            with h5py.File(self.path, "r") as src, h5py.File(tmp, "w", libver="latest") as dst:
+                for key, value in src.attrs.items():
+                    dst.attrs[key] = value
+                for name in src:
+                    src.copy(src[name], dst, name=name)
+            os.replace(tmp, self.path)
 
     def _create_datasets(self, n):
         f = self._file
