@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 BUILD := build
 
-.PHONY: test test-all demo bench install clean
+.PHONY: test test-fast demo bench install clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -15,13 +15,13 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-## test: the full fast test suite (what CI runs)
+## test: the whole test suite, slow-marked tests included (what CI runs)
 test: $(STAMP)
-	$(PY) -m pytest -q -m "not slow"
-
-## test-all: including tests marked slow
-test-all: $(STAMP)
 	$(PY) -m pytest -q
+
+## test-fast: without the tests marked slow (> ~20 s each)
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -m "not slow"
 
 ## demo: the main job on the bundled dataset (datasets/lab-cg3.h5, made by sim; see datasets/README.md)
 demo: $(STAMP)
