@@ -34,6 +34,7 @@ demo: $(STAMP)
 ## bench: benchmark scripts (print tables)
 bench: $(STAMP)
 	$(PY) benchmarks/identify.py
+	$(PY) benchmarks/sensitivity.py
 	$(PY) benchmarks/sim_throughput.py
 
 clean:

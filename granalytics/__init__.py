@@ -4,9 +4,13 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 
 - data model: :class:`Snapshot`, :class:`RunMeta`
 - run files: :class:`RunWriter`, :func:`open_run`, :class:`Run`
-- identification: :func:`identify`, :class:`GraphNetworkAnalysis`, :class:`IdentificationResult`
+- identification: :func:`identify` with methods ``"gna"`` (:class:`GraphNetworkAnalysis`),
+  ``"dbscan"`` (:class:`DBSCANIdentifier`), ``"sieve"`` (:class:`VirtualSieve`), ``"community"``
+  (:class:`CommunityDetection`), all returning :class:`IdentificationResult`
 - statistics: :func:`granule_table`, :func:`frame_stats`, :func:`run_stats`,
   :func:`steady_state`, :func:`size_distribution`
+- threshold sensitivity and method comparison: :func:`sensitivity`, :func:`sensitivity_summary`,
+  :func:`compare_methods`
 - errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
   :class:`ParameterError`
 """
@@ -14,8 +18,17 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 __version__ = "0.1.0"
 
 from .errors import GranalyticsError, ParameterError, RunFileError, ValidationError
-from .identify import GraphNetworkAnalysis, IdentificationResult, identify
+from .compare import compare_methods
+from .identify import (
+    CommunityDetection,
+    DBSCANIdentifier,
+    GraphNetworkAnalysis,
+    IdentificationResult,
+    VirtualSieve,
+    identify,
+)
 from .io import Run, RunSlice, RunWriter, open_run
+from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
 from .stats import frame_stats, granule_table, run_stats, size_distribution, steady_state
 
@@ -23,7 +36,9 @@ __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
     "RunWriter", "open_run", "Run", "RunSlice",
-    "identify", "GraphNetworkAnalysis", "IdentificationResult",
+    "identify", "IdentificationResult",
+    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection",
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
+    "sensitivity", "sensitivity_summary", "compare_methods",
     "GranalyticsError", "ValidationError", "RunFileError", "ParameterError",
 ]

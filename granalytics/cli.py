@@ -32,6 +32,47 @@ def _interval(text):
     return lo, hi
 
 
+def _grid(text):
+    """Parse ``START:STOP:NUM`` (NUM evenly spaced values, both ends included) or ``A,B,C``."""
+    try:
+        if ":" in text:
+            start, stop, num = text.split(":")
+            num = int(num)
+            if num < 1:
+                raise ValueError
+            values = np.linspace(float(start), float(stop), num)
+        else:
+            values = np.array([float(x) for x in text.split(",") if x.strip()])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected START:STOP:NUM or a comma-separated list, got {text!r}") from None
+    if values.size == 0 or not np.isfinite(values).all():
+        raise argparse.ArgumentTypeError(f"no valid values in {text!r}")
+    return values
+
+
+def _setting(text):
+    """Parse ``METHOD.PARAM=VALUE`` (VALUE as number, true/false/none, or text)."""
+    try:
+        key, value = text.split("=", 1)
+        method, param = key.split(".", 1)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected METHOD.PARAM=VALUE, got {text!r}") from None
+    lowered = value.strip().lower()
+    if lowered in ("true", "false"):
+        parsed = lowered == "true"
+    elif lowered == "none":
+        parsed = None
+    else:
+        try:
+            parsed = int(value)
+        except ValueError:
+            try:
+                parsed = float(value)
+            except ValueError:
+                parsed = value
+    return method.strip(), param.strip(), parsed
+
+
 def _add_gna_options(parser):
     group = parser.add_argument_group("granule identification (graph network analysis, paper §2.2)")
     group.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold: keep F_coh >= C_agg·2πγR (default 0.6)")
@@ -140,12 +181,7 @@ def cmd_stats(args):
     if args.plot:
         from .plot import stats_figure
 
-        fig = stats_figure(ts, dist, window=args.window, title=os.path.basename(args.run))
-        try:
-            fig.savefig(args.plot, dpi=120)
-        except (OSError, ValueError) as exc:
-            raise GranalyticsError(f"{args.plot}: cannot write plot ({exc})") from None
-        print(f"wrote plot to {args.plot}")
+        _save(stats_figure(ts, dist, window=args.window, title=os.path.basename(args.run)), args.plot)
     lo, hi = args.window
     print(f"steady state over revolutions [{lo:g}, {hi:g}] (C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°):")
     with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
@@ -161,6 +197,87 @@ def _table_format(path):
     if ext not in _TABLE_FORMATS:
         raise ParameterError(f"{path}: unknown table format {ext!r} (use .csv or .parquet)")
     return _TABLE_FORMATS[ext]
+
+
+def cmd_sensitivity(args):
+    from .sensitivity import sensitivity, sensitivity_summary
+
+    for path in (args.out, args.frames_out):
+        if path:
+            _table_format(path)
+    if (args.c_agg < 0).any():
+        raise ParameterError(f"--c-agg values must be >= 0, got min {args.c_agg.min():g}")
+    bad = [a for a in args.a_agg_deg if not 0 < a <= 180]
+    if bad:
+        raise ParameterError(f"--a-agg-deg values must be in (0, 180] degrees, got {bad[0]:g}")
+    with open_run(args.run) as run:
+        frames = run.select(revolutions=args.window)
+        if not len(frames):
+            revs = run.revolutions
+            raise ParameterError(f"{args.run}: no frame in the window [{args.window[0]:g}, {args.window[1]:g}] revolutions; "
+                                 f"the run covers [{revs.min():.3g}, {revs.max():.3g}]" if len(revs) else f"{args.run}: the run has no frames")
+        table = sensitivity(frames, args.c_agg, args.a_agg_deg, radius=args.radius, jobs=args.jobs, progress=not args.quiet)
+    summary = sensitivity_summary(table)
+    if args.frames_out:
+        _write_table(table, args.frames_out)
+        print(f"wrote per-frame table ({len(table)} rows) to {args.frames_out}")
+    if args.out:
+        _write_table(summary, args.out)
+        print(f"wrote summary over {len(frames)} frames ({len(summary)} grid points) to {args.out}")
+    if args.plot:
+        from .plot import sensitivity_figure
+
+        _save(sensitivity_figure(summary, title=f"{os.path.basename(args.run)}, revolutions "
+                                 f"[{args.window[0]:g}, {args.window[1]:g}]"), args.plot)
+    import pandas as pd
+
+    shown = summary[["a_agg_deg", "c_agg", "yield_fraction_mean", "n_granules_norm_mean", "mean_volume_norm_mean"]]
+    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120, "display.max_rows", 40):
+        print(shown.to_string(index=False))
+    return 0
+
+
+def cmd_compare(args):
+    from .compare import compare_methods
+
+    for path in (args.out, args.stats_out):
+        if path:
+            _table_format(path)
+    methods = {name: (name, {}) for name in args.methods}
+    for method, param, value in args.set or []:
+        if method not in methods:
+            raise ParameterError(f"--set {method}.{param}: {method!r} is not among --methods {','.join(methods)}")
+        methods[method][1][param] = value
+    with open_run(args.run) as run:
+        frames = _frames(run, args)
+        stats, pairs = compare_methods(frames, methods, progress=not args.quiet)
+    if args.out:
+        _write_table(pairs, args.out)
+        print(f"wrote pairwise comparison to {args.out}")
+    if args.stats_out:
+        _write_table(stats, args.stats_out)
+        print(f"wrote per-method statistics to {args.stats_out}")
+    if args.plot:
+        from .plot import comparison_figure
+
+        _save(comparison_figure(stats, pairs, title=os.path.basename(args.run)), args.plot)
+    import pandas as pd
+
+    mean_stats = stats.groupby("method", sort=False)[["n_granules_norm", "yield_fraction", "mean_volume_norm"]].mean()
+    mean_pairs = pairs.groupby(["method_a", "method_b"], sort=False)[["ari", "d_n_granules_norm", "d_yield_fraction"]].mean()
+    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
+        print(f"means over {len(frames)} frames")
+        print(mean_stats.to_string())
+        print(mean_pairs.to_string())
+    return 0
+
+
+def _save(fig, path):
+    try:
+        fig.savefig(path, dpi=120)
+    except (OSError, ValueError) as exc:
+        raise GranalyticsError(f"{path}: cannot write plot ({exc})") from None
+    print(f"wrote plot to {path}")
 
 
 def _write_table(table, path):
@@ -202,6 +319,40 @@ def build_parser():
     _add_gna_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_stats)
+
+    p = sub.add_parser("sensitivity", help="GNA statistics over a C_agg × A_agg grid",
+                       description="Yield, granule number and mean granule volume of every frame in a revolution window "
+                                   "at every (C_agg, A_agg), the C_agg axis in one pass per frame; mean ± std over the window.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--c-agg", type=_grid, default=_grid("0.1:1.0:19"), metavar="GRID",
+                   help="cohesion thresholds: START:STOP:NUM or a list (default 0.1:1.0:19)")
+    p.add_argument("--a-agg-deg", type=_grid, default=_grid("5,10,20,45,90"), metavar="GRID",
+                   help="angle thresholds in degrees (default 5,10,20,45,90)")
+    p.add_argument("--window", type=_interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
+                   help="revolution window (default 3:6)")
+    p.add_argument("--radius", choices=("pair", "mean"), default="pair", help="R in 2πγR (default pair)")
+    p.add_argument("--jobs", type=int, default=1, help="worker threads over frames (default 1)")
+    p.add_argument("--out", help="summary table over the window (.csv or .parquet)")
+    p.add_argument("--frames-out", help="per-frame table (.csv or .parquet)")
+    p.add_argument("--plot", help="heatmaps and line plots (.png, .pdf, .svg)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sensitivity)
+
+    p = sub.add_parser("compare-methods", help="compare identification methods frame by frame",
+                       description="Run several identification methods on the same frames; adjusted Rand index and "
+                                   "differences of granule number and yield for every pair.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--methods", type=lambda t: [m.strip() for m in t.split(",") if m.strip()],
+                   default=["gna", "dbscan", "sieve", "community"], help="comma-separated (default gna,dbscan,sieve,community)")
+    p.add_argument("--set", action="append", type=_setting, metavar="METHOD.PARAM=VALUE",
+                   help="a method parameter, e.g. dbscan.eps_diameters=1.2 or gna.a_agg_deg=30 (repeatable)")
+    p.add_argument("--window-rev", type=_interval, default=None, metavar="R0:R1",
+                   help="only frames within this revolution window (default: all frames)")
+    p.add_argument("--out", help="pairwise comparison per frame (.csv or .parquet)")
+    p.add_argument("--stats-out", help="statistics per frame and method (.csv or .parquet)")
+    p.add_argument("--plot", help="figure (.png, .pdf, .svg)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_compare)
     return parser
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure"]
+__all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure"]
 
 _TIMESERIES = (
     ("n_granules_norm", "granules / particles"),
@@ -70,3 +70,66 @@ def stats_figure(ts, dist=None, window=None, title=None):
     if title:
         fig.suptitle(title)
     return fig
+
+
+def sensitivity_figure(summary, title=None):
+    """Heatmaps of yield and mean granule volume over (C_agg, A_agg), and yield and mean volume
+    against C_agg for every A_agg (:func:`~granalytics.sensitivity_summary` output)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 4, figsize=(17, 3.8), layout="constrained")
+    c_values = np.sort(summary["c_agg"].unique())
+    a_values = np.sort(summary["a_agg_deg"].unique())
+    for ax, (metric, label) in zip(axes[:2], (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩ / V_p"))):
+        grid = summary.pivot(index="a_agg_deg", columns="c_agg", values=f"{metric}_mean").loc[a_values, c_values]
+        mesh = ax.pcolormesh(_edges(c_values), np.arange(len(a_values) + 1), grid.to_numpy(), shading="flat")
+        ax.set_yticks(np.arange(len(a_values)) + 0.5, [f"{a:g}" for a in a_values])
+        ax.set_xlabel("C_agg")
+        ax.set_ylabel("A_agg [°]")
+        fig.colorbar(mesh, ax=ax, label=label)
+    for ax, (metric, label) in zip(axes[2:], (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩ / V_p"))):
+        for a in a_values:
+            part = summary[summary["a_agg_deg"] == a].sort_values("c_agg")
+            ax.errorbar(part["c_agg"], part[f"{metric}_mean"], yerr=part[f"{metric}_std"], marker=".",
+                        ms=3, lw=1, capsize=2, label=f"A_agg = {a:g}°")
+        ax.set_xlabel("C_agg")
+        ax.set_ylabel(label)
+    axes[3].set_yscale("log")
+    axes[2].legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def comparison_figure(stats, pairs, title=None):
+    """Yield and granule number per method, and the adjusted Rand index of each pair, against
+    revolutions (:func:`~granalytics.compare_methods` output)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.6), layout="constrained")
+    for name, part in stats.groupby("method", sort=False):
+        plot_timeseries(part, "yield_fraction", ax=axes[0], label=name, ylabel="yield")
+        plot_timeseries(part, "n_granules_norm", ax=axes[1], label=name, ylabel="granules / particles")
+    for (a, b), part in pairs.groupby(["method_a", "method_b"], sort=False):
+        plot_timeseries(part, "ari", ax=axes[2], label=f"{a} vs {b}", ylabel="adjusted Rand index")
+    axes[2].set_ylim(-0.05, 1.05)
+    for ax in axes:
+        ax.legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def _edges(values):
+    """Cell edges around sorted centre values (for pcolormesh)."""
+    values = np.asarray(values, dtype=float)
+    if values.size == 1:
+        return np.array([values[0] - 0.5, values[0] + 0.5])
+    mid = (values[1:] + values[:-1]) / 2
+    return np.r_[values[0] - (mid[0] - values[0]), mid, values[-1] + (values[-1] - mid[-1])]

@@ -184,7 +184,7 @@ def advance(
     pos, vel, omega_p, radius, mass, inertia, film, x_ref,
     pair_i, pair_j, alive, created, ruptured, v_b, v_max, fs, nprev,
     force, torque_i, torque_j, f_normal, f_cap, gap,
-    part_start, part_slots, body_start, body_slots,
+    part_start, part_slots, body_start, body_slots, body_key,
     n_walls, drum_radius, drum_length, n_baffles, baffle_height, drum_omega, gravity,
     k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact, v_min,
     spray_interval, spray_dose, spray_radius, n_sprays, half_skin,
@@ -310,7 +310,7 @@ def advance(
                 f_normal[k] = -pull
                 f_cap[k] = f_c
             gap[k] = -u
-        migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min)
+        migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min, body_key)
         n_far = 0
         for i in prange(n):
             fx = mass[i] * gravity[0]

@@ -45,7 +45,7 @@ def _count_in_sorted(a, x):
 
 @njit(cache=True)
 def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_volume,
-                   body_start, body_slots, v_min):
+                   body_start, body_slots, v_min, body_key):
     """One step of liquid migration (spec §5), in place; call once per step after the forces.
 
     1. Each slot with ``ruptured_volume[k] > 0`` returns half of it to each of its two bodies'
@@ -55,7 +55,8 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
        films read after step 1 and before any withdrawal. If a_i + a_j > v_max[k] both shares are
        scaled by v_max[k]/(a_i + a_j). The shares are withdrawn after all created slots are
        processed (a film never drops below v_min through rounding).
-    3. Each marked body b, in ascending index, with A = film_b − v_min > 0, shares A with its
+    3. Each marked body b, in ascending ``body_key`` (the particle id, as YADE orders bodies;
+       rows are reordered spatially by the simulator), with A = film_b − v_min > 0, shares A with its
        alive slots having v_b < v_max (and v_max > 0): with D = Σ(v_max − v_b) over them, if
        D > A each gets (v_max − v_b)·A/D and film_b = v_min; otherwise each is filled to v_max
        and film_b loses D.
@@ -190,7 +191,7 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
 
     # ---- step 3: marked bodies (ascending) refill their under-filled live bridges
     if n_rup > 0:
-        marked.sort()
+        marked = marked[np.argsort(body_key[marked], kind="mergesort")]
         prev = -1
         for q in range(marked.shape[0]):
             b = marked[q]

@@ -143,6 +143,7 @@ class Simulation:
                 s.pair_i, s.pair_j, s.alive, s.created, s.ruptured, s.v_b, s.v_max, s.fs, s.nprev,
                 s.force, s.torque_i, s.torque_j, s.f_normal, s.f_cap, s.gap,
                 s.part_start, s.part_slots, s.body_start, s.body_slots,
+                np.concatenate([s.ids, s.ids.max() + 1 + np.arange(self.n_walls)]),
                 self.n_walls, p.drum_radius, p.drum_length, p.n_baffles, p.baffle_height, p.drum_omega, gravity,
                 p.k_n, p.k_t, p.c_n, p.c_t, p.friction, p.surface_tension, p.viscosity, p.contact_angle,
                 model, p.viscous, p.capillary_in_contact, p.v_min,

@@ -105,3 +105,40 @@ def test_bad_options_exit_2(run_file, tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["stats", run_file, "--window", "5:1"])
     assert exit_.value.code == 2
+
+
+def test_sensitivity_writes_summary_frames_and_heatmap(run_file, tmp_path, capsys):
+    out, frames_out, png = tmp_path / "s.csv", tmp_path / "f.parquet", tmp_path / "h.png"
+    argv = ["sensitivity", run_file, "--c-agg", "0.2:1.0:5", "--a-agg-deg", "10,20,90", "--window", "2:4",
+            "--out", str(out), "--frames-out", str(frames_out), "--plot", str(png), "--jobs", "2", "--quiet"]
+    assert main(argv) == 0
+    summary = pd.read_csv(out)
+    assert len(summary) == 15 and set(summary.n_frames) == {9}
+    assert {"yield_fraction_mean", "yield_fraction_std", "mean_volume_norm_mean", "n_granules_norm_mean"} <= set(summary.columns)
+    assert len(pd.read_parquet(frames_out)) == 9 * 15
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    assert "yield_fraction_mean" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--window", "7:9"], "no frame in the window"),
+    (["--c-agg=-1:1:3"], "--c-agg"),
+    (["--a-agg-deg", "0,20"], "--a-agg-deg"),
+    (["--out", "x.txt"], "unknown table format"),
+])
+def test_sensitivity_rejects_empty_windows_and_impossible_ranges(run_file, capsys, args, words):
+    assert main(["sensitivity", run_file, "--quiet", *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0]
+
+
+def test_compare_methods_table_and_plot(run_file, tmp_path, capsys):
+    out, png = tmp_path / "c.csv", tmp_path / "c.png"
+    argv = ["compare-methods", run_file, "--methods", "gna,dbscan,community", "--set", "dbscan.eps_diameters=1.05",
+            "--window-rev", "3:4", "--out", str(out), "--plot", str(png), "--quiet"]
+    assert main(argv) == 0
+    pairs = pd.read_csv(out)
+    assert len(pairs) == 5 * 3 and pairs.ari.between(-1, 1).all()
+    assert png.stat().st_size > 10_000
+    assert main(["compare-methods", run_file, "--methods", "gna,dbscan", "--set", "sieve.connect=gna", "--quiet"]) == 2
+    assert "not among --methods" in capsys.readouterr().err

@@ -67,7 +67,7 @@ class Scene:
     def step(self, v_min=0.0):
         before = total_liquid(self.film, self.v_b, self.alive) + self.ruptured.sum()
         migrate_liquid(self.film, self.pair_i, self.pair_j, self.v_b, self.v_max, self.alive,
-                       self.created, self.ruptured, self.start, self.slots, v_min)
+                       self.created, self.ruptured, self.start, self.slots, v_min, np.arange(self.film.size))
         assert total_liquid(self.film, self.v_b, self.alive) == pytest.approx(before, rel=1e-14, abs=1e-30)
         assert (self.film >= 0).all() and (self.v_b >= 0).all()
         # what the force pass of the next step does first
@@ -321,7 +321,7 @@ def random_run(seed, v_min, n_steps=400, n_part=12, n_walls=2, p_rup=0.15, p_new
         if check_reference:
             ref = (film.copy(), v_b.copy())
             reference_step(ref[0], pair_i, pair_j, ref[1], v_max, alive, created, ruptured, lists, v_min)
-        migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, start, slots, v_min)
+        migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, start, slots, v_min, np.arange(film.size))
         if check_reference:
             assert film == pytest.approx(ref[0], rel=1e-12, abs=1e-12 * expected)
             assert v_b == pytest.approx(ref[1], rel=1e-12, abs=1e-12 * expected)

@@ -7,13 +7,24 @@ returning an :class:`IdentificationResult`; :func:`identify` is the functional s
 from __future__ import annotations
 
 from ..errors import ParameterError
+from .community import CommunityDetection
+from .dbscan import DBSCANIdentifier
 from .graph import BACKENDS, GraphNetworkAnalysis
 from .result import IdentificationResult
+from .sieve import VirtualSieve, sieve_analysis
 
-__all__ = ["identify", "make_identifier", "METHODS", "GraphNetworkAnalysis", "IdentificationResult", "BACKENDS"]
+__all__ = [
+    "identify", "make_identifier", "METHODS", "BACKENDS", "IdentificationResult",
+    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "sieve_analysis",
+]
 
 #: method name -> identifier class
-METHODS = {"gna": GraphNetworkAnalysis}
+METHODS = {
+    "gna": GraphNetworkAnalysis,
+    "dbscan": DBSCANIdentifier,
+    "sieve": VirtualSieve,
+    "community": CommunityDetection,
+}
 
 
 def make_identifier(method="gna", **params):
@@ -34,11 +45,13 @@ def identify(snapshot, method="gna", **params) -> IdentificationResult:
     Parameters
     ----------
     snapshot : Snapshot
-    method : str, default "gna"
+    method : {"gna", "dbscan", "sieve", "community"}, default "gna"
         One of :data:`METHODS`.
     **params
         Constructor parameters of the method, e.g. for ``"gna"``: ``c_agg=0.6``,
-        ``a_agg_deg=20.0``, ``radius="pair"``, ``backend="fast"``.
+        ``a_agg_deg=20.0``, ``radius="pair"``, ``backend="fast"``; for ``"dbscan"``:
+        ``eps_diameters``, ``min_samples``; for ``"sieve"``: ``connect``, ``apertures_m``;
+        for ``"community"``: ``c_agg``, ``a_agg_deg``, ``resolution``, ``seed``.
 
     Examples
     --------

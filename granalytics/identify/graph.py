@@ -23,6 +23,7 @@ import numpy as np
 from .. import _kernels
 from ..errors import ParameterError
 from ..snapshot import Snapshot
+from .common import check_angle, check_radius_mode, mean_radius, surface_tension
 from .result import IdentificationResult
 
 __all__ = ["GraphNetworkAnalysis", "BACKENDS"]
@@ -96,11 +97,8 @@ class GraphNetworkAnalysis:
         c_agg = float(self.c_agg)
         if not (math.isfinite(c_agg) and c_agg >= 0):
             raise ParameterError(f"c_agg must be finite and >= 0, got {self.c_agg!r}")
-        a_agg = float(self.a_agg_deg)
-        if not 0 < a_agg <= 180:
-            raise ParameterError(f"a_agg_deg must be in (0, 180] degrees, got {self.a_agg_deg!r}")
-        if self.radius not in ("pair", "mean"):
-            raise ParameterError(f"radius must be 'pair' or 'mean', got {self.radius!r}")
+        a_agg = check_angle(self.a_agg_deg)
+        check_radius_mode(self.radius)
         if self.backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
         return c_agg, a_agg
@@ -116,20 +114,9 @@ class GraphNetworkAnalysis:
         """Arguments of the numba GNA kernels after ``(ci, cj, f_cap, radius, vel, omega)``:
         ``(2πγ, mean_radius or 0, c_agg, cos A_agg)``."""
         c_agg, a_agg = self._check()
-        gamma = self.surface_tension
-        if gamma is None:
-            if snapshot.meta is None:
-                raise ParameterError(
-                    "the snapshot has no run metadata: pass surface_tension= (N/m) to GNA"
-                )
-            gamma = snapshot.meta.surface_tension
-        gamma = float(gamma)
-        if not (math.isfinite(gamma) and gamma > 0):
-            raise ParameterError(f"surface_tension must be > 0 N/m, got {gamma!r}")
-        mean_radius = 0.0
-        if self.radius == "mean":
-            mean_radius = snapshot.meta.mean_radius if snapshot.meta is not None else float(snapshot.radius.mean())
-        return 2.0 * math.pi * gamma, mean_radius, c_agg, math.cos(math.radians(a_agg))
+        gamma = surface_tension(snapshot, self.surface_tension)
+        r_mean = mean_radius(snapshot) if self.radius == "mean" else 0.0
+        return 2.0 * math.pi * gamma, r_mean, c_agg, math.cos(math.radians(a_agg))
 
     def contact_mask(self, snapshot: Snapshot) -> np.ndarray:
         """Boolean mask of the contacts that pass both criteria."""

@@ -33,6 +33,8 @@ class IdentificationResult:
         The snapshot that was analysed.
     kept : (M,) bool array or None
         For contact-based methods, the contacts that passed the criteria.
+    extra : dict
+        Method-specific outputs (e.g. ``"sieve"``: the sieve analysis of virtual sieving).
     """
 
     labels: np.ndarray
@@ -41,6 +43,7 @@ class IdentificationResult:
     params: dict
     snapshot: Snapshot = field(repr=False)
     kept: np.ndarray | None = field(default=None, repr=False)
+    extra: dict = field(default_factory=dict, repr=False)
 
     @property
     def n_granules(self) -> int:
