@@ -159,9 +159,7 @@ def cmd_identify(args):
 def cmd_stats(args):
     import pandas as pd
 
-    for path in (args.out, args.sizes_out):
-        if path:
-            _table_format(path)
+    _check_table_paths(args.out, args.sizes_out)
     with open_run(args.run) as run:
         frames = _frames(run, args)
         ts, sizes = run_stats(
@@ -202,9 +200,7 @@ def _table_format(path):
 def cmd_sensitivity(args):
     from .sensitivity import sensitivity, sensitivity_summary
 
-    for path in (args.out, args.frames_out):
-        if path:
-            _table_format(path)
+    _check_table_paths(args.out, args.frames_out)
     if (args.c_agg < 0).any():
         raise ParameterError(f"--c-agg values must be >= 0, got min {args.c_agg.min():g}")
     bad = [a for a in args.a_agg_deg if not 0 < a <= 180]
@@ -240,9 +236,7 @@ def cmd_sensitivity(args):
 def cmd_compare(args):
     from .compare import compare_methods
 
-    for path in (args.out, args.stats_out):
-        if path:
-            _table_format(path)
+    _check_table_paths(args.out, args.stats_out)
     methods = {name: (name, {}) for name in args.methods}
     for method, param, value in args.set or []:
         if method not in methods:
@@ -278,6 +272,13 @@ def _save(fig, path):
     except (OSError, ValueError) as exc:
         raise GranalyticsError(f"{path}: cannot write plot ({exc})") from None
     print(f"wrote plot to {path}")
+
+
+def _check_table_paths(*paths):
+    """Fail before any work if an output table has an unknown format."""
+    for path in paths:
+        if path:
+            _table_format(path)
 
 
 def _write_table(table, path):

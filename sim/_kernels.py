@@ -71,10 +71,10 @@ def _unravel(c, n_cells):
 
 
 @njit(cache=True, parallel=True)
-def count_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach):
-    """Number of partners j > i within R_i + R_j + reach of every particle i."""
+def _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, fill, start, pair_j, count):
+    """For every particle i, the partners j > i within R_i + R_j + reach in the 27 cells around
+    it: counted into ``count[i]``, or (``fill``) written to ``pair_j[start[i]:]``."""
     n = pos.shape[0]
-    count = np.zeros(n, dtype=np.int64)
     for i in prange(n):
         cx, cy, cz = _unravel(cell_of[i], n_cells)
         c_n = 0
@@ -91,35 +91,28 @@ def count_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach):
                         dz = pos[j, 2] - pos[i, 2]
                         lim = radius[i] + radius[j] + reach
                         if dx * dx + dy * dy + dz * dz < lim * lim:
+                            if fill:
+                                pair_j[start[i] + c_n] = j
                             c_n += 1
-        count[i] = c_n
+        if fill:
+            pair_j[start[i]:start[i + 1]] = np.sort(pair_j[start[i]:start[i + 1]])
+        else:
+            count[i] = c_n
+
+
+def count_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach):
+    """Number of partners j > i within R_i + R_j + reach of every particle i."""
+    count = np.zeros(pos.shape[0], dtype=np.int64)
+    _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, False,
+               np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), count)
     return count
 
 
-@njit(cache=True, parallel=True)
 def fill_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, start, pair_j):
     """Write the partners counted by :func:`count_pairs` into ``pair_j[start[i]:start[i+1]]``,
     sorted ascending per particle (so the pair keys i·N + j are globally sorted)."""
-    n = pos.shape[0]
-    for i in prange(n):
-        cx, cy, cz = _unravel(cell_of[i], n_cells)
-        q_out = start[i]
-        for ax in range(max(cx - 1, 0), min(cx + 2, n_cells[0])):
-            for ay in range(max(cy - 1, 0), min(cy + 2, n_cells[1])):
-                for az in range(max(cz - 1, 0), min(cz + 2, n_cells[2])):
-                    c = (ax * n_cells[1] + ay) * n_cells[2] + az
-                    for q in range(cell_start[c], cell_start[c + 1]):
-                        j = cell_members[q]
-                        if j <= i:
-                            continue
-                        dx = pos[j, 0] - pos[i, 0]
-                        dy = pos[j, 1] - pos[i, 1]
-                        dz = pos[j, 2] - pos[i, 2]
-                        lim = radius[i] + radius[j] + reach
-                        if dx * dx + dy * dy + dz * dz < lim * lim:
-                            pair_j[q_out] = j
-                            q_out += 1
-        pair_j[start[i]:start[i + 1]] = np.sort(pair_j[start[i]:start[i + 1]])
+    _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, True, start, pair_j,
+               np.zeros(1, dtype=np.int64))
 
 
 @njit(cache=True)
