@@ -39,7 +39,7 @@ def _frame_sweep(snapshot, c_desc, a_list, radius, gamma):
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_volume = np.where(n_gran > 0, v_in / np.maximum(n_gran, 1), np.nan)
         rows.append(pd.DataFrame({
-            "time_s": snapshot.time, "step": snapshot.step, "revolutions": snapshot.revolutions,
+            "time": snapshot.time, "step": snapshot.step, "revolutions": snapshot.revolutions,
             "c_agg": c_desc, "a_agg_deg": a, "n_granules": n_gran,
             "n_granules_norm": n_gran / n_initial, "yield_fraction": n_in / n,
             "mean_volume_norm": mean_volume / v_mean,
@@ -68,7 +68,7 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
     -------
     DataFrame
         One row per (frame, c_agg, a_agg_deg), sorted by frame, A_agg, then C_agg ascending, with
-        ``frame`` (index in the run file, or in the list), ``time_s``, ``step``,
+        ``frame`` (index in the run file, or in the list), ``time`` [s], ``step``,
         ``revolutions``, ``c_agg``, ``a_agg_deg``, ``n_granules``, ``n_granules_norm``,
         ``yield_fraction``, ``mean_volume_norm`` (definitions of :func:`~granalytics.frame_stats`).
     """

@@ -14,9 +14,8 @@ import time as _time
 
 import numpy as np
 
-from granalytics import RunMeta, RunWriter, Snapshot
+from granalytics import RunMeta, RunWriter, Snapshot, __version__
 
-from . import __name__ as _package
 from . import _kernels
 from .capillary import CAPILLARY_MODELS
 from .drum import n_walls
@@ -25,8 +24,6 @@ from .params import SimParams
 from .state import State
 
 __all__ = ["Simulation"]
-
-FORMAT_VERSION = 1
 
 
 class Simulation:
@@ -177,7 +174,7 @@ class Simulation:
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L"},
-            provenance={"code": _package, "format_version": FORMAT_VERSION},
+            provenance={"code": "sim", "version": __version__},
         )
 
     def snapshot(self, meta: RunMeta | None = None) -> Snapshot:
@@ -236,6 +233,8 @@ class Simulation:
         ckpt = f"{out}.ckpt.npz"
         meta = self.run_meta()
         if resume:
+            if not hasattr(self, "_resume_frame"):
+                raise ValueError("resume=True needs a simulation restored with Simulation.resume(out)")
             writer = RunWriter.continue_from(out, self._resume_frame)
         else:
             writer = RunWriter(out, meta, overwrite=True)
