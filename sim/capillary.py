@@ -256,3 +256,34 @@ def capillary_force_curve(model: str, s, v_b, r_eff, gamma, theta=0.0) -> np.nda
     out = np.empty(flat[0].size)
     _force_loop(CAPILLARY_MODELS[model], *flat, out)
     return out.reshape(args[0].shape)
+
+
+def _effective_radius(r1, r2):
+    """2·R1·R2/(R1 + R2) [m]; a wall (R2 = inf) gives R1."""
+    r1, r2 = np.asarray(r1, dtype=np.float64), np.asarray(r2, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isinf(r2), r1, 2.0 * r1 * r2 / (r1 + r2))
+
+
+def pair_rupture_distance(bridge_volume, r1, r2, contact_angle=0.0) -> np.ndarray:
+    """Rupture distance s_crit [m] of bridges between spheres of radii r1, r2 [m] (arrays
+    broadcast; r2 = inf for a wall), bridge volume [m³], contact angle [rad]. Exported as
+    ``sim.rupture_distance``."""
+    args = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in (bridge_volume, r1, r2, contact_angle)))
+    v, a, b, th = (np.ascontiguousarray(x).ravel() for x in args)
+    r_eff = _effective_radius(a, b)
+    out = np.array([rupture_distance(v[k], r_eff[k], th[k]) for k in range(v.size)])
+    return out.reshape(args[0].shape)
+
+
+def pair_capillary_force(gap, r1, r2, bridge_volume, surface_tension, contact_angle=0.0, model="willett_numeric") -> np.ndarray:
+    """Attractive capillary force [N] ≥ 0 of bridges between spheres of radii r1, r2 [m] at
+    surface gap ``gap`` [m] (arrays broadcast; r2 = inf for a wall): the model's value at
+    max(gap, 0⁺) while gap < s_crit, 0 from the rupture distance on. Exported as
+    ``sim.capillary_force``; ``model`` is one of :data:`CAPILLARY_MODELS`."""
+    args = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64)
+                                 for x in (gap, r1, r2, bridge_volume, surface_tension, contact_angle)))
+    s, a, b, v, g, th = args
+    force = capillary_force_curve(model, np.maximum(s, 0.0), v, _effective_radius(a, b), g, th)
+    ruptured = (s > 0) & (s >= pair_rupture_distance(v, a, b, th))
+    return np.where(ruptured, 0.0, force)

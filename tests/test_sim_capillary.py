@@ -234,3 +234,23 @@ def test_curve_unknown_model():
 def test_scalar_unknown_model_id():
     with pytest.raises(ValueError):
         capillary_force(len(CAPILLARY_MODELS), 1e-5, V_B, R, GAMMA, 0.0)
+
+
+def test_public_vectorised_force_laws_match_yade_and_vanish_beyond_rupture():
+    import sim
+
+    path = Path(__file__).resolve().parent / "data" / "yade_capillary_equal_spheres.csv"
+    table = pd.read_csv(path)
+    names = {"Willett_numeric": "willett_numeric", "Willett_analytic": "willett_analytic", "Rabinovich": "rabinovich", "Lambert": "lambert"}
+    rows = table[table.capillary_type.isin(names)]
+    for yade_name, group in rows.groupby("capillary_type"):
+        f = sim.capillary_force(group.gap_m.to_numpy(), group.r1_m.to_numpy(), group.r2_m.to_numpy(),
+                                group.bridge_volume_m3.to_numpy(), group.surface_tension_N_per_m.to_numpy(),
+                                group.contact_angle_rad.to_numpy(), model=names[yade_name])
+        active = group.bridge_active.to_numpy() == 1
+        np.testing.assert_allclose(f[active], group.attractive_force_N.to_numpy()[active], rtol=1e-6)
+        assert (f[~active] == 0).all()
+    s_crit = sim.rupture_distance(rows.bridge_volume_m3.to_numpy(), rows.r1_m.to_numpy(), rows.r2_m.to_numpy(), 0.0)
+    np.testing.assert_allclose(s_crit, rows.yade_s_crit_m.to_numpy(), rtol=1e-6)
+    assert sim.rupture_distance(1e-12, 0.5e-3, 1.0e-3, 0.0) == pytest.approx(1.0150e-4, rel=1e-4)
+    assert sim.scale_parameters(sim.SimParams(), 2.0).surface_tension == pytest.approx(2 * 0.1095)
