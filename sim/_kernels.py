@@ -11,6 +11,7 @@ count.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import numba
@@ -19,6 +20,9 @@ from numba import njit, prange
 # OpenMP first: its parallel regions start in microseconds, TBB's take ~0.5 ms on this kind of
 # machine, which dominates a time step of a few thousand particles. Falls back when absent.
 numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+# Idle OpenMP threads spin before sleeping; with the default spin count two processes sharing
+# the cores slow each other down ~100x. A short spin keeps the start-up fast and sharing sane.
+os.environ.setdefault("GOMP_SPINCOUNT", "3000")
 
 from .capillary import capillary_force, rupture_distance, viscous_force
 from .contact import mechanical_force, rotate_spring
@@ -186,8 +190,8 @@ def advance(
 
     Per step: slot forces (parallel over slots) → liquid migration (sequential) → gather and
     integrate (parallel over particles) → spray when t crosses the next spray time. Stops early,
-    after the step, when a particle has moved more than half the Verlet skin since the last
-    rebuild. With ``settling`` the drum is at rest (Ω = 0, angle 0) and nothing is sprayed.
+    before a step, when a particle has moved more than half the Verlet skin since the last
+    rebuild (the caller then rebuilds the lists and calls again). With ``settling`` the drum is at rest (Ω = 0, angle 0) and nothing is sprayed.
 
     Returns
     -------
@@ -204,7 +208,19 @@ def advance(
     sprayed = 0.0
     done = 0
     baffle_dir = np.empty((max(n_baffles, 1), 2))
+    # the list must be rebuilt before a step in which some particle starts more than half the
+    # skin away from where it was at the last rebuild; checking before each step makes the
+    # trajectory independent of how the steps are split into calls
+    n_far = 0
+    for i in prange(n):
+        dx = pos[i, 0] - x_ref[i, 0]
+        dy = pos[i, 1] - x_ref[i, 1]
+        dz = pos[i, 2] - x_ref[i, 2]
+        if dx * dx + dy * dy + dz * dz > half_skin * half_skin:
+            n_far += 1
     for it in range(n_steps):
+        if n_far > 0:
+            break
         baffle_directions(n_baffles, omega_drum * (step0 + it) * dt, baffle_dir)
         # slot forces (physics spec §2, §3); the body is written out in the loop because numba
         # calls to a function with this many array arguments cost ~10x the work itself
@@ -354,8 +370,6 @@ def advance(
         if not settling and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
             sprayed += spray(film, pos, radius, n, spray_radius, spray_dose)
             n_sprays += 1
-        if n_far > 0:
-            break
     return done, n_sprays, sprayed
 
 
