@@ -123,3 +123,12 @@ def test_snapshot_is_a_valid_granalytics_frame_with_bridges(settled):
     assert wet.any() and (snap.f_cap[wet] > 0).all() and (snap.f_cap[~wet] == 0).all()
     result = ga.identify(snap)
     assert result.labels.shape == (200,)
+
+
+def test_trajectory_does_not_depend_on_how_steps_are_split_into_calls(settled):
+    a, b = copy(settled), copy(settled)
+    a.advance(600)
+    for _ in range(12):
+        b.advance(50)
+    for f in dataclasses.fields(a.state):
+        assert np.array_equal(getattr(a.state, f.name), getattr(b.state, f.name)), f.name
