@@ -222,103 +222,12 @@ def advance(
         if n_far > 0:
             break
         baffle_directions(n_baffles, omega_drum * (step0 + it) * dt, baffle_dir)
-        # slot forces (physics spec §2, §3); the body is written out in the loop because numba
-        # calls to a function with this many array arguments cost ~10x the work itself
-        for k in prange(n_slots):
-            created[k] = False
-            ruptured[k] = 0.0
-            i = pair_i[k]
-            ri = radius[i]
-            # contact point velocity of i is v_i + ω_i × (R_i n); of j, v_j + ω_j × (−R_j n)
-            if k < n_wall_slots:
-                ok, nx, ny, nz, u, wvx, wvy = wall_contact(
-                    k % n_walls, pos[i, 0], pos[i, 1], pos[i, 2], ri, drum_radius, drum_length,
-                    n_baffles, baffle_height, omega_drum, baffle_dir)
-                if not ok:
-                    u = -1.0
-                rj = math.inf
-                r_eff = ri
-                vjx, vjy, vjz = wvx, wvy, 0.0
-                ojx, ojy, ojz = 0.0, 0.0, omega_drum
-            else:
-                j = pair_j[k]
-                rj = radius[j]
-                dx = pos[j, 0] - pos[i, 0]
-                dy = pos[j, 1] - pos[i, 1]
-                dz = pos[j, 2] - pos[i, 2]
-                dist = math.sqrt(dx * dx + dy * dy + dz * dz)
-                if dist == 0.0:
-                    dist = 1e-300
-                nx, ny, nz = dx / dist, dy / dist, dz / dist
-                u = ri + rj - dist
-                r_eff = 2.0 * ri * rj / (ri + rj)
-                ojx, ojy, ojz = omega_p[j, 0], omega_p[j, 1], omega_p[j, 2]
-                vjx = vel[j, 0] - (ojy * nz - ojz * ny) * rj
-                vjy = vel[j, 1] - (ojz * nx - ojx * nz) * rj
-                vjz = vel[j, 2] - (ojx * ny - ojy * nx) * rj
-            if not alive[k]:
-                if u < 0.0:
-                    _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
-                    continue
-                alive[k] = True
-                created[k] = True
-                fs[k, 0] = 0.0
-                fs[k, 1] = 0.0
-                fs[k, 2] = 0.0
-                nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-            elif u < 0.0 and -u >= rupture_distance(v_b[k], r_eff, theta):
-                alive[k] = False
-                ruptured[k] = v_b[k]
-                v_b[k] = 0.0
-                fs[k, 0] = 0.0
-                fs[k, 1] = 0.0
-                fs[k, 2] = 0.0
-                _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
-                continue
-            oix, oiy, oiz = omega_p[i, 0], omega_p[i, 1], omega_p[i, 2]
-            vrx = vel[i, 0] + (oiy * nz - oiz * ny) * ri - vjx
-            vry = vel[i, 1] + (oiz * nx - oix * nz) * ri - vjy
-            vrz = vel[i, 2] + (oix * ny - oiy * nx) * ri - vjz
-            if u >= 0.0:  # mechanical contact
-                twist = 0.5 * dt * (nx * (oix + ojx) + ny * (oiy + ojy) + nz * (oiz + ojz))
-                sx, sy, sz = rotate_spring(fs[k, 0], fs[k, 1], fs[k, 2], nprev[k, 0], nprev[k, 1], nprev[k, 2], nx, ny, nz, twist)
-                f_n, sx, sy, sz, tx, ty, tz = mechanical_force(u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t, c_n, c_t, mu, dt)
-                fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
-                nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-                f_contact = capillary_force(model, 0.0, v_b[k], r_eff, gamma, theta)
-                f_pull = f_contact if capillary_in_contact else 0.0
-                fn_net = f_n - f_pull  # along −n on i (repulsive when positive)
-                force[k, 0] = -fn_net * nx + tx
-                force[k, 1] = -fn_net * ny + ty
-                force[k, 2] = -fn_net * nz + tz
-                # T_i = (R_i n) × F_t ; T_j = (−R_j n) × (−F_t) = R_j n × F_t
-                cx = ny * tz - nz * ty
-                cy = nz * tx - nx * tz
-                cz = nx * ty - ny * tx
-                torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = ri * cx, ri * cy, ri * cz
-                if k >= n_wall_slots:
-                    torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = rj * cx, rj * cy, rj * cz
-                f_normal[k] = fn_net
-                f_cap[k] = f_contact
-            else:  # separated, bridge active (0 < s < s_crit)
-                s = -u
-                f_c = capillary_force(model, s, v_b[k], r_eff, gamma, theta)
-                f_v = 0.0
-                if viscous:
-                    f_v = viscous_force(eta, ri, rj, vrx * nx + vry * ny + vrz * nz, s, v_b[k])
-                pull = f_c - f_v  # along +n on i
-                force[k, 0] = pull * nx
-                force[k, 1] = pull * ny
-                force[k, 2] = pull * nz
-                torque_i[k, 0] = 0.0
-                torque_i[k, 1] = 0.0
-                torque_i[k, 2] = 0.0
-                torque_j[k, 0] = 0.0
-                torque_j[k, 1] = 0.0
-                torque_j[k, 2] = 0.0
-                f_normal[k] = -pull
-                f_cap[k] = f_c
-            gap[k] = -u
+        # slot forces: wall slots, then pair slots, each range split evenly over the threads
+        for lo, hi in ((0, n_wall_slots), (n_wall_slots, n_slots)):
+            _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos, vel, omega_p, radius,
+                         pair_i, pair_j, alive, created, ruptured, v_b, fs, nprev, force, torque_i, torque_j,
+                         f_normal, f_cap, gap, drum_radius, drum_length, n_baffles, baffle_height,
+                         k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact)
         migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min, body_key)
         n_far = 0
         for i in prange(n):
@@ -371,6 +280,114 @@ def advance(
             sprayed += spray(film, pos, radius, n, spray_radius, spray_dose)
             n_sprays += 1
     return done, n_sprays, sprayed
+
+
+@njit(cache=True, parallel=True)
+def _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos, vel, omega_p, radius,
+                 pair_i, pair_j, alive, created, ruptured, v_b, fs, nprev, force, torque_i, torque_j,
+                 f_normal, f_cap, gap, drum_radius, drum_length, n_baffles, baffle_height,
+                 k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact):
+    """Interaction state, force and torques of slots lo … hi−1 (physics spec §2, §3).
+
+    The body is written out in the loop: a numba call per slot with this many array arguments
+    costs ~10x the work itself. Wall slots and pair slots are passed as separate ranges so that
+    each thread gets an equal share of the expensive pair slots.
+    """
+    for k in prange(lo, hi):
+        created[k] = False
+        ruptured[k] = 0.0
+        i = pair_i[k]
+        ri = radius[i]
+        # contact point velocity of i is v_i + ω_i × (R_i n); of j, v_j + ω_j × (−R_j n)
+        if k < n_wall_slots:
+            ok, nx, ny, nz, u, wvx, wvy = wall_contact(
+                k % n_walls, pos[i, 0], pos[i, 1], pos[i, 2], ri, drum_radius, drum_length,
+                n_baffles, baffle_height, omega_drum, baffle_dir)
+            if not ok:
+                u = -1.0
+            rj = math.inf
+            r_eff = ri
+            vjx, vjy, vjz = wvx, wvy, 0.0
+            ojx, ojy, ojz = 0.0, 0.0, omega_drum
+        else:
+            j = pair_j[k]
+            rj = radius[j]
+            dx = pos[j, 0] - pos[i, 0]
+            dy = pos[j, 1] - pos[i, 1]
+            dz = pos[j, 2] - pos[i, 2]
+            dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if dist == 0.0:
+                dist = 1e-300
+            nx, ny, nz = dx / dist, dy / dist, dz / dist
+            u = ri + rj - dist
+            r_eff = 2.0 * ri * rj / (ri + rj)
+            ojx, ojy, ojz = omega_p[j, 0], omega_p[j, 1], omega_p[j, 2]
+            vjx = vel[j, 0] - (ojy * nz - ojz * ny) * rj
+            vjy = vel[j, 1] - (ojz * nx - ojx * nz) * rj
+            vjz = vel[j, 2] - (ojx * ny - ojy * nx) * rj
+        if not alive[k]:
+            if u < 0.0:
+                _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
+                continue
+            alive[k] = True
+            created[k] = True
+            fs[k, 0] = 0.0
+            fs[k, 1] = 0.0
+            fs[k, 2] = 0.0
+            nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
+        elif u < 0.0 and -u >= rupture_distance(v_b[k], r_eff, theta):
+            alive[k] = False
+            ruptured[k] = v_b[k]
+            v_b[k] = 0.0
+            fs[k, 0] = 0.0
+            fs[k, 1] = 0.0
+            fs[k, 2] = 0.0
+            _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
+            continue
+        oix, oiy, oiz = omega_p[i, 0], omega_p[i, 1], omega_p[i, 2]
+        vrx = vel[i, 0] + (oiy * nz - oiz * ny) * ri - vjx
+        vry = vel[i, 1] + (oiz * nx - oix * nz) * ri - vjy
+        vrz = vel[i, 2] + (oix * ny - oiy * nx) * ri - vjz
+        if u >= 0.0:  # mechanical contact
+            twist = 0.5 * dt * (nx * (oix + ojx) + ny * (oiy + ojy) + nz * (oiz + ojz))
+            sx, sy, sz = rotate_spring(fs[k, 0], fs[k, 1], fs[k, 2], nprev[k, 0], nprev[k, 1], nprev[k, 2], nx, ny, nz, twist)
+            f_n, sx, sy, sz, tx, ty, tz = mechanical_force(u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t, c_n, c_t, mu, dt)
+            fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
+            nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
+            f_contact = capillary_force(model, 0.0, v_b[k], r_eff, gamma, theta)
+            f_pull = f_contact if capillary_in_contact else 0.0
+            fn_net = f_n - f_pull  # along −n on i (repulsive when positive)
+            force[k, 0] = -fn_net * nx + tx
+            force[k, 1] = -fn_net * ny + ty
+            force[k, 2] = -fn_net * nz + tz
+            # T_i = (R_i n) × F_t ; T_j = (−R_j n) × (−F_t) = R_j n × F_t
+            cx = ny * tz - nz * ty
+            cy = nz * tx - nx * tz
+            cz = nx * ty - ny * tx
+            torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = ri * cx, ri * cy, ri * cz
+            if k >= n_wall_slots:
+                torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = rj * cx, rj * cy, rj * cz
+            f_normal[k] = fn_net
+            f_cap[k] = f_contact
+        else:  # separated, bridge active (0 < s < s_crit)
+            s = -u
+            f_c = capillary_force(model, s, v_b[k], r_eff, gamma, theta)
+            f_v = 0.0
+            if viscous:
+                f_v = viscous_force(eta, ri, rj, vrx * nx + vry * ny + vrz * nz, s, v_b[k])
+            pull = f_c - f_v  # along +n on i
+            force[k, 0] = pull * nx
+            force[k, 1] = pull * ny
+            force[k, 2] = pull * nz
+            torque_i[k, 0] = 0.0
+            torque_i[k, 1] = 0.0
+            torque_i[k, 2] = 0.0
+            torque_j[k, 0] = 0.0
+            torque_j[k, 1] = 0.0
+            torque_j[k, 2] = 0.0
+            f_normal[k] = -pull
+            f_cap[k] = f_c
+        gap[k] = -u
 
 
 @njit(cache=True)
