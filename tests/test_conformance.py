@@ -27,8 +27,8 @@ IDENTIFIERS = {
         eps_diameters=1.3 - 0.25 * strictness, velocity_weight=2.0), True),
     "dbscan-bridged": (lambda strictness: DBSCANIdentifier(eps_diameters=1.3 - 0.25 * strictness, bridged_only=True), True),
     "sieve-gna": (lambda strictness: VirtualSieve(connect="gna", c_agg=0.3 + 0.6 * strictness), True),
-    # modularity communities are not nested across edge filters (see granalytics.identify.community)
-    "community": (lambda strictness: CommunityDetection(c_agg=0.3 + 0.6 * strictness, a_agg_deg=20.0), False),
+    # Leiden on all cohesive co-moving contacts, communities split by C_agg: nested in C_agg
+    "community": (lambda strictness: CommunityDetection(c_agg=0.3 + 0.6 * strictness, a_agg_deg=20.0), True),
 }
 
 

@@ -4,10 +4,13 @@ In a dense wet bed plain bridge connectivity percolates into one giant cluster. 
 network of contacts weighted by w = F_coh / (2πγR) into communities of maximal modularity splits
 that cluster where the bonds are weak. Communities of ≥ 2 particles are granules.
 
+Leiden runs on every cohesive contact (F_coh > 0; optionally only those passing the co-motion
+criterion). A cohesion threshold C_agg then splits each community into the groups connected by
+its contacts with F_coh ≥ C_agg·2πγR, so the Leiden partition does not depend on C_agg and a
+larger C_agg only splits granules (the method is nested in C_agg, like GNA).
+
 Leiden is randomised: a fixed ``seed`` makes it deterministic, and the graph is built in particle-id
-order so that the result does not depend on the row order of the snapshot. Unlike GNA, DBSCAN
-(min_samples = 2) and sieving, modularity communities are not nested: a stricter edge filter can
-regroup particles rather than only split granules.
+order so that the result does not depend on the row order of the snapshot.
 """
 
 from __future__ import annotations
@@ -17,9 +20,10 @@ import random
 
 import numpy as np
 
+from .. import _kernels
 from ..errors import ParameterError
 from ..snapshot import Snapshot
-from .common import check_radius_mode, co_moving, contact_strength, labels_from_clusters
+from .common import check_radius_mode, co_moving, contact_strength
 from .result import IdentificationResult
 
 __all__ = ["CommunityDetection"]
@@ -31,7 +35,8 @@ class CommunityDetection:
     Parameters
     ----------
     c_agg : float, default 0
-        Keep only contacts with F_coh ≥ c_agg·2πγR (0: every cohesive contact, F_coh > 0).
+        Split communities into the groups joined by contacts with F_coh ≥ c_agg·2πγR
+        (0: communities as Leiden finds them).
     a_agg_deg : float or None, default None
         Also require the GNA co-motion criterion with this angle [deg]; None: no angle filter.
     resolution : float, default 1
@@ -69,7 +74,7 @@ class CommunityDetection:
         if not (math.isfinite(float(self.resolution)) and self.resolution > 0):
             raise ParameterError(f"resolution must be > 0, got {self.resolution!r}")
         f = contact_strength(snapshot, self.radius, self.surface_tension)
-        keep = (f >= self.c_agg) & (f > 0)
+        keep = f > 0
         if self.a_agg_deg is not None:
             keep &= co_moving(snapshot, self.a_agg_deg)
         # nodes in id order, edges sorted: independent of the snapshot's row order
@@ -86,7 +91,11 @@ class CommunityDetection:
                                            resolution=float(self.resolution), n_iterations=-1)
         finally:
             igraph.set_random_number_generator(random)
-        membership_by_rank = np.asarray(parts.membership, dtype=np.int64)
-        labels, sizes = labels_from_clusters(membership_by_rank[rank])
+        community = np.asarray(parts.membership, dtype=np.int64)[rank]
+        # split by the contacts inside a community that pass the cohesion threshold
+        ci, cj = snapshot.contact_i, snapshot.contact_j
+        bond = keep & (f >= self.c_agg) & (community[ci] == community[cj])
+        membership = _kernels.union_find_membership(snapshot.n_particles, ci[bond], cj[bond])
+        labels, sizes = _kernels.canonical_labels(membership)
         return IdentificationResult(labels=labels, sizes=sizes, method=self.method, params=self.params(),
-                                    snapshot=snapshot, kept=keep)
+                                    snapshot=snapshot, kept=bond)
