@@ -266,6 +266,17 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_export_vtk(args):
+    from .io.vtk import export_vtk
+
+    with open_run(args.run) as run:
+        frames = _frames(run, args)
+        pvd = export_vtk(frames, args.out, "gna", progress=not args.quiet, c_agg=args.c_agg,
+                         a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend)
+    print(f"wrote {len(frames)} frames and {pvd} (open it in ParaView)")
+    return 0
+
+
 def _save(fig, path):
     try:
         fig.savefig(path, dpi=120)
@@ -354,6 +365,15 @@ def build_parser():
     p.add_argument("--plot", help="figure (.png, .pdf, .svg)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("export-vtk", help="VTK files for ParaView (one .vtu per frame + .pvd)",
+                       description="Write particles (radius, velocities, film, granule label and size) and bonds "
+                                   "(kept by GNA or not, F_coh, bridge volume, gap) per frame, plus a .pvd time series.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--out", required=True, help="output folder")
+    _add_gna_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_export_vtk)
     return parser
 
 

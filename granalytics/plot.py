@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure"]
+__all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure", "frame_figure"]
 
 _TIMESERIES = (
     ("n_granules_norm", "granules / particles"),
@@ -133,3 +133,32 @@ def _edges(values):
         return np.array([values[0] - 0.5, values[0] + 0.5])
     mid = (values[1:] + values[:-1]) / 2
     return np.r_[values[0] - (mid[0] - values[0]), mid, values[-1] + (values[-1] - mid[-1])]
+
+
+def frame_figure(result, ax=None, max_colours=20):
+    """3-D scatter of one identified frame, particles sized by radius and coloured by granule
+    (the largest ``max_colours`` granules in distinct colours, other granules grey, free
+    particles light grey)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    s = result.snapshot
+    if ax is None:
+        fig = plt.figure(figsize=(6, 6))
+        ax = fig.add_subplot(projection="3d")
+    colours = np.full((s.n_particles, 4), (0.85, 0.85, 0.85, 0.25))
+    member = result.labels >= 0
+    colours[member] = (0.45, 0.45, 0.45, 0.8)
+    palette = plt.get_cmap("tab20")
+    for g in range(min(result.n_granules, max_colours)):
+        colours[result.labels == g] = palette(g % 20)
+    size = (s.radius / s.radius.max()) ** 2 * 30
+    ax.scatter(s.position[:, 0], s.position[:, 1], s.position[:, 2], c=colours, s=size, depthshade=False)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title(f"t = {s.time:.3f} s: {result.n_granules} granules, yield {result.n_granulated / s.n_particles:.2f}")
+    ax.set_aspect("equal")
+    return ax.figure

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from ..errors import ParameterError
 from .community import CommunityDetection
+from .custom import CustomEdges
 from .dbscan import DBSCANIdentifier
 from .graph import BACKENDS, GraphNetworkAnalysis
 from .result import IdentificationResult
@@ -15,7 +16,7 @@ from .sieve import VirtualSieve, sieve_analysis
 
 __all__ = [
     "identify", "make_identifier", "METHODS", "BACKENDS", "IdentificationResult",
-    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "sieve_analysis",
+    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "sieve_analysis",
 ]
 
 #: method name -> identifier class
@@ -24,6 +25,7 @@ METHODS = {
     "dbscan": DBSCANIdentifier,
     "sieve": VirtualSieve,
     "community": CommunityDetection,
+    "custom": CustomEdges,
 }
 
 
