@@ -277,6 +277,21 @@ def cmd_export_vtk(args):
     return 0
 
 
+def cmd_convert(args):
+    from tqdm.auto import tqdm
+
+    from .io import RunWriter
+    from .io.lammps import DumpMapping, read_liggghts
+
+    mapping = DumpMapping.from_toml(args.mapping)
+    snapshots, meta = read_liggghts(args.particles, args.contacts, mapping, dt=args.dt_s)
+    with RunWriter(args.out, meta, overwrite=args.overwrite) as writer:
+        for snapshot in tqdm(snapshots, disable=args.quiet, unit="frame", desc="convert"):
+            writer.append(snapshot)
+    print(f"wrote {args.out}: {len(snapshots)} frames of {meta.n_particles} particles")
+    return 0
+
+
 def _save(fig, path):
     try:
         fig.savefig(path, dpi=120)
@@ -374,6 +389,19 @@ def build_parser():
     _add_gna_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_export_vtk)
+
+    p = sub.add_parser("convert", help="convert LIGGGHTS/LAMMPS dumps into a run file",
+                       description="Read particle dumps (dump custom) and contact dumps (compute pair/gran/local + dump local), "
+                                   "plain or gzip, one or many timesteps per file, and write a granalytics run file.")
+    p.add_argument("particles", nargs="+", help="particle dump files")
+    p.add_argument("--from", dest="source", choices=("liggghts",), default="liggghts", help="dump flavour (liggghts / LAMMPS)")
+    p.add_argument("--contacts", nargs="+", required=True, help="contact dump files")
+    p.add_argument("--mapping", required=True, help="TOML file: units, contact columns, material metadata (see granalytics.io.lammps.DumpMapping)")
+    p.add_argument("--dt-s", type=float, required=True, help="simulation time step in seconds (time = timestep × dt)")
+    p.add_argument("--out", required=True, help="run file to write (.h5)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing run file")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_convert)
     return parser
 
 

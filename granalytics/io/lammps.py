@@ -1,0 +1,294 @@
+"""Read LIGGGHTS / LAMMPS text dumps into snapshots.
+
+A run is a particle dump (``dump custom``: ``id``, ``radius`` or ``diameter``, ``x y z``,
+``vx vy vz``, ``omegax omegay omegaz`` in any order, optional liquid column; several timesteps
+per file or one file per timestep; plain or gzip) plus the matching contact dump
+(``compute pair/gran/local`` + ``dump local``). What cannot be read from the files is declared
+in a :class:`DumpMapping` (units, which ``ENTRIES`` columns hold the particle ids, the cohesive
+force, the normal force, the gap or overlap and the bridge volume, and the material
+metadata); anything missing is asked for with an error naming the file, line and field,
+never guessed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import gzip
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import GranalyticsError, ValidationError
+from ..snapshot import RunMeta, Snapshot
+
+__all__ = ["DumpMapping", "read_dump_blocks", "read_liggghts"]
+
+
+class DumpFormatError(GranalyticsError, ValueError):
+    """A dump file is malformed; the message names the file and line."""
+
+
+@dataclass
+class DumpMapping:
+    """What the dump files cannot say. All quantities SI.
+
+    Parameters
+    ----------
+    units : str
+        Must be ``"si"`` (LAMMPS ``units si``); other unit systems are refused.
+    surface_tension, density, drum_omega : float
+        Run metadata [N/m, kg/m³, rad/s].
+    contact_angle : float, default 0 [rad]; alpha : float, default 1
+    contact_id_i, contact_id_j : str
+        ``ENTRIES`` columns of the contact dump holding the two particle ids.
+    contact_f_cap : str
+        Column holding the cohesive (capillary) normal force magnitude [N].
+    contact_f_normal : str or None
+        Column with the total normal force [N]; None: not in the dump (stored as NaN-free 0 and
+        recorded in provenance).
+    contact_gap : str or None
+        Column with the surface gap [m]; or use ``contact_overlap`` (LIGGGHTS ``delta``, overlap
+        = −gap). One of the two is required.
+    contact_overlap : str or None
+    contact_bridge_volume : str or None
+        Column with the bridge volume [m³]; None: 0 (recorded in provenance).
+    film_column : str or None
+        Particle column with the liquid film volume [m³]; None: no film data (0).
+    """
+
+    surface_tension: float
+    density: float
+    drum_omega: float
+    contact_id_i: str
+    contact_id_j: str
+    contact_f_cap: str
+    units: str = "si"
+    contact_angle: float = 0.0
+    alpha: float = 1.0
+    contact_f_normal: str | None = None
+    contact_gap: str | None = None
+    contact_overlap: str | None = None
+    contact_bridge_volume: str | None = None
+    film_column: str | None = None
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.units != "si":
+            raise ValidationError("units", f"only LAMMPS 'units si' dumps are read, got {self.units!r}")
+        if (self.contact_gap is None) == (self.contact_overlap is None):
+            raise ValidationError("contact_gap", "declare exactly one of contact_gap or contact_overlap")
+
+    @classmethod
+    def from_toml(cls, path) -> "DumpMapping":
+        """Read a mapping from a TOML file (keys as the constructor's)."""
+        try:
+            import tomllib
+        except ModuleNotFoundError:  # Python 3.10
+            import tomli as tomllib
+
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValidationError("mapping", f"unknown keys {unknown} in {path}")
+        try:
+            return cls(**data)
+        except TypeError as exc:
+            raise ValidationError("mapping", f"{path}: {exc}") from None
+
+
+def _open_text(path):
+    path = str(path)
+    return gzip.open(path, "rt") if path.endswith(".gz") else open(path)
+
+
+def read_dump_blocks(path, kind):
+    """Yield ``(timestep, columns, data, first_line)`` for every block of a dump file.
+
+    Parameters
+    ----------
+    kind : {"ATOMS", "ENTRIES"}
+        Particle dump (``dump custom``) or local dump (``dump local``).
+    """
+    count_item = "NUMBER OF ATOMS" if kind == "ATOMS" else "NUMBER OF ENTRIES"
+    try:
+        with _open_text(path) as f:
+            lines = f.read().splitlines()
+    except (OSError, EOFError, UnicodeDecodeError) as exc:
+        raise DumpFormatError(f"{path}: cannot read ({exc})") from None
+    k = 0
+    seen = set()
+
+    def fail(line_no, msg):
+        raise DumpFormatError(f"{path}, line {line_no + 1}: {msg}")
+
+    def expect(line_no, item):
+        if line_no >= len(lines):
+            fail(line_no, f"file ends where 'ITEM: {item}' was expected")
+        if not lines[line_no].startswith(f"ITEM: {item}"):
+            fail(line_no, f"expected 'ITEM: {item}', found {lines[line_no][:60]!r}")
+
+    while k < len(lines):
+        if not lines[k].strip():
+            k += 1
+            continue
+        expect(k, "TIMESTEP")
+        try:
+            step = int(lines[k + 1])
+        except (IndexError, ValueError):
+            fail(k + 1, "timestep is not an integer")
+        if step in seen:
+            fail(k, f"timestep {step} appears twice")
+        seen.add(step)
+        expect(k + 2, count_item)
+        try:
+            n = int(lines[k + 3])
+        except (IndexError, ValueError):
+            fail(k + 3, f"{count_item.lower()} is not an integer")
+        if n < 0:
+            fail(k + 3, f"negative {count_item.lower()} {n}")
+        expect(k + 4, "BOX BOUNDS")
+        expect(k + 8, kind)
+        columns = lines[k + 8].split()[2:]
+        if len(set(columns)) != len(columns):
+            fail(k + 8, f"repeated column names {columns}")
+        first = k + 9
+        rows = lines[first:first + n]
+        if len(rows) < n:
+            fail(first + len(rows), f"file ends after {len(rows)} of {n} rows of timestep {step}")
+        data = np.empty((n, len(columns)))
+        for r, text in enumerate(rows):
+            fields = text.split()
+            if len(fields) != len(columns):
+                fail(first + r, f"{len(fields)} values for {len(columns)} columns")
+            try:
+                data[r] = [float(x) for x in fields]
+            except ValueError:
+                fail(first + r, f"not a number in {text[:60]!r}")
+        bad = ~np.isfinite(data)
+        if bad.any():
+            r, c = np.argwhere(bad)[0]
+            fail(first + r, f"non-finite value in column {columns[c]!r}")
+        yield step, columns, data, first
+        k = first + n
+
+
+def _column(columns, name, path, line, what):
+    if name not in columns:
+        raise DumpFormatError(f"{path}, line {line}: no column {name!r} for {what} (columns: {' '.join(columns)})")
+    return columns.index(name)
+
+
+def _particles(columns, data, path, line, mapping):
+    def col(name, what):
+        return data[:, _column(columns, name, path, line, what)]
+
+    if "radius" in columns:
+        radius = col("radius", "radius")
+    elif "diameter" in columns:
+        radius = col("diameter", "diameter") / 2
+    else:
+        raise DumpFormatError(f"{path}, line {line}: the particle dump needs a 'radius' or 'diameter' column")
+    ids = col("id", "particle ids")
+    if not np.all(ids == np.round(ids)):
+        raise DumpFormatError(f"{path}, line {line}: particle ids are not integers")
+    out = {
+        "ids": ids.astype(np.int64),
+        "radius": radius,
+        "position": np.column_stack([col(c, "positions") for c in ("x", "y", "z")]),
+        "velocity": np.column_stack([col(c, "velocities") for c in ("vx", "vy", "vz")]),
+        "angular_velocity": np.column_stack([col(c, "angular velocities") for c in ("omegax", "omegay", "omegaz")]),
+        "film_volume": col(mapping.film_column, "the liquid film") if mapping.film_column else np.zeros(len(ids)),
+    }
+    return out
+
+
+def _contacts(columns, data, path, line, mapping, id_to_row):
+    def col(name, what):
+        return data[:, _column(columns, name, path, line, what)]
+
+    id_i, id_j = col(mapping.contact_id_i, "contact_id_i"), col(mapping.contact_id_j, "contact_id_j")
+    rows = []
+    for ids in (id_i, id_j):
+        r = np.array([id_to_row.get(int(x), -1) for x in ids], dtype=np.int64)
+        if (r < 0).any():
+            k = int(np.flatnonzero(r < 0)[0])
+            raise DumpFormatError(f"{path}, line {line + k + 1}: contact names particle id {int(ids[k])}, "
+                                  "which is not in the particle dump of this timestep")
+        rows.append(r)
+    ci, cj = np.minimum(*rows), np.maximum(*rows)
+    if mapping.contact_gap:
+        gap = col(mapping.contact_gap, "contact_gap")
+    else:
+        gap = -col(mapping.contact_overlap, "contact_overlap")
+    f_normal = col(mapping.contact_f_normal, "contact_f_normal") if mapping.contact_f_normal else np.zeros(len(ci))
+    volume = col(mapping.contact_bridge_volume, "contact_bridge_volume") if mapping.contact_bridge_volume else np.zeros(len(ci))
+    return {
+        "contact_i": ci, "contact_j": cj, "f_cap": np.abs(col(mapping.contact_f_cap, "contact_f_cap")),
+        "f_normal": f_normal, "gap": gap, "bridge_volume": volume,
+    }
+
+
+def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
+    """Snapshots of a LIGGGHTS / LAMMPS run.
+
+    Parameters
+    ----------
+    particle_files, contact_files : sequence of paths
+        Dumps (any number of timesteps each); every particle timestep needs a contact timestep.
+    mapping : DumpMapping
+    dt : float
+        Time step [s] (time = timestep·dt). Required: dumps do not carry it.
+
+    Returns
+    -------
+    (list of Snapshot, RunMeta)
+    """
+    if dt is None or not (math.isfinite(dt) and dt > 0):
+        raise ValidationError("dt", f"the dumps do not record the time step: pass dt in seconds (> 0), got {dt!r}")
+    contacts = {}
+    for path in contact_files:
+        for step, columns, data, line in read_dump_blocks(path, "ENTRIES"):
+            if step in contacts:
+                raise DumpFormatError(f"{path}, line {line}: contact timestep {step} already read from {contacts[step][3]}")
+            contacts[step] = (columns, data, line, path)
+    particles = {}
+    for path in particle_files:
+        for step, columns, data, line in read_dump_blocks(path, "ATOMS"):
+            if step in particles:
+                raise DumpFormatError(f"{path}, line {line}: particle timestep {step} already read")
+            particles[step] = (columns, data, line, path)
+    if not particles:
+        raise DumpFormatError("no particle timesteps in " + ", ".join(map(str, particle_files)))
+    n0 = None
+    snapshots = []
+    for step in sorted(particles):
+        columns, data, line, path = particles[step]
+        if step not in contacts:
+            raise DumpFormatError(f"{path}, line {line}: no contact dump for timestep {step}")
+        part = _particles(columns, data, path, line, mapping)
+        id_to_row = {int(pid): r for r, pid in enumerate(part["ids"])}
+        if len(id_to_row) != len(part["ids"]):
+            raise DumpFormatError(f"{path}, line {line}: duplicate particle ids in timestep {step}")
+        ccols, cdata, cline, cpath = contacts[step]
+        cont = _contacts(ccols, cdata, cpath, cline, mapping, id_to_row)
+        n0 = n0 or len(part["ids"])
+        try:
+            snapshots.append(Snapshot(time=step * dt, step=step, **part, **cont))
+        except ValidationError as exc:
+            raise exc.located(f"{path} / {cpath} (timestep {step})") from None
+    meta = RunMeta(
+        surface_tension=mapping.surface_tension, density=mapping.density, drum_omega=mapping.drum_omega,
+        n_particles=n0, mean_radius=float(snapshots[0].radius.mean()), alpha=mapping.alpha,
+        contact_angle=mapping.contact_angle,
+        provenance={"source": "LIGGGHTS/LAMMPS dumps", "particle_files": list(map(str, particle_files)),
+                    "contact_files": list(map(str, contact_files)), "mapping": dataclasses.asdict(mapping),
+                    "not_in_dumps": [k for k, v in (("f_normal", mapping.contact_f_normal),
+                                                    ("bridge_volume", mapping.contact_bridge_volume),
+                                                    ("film_volume", mapping.film_column)) if v is None]},
+    )
+    for s in snapshots:
+        s.meta = meta
+    return snapshots, meta
