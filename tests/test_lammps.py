@@ -178,3 +178,31 @@ def test_convert_cli_writes_a_run_that_stats_reads(tmp_path, frames, capsys):
     assert main(["convert", *map(str, pf), "--contacts", *map(str, cf), "--mapping", str(bad), "--dt-s", "1e-5",
                  "--out", str(tmp_path / "x.h5"), "--quiet"]) == 2
     assert "unknown keys" in capsys.readouterr().err
+
+
+def test_real_liggghts_wet_drum_fixture_end_to_end(tmp_path, capsys):
+    """Dumps made by LIGGGHTS 3.8 (tests/data/liggghts_wet_drum/README.md), converted and analysed."""
+    from pathlib import Path
+
+    from granalytics.cli import main
+
+    data = Path(__file__).parent / "data" / "liggghts_wet_drum"
+    atoms = sorted(data.glob("atoms.*.dump.gz"), key=lambda p: int(p.name.split(".")[1]))
+    pairs = sorted(data.glob("pairs.*.dump.gz"), key=lambda p: int(p.name.split(".")[1]))
+    mapping = DumpMapping.from_toml(data / "mapping.toml")
+    snapshots, meta = read_liggghts(atoms, pairs, mapping, dt=2e-6)
+    assert [s.step for s in snapshots] == [5000, 10000, 15000, 20000] and meta.n_particles == 300
+    last = snapshots[-1]
+    assert last.n_contacts == 328  # the entries of pairs.20000
+    assert (last.radius == 0.00075).all()
+    # 1 % of the particle volume of liquid per particle at the start, conserved by LIGGGHTS' transfer
+    v_p = 4 / 3 * np.pi * 0.00075**3
+    assert snapshots[0].film_volume == pytest.approx(np.full(300, 0.01 * v_p))
+    assert (last.f_cap > 0).any() and ((last.gap > 0) & (last.f_cap > 0)).any()  # separated bridges pull
+    assert ga.identify(last, c_agg=0.3).n_granules > 0
+    out = tmp_path / "lig.h5"
+    argv = ["convert", *map(str, atoms), "--contacts", *map(str, pairs), "--mapping", str(data / "mapping.toml"),
+            "--dt-s", "2e-6", "--out", str(out), "--quiet"]
+    assert main(argv) == 0
+    assert main(["stats", str(out), "--window", "0:1", "--quiet"]) == 0
+    assert "yield_fraction" in capsys.readouterr().out

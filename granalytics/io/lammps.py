@@ -42,10 +42,12 @@ class DumpMapping:
     contact_angle : float, default 0 [rad]; alpha : float, default 1
     contact_id_i, contact_id_j : str
         ``ENTRIES`` columns of the contact dump holding the two particle ids.
-    contact_f_cap : str
-        Column holding the cohesive (capillary) normal force magnitude [N].
-    contact_f_normal : str or None
-        Column with the total normal force [N]; None: not in the dump (stored as NaN-free 0 and
+    contact_f_cap : str or list of 3 str
+        Column holding the cohesive (capillary) normal force magnitude [N], or three columns of
+        a force vector whose magnitude is used (LIGGGHTS' ``pair/gran/local`` has no separate
+        cohesive force; ``force_normal`` is the bridge force for separated pairs).
+    contact_f_normal : str, list of 3 str, or None
+        Column(s) with the total normal force [N]; None: not in the dump (stored as 0 and
         recorded in provenance).
     contact_gap : str or None
         Column with the surface gap [m]; or use ``contact_overlap`` (LIGGGHTS ``delta``, overlap
@@ -54,7 +56,10 @@ class DumpMapping:
     contact_bridge_volume : str or None
         Column with the bridge volume [m³]; None: 0 (recorded in provenance).
     film_column : str or None
-        Particle column with the liquid film volume [m³]; None: no film data (0).
+        Particle column with the liquid film; None: no film data (0).
+    film_unit : {"m3", "percent_of_particle_volume"}
+        Unit of ``film_column`` (LIGGGHTS' ``surfaceLiquidContent`` is in % of the particle
+        volume).
     """
 
     surface_tension: float
@@ -71,6 +76,7 @@ class DumpMapping:
     contact_overlap: str | None = None
     contact_bridge_volume: str | None = None
     film_column: str | None = None
+    film_unit: str = "m3"
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -78,6 +84,8 @@ class DumpMapping:
             raise ValidationError("units", f"only LAMMPS 'units si' dumps are read, got {self.units!r}")
         if (self.contact_gap is None) == (self.contact_overlap is None):
             raise ValidationError("contact_gap", "declare exactly one of contact_gap or contact_overlap")
+        if self.film_unit not in ("m3", "percent_of_particle_volume"):
+            raise ValidationError("film_unit", f"must be 'm3' or 'percent_of_particle_volume', got {self.film_unit!r}")
 
     @classmethod
     def from_toml(cls, path) -> "DumpMapping":
@@ -200,13 +208,20 @@ def _particles(columns, data, path, line, mapping):
         "position": np.column_stack([col(c, "positions") for c in ("x", "y", "z")]),
         "velocity": np.column_stack([col(c, "velocities") for c in ("vx", "vy", "vz")]),
         "angular_velocity": np.column_stack([col(c, "angular velocities") for c in ("omegax", "omegay", "omegaz")]),
-        "film_volume": col(mapping.film_column, "the liquid film") if mapping.film_column else np.zeros(len(ids)),
+        "film_volume": np.zeros(len(ids)),
     }
+    if mapping.film_column:
+        film = col(mapping.film_column, "the liquid film")
+        if mapping.film_unit == "percent_of_particle_volume":
+            film = film / 100 * 4 / 3 * np.pi * radius**3
+        out["film_volume"] = film
     return out
 
 
 def _contacts(columns, data, path, line, mapping, id_to_row):
     def col(name, what):
+        if isinstance(name, (list, tuple)):  # magnitude of a vector given by its components
+            return np.linalg.norm(np.column_stack([col(c, what) for c in name]), axis=1)
         return data[:, _column(columns, name, path, line, what)]
 
     id_i, id_j = col(mapping.contact_id_i, "contact_id_i"), col(mapping.contact_id_j, "contact_id_j")
