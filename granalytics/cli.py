@@ -283,8 +283,12 @@ def cmd_convert(args):
     from .io import RunWriter
     from .io.lammps import DumpMapping, read_liggghts
 
-    mapping = DumpMapping.from_toml(args.mapping)
-    snapshots, meta = read_liggghts(args.particles, args.contacts, mapping, dt=args.dt_s)
+    if args.source == "yade":
+        from .io.yade import read_yade_csv
+
+        snapshots, meta = read_yade_csv(args.particles, args.contacts, args.mapping)
+    else:
+        snapshots, meta = read_liggghts(args.particles, args.contacts, DumpMapping.from_toml(args.mapping), dt=args.dt_s)
     with RunWriter(args.out, meta, overwrite=args.overwrite) as writer:
         for snapshot in tqdm(snapshots, disable=args.quiet, unit="frame", desc="convert"):
             writer.append(snapshot)
@@ -393,11 +397,14 @@ def build_parser():
     p = sub.add_parser("convert", help="convert LIGGGHTS/LAMMPS dumps into a run file",
                        description="Read particle dumps (dump custom) and contact dumps (compute pair/gran/local + dump local), "
                                    "plain or gzip, one or many timesteps per file, and write a granalytics run file.")
-    p.add_argument("particles", nargs="+", help="particle dump files")
-    p.add_argument("--from", dest="source", choices=("liggghts",), default="liggghts", help="dump flavour (liggghts / LAMMPS)")
-    p.add_argument("--contacts", nargs="+", required=True, help="contact dump files")
-    p.add_argument("--mapping", required=True, help="TOML file: units, contact columns, material metadata (see granalytics.io.lammps.DumpMapping)")
-    p.add_argument("--dt-s", type=float, required=True, help="simulation time step in seconds (time = timestep × dt)")
+    p.add_argument("particles", nargs="+", help="particle dump files (LIGGGHTS) or particle CSVs (YADE export)")
+    p.add_argument("--from", dest="source", choices=("liggghts", "yade"), default="liggghts",
+                   help="liggghts (LIGGGHTS/LAMMPS dumps) or yade (CSVs of docs/yade_export.py)")
+    p.add_argument("--contacts", nargs="+", required=True, help="contact dump files or contact CSVs")
+    p.add_argument("--mapping", required=True, help="TOML file: for liggghts units, contact columns and material metadata "
+                   "(granalytics.io.lammps.DumpMapping); for yade surface_tension, density, drum_omega, contact_angle, alpha")
+    p.add_argument("--dt-s", type=float, help="simulation time step in seconds (liggghts: time = timestep × dt; "
+                   "yade files carry their time)")
     p.add_argument("--out", required=True, help="run file to write (.h5)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing run file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

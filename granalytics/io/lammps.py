@@ -95,8 +95,11 @@ class DumpMapping:
         except ModuleNotFoundError:  # Python 3.10
             import tomli as tomllib
 
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
+        try:
+            with open(path, "rb") as f:
+                data = tomllib.load(f)
+        except (OSError, tomllib.TOMLDecodeError) as exc:
+            raise GranalyticsError(f"{path}: cannot read the mapping ({exc})") from None
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - names)
         if unknown:
