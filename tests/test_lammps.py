@@ -127,12 +127,15 @@ def test_malformed_dumps_give_clear_errors(tmp_path, frames, target, fn, words):
     assert "dump" in str(err.value)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(target=st.sampled_from(["atoms", "pairs"]), line=st.integers(0, 2000),
-       action=st.sampled_from(["truncate", "drop_token", "nan", "garbage", "drop_line", "duplicate_line", "blank"]))
+       action=st.sampled_from(["truncate", "drop_token", "nan", "garbage", "drop_line", "duplicate_line", "blank",
+                               "rename_column", "unknown_id", "duplicate_block"]))
 def test_fuzzed_dumps_give_an_error_or_the_right_run(tmp_path_factory, frames, target, line, action):
     tmp = tmp_path_factory.mktemp("fuzz")
     pf, cf = write_dumps(tmp, frames)
+    if action == "unknown_id":  # contacts naming a particle id that is not in the particle dump
+        target = "pairs"
     path = pf[0] if target == "atoms" else cf[0]
     lines = open(path).read().splitlines()
     k = line % len(lines)
@@ -152,6 +155,21 @@ def test_fuzzed_dumps_give_an_error_or_the_right_run(tmp_path_factory, frames, t
         lines.insert(k, lines[k])
     elif action == "blank":
         lines.insert(k, "")
+    elif action == "rename_column":  # a column the reader needs goes missing
+        header = next(i for i, l in enumerate(lines) if l.startswith("ITEM: ATOMS") or l.startswith("ITEM: ENTRIES"))
+        tokens = lines[header].split()
+        tokens[2 + line % (len(tokens) - 2)] = "renamed"
+        lines[header] = " ".join(tokens)
+    elif action == "unknown_id":  # a row names a particle id that does not exist
+        rows = [i for i, l in enumerate(lines) if l and l[0] in "-0123456789" and len(l.split()) > 3]
+        r = rows[line % len(rows)]
+        tokens = lines[r].split()
+        tokens[0] = "987654321"
+        lines[r] = " ".join(tokens)
+    elif action == "duplicate_block":  # a timestep appears twice
+        starts = [i for i, l in enumerate(lines) if l == "ITEM: TIMESTEP"] + [len(lines)]
+        b = line % (len(starts) - 1)
+        lines += lines[starts[b]:starts[b + 1]]
     open(path, "w").write("\n".join(lines) + "\n")
     try:
         snapshots, _ = read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
