@@ -90,16 +90,7 @@ class DumpMapping:
     @classmethod
     def from_toml(cls, path) -> "DumpMapping":
         """Read a mapping from a TOML file (keys as the constructor's)."""
-        try:
-            import tomllib
-        except ModuleNotFoundError:  # Python 3.10
-            import tomli as tomllib
-
-        try:
-            with open(path, "rb") as f:
-                data = tomllib.load(f)
-        except (OSError, tomllib.TOMLDecodeError) as exc:
-            raise GranalyticsError(f"{path}: cannot read the mapping ({exc})") from None
+        data = load_toml(path)
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - names)
         if unknown:
@@ -249,6 +240,30 @@ def _contacts(columns, data, path, line, mapping, id_to_row):
     }
 
 
+def _blocks_by_step(files, kind):
+    """``{timestep: (columns, data, first_line, path)}`` over all blocks of all files."""
+    blocks = {}
+    for path in files:
+        for step, columns, data, line in read_dump_blocks(path, kind):
+            if step in blocks:
+                raise DumpFormatError(f"{path}, line {line}: timestep {step} already read from {blocks[step][3]}")
+            blocks[step] = (columns, data, line, path)
+    return blocks
+
+
+def load_toml(path) -> dict:
+    """A TOML file as a dict; an unreadable or invalid file raises :class:`GranalyticsError`."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise GranalyticsError(f"{path}: cannot read the mapping ({exc})") from None
+
+
 def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
     """Snapshots of a LIGGGHTS / LAMMPS run.
 
@@ -266,18 +281,8 @@ def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
     """
     if dt is None or not (math.isfinite(dt) and dt > 0):
         raise ValidationError("dt", f"the dumps do not record the time step: pass dt in seconds (> 0), got {dt!r}")
-    contacts = {}
-    for path in contact_files:
-        for step, columns, data, line in read_dump_blocks(path, "ENTRIES"):
-            if step in contacts:
-                raise DumpFormatError(f"{path}, line {line}: contact timestep {step} already read from {contacts[step][3]}")
-            contacts[step] = (columns, data, line, path)
-    particles = {}
-    for path in particle_files:
-        for step, columns, data, line in read_dump_blocks(path, "ATOMS"):
-            if step in particles:
-                raise DumpFormatError(f"{path}, line {line}: particle timestep {step} already read")
-            particles[step] = (columns, data, line, path)
+    contacts = _blocks_by_step(contact_files, "ENTRIES")
+    particles = _blocks_by_step(particle_files, "ATOMS")
     if not particles:
         raise DumpFormatError("no particle timesteps in " + ", ".join(map(str, particle_files)))
     n0 = None

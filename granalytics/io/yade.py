@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..errors import GranalyticsError, ValidationError
 from ..snapshot import RunMeta, Snapshot
-from .lammps import DumpFormatError
+from .lammps import DumpFormatError, load_toml
 
 __all__ = ["read_yade_csv", "PARTICLE_COLUMNS", "CONTACT_COLUMNS"]
 
@@ -48,16 +48,7 @@ def _read(path, columns):
 
 def read_yade_csv(particle_files, contact_files, meta_toml):
     """Snapshots (sorted by step) and metadata of a YADE run exported by ``docs/yade_export.py``."""
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-
-    try:
-        with open(meta_toml, "rb") as f:
-            meta_data = tomllib.load(f)
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise GranalyticsError(f"{meta_toml}: cannot read the mapping ({exc})") from None
+    meta_data = load_toml(meta_toml)
     unknown = sorted(set(meta_data) - _META_KEYS)
     if unknown:
         raise ValidationError("mapping", f"unknown keys {unknown} in {meta_toml} (allowed: {sorted(_META_KEYS)})")
