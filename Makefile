@@ -37,5 +37,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/sensitivity.py
 	$(PY) benchmarks/sim_throughput.py
 
+## clean: build outputs and numba's compiled-kernel caches (numba does not notice a change in a
+## function that a cached kernel calls from another module; clean after editing sim/ or kernels)
 clean:
 	rm -rf $(BUILD) .pytest_cache
+	find granalytics sim -name '*.nbi' -o -name '*.nbc' | xargs rm -f

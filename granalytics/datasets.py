@@ -20,9 +20,9 @@ DATASET_DIR = Path(__file__).resolve().parents[1] / "datasets"
 DATASETS = {
     "lab-cg3": {
         "file": "lab-cg3.h5",
-        "sha256": "5b61d24e2f5f0a9b905e4bd97a04a8bd942ab8754475ccc1bcc521f8ced53c6b",
+        "sha256": "93aacc5d283b115f2838c598366c37a3f6dee560488cc505be4434ccd093686a",
         "command": "python -m sim run --preset lab-cg3 --revolutions 6 --seed 0 --out datasets/lab-cg3.h5",
-        "description": "lab drum, CG3 (500 particles of 4.5 mm), Table 1 physics, 6 revolutions, "
+        "description": "lab drum, CG3 (741 particles of 4.5 mm), Table 1 physics, 6 revolutions, "
                        "a frame every 0.05 revolution (121 frames)",
     },
 }

@@ -82,5 +82,8 @@ def main(argv=None):
     except ValueError as exc:
         print(f"sim: error: {exc}", file=sys.stderr)
         return 2
+    except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
+        print(f"sim: error: {exc} (the last checkpoint is {args.out}.ckpt.npz)", file=sys.stderr)
+        return 1
     print(f"wrote {args.out}")
     return 0

@@ -254,3 +254,13 @@ def test_public_vectorised_force_laws_match_yade_and_vanish_beyond_rupture():
     np.testing.assert_allclose(s_crit, rows.yade_s_crit_m.to_numpy(), rtol=1e-6)
     assert sim.rupture_distance(1e-12, 0.5e-3, 1.0e-3, 0.0) == pytest.approx(1.0150e-4, rel=1e-4)
     assert sim.scale_parameters(sim.SimParams(), 2.0).surface_tension == pytest.approx(2 * 0.1095)
+
+
+def test_willett_numeric_stays_bounded_for_tiny_bridges():
+    # migration can leave bridges of ~1e-24 m³; Willett's fit alone gives ~1e3 N there
+    r, gamma = 1.1e-3, 0.3285
+    for v in (1e-24, 1e-18, 1e-14, 1e-12, 3e-11):
+        for s in (0.0, 1e-9, 1e-7):
+            f = capillary_force(CAPILLARY_MODELS["willett_numeric"], s, v, r, gamma, 0.0)
+            assert 0.0 <= f <= 2 * math.pi * r * gamma
+    assert capillary_force(CAPILLARY_MODELS["willett_numeric"], 0.0, 1e-24, r, gamma, 0.0) == pytest.approx(2 * math.pi * r * gamma)
