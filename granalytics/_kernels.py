@@ -194,10 +194,37 @@ def gna_fused(ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radius, c_ag
     for k in range(m):  # merge: sequential, in contact order
         if keep[k]:
             _union(parent, ci[k], cj[k])
+    # _union keeps the smaller index as root and path halving only moves a node to a smaller
+    # ancestor, so parent[i] <= i: in index order every parent is already resolved to its root
+    # (the smallest member), and one pass gives roots and sizes; a second numbers components
+    # in order of their smallest member, as canonical_labels does.
+    size = np.zeros(n, dtype=np.int64)
     for i in range(n):
-        parent[i] = _find(parent, i)
-    labels, sizes = canonical_labels(parent)
-    return labels, sizes, keep
+        root = parent[parent[i]]
+        parent[i] = root
+        size[root] += 1
+    comp_size = np.empty(n, dtype=np.int64)
+    labels = np.empty(n, dtype=np.int64)
+    n_comp = 0
+    for i in range(n):
+        root = parent[i]
+        if root == i:
+            if size[i] >= 2:
+                comp_size[n_comp] = size[i]
+                size[i] = -(n_comp + 1)  # from here on: the component's number, encoded
+                n_comp += 1
+            else:
+                size[i] = 0
+        c = size[root]
+        labels[i] = -c - 1 if c < 0 else -1
+    order = np.argsort(-comp_size[:n_comp], kind="mergesort")  # by size, ties by smallest member
+    rank = np.empty(n_comp, dtype=np.int64)
+    for r in range(n_comp):
+        rank[order[r]] = r
+    for i in range(n):
+        if labels[i] >= 0:
+            labels[i] = rank[labels[i]]
+    return labels, comp_size[:n_comp][order], keep
 
 
 @njit(cache=True)
