@@ -238,7 +238,6 @@ def principal_extents(membership, n_groups, pos, radius, weight):
     -------
     (n_groups, 3) float array [m].
     """
-    n = membership.shape[0]
     order, start = _group_order(membership, n_groups)
     out = np.empty((n_groups, 3))
     gyr = np.empty((3, 3))

@@ -12,21 +12,17 @@ import pytest
 from granalytics import RunFileError, RunWriter, ValidationError, open_run
 from granalytics.snapshot import CONTACT_FIELDS, PARTICLE_FIELDS
 from granalytics.synthetic import synthetic_meta, synthetic_snapshot
-from conftest import make_snapshot
-
 
 def assert_same_frame(a, b):
     assert a.time == b.time and a.step == b.step
     for name in PARTICLE_FIELDS + CONTACT_FIELDS:
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
-
 @pytest.fixture
 def frames():
     meta = synthetic_meta(400)
     return [synthetic_snapshot(400, time=0.5 * k, step=100 * k, seed=k, meta=meta,
                                contacts_per_particle=1.0 + 0.5 * k) for k in range(5)]
-
 
 @pytest.fixture
 def run_path(tmp_path, frames):
@@ -36,7 +32,6 @@ def run_path(tmp_path, frames):
             writer.append(s)
     return path
 
-
 def test_round_trip_is_exact_and_keeps_metadata(run_path, frames):
     with open_run(run_path) as run:
         assert len(run) == 5 and run.n_particles == 400
@@ -45,7 +40,6 @@ def test_round_trip_is_exact_and_keeps_metadata(run_path, frames):
             assert_same_frame(read, written)
             assert read.meta == written.meta
         assert np.array_equal(run.n_contacts, [s.n_contacts for s in frames])
-
 
 def test_lazy_indexing_slicing_and_selection(run_path, frames):
     with open_run(run_path) as run:
@@ -67,7 +61,6 @@ def test_lazy_indexing_slicing_and_selection(run_path, frames):
             run.select()
         assert len(run.select(time=(10, 11))) == 0
 
-
 def test_writer_rejects_changing_particle_count_time_order_and_existing_file(tmp_path, frames):
     path = tmp_path / "w.h5"
     with RunWriter(path, frames[0].meta) as writer:
@@ -84,13 +77,11 @@ def test_writer_rejects_changing_particle_count_time_order_and_existing_file(tmp
         with RunWriter(tmp_path / "x.h5", synthetic_meta(10)) as writer:
             writer.append(frames[0])
 
-
 def test_file_without_frames_reads_as_empty_run(tmp_path, frames):
     path = tmp_path / "empty.h5"
     RunWriter(path, frames[0].meta).close()
     with open_run(path) as run:
         assert len(run) == 0 and list(run) == []
-
 
 def test_missing_not_hdf5_and_truncated_files_raise_run_file_error(tmp_path, run_path):
     with pytest.raises(RunFileError, match="no such file"):
@@ -110,7 +101,6 @@ def test_missing_not_hdf5_and_truncated_files_raise_run_file_error(tmp_path, run
     with pytest.raises(RunFileError, match="not a granalytics run"):
         open_run(other)
 
-
 def test_corrupt_values_in_a_file_name_file_frame_field_and_index(run_path):
     with h5py.File(run_path, "r+") as f:
         f["particles/position"][3, 17, 1] = np.nan
@@ -124,7 +114,6 @@ def test_corrupt_values_in_a_file_name_file_frame_field_and_index(run_path):
         with pytest.raises(ValidationError, match="frame 1, field 'contact_j', index 5: particle index 10000 out of range"):
             run[1]
         run[0]  # untouched frames still read
-
 
 WRITER = textwrap.dedent(
     """
@@ -144,7 +133,6 @@ WRITER = textwrap.dedent(
             k += 1
     """
 )
-
 
 def test_sigkilled_writer_leaves_every_complete_frame_readable(tmp_path):
     meta = synthetic_meta(20000)

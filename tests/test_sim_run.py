@@ -38,7 +38,6 @@ def test_liquid_is_conserved_and_sprayed_once_per_interval_inside_the_zone(settl
     assert total0 == pytest.approx(sim.liquid_initial, rel=1e-15)
     frames = 12
     for k in range(frames):
-        films_before = sim.state.film.copy()
         sim.advance(int(round(0.005 / p.dt)))
         s = sim.state
         expected = total0 + s.sprayed_total
