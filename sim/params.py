@@ -192,10 +192,10 @@ def _lab(n_particles):
 #: original (α = 1) parameter sets; the CG presets derive from them with cg_scale.
 _ORIGINALS = {
     "paper": SimParams(n_particles=120_000, drum_radius=0.1, drum_length=0.045, spray_radius=0.063),
-    # 20 000 particles: lab-cg1 runs 3 revolutions in about two hours on the 2-core dev machine
-    # (measured 0.0020 simulated s per wall s at 13 500 particles, so ≈ 0.0014 here: 9.42 s of
-    # drum time in ≈ 1.9 h); lab-cg2 = 2 500, lab-cg3 = 741 particles.
-    "lab": _lab(20_000),
+    # 10 000 particles: lab-cg1 runs 3 revolutions (3.1e10 particle-steps) in about an hour on
+    # both cores of the 2-core dev machine, so that the whole CG1/CG2/CG3 comparison can be made
+    # in one sitting; lab-cg2 = 1 250, lab-cg3 = 370 particles.
+    "lab": _lab(10_000),
 }
 
 PRESETS = tuple(f"{base}-cg{a}" for base in _ORIGINALS for a in (1, 2, 3))
@@ -216,6 +216,6 @@ def preset_original(name: str) -> tuple[SimParams, float]:
 
 def preset(name: str) -> SimParams:
     """Parameters of a named preset: ``paper-cg1|2|3`` (120 000 particles at α = 1, R_d = 0.1 m)
-    or ``lab-cg1|2|3`` (20 000 particles at α = 1 in a drum scaled to the same fill)."""
+    or ``lab-cg1|2|3`` (10 000 particles at α = 1 in a drum scaled to the same fill)."""
     original, alpha = preset_original(name)
     return original if alpha == 1 else cg_scale(original, alpha)

@@ -241,6 +241,7 @@ class Simulation:
             writer.append(self.snapshot(meta))
         wall0 = _time.perf_counter()
         steps0 = self.state.step
+        wall_before = getattr(self, "_resume_wall_s", 0.0)  # wall time of earlier sittings
         bar = tqdm(total=n_frames, initial=writer.n_frames, unit="frame", disable=not progress,
                    desc=f"{p.n_particles} particles α={p.alpha:g}")
         with writer:
@@ -248,12 +249,19 @@ class Simulation:
                 self.advance(writer.n_frames * frame_every - self.state.step)
                 writer.append(self.snapshot(meta))
                 if checkpoint_every and writer.n_frames % checkpoint_every == 0:
-                    self.save_checkpoint(ckpt, {"frames": writer.n_frames, "frame_every": frame_every})
+                    self.save_checkpoint(ckpt, {"frames": writer.n_frames, "frame_every": frame_every,
+                                                "wall_s": wall_before + _time.perf_counter() - wall0})
                 bar.update(1)
                 elapsed = _time.perf_counter() - wall0
                 rate = (self.state.step - steps0) * p.n_particles / max(elapsed, 1e-9)
                 bar.set_postfix_str(f"t={self.time:.3f} s rev={self.time / p.revolution_period:.2f} "
                                     f"{rate / 1e6:.2f}M particle-steps/s")
+            import numba
+
+            writer.update_provenance(
+                wall_time_s=wall_before + _time.perf_counter() - wall0, simulated_time_s=self.time,
+                wall_time_per_simulated_s=(wall_before + _time.perf_counter() - wall0) / max(self.time, 1e-300),
+                threads=numba.get_num_threads(), cpu_count=os.cpu_count())
         bar.close()
         return out
 
@@ -262,4 +270,5 @@ class Simulation:
         """The simulation of run ``out`` restored from its checkpoint, ready for ``run(..., resume=True)``."""
         sim, info = cls.from_checkpoint(f"{out}.ckpt.npz")
         sim._resume_frame = info["frames"]
+        sim._resume_wall_s = float(info.get("wall_s", 0.0))
         return sim

@@ -118,6 +118,7 @@ class RunWriter(_HDF5Handle):
         self._n_frames = 0
         self._n_contact_rows = 0
         self._last_time = -math.inf
+        self._provenance_update = {}
 
     @property
     def n_frames(self) -> int:
@@ -207,6 +208,16 @@ class RunWriter(_HDF5Handle):
         self._n_frames += 1
         self._last_time = snapshot.time
 
+    def update_provenance(self, **items) -> None:
+        """Merge ``items`` into the run's ``provenance`` metadata when the writer closes.
+
+        For facts known only at the end of a run, e.g. the producing code's wall time
+        (``wall_time_s``). Values must be JSON-serialisable. A killed writer loses them; its
+        frames are unaffected.
+        """
+        json.dumps(items)  # refuse what cannot be stored, now rather than at close
+        self._provenance_update.update(items)
+
     @staticmethod
     def _append_scalar(ds, frame, value):
         ds.resize(frame + 1, axis=0)
@@ -231,7 +242,17 @@ class RunWriter(_HDF5Handle):
                     dst.attrs[key] = value
                 for name in src:
                     src.copy(src[name], dst, name=name)
+                self._write_provenance_update(dst)
             os.replace(tmp, self.path)
+        elif self._provenance_update:
+            with h5py.File(self.path, "r+") as f:
+                self._write_provenance_update(f)
+
+    def _write_provenance_update(self, f) -> None:
+        if self._provenance_update:
+            provenance = json.loads(f["meta"].attrs["provenance"])
+            provenance.update(self._provenance_update)
+            f["meta"].attrs["provenance"] = json.dumps(provenance, sort_keys=True)
 
     def _create_datasets(self, n):
         f = self._file
