@@ -15,6 +15,7 @@ import sys
 import numpy as np
 
 from . import __version__
+from .cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
 from .errors import GranalyticsError, ParameterError
 from .identify import BACKENDS, make_identifier
 from .io import open_run
@@ -73,8 +74,16 @@ def _setting(text):
     return method.strip(), param.strip(), parsed
 
 
+def _add_cohesion_option(parser):
+    parser.add_argument("--cohesion", choices=COHESION_CONVENTIONS, default=DEFAULT_COHESION,
+                        help="which force is F_coh: 'acting' = the cohesion the DEM code applied (a separated "
+                             "bridge's force; 0 for touching pairs unless the run applied capillary force in contact), "
+                             "'bridge' = the bridge force of every wet pair, touching or not (default acting)")
+
+
 def _add_gna_options(parser):
     group = parser.add_argument_group("granule identification (graph network analysis, paper §2.2)")
+    _add_cohesion_option(group)
     group.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold: keep F_coh >= C_agg·2πγR (default 0.6)")
     group.add_argument("--a-agg-deg", type=float, default=20.0, help="co-motion threshold angle A_agg in degrees (default 20)")
     group.add_argument("--radius", choices=("pair", "mean"), default="pair",
@@ -86,7 +95,8 @@ def _add_gna_options(parser):
 
 def _identifier(args):
     return make_identifier(
-        "gna", c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend
+        "gna", c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+        cohesion=args.cohesion,
     )
 
 
@@ -165,8 +175,8 @@ def cmd_stats(args):
         ts, sizes = run_stats(
             frames, "gna", progress=_progress(args), return_sizes=True,
             c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+            cohesion=args.cohesion,
         )
-    ts["frame"] = frames.frame_indices
     if args.out:
         _write_table(ts, args.out)
         print(f"wrote time series ({len(ts)} frames) to {args.out}")
@@ -179,9 +189,11 @@ def cmd_stats(args):
     if args.plot:
         from .plot import stats_figure
 
-        _save(stats_figure(ts, dist, window=args.window, title=os.path.basename(args.run)), args.plot)
+        _save(stats_figure(ts, dist, window=args.window,
+                           title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}"), args.plot)
     lo, hi = args.window
-    print(f"steady state over revolutions [{lo:g}, {hi:g}] (C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°):")
+    print(f"steady state over revolutions [{lo:g}, {hi:g}] "
+          f"(C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°, cohesion={args.cohesion}):")
     with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
         print(steady.to_string())
     return 0
@@ -212,7 +224,8 @@ def cmd_sensitivity(args):
             revs = run.revolutions
             raise ParameterError(f"{args.run}: no frame in the window [{args.window[0]:g}, {args.window[1]:g}] revolutions; "
                                  f"the run covers [{revs.min():.3g}, {revs.max():.3g}]" if len(revs) else f"{args.run}: the run has no frames")
-        table = sensitivity(frames, args.c_agg, args.a_agg_deg, radius=args.radius, jobs=args.jobs, progress=not args.quiet)
+        table = sensitivity(frames, args.c_agg, args.a_agg_deg, radius=args.radius, cohesion=args.cohesion,
+                            jobs=args.jobs, progress=not args.quiet)
     summary = sensitivity_summary(table)
     if args.frames_out:
         _write_table(table, args.frames_out)
@@ -224,7 +237,7 @@ def cmd_sensitivity(args):
         from .plot import sensitivity_figure
 
         _save(sensitivity_figure(summary, title=f"{os.path.basename(args.run)}, revolutions "
-                                 f"[{args.window[0]:g}, {args.window[1]:g}]"), args.plot)
+                                 f"[{args.window[0]:g}, {args.window[1]:g}], cohesion={args.cohesion}"), args.plot)
     import pandas as pd
 
     shown = summary[["a_agg_deg", "c_agg", "yield_fraction_mean", "n_granules_norm_mean", "mean_volume_norm_mean"]]
@@ -244,7 +257,7 @@ def cmd_compare(args):
         methods[method][1][param] = value
     with open_run(args.run) as run:
         frames = _frames(run, args)
-        stats, pairs = compare_methods(frames, methods, progress=not args.quiet)
+        stats, pairs = compare_methods(frames, methods, cohesion=args.cohesion, progress=not args.quiet)
     if args.out:
         _write_table(pairs, args.out)
         print(f"wrote pairwise comparison to {args.out}")
@@ -254,7 +267,7 @@ def cmd_compare(args):
     if args.plot:
         from .plot import comparison_figure
 
-        _save(comparison_figure(stats, pairs, title=os.path.basename(args.run)), args.plot)
+        _save(comparison_figure(stats, pairs, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}"), args.plot)
     import pandas as pd
 
     mean_stats = stats.groupby("method", sort=False)[["n_granules_norm", "yield_fraction", "mean_volume_norm"]].mean()
@@ -272,7 +285,8 @@ def cmd_export_vtk(args):
     with open_run(args.run) as run:
         frames = _frames(run, args)
         pvd = export_vtk(frames, args.out, "gna", progress=not args.quiet, c_agg=args.c_agg,
-                         a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend)
+                         a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+                         cohesion=args.cohesion)
     print(f"wrote {len(frames)} frames and {pvd} (open it in ParaView)")
     return 0
 
@@ -362,6 +376,7 @@ def build_parser():
     p.add_argument("--window", type=_interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
                    help="revolution window (default 3:6)")
     p.add_argument("--radius", choices=("pair", "mean"), default="pair", help="R in 2πγR (default pair)")
+    _add_cohesion_option(p)
     p.add_argument("--jobs", type=int, default=1, help="worker threads over frames (default 1)")
     p.add_argument("--out", help="summary table over the window (.csv or .parquet)")
     p.add_argument("--frames-out", help="per-frame table (.csv or .parquet)")
@@ -377,6 +392,7 @@ def build_parser():
                    default=["gna", "dbscan", "sieve", "community"], help="comma-separated (default gna,dbscan,sieve,community)")
     p.add_argument("--set", action="append", type=_setting, metavar="METHOD.PARAM=VALUE",
                    help="a method parameter, e.g. dbscan.eps_diameters=1.2 or gna.a_agg_deg=30 (repeatable)")
+    _add_cohesion_option(p)
     p.add_argument("--window-rev", type=_interval, default=None, metavar="R0:R1",
                    help="only frames within this revolution window (default: all frames)")
     p.add_argument("--out", help="pairwise comparison per frame (.csv or .parquet)")

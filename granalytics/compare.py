@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from .cohesion import DEFAULT_COHESION
 from .errors import ParameterError
 from .identify import make_identifier
 from .stats import frame_stats
@@ -24,7 +25,7 @@ def partition_labels(labels) -> np.ndarray:
     return out
 
 
-def compare_methods(frames, methods, *, progress=False):
+def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=False):
     """Run several identification methods on every frame and compare them pairwise.
 
     Parameters
@@ -33,11 +34,14 @@ def compare_methods(frames, methods, *, progress=False):
     methods : dict
         Display name -> ``(method, params)``, e.g.
         ``{"gna": ("gna", {}), "dbscan": ("dbscan", {"eps_diameters": 1.1})}``.
+    cohesion : {"acting", "bridge"}, default "acting"
+        Cohesion convention of every method whose params do not set their own
+        (:mod:`granalytics.cohesion`).
 
     Returns
     -------
     stats : DataFrame
-        One row per (frame, method): ``frame``, ``time_s``, ``revolutions``, ``method`` and the
+        One row per (frame, method): ``frame``, ``method``, ``cohesion`` and the
         :func:`~granalytics.frame_stats` columns.
     pairs : DataFrame
         One row per (frame, method_a, method_b): ``ari`` (adjusted Rand index of the partitions,
@@ -48,7 +52,8 @@ def compare_methods(frames, methods, *, progress=False):
 
     if len(methods) < 2:
         raise ParameterError("compare_methods needs at least two methods")
-    identifiers = {name: make_identifier(method, **params) for name, (method, params) in methods.items()}
+    identifiers = {name: make_identifier(method, **{"cohesion": cohesion, **params})
+                   for name, (method, params) in methods.items()}
     frame_ids = frames.frame_indices if hasattr(frames, "frame_indices") else np.arange(len(frames))
     stats, pairs = [], []
     for frame, snapshot in zip(frame_ids, tqdm(frames, disable=not progress, unit="frame", desc="compare")):
@@ -57,6 +62,7 @@ def compare_methods(frames, methods, *, progress=False):
             result = identifier.identify(snapshot)
             labels[name] = partition_labels(result.labels)
             row = frame_stats(snapshot, result)
+            row.insert(0, "cohesion", identifier.cohesion)
             row.insert(0, "method", name)
             row.insert(0, "frame", int(frame))
             rows[name] = row.iloc[0]

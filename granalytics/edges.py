@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from .cohesion import DEFAULT_COHESION, cohesive_force
 from .errors import ParameterError
 from .identify.common import contact_strength
 from .identify.result import IdentificationResult
@@ -23,20 +24,22 @@ def _angles_deg(a, b):
     return np.where((na == 0) | (nb == 0), np.nan, np.degrees(np.arccos(cos)))
 
 
-def contact_table(snapshot: Snapshot, radius="pair", surface_tension=None) -> pd.DataFrame:
+def contact_table(snapshot: Snapshot, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION) -> pd.DataFrame:
     """One row per contact or bridge, the columns user criteria can use.
 
-    Columns: ``i``, ``j`` (particle rows), ``id_i``, ``id_j``, ``f_cap`` [N], ``f_normal`` [N],
-    ``gap`` [m], ``bridge_volume`` [m³], ``f_norm`` (F_coh/(2πγR), as GNA compares with C_agg),
+    Columns: ``i``, ``j`` (particle rows), ``id_i``, ``id_j``, ``f_cap`` [N] (the bridge force
+    at max(s, 0⁺)), ``f_coh`` [N] (F_coh under ``cohesion``, :mod:`granalytics.cohesion`),
+    ``f_normal`` [N], ``gap`` [m], ``bridge_volume`` [m³], ``f_norm`` (F_coh/(2πγR), as GNA
+    compares with C_agg),
     ``angle_v_deg`` and ``angle_w_deg`` (angles between the velocities and between the angular
     velocities [deg]; NaN when a vector is zero).
     """
     i, j = snapshot.contact_i, snapshot.contact_j
     return pd.DataFrame({
         "i": i, "j": j, "id_i": snapshot.ids[i], "id_j": snapshot.ids[j],
-        "f_cap": snapshot.f_cap, "f_normal": snapshot.f_normal, "gap": snapshot.gap,
-        "bridge_volume": snapshot.bridge_volume,
-        "f_norm": contact_strength(snapshot, radius, surface_tension),
+        "f_cap": snapshot.f_cap, "f_coh": cohesive_force(snapshot, cohesion), "f_normal": snapshot.f_normal,
+        "gap": snapshot.gap, "bridge_volume": snapshot.bridge_volume,
+        "f_norm": contact_strength(snapshot, radius, surface_tension, cohesion),
         "angle_v_deg": _angles_deg(snapshot.velocity[i], snapshot.velocity[j]),
         "angle_w_deg": _angles_deg(snapshot.angular_velocity[i], snapshot.angular_velocity[j]),
     })
@@ -46,7 +49,8 @@ def edge_table(result: IdentificationResult) -> pd.DataFrame:
     """The contacts a contact-based identification kept, with their granule label."""
     if result.kept is None:
         raise ParameterError(f"method {result.method!r} does not select contacts")
-    table = contact_table(result.snapshot)[result.kept].reset_index(drop=True)
+    table = contact_table(result.snapshot, cohesion=result.params.get("cohesion", DEFAULT_COHESION))
+    table = table[result.kept].reset_index(drop=True)
     table["granule"] = result.labels[table["i"].to_numpy()]
     return table
 

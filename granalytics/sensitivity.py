@@ -18,6 +18,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from . import _kernels
+from .cohesion import DEFAULT_COHESION, check_cohesion
 from .errors import ParameterError
 from .identify.common import check_angle, co_moving, contact_strength
 
@@ -26,8 +27,8 @@ __all__ = ["sensitivity", "sensitivity_summary"]
 _METRICS = ("yield_fraction", "n_granules_norm", "mean_volume_norm")
 
 
-def _frame_sweep(snapshot, c_desc, a_list, radius, gamma):
-    f = contact_strength(snapshot, radius, gamma)
+def _frame_sweep(snapshot, c_desc, a_list, radius, gamma, cohesion):
+    f = contact_strength(snapshot, radius, gamma, cohesion)
     volume = snapshot.particle_volume
     n = snapshot.n_particles
     n_initial = snapshot.meta.n_particles if snapshot.meta is not None else n
@@ -39,15 +40,16 @@ def _frame_sweep(snapshot, c_desc, a_list, radius, gamma):
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_volume = np.where(n_gran > 0, v_in / np.maximum(n_gran, 1), np.nan)
         rows.append(pd.DataFrame({
-            "time": snapshot.time, "step": snapshot.step, "revolutions": snapshot.revolutions,
-            "c_agg": c_desc, "a_agg_deg": a, "n_granules": n_gran,
+            "time_s": snapshot.time, "step": snapshot.step, "revolutions": snapshot.revolutions,
+            "cohesion": cohesion, "c_agg": c_desc, "a_agg_deg": a, "n_granules": n_gran,
             "n_granules_norm": n_gran / n_initial, "yield_fraction": n_in / n,
             "mean_volume_norm": mean_volume / v_mean,
         }))
     return pd.concat(rows, ignore_index=True)
 
 
-def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=None, jobs=1, progress=False):
+def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION,
+                jobs=1, progress=False):
     """GNA statistics of every frame at every (C_agg, A_agg).
 
     Parameters
@@ -57,8 +59,9 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
         Cohesion thresholds (≥ 0).
     a_agg_deg : sequence of float
         Angle thresholds [deg], each in (0, 180].
-    radius, surface_tension :
-        As for :class:`~granalytics.GraphNetworkAnalysis`.
+    radius, surface_tension, cohesion :
+        As for :class:`~granalytics.GraphNetworkAnalysis` (``cohesion``: which force is F_coh,
+        ``"acting"`` or ``"bridge"``; see :mod:`granalytics.cohesion`).
     jobs : int, default 1
         Worker threads over frames.
     progress : bool
@@ -68,8 +71,8 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
     -------
     DataFrame
         One row per (frame, c_agg, a_agg_deg), sorted by frame, A_agg, then C_agg ascending, with
-        ``frame`` (index in the run file, or in the list), ``time`` [s], ``step``,
-        ``revolutions``, ``c_agg``, ``a_agg_deg``, ``n_granules``, ``n_granules_norm``,
+        ``frame`` (index in the run file, or in the list), ``time_s`` [s], ``step``,
+        ``revolutions``, ``cohesion``, ``c_agg``, ``a_agg_deg``, ``n_granules``, ``n_granules_norm``,
         ``yield_fraction``, ``mean_volume_norm`` (definitions of :func:`~granalytics.frame_stats`).
     """
     c = np.asarray(c_agg, dtype=float).ravel()
@@ -78,6 +81,7 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
     a_list = [check_angle(a) for a in np.atleast_1d(a_agg_deg)]
     if not a_list:
         raise ParameterError("a_agg_deg must not be empty")
+    check_cohesion(cohesion)
     c_desc = np.unique(c)[::-1].copy()
     frame_ids = snapshots.frame_indices if hasattr(snapshots, "frame_indices") else np.arange(len(snapshots))
     if len(frame_ids) == 0:
@@ -89,7 +93,7 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
     with ThreadPoolExecutor(max_workers=int(jobs)) as pool:
         pending = []
         for snapshot in snapshots:
-            pending.append(pool.submit(_frame_sweep, snapshot, c_desc, a_list, radius, surface_tension))
+            pending.append(pool.submit(_frame_sweep, snapshot, c_desc, a_list, radius, surface_tension, cohesion))
             if len(pending) >= 2 * int(jobs):  # bound the frames held in memory
                 tables.append(pending.pop(0).result())
                 bar.update(1)
@@ -118,7 +122,8 @@ def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
         table = table[(revs >= lo) & (revs <= hi)]
         if table.empty:
             raise ParameterError(f"no frame in the window [{lo:g}, {hi:g}] revolutions")
-    grouped = table.groupby(["a_agg_deg", "c_agg"])[list(_METRICS)]
+    keys = ["cohesion", "a_agg_deg", "c_agg"] if "cohesion" in table else ["a_agg_deg", "c_agg"]
+    grouped = table.groupby(keys)[list(_METRICS)]
     out = grouped.agg(["mean", "std"])
     out.columns = [f"{m}_{stat}" for m, stat in out.columns]
     out["n_frames"] = grouped.size()

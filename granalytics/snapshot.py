@@ -51,6 +51,11 @@ class RunMeta:
         Particle count of the original (α = 1) system; defaults to ``round(n_particles·α³)``.
     mean_radius_original : float, optional
         Mean particle radius of the original system [m]; defaults to ``mean_radius/α``.
+    capillary_in_contact : bool, optional
+        Whether the producing DEM code applied the capillary (bridge) force between *touching*
+        particles. YADE's law does not (False); ``sim`` records its parameter of the same name.
+        Default: ``sim_config["params"]["capillary_in_contact"]`` when present, else False.
+        Decides the ``cohesion="acting"`` convention (:mod:`granalytics.cohesion`).
     sim_config : dict
         Full simulator configuration when the run came from ``sim`` (JSON-serialisable).
     provenance : dict
@@ -67,6 +72,7 @@ class RunMeta:
     gravity: tuple = (0.0, 0.0, -9.81)
     n_particles_original: int | None = None
     mean_radius_original: float | None = None
+    capillary_in_contact: bool | None = None
     sim_config: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
 
@@ -104,6 +110,15 @@ class RunMeta:
         if self.mean_radius_original is None:
             self.mean_radius_original = self.mean_radius / self.alpha
         self.mean_radius_original = positive("mean_radius_original")
+        for name in ("sim_config", "provenance"):
+            if not isinstance(getattr(self, name), dict):
+                raise ValidationError(name, f"must be a dict, got {type(getattr(self, name)).__name__}")
+        if self.capillary_in_contact is None:
+            self.capillary_in_contact = bool(self.sim_config.get("params", {}).get("capillary_in_contact", False))
+        elif isinstance(self.capillary_in_contact, (bool, np.bool_)):
+            self.capillary_in_contact = bool(self.capillary_in_contact)
+        else:
+            raise ValidationError("capillary_in_contact", f"must be true or false, got {self.capillary_in_contact!r}")
         for name in ("sim_config", "provenance"):
             try:
                 json.dumps(getattr(self, name))

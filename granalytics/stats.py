@@ -159,20 +159,24 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, **par
     Returns
     -------
     DataFrame
-        One row per frame (columns of :func:`frame_stats`, plus ``frame``: the index within
-        ``frames``); and, with ``return_sizes``, a list of int arrays, one per frame.
+        One row per frame (columns of :func:`frame_stats`, plus ``frame``: the frame's index in
+        the run file (in the list for a plain sequence), ``method`` and ``cohesion``: the
+        cohesion convention, None for methods without one); and, with ``return_sizes``, a list of int arrays, one per frame.
     """
     identifier = make_identifier(method, **params)
+    frame_ids = frames.frame_indices if hasattr(frames, "frame_indices") else range(len(frames))
     rows, sizes = [], []
-    for k, snapshot in enumerate(tqdm(frames, disable=not progress, unit="frame", desc="frames")):
+    for k, snapshot in zip(frame_ids, tqdm(frames, disable=not progress, unit="frame", desc="frames")):
         result = identifier.identify(snapshot)
         row = frame_stats(snapshot, result)
-        row.insert(0, "frame", k)
+        row.insert(0, "frame", int(k))
         rows.append(row)
         sizes.append(result.sizes)
     if not rows:
         raise ParameterError("no frames to analyse (empty run or selection)")
     table = pd.concat(rows, ignore_index=True)
+    table["method"] = method
+    table["cohesion"] = getattr(identifier, "cohesion", None)
     return (table, sizes) if return_sizes else table
 
 

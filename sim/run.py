@@ -170,7 +170,7 @@ class Simulation:
         return RunMeta(
             surface_tension=p.surface_tension, density=p.density, drum_omega=p.drum_omega,
             n_particles=p.n_particles, mean_radius=float(self.state.radius.mean()), alpha=p.alpha,
-            contact_angle=p.contact_angle, gravity=tuple(p.gravity),
+            contact_angle=p.contact_angle, gravity=tuple(p.gravity), capillary_in_contact=p.capillary_in_contact,
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L"},

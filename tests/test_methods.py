@@ -46,7 +46,12 @@ def test_dbscan_with_min_samples_2_equals_components_of_the_eps_graph():
 def test_dbscan_bridged_only_and_velocity_features():
     # 0-1 touching with a bridge, 1-2 touching without
     s = line([0, D, 2 * D], pairs=[(0, 1), (1, 2)], bridge_volume=np.array([1e-12, 0.0]))
-    assert ga.identify(s, method="dbscan", eps_diameters=1.1, bridged_only=True).labels.tolist() == [0, 0, -1]
+    bridged = dict(method="dbscan", eps_diameters=1.1, bridged_only=True)
+    assert ga.identify(s, **bridged).labels.tolist() == [0, 0, -1]
+    # touching: the bridge exerts no force in a run without capillary force in contact
+    touching = dataclasses.replace(s, gap=np.array([-1e-6, -1e-6]))
+    assert ga.identify(touching, **bridged, cohesion="bridge").labels.tolist() == [0, 0, -1]
+    assert ga.identify(touching, **bridged).labels.tolist() == [-1, -1, -1]
     assert ga.identify(s, method="dbscan", eps_diameters=1.1).labels.tolist() == [0, 0, 0]
     # same places, particle 2 moving the other way: velocity features separate it
     v = np.array([[1.0, 0, 0], [1.0, 0, 0], [-1.0, 0, 0]])

@@ -20,8 +20,8 @@ def frames():
 def test_one_pass_sweep_equals_independent_identifications(frames):
     table = ga.sensitivity(frames, c_agg=C_GRID, a_agg_deg=A_GRID)
     assert len(table) == len(frames) * len(C_GRID) * len(A_GRID)
-    assert {"time", "c_agg", "a_agg_deg", "yield_fraction", "n_granules_norm", "mean_volume_norm"} <= set(table.columns)
-    assert sorted(set(table.time)) == [s.time for s in frames]
+    assert {"time_s", "cohesion", "c_agg", "a_agg_deg", "yield_fraction", "n_granules_norm", "mean_volume_norm"} <= set(table.columns)
+    assert sorted(set(table.time_s)) == [s.time for s in frames]
     for (frame, c, a), row in table.set_index(["frame", "c_agg", "a_agg_deg"]).iterrows():
         s = frames[frame]
         expected = ga.frame_stats(s, ga.identify(s, c_agg=c, a_agg_deg=a)).iloc[0]

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from .. import _kernels
+from ..cohesion import DEFAULT_COHESION, cohesive_force
 from ..errors import ParameterError
 from ..snapshot import Snapshot
 
@@ -42,15 +43,16 @@ def check_angle(a_agg_deg) -> float:
     return a
 
 
-def contact_strength(snapshot: Snapshot, radius="pair", gamma=None) -> np.ndarray:
-    """f = F_coh / (2πγR) of every contact, with R the pair's 2RiRj/(Ri+Rj) or the mean radius.
+def contact_strength(snapshot: Snapshot, radius="pair", gamma=None, cohesion=DEFAULT_COHESION) -> np.ndarray:
+    """f = F_coh / (2πγR) of every contact, with R the pair's 2RiRj/(Ri+Rj) or the mean radius
+    and F_coh under the ``cohesion`` convention (:mod:`granalytics.cohesion`).
 
     Bit-identical to the value the GNA kernels compare with C_agg.
     """
     check_radius_mode(radius)
     r_mean = mean_radius(snapshot) if radius == "mean" else 0.0
     return _kernels.contact_strength(
-        snapshot.contact_i, snapshot.contact_j, snapshot.f_cap, snapshot.radius,
+        snapshot.contact_i, snapshot.contact_j, cohesive_force(snapshot, cohesion), snapshot.radius,
         2.0 * math.pi * surface_tension(snapshot, gamma), r_mean,
     )
 

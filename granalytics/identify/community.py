@@ -23,6 +23,7 @@ import numpy as np
 from .. import _kernels
 from ..errors import ParameterError
 from ..snapshot import Snapshot
+from ..cohesion import DEFAULT_COHESION, check_cohesion
 from .common import check_radius_mode, co_moving, contact_strength
 from .result import IdentificationResult
 
@@ -47,22 +48,27 @@ class CommunityDetection:
         Seed of Leiden's random choices.
     surface_tension : float, optional
         γ [N/m]; defaults to the run metadata's.
+    cohesion : {"acting", "bridge"}, default "acting"
+        Which force is F_coh (:mod:`granalytics.cohesion`).
     """
 
     method = "community"
 
-    def __init__(self, c_agg=0.0, a_agg_deg=None, *, resolution=1.0, radius="pair", seed=0, surface_tension=None):
+    def __init__(self, c_agg=0.0, a_agg_deg=None, *, resolution=1.0, radius="pair", seed=0, surface_tension=None,
+                 cohesion=DEFAULT_COHESION):
         self.c_agg = c_agg
         self.a_agg_deg = a_agg_deg
         self.resolution = resolution
         self.radius = radius
         self.seed = seed
         self.surface_tension = surface_tension
+        self.cohesion = cohesion
 
     def params(self) -> dict:
         """The constructor parameters."""
         return {"c_agg": self.c_agg, "a_agg_deg": self.a_agg_deg, "resolution": self.resolution,
-                "radius": self.radius, "seed": self.seed, "surface_tension": self.surface_tension}
+                "radius": self.radius, "seed": self.seed, "surface_tension": self.surface_tension,
+                "cohesion": self.cohesion}
 
     def identify(self, snapshot: Snapshot) -> IdentificationResult:
         """Partition one snapshot's weighted contact network."""
@@ -73,7 +79,7 @@ class CommunityDetection:
             raise ParameterError(f"c_agg must be >= 0, got {self.c_agg!r}")
         if not (math.isfinite(float(self.resolution)) and self.resolution > 0):
             raise ParameterError(f"resolution must be > 0, got {self.resolution!r}")
-        f = contact_strength(snapshot, self.radius, self.surface_tension)
+        f = contact_strength(snapshot, self.radius, self.surface_tension, check_cohesion(self.cohesion))
         keep = f > 0
         if self.a_agg_deg is not None:
             keep &= co_moving(snapshot, self.a_agg_deg)

@@ -18,6 +18,7 @@ import math
 import numpy as np
 from scipy.sparse import coo_matrix
 
+from ..cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts
 from ..errors import ParameterError
 from ..snapshot import Snapshot
 from .common import labels_from_clusters, mean_radius
@@ -37,25 +38,33 @@ class DBSCANIdentifier:
     min_samples : int, default 2
         scikit-learn's ``min_samples`` (the point itself included).
     bridged_only : bool, default False
-        Only pairs that share a liquid bridge (bridge volume > 0) can be neighbours.
+        Only pairs that share a liquid bridge (bridge volume > 0) whose force counts as
+        cohesion under ``cohesion`` can be neighbours.
     velocity_weight : float, default 0
         Append velocity features v / v_rms · weight (v_rms: RMS particle speed of the frame), so
         that a unit of velocity difference counts like one mean diameter of distance times the
         weight. 0 clusters on positions alone.
+    cohesion : {"acting", "bridge"}, default "acting"
+        Which bridges count for ``bridged_only`` (:mod:`granalytics.cohesion`): ``"bridge"``
+        every wet pair, ``"acting"`` only those whose bridge force acted (separated pairs,
+        unless the run applied capillary force in contact).
     """
 
     method = "dbscan"
 
-    def __init__(self, eps_diameters=1.1, min_samples=2, *, bridged_only=False, velocity_weight=0.0):
+    def __init__(self, eps_diameters=1.1, min_samples=2, *, bridged_only=False, velocity_weight=0.0,
+                 cohesion=DEFAULT_COHESION):
         self.eps_diameters = eps_diameters
         self.min_samples = min_samples
         self.bridged_only = bridged_only
         self.velocity_weight = velocity_weight
+        self.cohesion = cohesion
 
     def params(self) -> dict:
         """The constructor parameters."""
         return {"eps_diameters": self.eps_diameters, "min_samples": self.min_samples,
-                "bridged_only": self.bridged_only, "velocity_weight": self.velocity_weight}
+                "bridged_only": self.bridged_only, "velocity_weight": self.velocity_weight,
+                "cohesion": self.cohesion}
 
     def _features(self, snapshot):
         diameter = 2.0 * mean_radius(snapshot)
@@ -82,7 +91,7 @@ class DBSCANIdentifier:
         x = self._features(snapshot)
         n = snapshot.n_particles
         if self.bridged_only:
-            wet = snapshot.bridge_volume > 0
+            wet = (snapshot.bridge_volume > 0) & cohesion_counts(snapshot, check_cohesion(self.cohesion))
             i, j = snapshot.contact_i[wet], snapshot.contact_j[wet]
             d = np.linalg.norm(x[i] - x[j], axis=1)
             near = d <= eps

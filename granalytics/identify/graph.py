@@ -2,7 +2,9 @@
 
 A contact (i, j) is kept when both criteria hold:
 
-1. cohesion: ``F_coh ≥ C_agg · 2πγR``, with γ the surface tension of the run and R the pair's
+1. cohesion: ``F_coh ≥ C_agg · 2πγR``, with F_coh under the ``cohesion`` convention
+   (``"acting"``: the force the DEM code applied; ``"bridge"``: the bridge force of every wet
+   pair, touching or not; see :mod:`granalytics.cohesion`), γ the surface tension of the run and R the pair's
    effective radius ``R* = 2RiRj/(Ri+Rj)`` (default, ``radius="pair"``) or the run's mean
    particle radius (``radius="mean"``). Because γ and R are those of the analysed system, a
    coarse-grained run (γ·α, R·α) gets ``F_agg,CG = α²·F_agg,o`` automatically (§3.1).
@@ -21,6 +23,7 @@ import networkx as nx
 import numpy as np
 
 from .. import _kernels
+from ..cohesion import DEFAULT_COHESION, check_cohesion, cohesive_force
 from ..errors import ParameterError
 from ..snapshot import Snapshot
 from .common import check_angle, check_radius_mode, mean_radius, surface_tension
@@ -82,16 +85,20 @@ class GraphNetworkAnalysis:
         Connected-components implementation. All give identical labels.
     surface_tension : float, optional
         γ [N/m]; defaults to the snapshot's ``meta.surface_tension``.
+    cohesion : {"acting", "bridge"}, default "acting"
+        Which force is F_coh (:mod:`granalytics.cohesion`).
     """
 
     method = "gna"
 
-    def __init__(self, c_agg=0.6, a_agg_deg=20.0, *, radius="pair", backend="fast", surface_tension=None):
+    def __init__(self, c_agg=0.6, a_agg_deg=20.0, *, radius="pair", backend="fast", surface_tension=None,
+                 cohesion=DEFAULT_COHESION):
         self.c_agg = c_agg
         self.a_agg_deg = a_agg_deg
         self.radius = radius
         self.backend = backend
         self.surface_tension = surface_tension
+        self.cohesion = cohesion
 
     def _check(self):
         c_agg = float(self.c_agg)
@@ -99,6 +106,7 @@ class GraphNetworkAnalysis:
             raise ParameterError(f"c_agg must be finite and >= 0, got {self.c_agg!r}")
         a_agg = check_angle(self.a_agg_deg)
         check_radius_mode(self.radius)
+        check_cohesion(self.cohesion)
         if self.backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
         return c_agg, a_agg
@@ -107,11 +115,11 @@ class GraphNetworkAnalysis:
         """The constructor parameters."""
         return {
             "c_agg": self.c_agg, "a_agg_deg": self.a_agg_deg, "radius": self.radius,
-            "backend": self.backend, "surface_tension": self.surface_tension,
+            "backend": self.backend, "surface_tension": self.surface_tension, "cohesion": self.cohesion,
         }
 
     def kernel_args(self, snapshot: Snapshot) -> tuple:
-        """Arguments of the numba GNA kernels after ``(ci, cj, f_cap, radius, vel, omega)``:
+        """Arguments of the numba GNA kernels after ``(ci, cj, f_coh, radius, vel, omega)``:
         ``(2πγ, mean_radius or 0, c_agg, cos A_agg)``."""
         c_agg, a_agg = self._check()
         gamma = surface_tension(snapshot, self.surface_tension)
@@ -120,7 +128,8 @@ class GraphNetworkAnalysis:
 
     def contact_mask(self, snapshot: Snapshot) -> np.ndarray:
         """Boolean mask of the contacts that pass both criteria."""
-        return _kernels.gna_contact_mask(*_contact_arrays(snapshot), *self.kernel_args(snapshot))
+        args = self.kernel_args(snapshot)
+        return _kernels.gna_contact_mask(*_contact_arrays(snapshot, self.cohesion), *args)
 
     def identify(self, snapshot: Snapshot) -> IdentificationResult:
         """Identify granules in one snapshot.
@@ -131,7 +140,7 @@ class GraphNetworkAnalysis:
             ``labels`` (−1 = free), ``sizes``, and ``kept`` (the contacts that passed).
         """
         args = self.kernel_args(snapshot)
-        arrays = _contact_arrays(snapshot)
+        arrays = _contact_arrays(snapshot, self.cohesion)
         if self.backend == "fast":
             labels, sizes, kept = _kernels.gna_fused(*arrays, *args)
         else:
@@ -150,8 +159,8 @@ class GraphNetworkAnalysis:
         return f"GraphNetworkAnalysis({args})"
 
 
-def _contact_arrays(snapshot: Snapshot) -> tuple:
+def _contact_arrays(snapshot: Snapshot, cohesion) -> tuple:
     return (
-        snapshot.contact_i, snapshot.contact_j, snapshot.f_cap, snapshot.radius,
+        snapshot.contact_i, snapshot.contact_j, cohesive_force(snapshot, cohesion), snapshot.radius,
         snapshot.velocity, snapshot.angular_velocity,
     )

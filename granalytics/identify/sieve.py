@@ -21,6 +21,7 @@ import math
 import numpy as np
 import pandas as pd
 
+from ..cohesion import DEFAULT_COHESION
 from .. import _kernels
 from ..errors import ParameterError
 from ..snapshot import Snapshot
@@ -38,7 +39,7 @@ class VirtualSieve:
     ----------
     connect : {"contacts", "bridges", "gna"}, default "contacts"
         Which pairs join particles into agglomerates.
-    c_agg, a_agg_deg, radius : GNA criteria, used with ``connect="gna"``.
+    c_agg, a_agg_deg, radius, cohesion : GNA criteria, used with ``connect="gna"``.
     apertures_m : sequence of float, optional
         Sieve apertures [m]. Default: a √2 series from half the mean particle diameter up to
         the first aperture wider than every agglomerate.
@@ -48,18 +49,21 @@ class VirtualSieve:
 
     method = "sieve"
 
-    def __init__(self, connect="contacts", *, c_agg=0.6, a_agg_deg=20.0, radius="pair", apertures_m=None, ratio=math.sqrt(2)):
+    def __init__(self, connect="contacts", *, c_agg=0.6, a_agg_deg=20.0, radius="pair", apertures_m=None, ratio=math.sqrt(2),
+                 cohesion=DEFAULT_COHESION):
         self.connect = connect
         self.c_agg = c_agg
         self.a_agg_deg = a_agg_deg
         self.radius = radius
         self.apertures_m = apertures_m
         self.ratio = ratio
+        self.cohesion = cohesion
 
     def params(self) -> dict:
         """The constructor parameters."""
         return {"connect": self.connect, "c_agg": self.c_agg, "a_agg_deg": self.a_agg_deg, "radius": self.radius,
-                "apertures_m": None if self.apertures_m is None else list(self.apertures_m), "ratio": self.ratio}
+                "apertures_m": None if self.apertures_m is None else list(self.apertures_m), "ratio": self.ratio,
+                "cohesion": self.cohesion}
 
     def _edges(self, snapshot):
         if self.connect == "contacts":
@@ -67,7 +71,8 @@ class VirtualSieve:
         if self.connect == "bridges":
             return snapshot.bridge_volume > 0
         if self.connect == "gna":
-            return GraphNetworkAnalysis(self.c_agg, self.a_agg_deg, radius=self.radius).contact_mask(snapshot)
+            return GraphNetworkAnalysis(self.c_agg, self.a_agg_deg, radius=self.radius,
+                                        cohesion=self.cohesion).contact_mask(snapshot)
         raise ParameterError(f"connect must be 'contacts', 'bridges' or 'gna', got {self.connect!r}")
 
     def identify(self, snapshot: Snapshot) -> IdentificationResult:

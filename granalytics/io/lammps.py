@@ -42,13 +42,23 @@ class DumpMapping:
     contact_angle : float, default 0 [rad]; alpha : float, default 1
     contact_id_i, contact_id_j : str
         ``ENTRIES`` columns of the contact dump holding the two particle ids.
-    contact_f_cap : str or list of 3 str
-        Column holding the cohesive (capillary) normal force magnitude [N], or three columns of
-        a force vector whose magnitude is used (LIGGGHTS' ``pair/gran/local`` has no separate
-        cohesive force; ``force_normal`` is the bridge force for separated pairs).
+    contact_f_cap : str, list of 3 str, or None
+        The cohesive force F_coh [N]. None (recommended for LIGGGHTS, whose ``pair/gran/local``
+        has no separate cohesive force): the attractive part of the signed normal force of
+        ``contact_f_normal``, i.e. the cohesion the code applied; a compressed contact has none.
+        One column: a cohesive-force magnitude written by the code (taken as |value|). Three
+        columns: a normal-force vector on particle ``contact_id_i``, whose attractive component
+        along the branch vector is used.
     contact_f_normal : str, list of 3 str, or None
-        Column(s) with the total normal force [N]; None: not in the dump (stored as 0 and
-        recorded in provenance).
+        The total normal force [N]. One column: signed, positive = repulsive. Three columns
+        (LIGGGHTS ``force_normal``): the normal force vector acting on the particle of
+        ``contact_id_i``; it is stored signed, ``−F·n̂`` with n̂ the unit vector from particle
+        i to particle j (positive = repulsive). None: not in the dump (stored as 0 and recorded
+        in provenance); then ``contact_f_cap`` is required.
+    capillary_in_contact : bool, default True
+        Whether the code applied cohesion between touching particles (LIGGGHTS' ``easo``
+        capillary model does); recorded in the run metadata. With F_coh taken from the signed
+        normal force, both cohesion conventions then agree.
     contact_gap : str or None
         Column with the surface gap [m]; or use ``contact_overlap`` (LIGGGHTS ``delta``, overlap
         = −gap). One of the two is required.
@@ -67,8 +77,9 @@ class DumpMapping:
     drum_omega: float
     contact_id_i: str
     contact_id_j: str
-    contact_f_cap: str
+    contact_f_cap: str | list | None = None
     units: str = "si"
+    capillary_in_contact: bool = True
     contact_angle: float = 0.0
     alpha: float = 1.0
     contact_f_normal: str | None = None
@@ -84,6 +95,10 @@ class DumpMapping:
             raise ValidationError("units", f"only LAMMPS 'units si' dumps are read, got {self.units!r}")
         if (self.contact_gap is None) == (self.contact_overlap is None):
             raise ValidationError("contact_gap", "declare exactly one of contact_gap or contact_overlap")
+        if self.contact_f_cap is None and self.contact_f_normal is None:
+            raise ValidationError("contact_f_cap", "declare contact_f_normal (F_coh is its attractive part) or contact_f_cap")
+        if not isinstance(self.capillary_in_contact, bool):
+            raise ValidationError("capillary_in_contact", f"must be true or false, got {self.capillary_in_contact!r}")
         if self.film_unit not in ("m3", "percent_of_particle_volume"):
             raise ValidationError("film_unit", f"must be 'm3' or 'percent_of_particle_volume', got {self.film_unit!r}")
 
@@ -212,11 +227,20 @@ def _particles(columns, data, path, line, mapping):
     return out
 
 
-def _contacts(columns, data, path, line, mapping, id_to_row):
+def _contacts(columns, data, path, line, mapping, id_to_row, position):
     def col(name, what):
-        if isinstance(name, (list, tuple)):  # magnitude of a vector given by its components
-            return np.linalg.norm(np.column_stack([col(c, what) for c in name]), axis=1)
         return data[:, _column(columns, name, path, line, what)]
+
+    def signed_normal(name, what):
+        """Signed normal force [N], positive = repulsive: a column as is, or −F·n̂ of a vector
+        on particle i (n̂ from i to j)."""
+        if not isinstance(name, (list, tuple)):
+            return col(name, what)
+        force = np.column_stack([col(c, what) for c in name])
+        branch = position[rows[1]] - position[rows[0]]
+        length = np.linalg.norm(branch, axis=1)
+        length[length == 0] = np.inf  # coincident centres: no direction, no normal force
+        return -(force * branch).sum(axis=1) / length
 
     id_i, id_j = col(mapping.contact_id_i, "contact_id_i"), col(mapping.contact_id_j, "contact_id_j")
     rows = []
@@ -232,11 +256,17 @@ def _contacts(columns, data, path, line, mapping, id_to_row):
         gap = col(mapping.contact_gap, "contact_gap")
     else:
         gap = -col(mapping.contact_overlap, "contact_overlap")
-    f_normal = col(mapping.contact_f_normal, "contact_f_normal") if mapping.contact_f_normal else np.zeros(len(ci))
+    f_normal = (signed_normal(mapping.contact_f_normal, "contact_f_normal") if mapping.contact_f_normal
+                else np.zeros(len(ci)))
+    if mapping.contact_f_cap is None:
+        f_coh = np.maximum(-f_normal, 0.0)
+    elif isinstance(mapping.contact_f_cap, (list, tuple)):
+        f_coh = np.maximum(-signed_normal(mapping.contact_f_cap, "contact_f_cap"), 0.0)
+    else:
+        f_coh = np.abs(col(mapping.contact_f_cap, "contact_f_cap"))
     volume = col(mapping.contact_bridge_volume, "contact_bridge_volume") if mapping.contact_bridge_volume else np.zeros(len(ci))
     return {
-        "contact_i": ci, "contact_j": cj, "f_cap": np.abs(col(mapping.contact_f_cap, "contact_f_cap")),
-        "f_normal": f_normal, "gap": gap, "bridge_volume": volume,
+        "contact_i": ci, "contact_j": cj, "f_cap": f_coh, "f_normal": f_normal, "gap": gap, "bridge_volume": volume,
     }
 
 
@@ -296,7 +326,7 @@ def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
         if len(id_to_row) != len(part["ids"]):
             raise DumpFormatError(f"{path}, line {line}: duplicate particle ids in timestep {step}")
         ccols, cdata, cline, cpath = contacts[step]
-        cont = _contacts(ccols, cdata, cpath, cline, mapping, id_to_row)
+        cont = _contacts(ccols, cdata, cpath, cline, mapping, id_to_row, part["position"])
         n0 = n0 or len(part["ids"])
         try:
             snapshots.append(Snapshot(time=step * dt, step=step, **part, **cont))
@@ -305,7 +335,7 @@ def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
     meta = RunMeta(
         surface_tension=mapping.surface_tension, density=mapping.density, drum_omega=mapping.drum_omega,
         n_particles=n0, mean_radius=float(snapshots[0].radius.mean()), alpha=mapping.alpha,
-        contact_angle=mapping.contact_angle,
+        contact_angle=mapping.contact_angle, capillary_in_contact=mapping.capillary_in_contact,
         provenance={"source": "LIGGGHTS/LAMMPS dumps", "particle_files": list(map(str, particle_files)),
                     "contact_files": list(map(str, contact_files)), "mapping": dataclasses.asdict(mapping),
                     "not_in_dumps": [k for k, v in (("f_normal", mapping.contact_f_normal),

@@ -98,6 +98,7 @@ def read_yade_csv(particle_files, contact_files, meta_toml):
     first = snapshots[0]
     try:
         meta = RunMeta(n_particles=first.n_particles, mean_radius=float(first.radius.mean()),
+                       capillary_in_contact=False,  # YADE's ViscElCapPhys law: no capillary force in contact
                        provenance={"source": "YADE export (docs/yade_export.py)",
                                    "particle_files": list(map(str, particle_files)),
                                    "contact_files": list(map(str, contact_files))},
