@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 BUILD := build
 
-.PHONY: test test-fast demo bench install clean
+.PHONY: test test-fast demo bench install clean datasets
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,6 +30,11 @@ demo: $(STAMP)
 	$(VENV)/bin/granalytics stats datasets/lab-cg3.h5 --window 3:6 \
 		--out $(BUILD)/demo-timeseries.csv --sizes-out $(BUILD)/demo-sizes.csv \
 		--plot $(BUILD)/demo-stats.png
+
+## datasets: regenerate every bundled dataset from its recipe (simulation, then subset; hours for the
+## CG1 and paper runs; an interrupted simulation resumes from its checkpoint). Never downloads.
+datasets: $(STAMP)
+	$(PY) -m granalytics.datasets make
 
 ## bench: benchmark scripts (print tables)
 bench: $(STAMP)

@@ -279,6 +279,65 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_compare_cg(args):
+    import inspect
+
+    from .cg import compare_cg
+    from .identify import METHODS
+
+    labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
+    accepted = inspect.signature(METHODS[args.method]).parameters
+    params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg)) if k in accepted}
+    for param, value in args.set or []:
+        params[param] = value
+    comparison = compare_cg(args.runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
+                            progress=not args.quiet, **params)
+    written = comparison.save(args.out, overwrite=args.overwrite)
+    print(f"wrote {len(written)} files to {args.out}: " + ", ".join(os.path.basename(p) for p in written))
+    print(format_cg_table(comparison))
+    return 0
+
+
+def format_cg_table(comparison) -> str:
+    """The CG table as text: steady-state mean ± s.e.m. of each metric, its deviation from the
+    reference run, the KS distance of the size distributions and the speed-ups."""
+    lines = [f"CG comparison, {comparison.description}; deviations from {comparison.reference}"]
+    header = (f"{'run':<26} {'yield':>19} {'<V_g>/V_p':>21} {'N_g/N':>23} {'KS D':>6} "
+              f"{'speed-up':>9} {'paper':>6}")
+    lines.append(header)
+    for row in comparison.table.itertuples():
+        cells = []
+        for metric, fmt in (("yield_fraction", ".3f"), ("mean_volume_norm", ".2f"), ("n_granules_norm", ".4f")):
+            mean, sem, dev = (getattr(row, f"{metric}_{x}") for x in ("mean", "sem", "rel_dev"))
+            cells.append(f"{mean:{fmt}} ± {sem:{fmt}} ({dev:+.0%})")
+        lines.append(f"{row.run:<26} {cells[0]:>19} {cells[1]:>21} {cells[2]:>23} {row.ks_distance:>6.3f} "
+                     f"{row.speedup:>8.1f}× {row.paper_speedup:>5.0f}×")
+    return "\n".join(lines)
+
+
+def cmd_subset(args):
+    from .io import subset_run
+
+    if args.every < 1:
+        raise ParameterError(f"--every must be >= 1, got {args.every}")
+    if os.path.abspath(args.out) == os.path.abspath(args.run):
+        raise ParameterError(f"{args.out}: --out is the input run")
+    if os.path.exists(args.out) and not args.overwrite:
+        raise ParameterError(f"{args.out}: file exists (pass --overwrite to replace it)")
+    with open_run(args.run) as run:
+        index = np.arange(len(run))
+        keep = index % args.every == 0
+        if args.full_window is not None:
+            revs = run.revolutions
+            keep |= (revs >= args.full_window[0]) & (revs <= args.full_window[1])
+        frames = index[keep]
+    subset_run(args.run, args.out, frames, float_dtype="float32" if args.float32 else "float64",
+               overwrite=args.overwrite, progress=not args.quiet)
+    print(f"wrote {args.out}: {len(frames)} of {len(index)} frames"
+          + (", float32" if args.float32 else "") + f", {os.path.getsize(args.out) / 1e6:.1f} MB")
+    return 0
+
+
 def cmd_export_vtk(args):
     from .io.vtk import export_vtk
 
@@ -401,6 +460,40 @@ def build_parser():
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
 
+    p = sub.add_parser("compare-cg", help="compare runs at several CG factors (paper Figs 3–6)",
+                       description="Granule volume, number, size distribution and yield of runs of one system at "
+                                   "several CG factors α: the paper's Figs 3–6 (PNG and PDF), a table of steady-state "
+                                   "mean ± std (block s.e.m.) with the relative deviation from the finest run, the "
+                                   "Kolmogorov–Smirnov distance of the size distributions, and the measured CG speed-up.")
+    p.add_argument("runs", nargs="+", help="run files (.h5), at least two")
+    p.add_argument("--out", required=True, help="output folder: cg_table.csv, cg_timeseries.csv, cg_sizes.csv, fig3–fig6 .png/.pdf")
+    p.add_argument("--labels", help="comma-separated run names (default: CG<α> (<N> particles))")
+    p.add_argument("--window", type=_interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
+                   help="steady-state window in revolutions (default 3:6)")
+    p.add_argument("--method", choices=("gna", "dbscan", "sieve", "community"), default="gna",
+                   help="identification method (default gna, the paper's)")
+    p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
+    p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
+    p.add_argument("--set", action="append", type=lambda t: _setting("method." + t)[1:], metavar="PARAM=VALUE",
+                   help="another method parameter, e.g. radius=mean or eps_diameters=1.2 (repeatable)")
+    _add_cohesion_option(p)
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_compare_cg)
+
+    p = sub.add_parser("subset", help="copy some frames of a run, optionally as float32",
+                       description="Write a smaller copy of a run: every --every-th frame, plus every frame inside "
+                                   "--full-window; --float32 stores floating-point data in single precision.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--out", required=True, help="run file to write (.h5)")
+    p.add_argument("--every", type=int, default=1, help="keep every N-th frame (default 1: all)")
+    p.add_argument("--full-window", type=_interval, metavar="R0:R1",
+                   help="keep every frame within this revolution window")
+    p.add_argument("--float32", action="store_true", help="store floats as float32 (read back as float64)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_subset)
+
     p = sub.add_parser("export-vtk", help="VTK files for ParaView (one .vtu per frame + .pvd)",
                        description="Write particles (radius, velocities, film, granule label and size) and bonds "
                                    "(kept by GNA or not, F_coh, bridge volume, gap) per frame, plus a .pvd time series.")
@@ -431,6 +524,9 @@ def build_parser():
 def main(argv=None):
     """Entry point of the ``granalytics`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
+    import matplotlib
+
+    matplotlib.use("Agg")  # the command line only writes figures to files
     try:
         return args.func(args)
     except GranalyticsError as exc:

@@ -1,29 +1,65 @@
 """Bundled snapshot series (``datasets/`` in the source tree), made by ``sim``.
 
-Each dataset is one run file registered here with its sha256 sum and the exact command that
-made it (also in ``datasets/README.md``). :func:`dataset_path` checks the sum before handing the
-file out, so a corrupted or regenerated file is never analysed silently.
+Each dataset is one run file registered here with its sha256 sum, the exact commands that made
+it (the simulation, then :func:`granalytics.io.subset_run` through ``granalytics subset``), the
+code version and the wall time (also in ``datasets/README.md``). :func:`dataset_path` checks the
+sum before handing the file out, so a corrupted or regenerated file is never analysed silently.
+``make datasets`` (``python -m granalytics.datasets make``) regenerates every file from its
+recipe; nothing is downloaded.
+
+The big runs are bundled with fewer frames outside their steady-state window (every fourth frame,
+i.e. every 0.2 revolution, which still samples every phase of the 0.25-revolution baffle period)
+and all floating-point data stored as float32 (read back as float64); the small ones keep every
+frame, also as float32.
+
+Datasets
+--------
+lab-cg1, lab-cg2, lab-cg3
+    The lab drum (10 000 original particles of 1.5 mm, R_d = 39.7 mm, L = 23.8 mm, 4 baffles,
+    Ω = 2 rad/s, Table 1 physics) at CG factors 1, 2, 3 (10 000, 1 250, 370 particles), seed 0:
+    the CG comparison with the original system. lab-cg1 runs 3 revolutions (steady window [2, 3]),
+    lab-cg2 and lab-cg3 six.
+paper-cg2, paper-cg3
+    The paper's drum (R_d = 0.1 m, L = 0.045 m, 120 000 original particles) at CG2 (15 000
+    particles, 3 revolutions) and CG3 (4 444 particles, 6 revolutions), seed 0.
 """
 
 from __future__ import annotations
 
 import hashlib
+import shlex
+import subprocess
+import sys
 from pathlib import Path
 
 from .errors import GranalyticsError
 
-__all__ = ["DATASETS", "dataset_path", "open_dataset"]
+__all__ = ["DATASETS", "dataset_path", "open_dataset", "make_dataset"]
 
 DATASET_DIR = Path(__file__).resolve().parents[1] / "datasets"
+_RAW_DIR = "build/runs"  # full-resolution simulator output (not bundled), relative to the repository root
 
-#: name -> file, sha256, command that made it, description
+
+def _recipe(preset, revolutions, full_window=None):
+    raw = f"{_RAW_DIR}/{preset}.h5"
+    sim = (f"python -m sim run --preset {preset} --revolutions {revolutions:g} --seed 0 --threads 1 "
+           f"--checkpoint-every 2 --quiet --out {raw}")
+    subset = f"granalytics subset {raw} --out datasets/{preset}.h5 --float32 --overwrite"
+    if full_window is not None:
+        subset += f" --full-window {full_window} --every 4"
+    return [sim, subset]
+
+
+#: name -> file, sha256, the commands that made it (from the repository root, in order), the
+#: code version (git commit) and simulator wall time, description
 DATASETS = {
     "lab-cg3": {
         "file": "lab-cg3.h5",
-        "sha256": "93aacc5d283b115f2838c598366c37a3f6dee560488cc505be4434ccd093686a",
-        "command": "python -m sim run --preset lab-cg3 --revolutions 6 --seed 0 --out datasets/lab-cg3.h5",
-        "description": "lab drum, CG3 (741 particles of 4.5 mm), Table 1 physics, 6 revolutions, "
-                       "a frame every 0.05 revolution (121 frames)",
+        "sha256": "4d69687c92a214bee3817e0f41c92963e8ae3280aab5e8ee37a6d707b50d1fb9",
+        "commands": _recipe("lab-cg3", 6),
+        "code_version": "43612560cae367a49635ee6b45e1a20b2b9c62e2",
+        "wall_time": "10 min 0 s (1 thread, sharing the 2-core dev machine with another run)",
+        "description": "lab drum, CG3 (370 particles of 4.5 mm), 6 revolutions, every frame (0.05 revolution)",
     },
 }
 
@@ -51,7 +87,8 @@ def dataset_path(name: str) -> Path:
         raise GranalyticsError(f"unknown dataset {name!r}; available: {', '.join(DATASETS)}") from None
     path = DATASET_DIR / entry["file"]
     if not path.exists():
-        raise GranalyticsError(f"{path}: dataset file missing (datasets live in the source tree; made by: {entry['command']})")
+        raise GranalyticsError(f"{path}: dataset file missing (datasets live in the source tree; "
+                               f"made by: {' && '.join(entry['commands'])})")
     digest = _sha256(path)
     if digest != entry["sha256"]:
         raise GranalyticsError(f"{path}: sha256 {digest} does not match the registry ({entry['sha256']})")
@@ -63,3 +100,62 @@ def open_dataset(name: str):
     from .io import open_run
 
     return open_run(dataset_path(name))
+
+
+def make_dataset(name: str, *, dry_run=False) -> str:
+    """Regenerate a dataset from its recipe (minutes to hours: see its ``wall_time``), resuming
+    an interrupted simulation from its checkpoint; returns the new file's sha256.
+
+    The simulator is bit-reproducible for a given seed and thread count, so the physics is
+    identical; the bytes (and so the sum) also depend on the HDF5 library version.
+    """
+    entry = DATASETS[name]
+    root = DATASET_DIR.parent
+    for command in entry["commands"]:
+        argv = shlex.split(command)
+        if argv[0] == "python":
+            argv[0] = sys.executable
+        elif argv[0] == "granalytics":
+            argv = [sys.executable, "-m", "granalytics"] + argv[1:]
+        raw = argv[argv.index("--out") + 1]
+        if argv[1:3] == ["-m", "sim"] and (root / f"{raw}.ckpt.npz").exists():
+            argv.append("--resume")
+        print("$", shlex.join(argv), flush=True)
+        if not dry_run:
+            subprocess.run(argv, cwd=root, check=True)
+    if dry_run:
+        return ""
+    digest = _sha256(DATASET_DIR / entry["file"])
+    print(f"{name}: sha256 {digest}")
+    return digest
+
+
+def _main(argv=None) -> int:
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m granalytics.datasets",
+                                     description="List or regenerate the bundled datasets.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="the registry")
+    p = sub.add_parser("make", help="regenerate datasets from their recipes")
+    p.add_argument("names", nargs="*", help="datasets (default: all)")
+    p.add_argument("--dry-run", action="store_true", help="print the commands only")
+    args = parser.parse_args(argv)
+    if args.command == "list":
+        for name, entry in DATASETS.items():
+            print(f"{name:<10} {entry['file']:<14} {entry['description']}")
+            for command in entry["commands"]:
+                print(f"           $ {command}")
+        return 0
+    unknown = [n for n in args.names if n not in DATASETS]
+    if unknown:
+        print(f"python -m granalytics.datasets: error: unknown dataset {unknown[0]!r}; available: "
+              f"{', '.join(DATASETS)}", file=sys.stderr)
+        return 2
+    for name in args.names or list(DATASETS):
+        make_dataset(name, dry_run=args.dry_run)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_main())

@@ -1,13 +1,15 @@
 """Plots of granulation statistics (matplotlib).
 
-Functions take an optional ``ax`` and return the axes/figure, so they compose in notebooks.
+Functions take an optional ``ax`` and return the axes/figure, so they compose in notebooks. They
+never change matplotlib's backend (the command line selects Agg itself).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure", "frame_figure"]
+__all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure",
+           "frame_figure", "cg_figures"]
 
 _TIMESERIES = (
     ("n_granules_norm", "granules / particles"),
@@ -54,9 +56,6 @@ def plot_size_distribution(dist, ax=None, label=None):
 
 def stats_figure(ts, dist=None, window=None, title=None):
     """Figure with the time series of granule number, mean volume, yield and the size distribution."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     n = len(_TIMESERIES) + (dist is not None)
@@ -75,9 +74,6 @@ def stats_figure(ts, dist=None, window=None, title=None):
 def sensitivity_figure(summary, title=None):
     """Heatmaps of yield and mean granule volume over (C_agg, A_agg), and yield and mean volume
     against C_agg for every A_agg (:func:`~granalytics.sensitivity_summary` output)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 4, figsize=(17, 3.8), layout="constrained")
@@ -107,9 +103,6 @@ def sensitivity_figure(summary, title=None):
 def comparison_figure(stats, pairs, title=None):
     """Yield and granule number per method, and the adjusted Rand index of each pair, against
     revolutions (:func:`~granalytics.compare_methods` output)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.6), layout="constrained")
@@ -139,9 +132,6 @@ def frame_figure(result, ax=None, max_colours=20):
     """3-D scatter of one identified frame, particles sized by radius and coloured by granule
     (the largest ``max_colours`` granules in distinct colours, other granules grey, free
     particles light grey)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     s = result.snapshot
@@ -162,3 +152,48 @@ def frame_figure(result, ax=None, max_colours=20):
     ax.set_title(f"t = {s.time:.3f} s: {result.n_granules} granules, yield {result.n_granulated / s.n_particles:.2f}")
     ax.set_aspect("equal")
     return ax.figure
+
+
+def cg_figures(comparison) -> dict:
+    """The paper's Figs 3–6 for a :class:`~granalytics.cg.CGComparison`: ⟨V_g⟩/V_p, N_g/N and
+    yield against revolutions (one curve per run, the steady-state window shaded, its mean ± s.e.m.
+    as a band) and the particles-per-granule distribution pooled over the window (log axes).
+
+    Returns
+    -------
+    dict of str -> Figure, keyed ``fig3_mean_volume``, ``fig4_granule_number``,
+    ``fig5_size_distribution``, ``fig6_yield``.
+    """
+    import matplotlib.pyplot as plt
+
+    panels = (("fig3_mean_volume", "mean_volume_norm", "⟨V_g⟩ / V_p", "mean granule volume"),
+              ("fig4_granule_number", "n_granules_norm", "N_g / N", "number of granules"),
+              ("fig6_yield", "yield_fraction", "yield (fraction of particles in granules)", "granulation yield"))
+    subtitle = comparison.description
+    figures = {}
+    for name, column, ylabel, what in panels:
+        fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
+        for k, (label, part) in enumerate(comparison.timeseries.groupby("run", sort=False)):
+            colour = f"C{k}"
+            ax.plot(part["revolutions"], part[column], lw=1, marker=".", ms=3, color=colour, label=label)
+            row = comparison.table[comparison.table["run"] == label].iloc[0]
+            mean, sem = row[f"{column}_mean"], row[f"{column}_sem"]
+            lo, hi = comparison.window
+            ax.hlines(mean, lo, hi, color=colour, lw=2, alpha=0.8)
+            if np.isfinite(sem):
+                ax.fill_between([lo, hi], mean - sem, mean + sem, color=colour, alpha=0.15, lw=0)
+        ax.axvspan(*comparison.window, color="0.93", zorder=0)
+        ax.set_xlabel("revolutions t·Ω/2π")
+        ax.set_ylabel(ylabel)
+        ax.set_title(f"Effect of CG on the {what}\n{subtitle}", fontsize=9)
+        ax.legend(fontsize=8)
+        figures[name] = fig
+    fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
+    for k, (label, part) in enumerate(comparison.distributions.groupby("run", sort=False)):
+        if part["count"].sum():
+            plot_size_distribution(part, ax=ax, label=f"{label}: {int(part['count'].sum())} granules")
+    ax.set_title(f"Particles per granule over revolutions [{comparison.window[0]:g}, {comparison.window[1]:g}]"
+                 f"\n{subtitle}", fontsize=9)
+    ax.legend(fontsize=8)
+    figures["fig5_size_distribution"] = fig
+    return dict(sorted(figures.items()))

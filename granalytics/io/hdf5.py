@@ -21,7 +21,7 @@ from .. import __version__
 from ..errors import RunFileError, ValidationError
 from ..snapshot import CONTACT_FIELDS, PARTICLE_FIELDS, RunMeta, Snapshot
 
-__all__ = ["RunWriter", "open_run", "Run", "RunSlice", "FORMAT_NAME", "FORMAT_VERSION"]
+__all__ = ["RunWriter", "open_run", "Run", "RunSlice", "subset_run", "FORMAT_NAME", "FORMAT_VERSION"]
 
 FORMAT_NAME = "granalytics-run"
 FORMAT_VERSION = 1
@@ -83,6 +83,10 @@ class RunWriter(_HDF5Handle):
         gzip level 0–9.
     overwrite : bool, default False
         Replace an existing file.
+    float_dtype : {"float64", "float32"}, default "float64"
+        Storage type of the per-particle and per-contact floating-point datasets (times are
+        always float64). ``"float32"`` halves the file for bundling and archiving (relative
+        precision 6e-8: 2 nm on a 4 cm drum); readers always return float64 arrays.
 
     Examples
     --------
@@ -91,13 +95,16 @@ class RunWriter(_HDF5Handle):
     ...         writer.append(snapshot)
     """
 
-    def __init__(self, path, meta, *, compression="gzip", compression_level=4, overwrite=False):
+    def __init__(self, path, meta, *, compression="gzip", compression_level=4, overwrite=False, float_dtype="float64"):
         if not isinstance(meta, RunMeta):
             raise ValidationError("meta", f"must be a RunMeta, got {type(meta).__name__}")
         self.path = os.fspath(path)
         if os.path.exists(self.path) and not overwrite:
             raise RunFileError(f"{self.path}: file exists (pass overwrite=True to replace it)")
         self.meta = meta
+        if float_dtype not in ("float64", "float32"):
+            raise ValidationError("float_dtype", f"must be 'float64' or 'float32', got {float_dtype!r}")
+        self._float = np.dtype(float_dtype)
         if compression not in ("gzip", "lzf", None):
             raise ValidationError("compression", f"must be 'gzip', 'lzf' or None, got {compression!r}")
         self._filter = {}
@@ -264,14 +271,15 @@ class RunWriter(_HDF5Handle):
         particles = f.create_group("particles")
         for name, (trailing, dtype, unit) in _PARTICLE_LAYOUT.items():
             ds = particles.create_dataset(
-                name, shape=(0, n) + trailing, maxshape=(None, n) + trailing, dtype=dtype,
+                name, shape=(0, n) + trailing, maxshape=(None, n) + trailing,
+                dtype=self._float if dtype is np.float64 else dtype,
                 chunks=(1, n) + trailing, **self._filter,
             )
             ds.attrs["unit"] = unit
         contacts = f.create_group("contacts")
         index_dtype = np.int32 if n < 2**31 else np.int64
         for field, (name, unit) in _CONTACT_LAYOUT.items():
-            dtype = index_dtype if field in ("contact_i", "contact_j") else np.float64
+            dtype = index_dtype if field in ("contact_i", "contact_j") else self._float
             ds = contacts.create_dataset(
                 name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(_CONTACT_CHUNK_ROWS,),
                 **self._filter,
@@ -493,6 +501,9 @@ class Run(_HDF5Handle, _FrameSequence):
             data = {name: f["particles"][name][index] for name in PARTICLE_FIELDS}
             for field, (name, _unit) in _CONTACT_LAYOUT.items():
                 data[field] = f["contacts"][name][start:stop]
+            for name, value in data.items():  # float32 storage is read back as float64
+                if value.dtype == np.float32:
+                    data[name] = value.astype(np.float64)
         except (OSError, KeyError, ValueError) as exc:
             raise RunFileError(f"{self.path}: frame {index} cannot be read ({exc})") from None
         try:
@@ -590,3 +601,40 @@ def open_run(path, *, validate=True) -> Run:
         Metadata or frame index data are invalid.
     """
     return Run(path, validate=validate)
+
+
+def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, progress=False) -> str:
+    """Copy some frames of a run into a new run file, optionally stored as float32.
+
+    For bundling and archiving long runs: e.g. every frame of the steady-state window and every
+    fifth frame before it. The metadata is copied; ``provenance["subset_of"]`` records the source
+    file name, its frame count, the frames kept and the storage type.
+
+    Parameters
+    ----------
+    src, dst : path
+        Source run and file to write (refused if it exists, unless ``overwrite``).
+    frames : sequence of int
+        Frame indices of ``src`` to keep, increasing.
+    float_dtype : {"float64", "float32"}
+    progress : bool
+        Progress bar over frames.
+
+    Returns
+    -------
+    str : ``dst``
+    """
+    from tqdm.auto import tqdm
+
+    frames = np.asarray(frames, dtype=np.int64)
+    with open_run(src) as run:
+        if frames.size == 0 or (np.diff(frames) <= 0).any() or frames[0] < 0 or frames[-1] >= len(run):
+            raise ValidationError("frames", f"must be increasing indices in [0, {len(run)}) of {src}")
+        meta = RunMeta.from_dict(run.meta.to_dict())
+        meta.provenance = {**meta.provenance, "subset_of": {
+            "file": os.path.basename(os.fspath(src)), "frames_in_source": len(run),
+            "frames_kept": frames.tolist(), "float_dtype": float_dtype}}
+        with RunWriter(dst, meta, overwrite=overwrite, float_dtype=float_dtype) as writer:
+            for k in tqdm(frames, disable=not progress, unit="frame", desc="subset"):
+                writer.append(run[int(k)])
+    return os.fspath(dst)

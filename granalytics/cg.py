@@ -1,0 +1,244 @@
+"""Coarse-graining comparison: do runs of one system at CG factors α = 1, 2, 3 give the same
+granulation? The analogues of the paper's Figs 3–6 (mean granule volume, granule number, size
+distribution and yield) and a table of steady-state values, their deviations from the finest run,
+size-distribution distances and the measured CG speed-up.
+
+Every statistic is normalised by the run's own particle count and mean particle volume and the
+identification thresholds by the run's own γ and R, so runs at different α are comparable as they
+are (§3.1 of the paper: F_agg,CG = α²·F_agg,o, A_agg unchanged).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from .cohesion import DEFAULT_COHESION, check_cohesion
+from .errors import ParameterError
+from .io import open_run
+from .stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
+
+__all__ = ["compare_cg", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
+
+#: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
+PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
+
+#: steady-state metrics compared, with the paper's figure
+CG_METRICS = {
+    "mean_volume_norm": "Fig 3: ⟨V_g⟩/V_p",
+    "n_granules_norm": "Fig 4: N_g/N",
+    "yield_fraction": "Fig 6: yield",
+}
+
+
+@dataclass
+class CGComparison:
+    """Result of :func:`compare_cg`.
+
+    Attributes
+    ----------
+    runs : DataFrame
+        One row per run: ``run`` (label), ``path``, ``alpha``, ``n_particles``,
+        ``n_particles_original``, ``revolutions_last``, ``wall_time_s`` and
+        ``wall_time_per_simulated_s`` (from the run's provenance; NaN when it does not say).
+    timeseries : DataFrame
+        :func:`~granalytics.run_stats` rows of every run, with ``run`` and ``alpha``.
+    distributions : DataFrame
+        :func:`~granalytics.size_distribution` of the granule sizes pooled over the window, per
+        run, with ``run`` and ``alpha``.
+    table : DataFrame
+        One row per run: for each metric of :data:`CG_METRICS` ``<metric>_mean``, ``_std``
+        (over frames), ``_sem`` (per-revolution blocks) and ``_rel_dev`` (relative deviation of
+        the mean from the reference run's); ``ks_distance`` (Kolmogorov–Smirnov D between the
+        pooled granule sizes of the run and of the reference) and ``w1_log10_size``
+        (Wasserstein-1 distance of log10 sizes); ``n_frames``, ``n_granules_pooled``;
+        ``speedup`` (reference wall time per simulated second over this run's) and
+        ``paper_speedup`` (the paper's figure for the same pair of CG factors: 12× for CG2 and
+        32× over CG1, so 32/12 for CG3 over CG2); ``method``, ``cohesion``, ``window``.
+    sizes : dict
+        Run label -> pooled granule sizes in the window (int array).
+    reference : str
+        Label of the reference run (the smallest α).
+    window : (float, float)
+        Steady-state window [revolutions].
+    method, cohesion : str
+    params : dict
+        Identification parameters.
+    """
+
+    runs: pd.DataFrame
+    timeseries: pd.DataFrame
+    distributions: pd.DataFrame
+    table: pd.DataFrame
+    sizes: dict
+    reference: str
+    window: tuple
+    method: str
+    cohesion: str
+    params: dict = field(default_factory=dict)
+
+    @property
+    def description(self) -> str:
+        """One line naming the identification: method, thresholds, cohesion convention, window."""
+        shown = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.params.items())
+        return (f"{self.method} ({shown}), cohesion={self.cohesion}, "
+                f"window [{self.window[0]:g}, {self.window[1]:g}] rev")
+
+    def figures(self) -> dict:
+        """The four figures (matplotlib), keyed ``fig3_mean_volume``, ``fig4_granule_number``,
+        ``fig5_size_distribution``, ``fig6_yield``."""
+        from .plot import cg_figures
+
+        return cg_figures(self)
+
+    def save(self, out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
+        """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` and the four figures
+        (one file per format) into ``out_dir``; existing files are refused unless ``overwrite``.
+        Returns the written paths."""
+        import matplotlib.pyplot as plt
+
+        names = ["cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv"]
+        names += [f"{fig}.{ext}" for fig in ("fig3_mean_volume", "fig4_granule_number", "fig5_size_distribution",
+                                              "fig6_yield") for ext in formats]
+        paths = [os.path.join(out_dir, name) for name in names]
+        existing = [p for p in paths if os.path.exists(p)]
+        if existing and not overwrite:
+            raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace "
+                                 f"{len(existing)} existing output file(s))")
+        try:
+            os.makedirs(out_dir, exist_ok=True)
+            for table, path in zip((self.table, self.timeseries, self.distributions), paths):
+                _write_atomic(path, lambda tmp, t=table: t.to_csv(tmp, index=False))
+            written = paths[:3]
+            for name, fig in self.figures().items():
+                for ext in formats:
+                    path = os.path.join(out_dir, f"{name}.{ext}")
+                    _write_atomic(path, lambda tmp, f=fig, e=ext: f.savefig(tmp, dpi=150, format=e))
+                    written.append(path)
+                plt.close(fig)
+        except OSError as exc:
+            raise ParameterError(f"{out_dir}: cannot write the comparison ({exc})") from None
+        return written
+
+
+def _paper_speedup(alpha) -> float:
+    """The paper's speed-up of CG factor α over CG1 (1 for α = 1, NaN where it reports none)."""
+    return 1.0 if alpha == 1 else PAPER_SPEEDUP.get(float(alpha), math.nan)
+
+
+def _write_atomic(path, write):
+    tmp = f"{path}.tmp"
+    write(tmp)
+    os.replace(tmp, path)
+
+
+def _alpha_label(alpha, n_particles):
+    return f"CG{alpha:g} ({n_particles} particles)"
+
+
+def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", cohesion=DEFAULT_COHESION,
+               progress=False, **params) -> CGComparison:
+    """Compare runs of one system at several CG factors (paper §3.1, Figs 3–6).
+
+    Parameters
+    ----------
+    runs : sequence of paths (or :class:`~granalytics.Run`)
+        At least two runs; their metadata give α, the particle counts and the wall time.
+    labels : sequence of str, optional
+        Display names; default ``"CG<α> (<N> particles)"``.
+    window : (float, float), default (3, 6)
+        Steady-state window [revolutions]: statistics, block s.e.m., pooled size distributions.
+    method : str, default "gna"
+        Identification method (any of :data:`granalytics.identify.METHODS`).
+    cohesion : {"acting", "bridge"}, default "acting"
+        Which force is F_coh (:mod:`granalytics.cohesion`).
+    progress : bool
+        Progress bars over frames.
+    **params
+        Method parameters, e.g. ``c_agg=0.6, a_agg_deg=20`` (the paper's, and GNA's defaults).
+
+    Returns
+    -------
+    CGComparison
+    """
+    from scipy.stats import ks_2samp, wasserstein_distance
+
+    check_cohesion(cohesion)
+    runs = list(runs)
+    if len(runs) < 2:
+        raise ParameterError("compare_cg needs at least two runs")
+    if labels is not None and len(labels) != len(runs):
+        raise ParameterError(f"{len(labels)} labels for {len(runs)} runs")
+    lo, hi = (float(w) for w in window)
+    infos, series, dists, steady, sizes = [], [], [], {}, {}
+    for k, item in enumerate(runs):
+        run = open_run(item) if isinstance(item, (str, os.PathLike)) else item
+        try:
+            meta = run.meta
+            label = labels[k] if labels is not None else _alpha_label(meta.alpha, meta.n_particles)
+            if label in sizes:
+                raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels")
+            if len(run) == 0:
+                raise ParameterError(f"{run.path}: the run has no frames")
+            ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
+            table = steady_state(ts, window=(lo, hi))
+            revs = ts["revolutions"].to_numpy()
+            inside = (revs >= lo) & (revs <= hi)
+            pooled = np.concatenate([s for s, keep in zip(frame_sizes, inside) if keep] or [np.zeros(0, np.int64)])
+            provenance = meta.provenance
+            infos.append({
+                "run": label, "path": os.fspath(run.path), "alpha": meta.alpha, "n_particles": meta.n_particles,
+                "n_particles_original": meta.n_particles_original, "revolutions_last": float(revs[-1]),
+                "wall_time_s": float(provenance.get("wall_time_s", math.nan)),
+                "wall_time_per_simulated_s": float(provenance.get("wall_time_per_simulated_s", math.nan)),
+            })
+        finally:
+            if run is not item:
+                run.close()
+        ts.insert(0, "alpha", meta.alpha)
+        ts.insert(0, "run", label)
+        series.append(ts)
+        dist = size_distribution(pooled) if pooled.size else size_distribution(np.zeros(0, np.int64))
+        dist.insert(0, "alpha", meta.alpha)
+        dist.insert(0, "run", label)
+        dists.append(dist)
+        steady[label] = table
+        sizes[label] = pooled
+    info = pd.DataFrame(infos)
+    reference = info.loc[info["alpha"].idxmin(), "run"]
+    ref = steady[reference]
+    ref_wall = info.set_index("run").loc[reference, "wall_time_per_simulated_s"]
+    ref_alpha = info.set_index("run").loc[reference, "alpha"]
+    rows = []
+    for row in info.itertuples():
+        table = steady[row.run]
+        out = {"run": row.run, "alpha": row.alpha, "n_particles": row.n_particles}
+        for metric in CG_METRICS:
+            mean = table.loc[metric, "mean"]
+            out[f"{metric}_mean"] = mean
+            out[f"{metric}_std"] = table.loc[metric, "std"]
+            out[f"{metric}_sem"] = table.loc[metric, "sem"]
+            ref_mean = ref.loc[metric, "mean"]
+            out[f"{metric}_rel_dev"] = (mean - ref_mean) / ref_mean if ref_mean else math.nan
+        a, b = sizes[row.run], sizes[reference]
+        both = a.size and b.size
+        out["ks_distance"] = ks_2samp(a, b).statistic if both else math.nan
+        out["w1_log10_size"] = wasserstein_distance(np.log10(a), np.log10(b)) if both else math.nan
+        out["n_frames"] = int(table.loc["yield_fraction", "n_frames"])
+        out["n_granules_pooled"] = int(a.size)
+        out["wall_time_per_simulated_s"] = row.wall_time_per_simulated_s
+        out["speedup"] = ref_wall / row.wall_time_per_simulated_s
+        out["paper_speedup"] = _paper_speedup(row.alpha) / _paper_speedup(ref_alpha)
+        out["method"] = method
+        out["cohesion"] = cohesion
+        out["window"] = f"{lo:g}:{hi:g}"
+        rows.append(out)
+    return CGComparison(
+        runs=info, timeseries=pd.concat(series, ignore_index=True), distributions=pd.concat(dists, ignore_index=True),
+        table=pd.DataFrame(rows), sizes=sizes, reference=reference, window=(lo, hi), method=method,
+        cohesion=cohesion, params=dict(params),
+    )
