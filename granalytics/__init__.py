@@ -11,6 +11,9 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :func:`steady_state`, :func:`size_distribution`
 - threshold sensitivity and method comparison: :func:`sensitivity`, :func:`sensitivity_summary`,
   :func:`compare_methods`
+- cohesion conventions (which force is F_coh): :func:`cohesive_force`, :data:`COHESION_CONVENTIONS`
+- coarse-graining comparison (paper Figs 3–6): :func:`compare_cg`, :class:`CGComparison`
+- run subsets (fewer frames, float32): :func:`subset_run`
 - errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
   :class:`ParameterError`
 """
@@ -18,6 +21,8 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 __version__ = "0.1.0"
 
 from .errors import GranalyticsError, ParameterError, RunFileError, ValidationError
+from .cg import CGComparison, compare_cg
+from .cohesion import COHESION_CONVENTIONS, cohesive_force
 from .compare import compare_methods
 from .identify import (
     CommunityDetection,
@@ -27,7 +32,7 @@ from .identify import (
     VirtualSieve,
     identify,
 )
-from .io import Run, RunSlice, RunWriter, open_run
+from .io import Run, RunSlice, RunWriter, open_run, subset_run
 from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
 from .stats import frame_stats, granule_table, run_stats, size_distribution, steady_state
@@ -35,10 +40,11 @@ from .stats import frame_stats, granule_table, run_stats, size_distribution, ste
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
-    "RunWriter", "open_run", "Run", "RunSlice",
+    "RunWriter", "open_run", "Run", "RunSlice", "subset_run",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection",
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
+    "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",
     "GranalyticsError", "ValidationError", "RunFileError", "ParameterError",
 ]

@@ -182,20 +182,22 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
 
 def _lab(n_particles):
     """A smaller drum with the paper's physics: same fill (about 25 % at packing 0.6), axial
-    length L = 0.6 R_d (the paper's drum has 0.45; longer here so that CG3 particles still span
-    four diameters), spray radius at the paper's r_s/R_d = 0.63."""
+    length L = 0.7 R_d (the paper's drum has 0.45; longer here so that the largest CG3 particles,
+    5.4 mm, still span more than three diameters), spray radius at the paper's r_s/R_d = 0.63."""
+    aspect = 0.7
     bed_volume = n_particles * math.pi * 1.5e-3**3 / 6 / 0.6
-    radius = (bed_volume / (0.25 * math.pi * 0.6)) ** (1 / 3)
-    return SimParams(n_particles=n_particles, drum_radius=radius, drum_length=0.6 * radius, spray_radius=0.63 * radius)
+    radius = (bed_volume / (0.25 * math.pi * aspect)) ** (1 / 3)
+    return SimParams(n_particles=n_particles, drum_radius=radius, drum_length=aspect * radius, spray_radius=0.63 * radius)
 
 
 #: original (α = 1) parameter sets; the CG presets derive from them with cg_scale.
 _ORIGINALS = {
     "paper": SimParams(n_particles=120_000, drum_radius=0.1, drum_length=0.045, spray_radius=0.063),
-    # 10 000 particles: lab-cg1 runs 3 revolutions (3.1e10 particle-steps) in about an hour on
-    # both cores of the 2-core dev machine, so that the whole CG1/CG2/CG3 comparison can be made
-    # in one sitting; lab-cg2 = 1 250, lab-cg3 = 370 particles.
-    "lab": _lab(10_000),
+    # 3 000 particles: lab-cg1 runs 3 revolutions (9.4e9 particle-steps) in under two hours on
+    # one core of the 2-core dev machine (measured 1.5e6 particle-steps/s per core in the wet drum
+    # with a second run on the other core), so that the whole CG1/CG2/CG3 comparison fits one
+    # sitting beside the paper-drum runs; lab-cg2 = 375, lab-cg3 = 111 particles.
+    "lab": _lab(3_000),
 }
 
 PRESETS = tuple(f"{base}-cg{a}" for base in _ORIGINALS for a in (1, 2, 3))
@@ -216,6 +218,6 @@ def preset_original(name: str) -> tuple[SimParams, float]:
 
 def preset(name: str) -> SimParams:
     """Parameters of a named preset: ``paper-cg1|2|3`` (120 000 particles at α = 1, R_d = 0.1 m)
-    or ``lab-cg1|2|3`` (10 000 particles at α = 1 in a drum scaled to the same fill)."""
+    or ``lab-cg1|2|3`` (3 000 particles at α = 1 in a drum scaled to the same fill)."""
     original, alpha = preset_original(name)
     return original if alpha == 1 else cg_scale(original, alpha)

@@ -1,0 +1,131 @@
+"""CG comparison (paper §3.1, Figs 3–6) and run subsets."""
+
+import math
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+import granalytics as ga
+from granalytics.cg import compare_cg
+from granalytics.cli import main
+from granalytics.errors import ParameterError
+from granalytics.io import RunWriter, subset_run
+from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+
+
+def write_run(path, n_particles, alpha, final_fraction=0.55, wall_per_sim_s=None, revolutions=4.0, seed=0):
+    """A physics-free run with a granulation curve, and the wall time a simulator would record."""
+    meta = synthetic_meta(n_particles, alpha)
+    period = 2 * math.pi / meta.drum_omega
+    with RunWriter(path, meta) as writer:
+        for k in range(int(revolutions * 10) + 1):
+            rev = k / 10
+            writer.append(synthetic_snapshot(
+                n_particles, granulated_fraction=final_fraction * (1 - math.exp(-rev / 0.7)), time=rev * period,
+                step=k * 100, alpha=alpha, seed=seed * 1000 + k, meta=meta))
+        if wall_per_sim_s is not None:
+            writer.update_provenance(wall_time_per_simulated_s=wall_per_sim_s, wall_time_s=wall_per_sim_s * revolutions * period)
+    return path
+
+
+@pytest.fixture(scope="module")
+def cg_runs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cg")
+    return [write_run(d / "cg1.h5", 2700, 1.0, wall_per_sim_s=40.0, seed=1),
+            write_run(d / "cg3.h5", 300, 3.0, wall_per_sim_s=2.0, seed=2),
+            write_run(d / "low.h5", 300, 3.0, final_fraction=0.3, wall_per_sim_s=2.0, seed=3)]
+
+
+def test_equal_granulation_agrees_and_a_different_one_is_flagged(cg_runs):
+    cg1, cg3, low = cg_runs
+    comparison = compare_cg([cg3, cg1, low], labels=["cg3", "cg1", "low"], window=(2, 4), c_agg=0.6, a_agg_deg=20)
+    table = comparison.table.set_index("run")
+    assert comparison.reference == "cg1"  # the smallest α, wherever it is listed
+    assert table.loc["cg1", "yield_fraction_rel_dev"] == 0 and table.loc["cg1", "ks_distance"] == 0
+    assert abs(table.loc["cg3", "yield_fraction_rel_dev"]) < 0.1
+    assert table.loc["low", "yield_fraction_rel_dev"] < -0.3  # 0.3 planted against 0.55
+    # yields are the steady-state means of the time series in the window
+    ts = comparison.timeseries
+    inside = ts[(ts["run"] == "cg3") & (ts["revolutions"] >= 2) & (ts["revolutions"] <= 4)]
+    assert table.loc["cg3", "yield_fraction_mean"] == pytest.approx(inside["yield_fraction"].mean())
+    assert table.loc["cg3", "n_frames"] == len(inside)
+    # the KS distance is that of the pooled sizes
+    from scipy.stats import ks_2samp
+
+    assert table.loc["low", "ks_distance"] == pytest.approx(ks_2samp(comparison.sizes["low"], comparison.sizes["cg1"]).statistic)
+    # speed-up from the wall time per simulated second each run recorded
+    assert table.loc["cg3", "speedup"] == pytest.approx(20.0) and table.loc["cg3", "paper_speedup"] == 32
+    assert (table["cohesion"] == "acting").all() and (table["method"] == "gna").all()
+    assert set(comparison.distributions["run"]) == {"cg1", "cg3", "low"}
+
+
+def test_runs_without_wall_time_have_no_speedup_and_default_labels(tmp_path, cg_runs):
+    plain = write_run(tmp_path / "plain.h5", 300, 3.0)
+    comparison = compare_cg([cg_runs[0], plain], window=(2, 4), cohesion="bridge")
+    assert list(comparison.table["run"]) == ["CG1 (2700 particles)", "CG3 (300 particles)"]
+    assert math.isnan(comparison.table["speedup"].iloc[1])
+    assert (comparison.table["cohesion"] == "bridge").all() and "cohesion=bridge" in comparison.description
+
+
+def test_bad_requests_are_refused(cg_runs):
+    with pytest.raises(ParameterError, match="at least two"):
+        compare_cg(cg_runs[:1])
+    with pytest.raises(ParameterError, match="labels"):
+        compare_cg(cg_runs[:2], labels=["a"])
+    with pytest.raises(ParameterError, match="labelled"):
+        compare_cg(cg_runs[:2], labels=["a", "a"])
+    with pytest.raises(ParameterError, match="no frame in the window"):
+        compare_cg(cg_runs[:2], window=(7, 8))
+
+
+def test_save_writes_tables_and_four_figures_and_never_overwrites(tmp_path, cg_runs):
+    comparison = compare_cg(cg_runs[:2], window=(2, 4))
+    written = comparison.save(tmp_path / "out")
+    names = sorted(p.rsplit("/", 1)[-1] for p in map(str, written))
+    assert names == sorted(["cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv"]
+                           + [f"{f}.{e}" for f in ("fig3_mean_volume", "fig4_granule_number",
+                                                    "fig5_size_distribution", "fig6_yield") for e in ("png", "pdf")])
+    table = pd.read_csv(tmp_path / "out" / "cg_table.csv")
+    np.testing.assert_allclose(table["yield_fraction_mean"], comparison.table["yield_fraction_mean"])
+    assert (tmp_path / "out" / "fig5_size_distribution.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (tmp_path / "out" / "fig6_yield.pdf").read_bytes()[:4] == b"%PDF"
+    with pytest.raises(ParameterError, match="exists"):
+        comparison.save(tmp_path / "out")
+    comparison.save(tmp_path / "out", overwrite=True)
+
+
+def test_compare_cg_cli(tmp_path, cg_runs, capsys):
+    out = tmp_path / "cli"
+    args = ["compare-cg", str(cg_runs[0]), str(cg_runs[1]), "--out", str(out), "--window", "2:4", "--quiet"]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert "cohesion=acting" in printed and "CG3 (300 particles)" in printed and "20.0×" in printed
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert "exists" in err and "\n" not in err
+    assert main(args + ["--overwrite", "--cohesion", "bridge"]) == 0
+    assert "cohesion=bridge" in capsys.readouterr().out
+    assert main(["compare-cg", str(cg_runs[0]), "--out", str(out), "--quiet"]) == 2
+
+
+def test_subset_keeps_the_window_and_every_nth_frame_as_float32(tmp_path, cg_runs, capsys):
+    src = cg_runs[0]
+    dst = tmp_path / "sub.h5"
+    assert main(["subset", str(src), "--out", str(dst), "--full-window", "2:4", "--every", "4", "--float32", "--quiet"]) == 0
+    with ga.open_run(src) as full, ga.open_run(dst) as sub:
+        revs = full.revolutions
+        expected = [k for k in range(len(full)) if k % 4 == 0 or 2 <= revs[k] <= 4]
+        assert sub.meta.provenance["subset_of"]["frames_kept"] == expected
+        np.testing.assert_array_equal(sub.times, full.times[expected])
+        a, b = full[expected[-1]], sub[len(sub) - 1]
+        assert b.position.dtype == np.float64
+        np.testing.assert_allclose(b.position, a.position, rtol=1e-7)
+        np.testing.assert_array_equal(b.contact_i, a.contact_i)
+    with h5py.File(dst) as f:
+        assert f["particles/position"].dtype == np.float32 and f["frames/time"].dtype == np.float64
+    assert main(["subset", str(src), "--out", str(dst), "--quiet"]) == 2  # exists
+    assert main(["subset", str(src), "--out", str(src), "--overwrite", "--quiet"]) == 2  # its own input
+    with pytest.raises(ga.ValidationError, match="increasing"):
+        subset_run(src, tmp_path / "bad.h5", [3, 1])
