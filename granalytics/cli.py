@@ -134,42 +134,58 @@ def cmd_info(args):
 
 def cmd_identify(args):
     import h5py
-    from tqdm.auto import tqdm
 
     identifier = _identifier(args)
+    _check_new_file(args.out, args.overwrite)
+    tmp = f"{args.out}.tmp"  # renamed into place only when every frame is written
     with open_run(args.run) as run:
         frames = _frames(run, args)
         n_frames, n = len(frames), run.n_particles
         try:
-            out = h5py.File(args.out, "w")
+            out = h5py.File(tmp, "w")
         except OSError as exc:
             raise GranalyticsError(f"{args.out}: cannot create labels file ({exc})") from None
-        with out:
-            out.attrs["format"] = "granalytics-labels"
-            out.attrs["run"] = os.path.abspath(args.run)
-            out.attrs["method"] = identifier.method
-            out.attrs["params"] = json.dumps(identifier.params())
-            out["frame_index"] = frames.frame_indices
-            out["time"] = frames.times
-            out["time"].attrs["unit"] = "s"
-            labels = out.create_dataset("labels", (n_frames, n), dtype=np.int32, chunks=(1, n), compression="gzip", shuffle=True)
-            ids = out.create_dataset("ids", (n_frames, n), dtype=np.int64, chunks=(1, n), compression="gzip", shuffle=True)
-            n_granules = out.create_dataset("n_granules", (n_frames,), dtype=np.int64)
-            for k, snapshot in enumerate(tqdm(frames, disable=not _progress(args), unit="frame", desc="identify")):
-                result = identifier.identify(snapshot)
-                labels[k] = result.labels
-                ids[k] = snapshot.ids
-                n_granules[k] = result.n_granules
-            counts = n_granules[:]
+        try:
+            _write_labels(out, args, frames, identifier, n_frames, n)
+            counts = out["n_granules"][:]
+        except BaseException:
+            out.close()
+            os.unlink(tmp)
+            raise
+        out.close()
+    os.replace(tmp, args.out)
     print(f"wrote {args.out}: labels of {n} particles in {n_frames} frames "
           f"(granules per frame: min {counts.min()}, mean {counts.mean():.1f}, max {counts.max()})")
     return 0
 
 
+def _write_labels(out, args, frames, identifier, n_frames, n):
+    """Fill an open labels file: attributes, frame index and time, labels and ids per frame."""
+    from tqdm.auto import tqdm
+
+    out.attrs["format"] = "granalytics-labels"
+    out.attrs["run"] = os.path.abspath(args.run)
+    out.attrs["method"] = identifier.method
+    out.attrs["params"] = json.dumps(identifier.params())
+    out["frame_index"] = frames.frame_indices
+    out["time"] = frames.times
+    out["time"].attrs["unit"] = "s"
+    chunked = dict(chunks=(1, n), compression="gzip", shuffle=True)
+    labels = out.create_dataset("labels", (n_frames, n), dtype=np.int32, **chunked)
+    ids = out.create_dataset("ids", (n_frames, n), dtype=np.int64, **chunked)
+    n_granules = out.create_dataset("n_granules", (n_frames,), dtype=np.int64)
+    for k, snapshot in enumerate(tqdm(frames, disable=not _progress(args), unit="frame", desc="identify")):
+        result = identifier.identify(snapshot)
+        labels[k] = result.labels
+        ids[k] = snapshot.ids
+        n_granules[k] = result.n_granules
+
+
 def cmd_stats(args):
     import pandas as pd
 
-    _check_table_paths(args.out, args.sizes_out)
+    _check_outputs(args, tables=(args.out, args.sizes_out), others=(args.plot,))
+    by, window = ("time_s", args.window_time) if args.window_time is not None else ("revolutions", args.window)
     with open_run(args.run) as run:
         frames = _frames(run, args)
         ts, sizes = run_stats(
@@ -180,8 +196,8 @@ def cmd_stats(args):
     if args.out:
         _write_table(ts, args.out)
         print(f"wrote time series ({len(ts)} frames) to {args.out}")
-    steady = steady_state(ts, window=args.window)
-    in_window = (ts["revolutions"] >= args.window[0]) & (ts["revolutions"] <= args.window[1])
+    steady = steady_state(ts, window=window, by=by)
+    in_window = (ts[by] >= window[0]) & (ts[by] <= window[1])
     dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
     if args.sizes_out:
         _write_table(dist, args.sizes_out)
@@ -189,10 +205,10 @@ def cmd_stats(args):
     if args.plot:
         from .plot import stats_figure
 
-        _save(stats_figure(ts, dist, window=args.window,
+        _save(stats_figure(ts, dist, window=window, x=by,
                            title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}"), args.plot)
-    lo, hi = args.window
-    print(f"steady state over revolutions [{lo:g}, {hi:g}] "
+    lo, hi = window
+    print(f"steady state over {'revolutions' if by == 'revolutions' else 'time [s]'} [{lo:g}, {hi:g}] "
           f"(C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°, cohesion={args.cohesion}):")
     with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
         print(steady.to_string())
@@ -212,7 +228,7 @@ def _table_format(path):
 def cmd_sensitivity(args):
     from .sensitivity import sensitivity, sensitivity_summary
 
-    _check_table_paths(args.out, args.frames_out)
+    _check_outputs(args, tables=(args.out, args.frames_out), others=(args.plot,))
     if (args.c_agg < 0).any():
         raise ParameterError(f"--c-agg values must be >= 0, got min {args.c_agg.min():g}")
     bad = [a for a in args.a_agg_deg if not 0 < a <= 180]
@@ -249,7 +265,7 @@ def cmd_sensitivity(args):
 def cmd_compare(args):
     from .compare import compare_methods
 
-    _check_table_paths(args.out, args.stats_out)
+    _check_outputs(args, tables=(args.out, args.stats_out), others=(args.plot,))
     methods = {name: (name, {}) for name in args.methods}
     for method, param, value in args.set or []:
         if method not in methods:
@@ -341,6 +357,11 @@ def cmd_subset(args):
 def cmd_export_vtk(args):
     from .io.vtk import export_vtk
 
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise ParameterError(f"{args.out}: exists and is not a folder")
+    pvd_path = os.path.join(args.out, "run.pvd")
+    if os.path.exists(pvd_path) and not args.overwrite:
+        raise ParameterError(f"{pvd_path}: exists (pass --overwrite to replace the export in {args.out})")
     with open_run(args.run) as run:
         frames = _frames(run, args)
         pvd = export_vtk(frames, args.out, "gna", progress=not args.quiet, c_agg=args.c_agg,
@@ -377,11 +398,34 @@ def _save(fig, path):
     print(f"wrote plot to {path}")
 
 
+def _check_new_file(path, overwrite):
+    """Refuse to replace an existing file unless ``--overwrite``; refuse a folder always."""
+    if os.path.isdir(path):
+        raise ParameterError(f"{path}: is a folder, expected a file name")
+    if os.path.exists(path) and not overwrite:
+        raise ParameterError(f"{path}: file exists (pass --overwrite to replace it)")
+
+
 def _check_table_paths(*paths):
     """Fail before any work if an output table has an unknown format."""
     for path in paths:
         if path:
             _table_format(path)
+
+
+def _check_outputs(args, tables=(), others=()):
+    """Before any work: output tables have a known format, no two outputs are the same file, none
+    is the input run, and none exists unless ``--overwrite``."""
+    paths = [p for p in (*tables, *others) if p]
+    seen = {os.path.abspath(args.run): "the input run"}
+    for path in paths:
+        key = os.path.abspath(path)
+        if key in seen:
+            raise ParameterError(f"{path}: the same file is given twice ({seen[key]} and an output)")
+        seen[key] = path
+    _check_table_paths(*tables)
+    for path in paths:
+        _check_new_file(path, args.overwrite)
 
 
 def _write_table(table, path):
@@ -408,6 +452,7 @@ def build_parser():
                        description="Identify granules in every frame and write the labels (−1 = free particle) to an HDF5 file.")
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--out", required=True, help="labels file to write (.h5): datasets labels, ids, time, frame_index, n_granules")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing labels file")
     _add_gna_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_identify)
@@ -420,6 +465,9 @@ def build_parser():
     p.add_argument("--out", help="time series table to write (.csv or .parquet)")
     p.add_argument("--sizes-out", help="particles-per-granule distribution over the window (.csv or .parquet)")
     p.add_argument("--plot", help="figure of the time series and size distribution (.png, .pdf, .svg)")
+    p.add_argument("--window-time", type=_interval, metavar="T0:T1",
+                   help="steady-state window in seconds instead of revolutions (any run, also without a rotating drum)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     _add_gna_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_stats)
@@ -440,6 +488,7 @@ def build_parser():
     p.add_argument("--out", help="summary table over the window (.csv or .parquet)")
     p.add_argument("--frames-out", help="per-frame table (.csv or .parquet)")
     p.add_argument("--plot", help="heatmaps and line plots (.png, .pdf, .svg)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sensitivity)
 
@@ -457,6 +506,7 @@ def build_parser():
     p.add_argument("--out", help="pairwise comparison per frame (.csv or .parquet)")
     p.add_argument("--stats-out", help="statistics per frame and method (.csv or .parquet)")
     p.add_argument("--plot", help="figure (.png, .pdf, .svg)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
 
@@ -499,6 +549,7 @@ def build_parser():
                                    "(kept by GNA or not, F_coh, bridge volume, gap) per frame, plus a .pvd time series.")
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--overwrite", action="store_true", help="replace an earlier export of the same run in the folder")
     _add_gna_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_export_vtk)
@@ -529,7 +580,7 @@ def main(argv=None):
     matplotlib.use("Agg")  # the command line only writes figures to files
     try:
         return args.func(args)
-    except GranalyticsError as exc:
+    except (GranalyticsError, OSError, ValueError, OverflowError) as exc:  # bad input or environment: one line
         print(f"granalytics: error: {exc}", file=sys.stderr)
         return 2
 

@@ -18,7 +18,7 @@ _TIMESERIES = (
 )
 
 
-def plot_timeseries(ts, column, ax=None, window=None, label=None, ylabel=None):
+def plot_timeseries(ts, column, ax=None, window=None, label=None, ylabel=None, x="revolutions"):
     """One metric of a :func:`~granalytics.run_stats` time series against revolutions.
 
     Parameters
@@ -26,15 +26,17 @@ def plot_timeseries(ts, column, ax=None, window=None, label=None, ylabel=None):
     ts : DataFrame
         Needs ``revolutions`` and ``column``.
     window : (float, float), optional
-        Steady-state window [revolutions], shaded.
+        Steady-state window (in the unit of ``x``), shaded.
+    x : {"revolutions", "time_s"}, default "revolutions"
+        Abscissa.
     """
     import matplotlib.pyplot as plt
 
     ax = ax if ax is not None else plt.gca()
-    ax.plot(ts["revolutions"], ts[column], marker=".", ms=3, lw=1, label=label)
+    ax.plot(ts[x], ts[column], marker=".", ms=3, lw=1, label=label)
     if window is not None:
         ax.axvspan(*window, color="0.9", zorder=0)
-    ax.set_xlabel("revolutions t·Ω/2π")
+    ax.set_xlabel("revolutions t·Ω/2π" if x == "revolutions" else "time [s]")
     ax.set_ylabel(ylabel or column)
     return ax
 
@@ -54,18 +56,19 @@ def plot_size_distribution(dist, ax=None, label=None):
     return ax
 
 
-def stats_figure(ts, dist=None, window=None, title=None):
+def stats_figure(ts, dist=None, window=None, title=None, x="revolutions"):
     """Figure with the time series of granule number, mean volume, yield and the size distribution."""
     import matplotlib.pyplot as plt
 
     n = len(_TIMESERIES) + (dist is not None)
     fig, axes = plt.subplots(1, n, figsize=(4 * n, 3.4), layout="constrained")
     for ax, (column, ylabel) in zip(np.atleast_1d(axes), _TIMESERIES):
-        plot_timeseries(ts, column, ax=ax, window=window, ylabel=ylabel)
+        plot_timeseries(ts, column, ax=ax, window=window, ylabel=ylabel, x=x)
     if dist is not None:
         plot_size_distribution(dist, ax=axes[-1])
         if window is not None:
-            axes[-1].set_title(f"revolutions [{window[0]:g}, {window[1]:g}]", fontsize=9)
+            unit = "revolutions" if x == "revolutions" else "t [s]"
+            axes[-1].set_title(f"{unit} [{window[0]:g}, {window[1]:g}]", fontsize=9)
     if title:
         fig.suptitle(title)
     return fig

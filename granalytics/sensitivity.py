@@ -20,7 +20,8 @@ from tqdm.auto import tqdm
 from . import _kernels
 from .cohesion import DEFAULT_COHESION, check_cohesion
 from .errors import ParameterError
-from .identify.common import check_angle, co_moving, contact_strength
+from .contacts import check_angle, co_moving, contact_strength
+from .identify.common import check_c_agg
 
 __all__ = ["sensitivity", "sensitivity_summary"]
 
@@ -75,8 +76,9 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
         ``revolutions``, ``cohesion``, ``c_agg``, ``a_agg_deg``, ``n_granules``, ``n_granules_norm``,
         ``yield_fraction``, ``mean_volume_norm`` (definitions of :func:`~granalytics.frame_stats`).
     """
-    c = np.asarray(c_agg, dtype=float).ravel()
-    if c.size == 0 or not (np.isfinite(c).all() and (c >= 0).all()):
+    values = c_agg.tolist() if isinstance(c_agg, np.ndarray) else list(c_agg) if isinstance(c_agg, (list, tuple)) else [c_agg]
+    c = np.array([check_c_agg(v) for v in values], dtype=float)
+    if c.size == 0:
         raise ParameterError(f"c_agg must be a non-empty list of numbers >= 0, got {c_agg!r}")
     a_list = [check_angle(a) for a in np.atleast_1d(a_agg_deg)]
     if not a_list:

@@ -14,6 +14,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from .errors import ParameterError
+from .granules import granule_table
 from .identify import make_identifier
 from .identify.result import IdentificationResult
 from .snapshot import Snapshot
@@ -27,68 +28,6 @@ __all__ = [
 DEFAULT_WINDOW_REV = (3.0, 6.0)
 
 _STEADY_COLUMNS = ("n_granules_norm", "mean_volume_norm", "yield_fraction", "mean_granule_size")
-
-
-def granule_table(snapshot: Snapshot, labels) -> pd.DataFrame:
-    """One row per granule.
-
-    Parameters
-    ----------
-    snapshot : Snapshot
-    labels : (N,) int array
-        Granule labels 0…G−1, −1 for free particles.
-
-    Returns
-    -------
-    DataFrame indexed by ``granule``, columns:
-
-    - ``n_particles``: particle count;
-    - ``volume_m3``: sum of particle volumes [m³];
-    - ``com_x_m``, ``com_y_m``, ``com_z_m``: centre of mass [m] (uniform density);
-    - ``radius_of_gyration_m``: mass-weighted RMS distance of particle centres from the centre
-      of mass [m] (particles as point masses);
-    - ``film_volume_m3``: liquid in the members' films [m³];
-    - ``bridge_volume_m3``: liquid in bridges with both ends in the granule [m³];
-    - ``liquid_volume_m3``: film + bridge liquid [m³];
-    - ``liquid_solid_ratio``: liquid volume / solid volume.
-    """
-    labels = np.asarray(labels)
-    if labels.shape != (snapshot.n_particles,):
-        raise ParameterError(f"labels must have shape ({snapshot.n_particles},), got {labels.shape}")
-    g = int(labels.max()) + 1 if labels.size else 0
-    member = labels >= 0
-    lab = labels[member]
-    vol = snapshot.particle_volume[member]
-    pos = snapshot.position[member]
-    def total(weights, which=lab):
-        return np.bincount(which, weights=weights, minlength=g).astype(np.float64, copy=False)
-
-    count = np.bincount(lab, minlength=g)
-    volume = total(vol)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        com = np.column_stack([total(vol * pos[:, d]) for d in range(3)]).reshape(g, 3) / volume[:, None]
-        d2 = ((pos - com[lab]) ** 2).sum(axis=1)
-        rg = np.sqrt(total(vol * d2) / volume)
-    film = total(snapshot.film_volume[member])
-    li, lj = labels[snapshot.contact_i], labels[snapshot.contact_j]
-    internal = (li >= 0) & (li == lj)
-    bridge = total(snapshot.bridge_volume[internal], li[internal])
-    table = pd.DataFrame(
-        {
-            "n_particles": count,
-            "volume_m3": volume,
-            "com_x_m": com[:, 0],
-            "com_y_m": com[:, 1],
-            "com_z_m": com[:, 2],
-            "radius_of_gyration_m": rg,
-            "film_volume_m3": film,
-            "bridge_volume_m3": bridge,
-            "liquid_volume_m3": film + bridge,
-            "liquid_solid_ratio": (film + bridge) / volume,
-        }
-    )
-    table.index.name = "granule"
-    return table
 
 
 def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFrame:
@@ -180,40 +119,57 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, **par
     return (table, sizes) if return_sizes else table
 
 
-def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS) -> pd.DataFrame:
-    """Steady-state averages over a revolution window.
+def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS, *,
+                 by="revolutions", n_blocks=None) -> pd.DataFrame:
+    """Steady-state averages over a window of revolutions (default) or of time.
 
     Parameters
     ----------
     timeseries : DataFrame
-        Output of :func:`run_stats` (needs a ``revolutions`` column).
+        Output of :func:`run_stats` (needs the ``by`` column).
     window : (float, float), default (3, 6)
-        Closed interval of revolutions.
+        Closed interval, in revolutions, or in seconds with ``by="time_s"``.
     columns : sequence of str
         Metrics to average.
+    by : {"revolutions", "time_s"}, default "revolutions"
+        ``"time_s"`` for runs without drum rotation (static beds, hoppers).
+    n_blocks : int, optional
+        Blocks for the standard error. Default: one per revolution (``by="revolutions"``) or 5
+        equal blocks (``by="time_s"``).
 
     Returns
     -------
     DataFrame indexed by metric with columns ``mean``, ``std`` (over frames), ``sem`` (standard
-    error from per-revolution block means — blocks [lo, lo+1), [lo+1, lo+2), …, the window's
-    closing edge joining the last block — NaN with fewer than two blocks), ``n_frames`` (frames
-    in the window with a finite value), ``n_blocks``.
+    error from block means — by default blocks of one revolution [lo, lo+1), [lo+1, lo+2), …,
+    the window's closing edge joining the last block — NaN with fewer than two blocks),
+    ``n_frames`` (frames in the window with a finite value), ``n_blocks``.
     """
     lo, hi = (float(w) for w in window)
     if not lo <= hi:
         raise ParameterError(f"window [{lo}, {hi}] is empty")
-    revs = timeseries["revolutions"].to_numpy(dtype=float)
-    if np.isnan(revs).all():
-        raise ParameterError("the run has no drum rotation (Ω = 0): revolution windows are undefined")
-    inside = timeseries[(revs >= lo) & (revs <= hi)]
+    if by not in ("revolutions", "time_s"):
+        raise ParameterError(f"by must be 'revolutions' or 'time_s', got {by!r}")
+    unit = "revolutions" if by == "revolutions" else "s"
+    axis = timeseries[by].to_numpy(dtype=float)
+    if np.isnan(axis).all():
+        raise ParameterError("the run has no drum rotation (Ω = 0): revolution windows are undefined; "
+                             "use a time window (--window-time T0:T1 in seconds)")
+    inside = timeseries[(axis >= lo) & (axis <= hi)]
     if inside.empty:
         raise ParameterError(
-            f"no frame in the window [{lo:g}, {hi:g}] revolutions; the run covers "
-            f"[{np.nanmin(revs):.3g}, {np.nanmax(revs):.3g}]"
+            f"no frame in the window [{lo:g}, {hi:g}] {unit}; the run covers "
+            f"[{np.nanmin(axis):.3g}, {np.nanmax(axis):.3g}]"
         )
-    # one block per revolution from the window start; the closing edge joins the last block
-    n_blocks = max(1, math.ceil(hi - lo))
-    block = np.minimum(np.floor(inside["revolutions"].to_numpy() - lo), n_blocks - 1).astype(int)
+    if by == "revolutions" and n_blocks is None:
+        n_blocks, width = max(1, math.ceil(hi - lo)), 1.0  # one block per revolution
+    else:
+        n_blocks = 5 if n_blocks is None else int(n_blocks)
+        if n_blocks < 1:
+            raise ParameterError(f"n_blocks must be >= 1, got {n_blocks}")
+        width = (hi - lo) / n_blocks
+    # blocks from the window start; the closing edge joins the last block
+    position = (inside[by].to_numpy() - lo) / width if width > 0 else np.zeros(len(inside))
+    block = np.minimum(np.floor(position), n_blocks - 1).astype(int)
     out = {}
     for col in columns:
         values = inside[col].to_numpy(dtype=float)

@@ -12,7 +12,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from granalytics.identify import BACKENDS, CommunityDetection, DBSCANIdentifier, GraphNetworkAnalysis, VirtualSieve
+from granalytics.identify import (BACKENDS, CommunityDetection, CustomEdges, DBSCANIdentifier, GraphNetworkAnalysis,
+                                  VirtualSieve)
 from granalytics.snapshot import Snapshot
 from granalytics.synthetic import synthetic_snapshot
 
@@ -29,6 +30,9 @@ IDENTIFIERS = {
     "sieve-gna": (lambda strictness: VirtualSieve(connect="gna", c_agg=0.3 + 0.6 * strictness), True),
     # Leiden on all cohesive co-moving contacts, communities split by C_agg: nested in C_agg
     "community": (lambda strictness: CommunityDetection(c_agg=0.3 + 0.6 * strictness, a_agg_deg=20.0), True),
+    # a user criterion: GNA's, written out
+    "custom": (lambda strictness: CustomEdges(
+        f"f_norm >= {0.3 + 0.6 * strictness!r} and (angle_v_deg < 20 or angle_w_deg < 20)"), True),
 }
 
 

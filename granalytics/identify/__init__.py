@@ -7,6 +7,7 @@ returning an :class:`IdentificationResult`; :func:`identify` is the functional s
 from __future__ import annotations
 
 from ..errors import ParameterError
+from .common import Identifier
 from .community import CommunityDetection
 from .custom import CustomEdges
 from .dbscan import DBSCANIdentifier
@@ -15,7 +16,7 @@ from .result import IdentificationResult
 from .sieve import VirtualSieve, sieve_analysis
 
 __all__ = [
-    "identify", "make_identifier", "METHODS", "BACKENDS", "IdentificationResult",
+    "identify", "make_identifier", "METHODS", "BACKENDS", "IdentificationResult", "Identifier",
     "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "sieve_analysis",
 ]
 

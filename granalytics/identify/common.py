@@ -1,66 +1,60 @@
-"""Pieces shared by the identification methods: the system's γ and mean radius, the
-normalised capillary force f = F_coh/(2πγR) and the co-motion test of every contact."""
+"""Pieces shared by the identification methods: the :class:`Identifier` base class (parameters
+from the constructor, ``params()``, ``repr``), one validation of the thresholds C_agg and A_agg,
+and canonical labels. Per-contact quantities (γ, R, f = F_coh/(2πγR), co-motion) live in
+:mod:`granalytics.contacts`, below this package."""
 
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
 
 from .. import _kernels
-from ..cohesion import DEFAULT_COHESION, cohesive_force
+from ..contacts import check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
 from ..errors import ParameterError
-from ..snapshot import Snapshot
+
+__all__ = ["Identifier", "check_c_agg", "check_angle", "check_radius_mode", "co_moving", "contact_strength",
+           "mean_radius", "surface_tension", "labels_from_clusters"]
 
 
-def surface_tension(snapshot: Snapshot, override=None) -> float:
-    """γ [N/m]: ``override`` if given, else the run metadata's."""
-    gamma = override
-    if gamma is None:
-        if snapshot.meta is None:
-            raise ParameterError("the snapshot has no run metadata: pass surface_tension= (N/m)")
-        gamma = snapshot.meta.surface_tension
-    gamma = float(gamma)
-    if not (math.isfinite(gamma) and gamma > 0):
-        raise ParameterError(f"surface_tension must be > 0 N/m, got {gamma!r}")
-    return gamma
+class Identifier:
+    """Base of every identification method (scikit-learn style).
 
-
-def mean_radius(snapshot: Snapshot) -> float:
-    """The run's mean particle radius [m] (metadata, else the frame's)."""
-    return snapshot.meta.mean_radius if snapshot.meta is not None else float(snapshot.radius.mean())
-
-
-def check_radius_mode(radius) -> None:
-    if radius not in ("pair", "mean"):
-        raise ParameterError(f"radius must be 'pair' or 'mean', got {radius!r}")
-
-
-def check_angle(a_agg_deg) -> float:
-    a = float(a_agg_deg)
-    if not 0 < a <= 180:
-        raise ParameterError(f"a_agg_deg must be in (0, 180] degrees, got {a_agg_deg!r}")
-    return a
-
-
-def contact_strength(snapshot: Snapshot, radius="pair", gamma=None, cohesion=DEFAULT_COHESION) -> np.ndarray:
-    """f = F_coh / (2πγR) of every contact, with R the pair's 2RiRj/(Ri+Rj) or the mean radius
-    and F_coh under the ``cohesion`` convention (:mod:`granalytics.cohesion`).
-
-    Bit-identical to the value the GNA kernels compare with C_agg.
+    Subclasses set ``method`` and store every constructor argument under the same attribute name;
+    validation happens when :meth:`identify` runs. :meth:`params` reads the constructor's
+    signature, so a new parameter needs no second list.
     """
-    check_radius_mode(radius)
-    r_mean = mean_radius(snapshot) if radius == "mean" else 0.0
-    return _kernels.contact_strength(
-        snapshot.contact_i, snapshot.contact_j, cohesive_force(snapshot, cohesion), snapshot.radius,
-        2.0 * math.pi * surface_tension(snapshot, gamma), r_mean,
-    )
+
+    method = ""
+
+    def params(self) -> dict:
+        """The constructor parameters, by name."""
+        names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
+        return {name: self._param_value(name) for name in names}
+
+    def _param_value(self, name):
+        return getattr(self, name)
+
+    def identify(self, snapshot):  # pragma: no cover - every subclass implements it
+        raise NotImplementedError
+
+    def __repr__(self):
+        args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
+        return f"{type(self).__name__}({args})"
 
 
-def co_moving(snapshot: Snapshot, a_agg_deg) -> np.ndarray:
-    """Contacts whose velocities or angular velocities make an angle below A_agg [deg]."""
-    cos_a = math.cos(math.radians(check_angle(a_agg_deg)))
-    return _kernels.co_moving(snapshot.contact_i, snapshot.contact_j, snapshot.velocity, snapshot.angular_velocity, cos_a)
+def check_c_agg(c_agg) -> float:
+    """C_agg as a float, ≥ 0 and finite; a bool or a non-number raises :class:`ParameterError`."""
+    if isinstance(c_agg, (bool, np.bool_)):
+        raise ParameterError(f"c_agg must be a number >= 0, got {c_agg!r}")
+    try:
+        value = float(c_agg)
+    except (TypeError, ValueError):
+        raise ParameterError(f"c_agg must be a number >= 0, got {c_agg!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise ParameterError(f"c_agg must be finite and >= 0, got {c_agg!r}")
+    return value
 
 
 def labels_from_clusters(cluster) -> tuple[np.ndarray, np.ndarray]:

@@ -24,13 +24,13 @@ from .. import _kernels
 from ..errors import ParameterError
 from ..snapshot import Snapshot
 from ..cohesion import DEFAULT_COHESION, check_cohesion
-from .common import check_radius_mode, co_moving, contact_strength
+from .common import Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
 from .result import IdentificationResult
 
 __all__ = ["CommunityDetection"]
 
 
-class CommunityDetection:
+class CommunityDetection(Identifier):
     """Granules as Leiden modularity communities (method ``"community"``).
 
     Parameters
@@ -64,19 +64,14 @@ class CommunityDetection:
         self.surface_tension = surface_tension
         self.cohesion = cohesion
 
-    def params(self) -> dict:
-        """The constructor parameters."""
-        return {"c_agg": self.c_agg, "a_agg_deg": self.a_agg_deg, "resolution": self.resolution,
-                "radius": self.radius, "seed": self.seed, "surface_tension": self.surface_tension,
-                "cohesion": self.cohesion}
-
     def identify(self, snapshot: Snapshot) -> IdentificationResult:
         """Partition one snapshot's weighted contact network."""
         import igraph
 
         check_radius_mode(self.radius)
-        if not (math.isfinite(float(self.c_agg)) and self.c_agg >= 0):
-            raise ParameterError(f"c_agg must be >= 0, got {self.c_agg!r}")
+        c_agg = check_c_agg(self.c_agg)
+        if self.a_agg_deg is not None:
+            check_angle(self.a_agg_deg)
         if not (math.isfinite(float(self.resolution)) and self.resolution > 0):
             raise ParameterError(f"resolution must be > 0, got {self.resolution!r}")
         f = contact_strength(snapshot, self.radius, self.surface_tension, check_cohesion(self.cohesion))
@@ -100,7 +95,7 @@ class CommunityDetection:
         community = np.asarray(parts.membership, dtype=np.int64)[rank]
         # split by the contacts inside a community that pass the cohesion threshold
         ci, cj = snapshot.contact_i, snapshot.contact_j
-        bond = keep & (f >= self.c_agg) & (community[ci] == community[cj])
+        bond = keep & (f >= c_agg) & (community[ci] == community[cj])
         membership = _kernels.union_find_membership(snapshot.n_particles, ci[bond], cj[bond])
         labels, sizes = _kernels.canonical_labels(membership)
         return IdentificationResult(labels=labels, sizes=sizes, method=self.method, params=self.params(),

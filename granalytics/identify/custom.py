@@ -24,9 +24,10 @@ import numpy as np
 
 from ..cohesion import DEFAULT_COHESION, check_cohesion
 from .. import _kernels
-from ..edges import contact_table
+from ..contacts import contact_table
 from ..errors import ParameterError
 from ..snapshot import Snapshot
+from .common import Identifier
 from .result import IdentificationResult
 
 __all__ = ["CustomEdges", "COLUMNS", "FUNCTIONS", "compile_criterion", "evaluate_criterion"]
@@ -305,7 +306,7 @@ def evaluate_criterion(tree, table, n_contacts, source=None) -> np.ndarray:
     return value
 
 
-class CustomEdges:
+class CustomEdges(Identifier):
     """GNA with user-defined edge criteria (method ``"custom"``): granules are the connected
     components (≥ 2 particles) of the contacts a criterion keeps.
 
@@ -344,11 +345,11 @@ class CustomEdges:
         self.surface_tension = surface_tension
         self.cohesion = check_cohesion(cohesion)
 
-    def params(self) -> dict:
-        """The constructor parameters (a callable criterion by its name)."""
-        crit = self.criterion if isinstance(self.criterion, str) else getattr(self.criterion, "__name__", repr(self.criterion))
-        return {"criterion": crit, "radius": self.radius, "surface_tension": self.surface_tension,
-                "cohesion": self.cohesion}
+    def _param_value(self, name):
+        value = getattr(self, name)
+        if name == "criterion" and not isinstance(value, str):  # a callable, by its name
+            return getattr(value, "__name__", repr(value))
+        return value
 
     def identify(self, snapshot: Snapshot) -> IdentificationResult:
         """Keep the contacts the criterion selects; label their components."""
@@ -359,7 +360,7 @@ class CustomEdges:
             try:
                 keep = self.criterion(table)
             except Exception as exc:  # a user function: report it, whatever it raised
-                raise ParameterError(f"edge criterion {self.params()['criterion']!r} failed: {exc}") from None
+                raise ParameterError(f"edge criterion {self._param_value('criterion')!r} failed: {exc}") from None
         keep = np.asarray(keep)
         if keep.shape != (snapshot.n_contacts,) or keep.dtype != np.bool_:
             raise ParameterError(f"edge criterion must give one boolean per contact ({snapshot.n_contacts}), "

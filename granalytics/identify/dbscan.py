@@ -21,13 +21,13 @@ from scipy.sparse import coo_matrix
 from ..cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts
 from ..errors import ParameterError
 from ..snapshot import Snapshot
-from .common import labels_from_clusters, mean_radius
+from .common import Identifier, labels_from_clusters, mean_radius
 from .result import IdentificationResult
 
 __all__ = ["DBSCANIdentifier"]
 
 
-class DBSCANIdentifier:
+class DBSCANIdentifier(Identifier):
     """Granules as DBSCAN clusters (method ``"dbscan"``).
 
     Parameters
@@ -59,12 +59,6 @@ class DBSCANIdentifier:
         self.bridged_only = bridged_only
         self.velocity_weight = velocity_weight
         self.cohesion = cohesion
-
-    def params(self) -> dict:
-        """The constructor parameters."""
-        return {"eps_diameters": self.eps_diameters, "min_samples": self.min_samples,
-                "bridged_only": self.bridged_only, "velocity_weight": self.velocity_weight,
-                "cohesion": self.cohesion}
 
     def _features(self, snapshot):
         diameter = 2.0 * mean_radius(snapshot)

@@ -26,7 +26,7 @@ from .. import _kernels
 from ..cohesion import DEFAULT_COHESION, check_cohesion, cohesive_force
 from ..errors import ParameterError
 from ..snapshot import Snapshot
-from .common import check_angle, check_radius_mode, mean_radius, surface_tension
+from .common import Identifier, check_angle, check_c_agg, check_radius_mode, mean_radius, surface_tension
 from .result import IdentificationResult
 
 __all__ = ["GraphNetworkAnalysis", "BACKENDS"]
@@ -69,7 +69,7 @@ BACKENDS = {
 }
 
 
-class GraphNetworkAnalysis:
+class GraphNetworkAnalysis(Identifier):
     """Granule identification by graph network analysis (method ``"gna"``).
 
     Parameters
@@ -101,22 +101,12 @@ class GraphNetworkAnalysis:
         self.cohesion = cohesion
 
     def _check(self):
-        c_agg = float(self.c_agg)
-        if not (math.isfinite(c_agg) and c_agg >= 0):
-            raise ParameterError(f"c_agg must be finite and >= 0, got {self.c_agg!r}")
-        a_agg = check_angle(self.a_agg_deg)
+        c_agg, a_agg = check_c_agg(self.c_agg), check_angle(self.a_agg_deg)
         check_radius_mode(self.radius)
         check_cohesion(self.cohesion)
         if self.backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
         return c_agg, a_agg
-
-    def params(self) -> dict:
-        """The constructor parameters."""
-        return {
-            "c_agg": self.c_agg, "a_agg_deg": self.a_agg_deg, "radius": self.radius,
-            "backend": self.backend, "surface_tension": self.surface_tension, "cohesion": self.cohesion,
-        }
 
     def kernel_args(self, snapshot: Snapshot) -> tuple:
         """Arguments of the numba GNA kernels after ``(ci, cj, f_coh, radius, vel, omega)``:
@@ -153,10 +143,6 @@ class GraphNetworkAnalysis:
             labels=labels, sizes=sizes, method=self.method, params=self.params(),
             snapshot=snapshot, kept=kept,
         )
-
-    def __repr__(self):
-        args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
-        return f"GraphNetworkAnalysis({args})"
 
 
 def _contact_arrays(snapshot: Snapshot, cohesion) -> tuple:

@@ -8,6 +8,7 @@ from functools import cached_property
 import numpy as np
 import pandas as pd
 
+from ..granules import granule_table
 from ..snapshot import Snapshot
 
 __all__ = ["IdentificationResult"]
@@ -58,8 +59,6 @@ class IdentificationResult:
     @cached_property
     def granules(self) -> pd.DataFrame:
         """Per-granule table (see :func:`granalytics.granule_table`), computed on first access."""
-        from ..stats import granule_table
-
         return granule_table(self.snapshot, self.labels)
 
     def partition(self) -> set:

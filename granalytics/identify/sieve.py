@@ -25,14 +25,14 @@ from ..cohesion import DEFAULT_COHESION
 from .. import _kernels
 from ..errors import ParameterError
 from ..snapshot import Snapshot
-from .common import mean_radius
+from .common import Identifier, mean_radius
 from .graph import GraphNetworkAnalysis
 from .result import IdentificationResult
 
 __all__ = ["VirtualSieve", "sieve_analysis"]
 
 
-class VirtualSieve:
+class VirtualSieve(Identifier):
     """Agglomerates and their sieve analysis (method ``"sieve"``).
 
     Parameters
@@ -59,11 +59,9 @@ class VirtualSieve:
         self.ratio = ratio
         self.cohesion = cohesion
 
-    def params(self) -> dict:
-        """The constructor parameters."""
-        return {"connect": self.connect, "c_agg": self.c_agg, "a_agg_deg": self.a_agg_deg, "radius": self.radius,
-                "apertures_m": None if self.apertures_m is None else list(self.apertures_m), "ratio": self.ratio,
-                "cohesion": self.cohesion}
+    def _param_value(self, name):
+        value = getattr(self, name)
+        return list(value) if name == "apertures_m" and value is not None else value
 
     def _edges(self, snapshot):
         if self.connect == "contacts":
