@@ -14,7 +14,7 @@ from .cohesion import DEFAULT_COHESION, cohesive_force
 from .errors import ParameterError
 from .snapshot import Snapshot
 
-__all__ = ["surface_tension", "mean_radius", "check_radius_mode", "check_angle", "contact_strength", "co_moving",
+__all__ = ["surface_tension", "mean_radius", "check_radius_mode", "as_number", "check_angle", "contact_strength", "co_moving",
            "contact_table"]
 
 
@@ -41,14 +41,20 @@ def check_radius_mode(radius) -> None:
         raise ParameterError(f"radius must be 'pair' or 'mean', got {radius!r}")
 
 
-def check_angle(a_agg_deg) -> float:
-    """A_agg [deg] as a float in (0, 180]; a bool or a non-number raises :class:`ParameterError`."""
-    if isinstance(a_agg_deg, (bool, np.bool_)):
-        raise ParameterError(f"a_agg_deg must be a number of degrees in (0, 180], got {a_agg_deg!r}")
+def as_number(name, value, requirement) -> float:
+    """``value`` as a float; a bool, a string or another non-number raises a
+    :class:`ParameterError` naming ``name`` and the ``requirement``."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise ParameterError(f"{name} must be {requirement}, got {value!r}")
     try:
-        a = float(a_agg_deg)
+        return float(value)
     except (TypeError, ValueError):
-        raise ParameterError(f"a_agg_deg must be a number of degrees in (0, 180], got {a_agg_deg!r}") from None
+        raise ParameterError(f"{name} must be {requirement}, got {value!r}") from None
+
+
+def check_angle(a_agg_deg) -> float:
+    """A_agg [deg] as a float in (0, 180]."""
+    a = as_number("a_agg_deg", a_agg_deg, "a number of degrees in (0, 180]")
     if not 0 < a <= 180:
         raise ParameterError(f"a_agg_deg must be in (0, 180] degrees, got {a_agg_deg!r}")
     return a

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from .. import _kernels
-from ..contacts import check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
+from ..contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
 from ..errors import ParameterError
 
 __all__ = ["Identifier", "check_c_agg", "check_angle", "check_radius_mode", "co_moving", "contact_strength",
@@ -45,13 +45,8 @@ class Identifier:
 
 
 def check_c_agg(c_agg) -> float:
-    """C_agg as a float, ≥ 0 and finite; a bool or a non-number raises :class:`ParameterError`."""
-    if isinstance(c_agg, (bool, np.bool_)):
-        raise ParameterError(f"c_agg must be a number >= 0, got {c_agg!r}")
-    try:
-        value = float(c_agg)
-    except (TypeError, ValueError):
-        raise ParameterError(f"c_agg must be a number >= 0, got {c_agg!r}") from None
+    """C_agg as a float, finite and ≥ 0."""
+    value = as_number("c_agg", c_agg, "a number >= 0")
     if not (math.isfinite(value) and value >= 0):
         raise ParameterError(f"c_agg must be finite and >= 0, got {c_agg!r}")
     return value

@@ -1,0 +1,84 @@
+"""Print the tables of docs/results.md from the bundled datasets (Markdown on stdout).
+
+Usage: python docs/results_tables.py [--figures DIR]
+
+Every number in docs/results.md comes from this script: steady-state yield, ⟨V_g⟩/V_p and N_g/N
+of every bundled run under both cohesion conventions (GNA, C_agg = 0.6, A_agg = 20°), the CG
+comparisons (deviation from the finest run, Kolmogorov–Smirnov distance of the size
+distributions) and the measured speed-ups. With ``--figures DIR`` it also writes the CG figures
+(the paper's Figs 3–6) of the lab and paper-drum comparisons into DIR.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+import granalytics as ga
+from granalytics.datasets import DATASETS, dataset_path
+
+C_AGG, A_AGG = 0.6, 20.0
+#: steady-state window [revolutions] of each run: [3, 6] for 6-revolution runs (paper Fig 5),
+#: [2, 3] for the 3-revolution ones (growth vanishes after two revolutions, paper Fig 6)
+WINDOWS = {"lab-cg1": (2, 3), "lab-cg2": (3, 6), "lab-cg3": (3, 6), "paper-cg2": (2, 3), "paper-cg3": (3, 6)}
+CG_SETS = {"lab drum": ["lab-cg1", "lab-cg2", "lab-cg3"], "paper drum": ["paper-cg2", "paper-cg3"]}
+CG_WINDOW = (2, 3)  # common to every run of a comparison (the CG1 / paper-cg2 runs have 3 revolutions)
+
+
+def pm(mean, sem, digits):
+    return f"{mean:.{digits}f} ± {sem:.{digits}f}"
+
+
+def steady_table():
+    print("| dataset | particles (α) | window [rev] | cohesion | yield | ⟨V_g⟩/V_p | N_g/N |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for name in DATASETS:
+        window = WINDOWS[name]
+        with ga.open_run(dataset_path(name)) as run:
+            for cohesion in ga.COHESION_CONVENTIONS:
+                ts = ga.run_stats(run, c_agg=C_AGG, a_agg_deg=A_AGG, cohesion=cohesion)
+                s = ga.steady_state(ts, window=window)
+                print(f"| {name} | {run.meta.n_particles} ({run.meta.alpha:g}) | {window[0]}–{window[1]} | {cohesion} | "
+                      f"{pm(s.loc['yield_fraction', 'mean'], s.loc['yield_fraction', 'sem'], 3)} | "
+                      f"{pm(s.loc['mean_volume_norm', 'mean'], s.loc['mean_volume_norm', 'sem'], 2)} | "
+                      f"{pm(s.loc['n_granules_norm', 'mean'], s.loc['n_granules_norm', 'sem'], 4)} |")
+
+
+def cg_tables(figures=None):
+    for title, names in CG_SETS.items():
+        names = [n for n in names if n in DATASETS]
+        if len(names) < 2:
+            print(f"\n{title}: fewer than two bundled runs, no comparison\n")
+            continue
+        print(f"\n**{title}** ({', '.join(names)}; window {CG_WINDOW[0]}–{CG_WINDOW[1]} revolutions; "
+              f"deviation from {names[0]})\n")
+        print("| run | cohesion | yield (dev.) | ⟨V_g⟩/V_p (dev.) | N_g/N (dev.) | KS D | W1(log10 n) |")
+        print("| --- | --- | --- | --- | --- | --- | --- |")
+        for cohesion in ga.COHESION_CONVENTIONS:
+            cmp = ga.compare_cg([dataset_path(n) for n in names], labels=names, window=CG_WINDOW,
+                                c_agg=C_AGG, a_agg_deg=A_AGG, cohesion=cohesion)
+            for row in cmp.table.itertuples():
+                print(f"| {row.run} | {cohesion} | {row.yield_fraction_mean:.3f} ({row.yield_fraction_rel_dev:+.0%}) | "
+                      f"{row.mean_volume_norm_mean:.2f} ({row.mean_volume_norm_rel_dev:+.0%}) | "
+                      f"{row.n_granules_norm_mean:.4f} ({row.n_granules_norm_rel_dev:+.0%}) | "
+                      f"{row.ks_distance:.3f} | {row.w1_log10_size:.3f} |")
+            if figures and cohesion == "acting":
+                cmp.save(os.path.join(figures, title.replace(" ", "-")), overwrite=True, formats=("png",))
+        print(f"\nSpeed-ups ({title}, simulator wall time per simulated second, from the runs' metadata):\n")
+        print("| run | particles | wall s per simulated s | speed-up | paper |")
+        print("| --- | --- | --- | --- | --- |")
+        for row in cmp.table.itertuples():
+            print(f"| {row.run} | {row.n_particles} | {row.wall_time_per_simulated_s:.1f} | {row.speedup:.1f}× | "
+                  f"{row.paper_speedup:.1f}× |")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--figures", help="folder for the CG figures (PNG)")
+    args = parser.parse_args()
+    steady_table()
+    cg_tables(args.figures)
+
+
+if __name__ == "__main__":
+    main()
