@@ -14,6 +14,9 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 - cohesion conventions (which force is F_coh): :func:`cohesive_force`, :data:`COHESION_CONVENTIONS`
 - coarse-graining comparison (paper Figs 3–6): :func:`compare_cg`, :class:`CGComparison`
 - run subsets (fewer frames, float32): :func:`subset_run`
+- granule life histories (tracking, coalescence and breakage events, population-balance rates):
+  :func:`track_granules`, :func:`track_run`, :class:`GranuleTracks`, :func:`event_rates`,
+  :func:`coalescence_kernel`, :func:`breakage_rate`
 - errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
   :class:`ParameterError`
 """
@@ -36,6 +39,7 @@ from .io import Run, RunSlice, RunWriter, open_run, subset_run
 from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
 from .stats import frame_stats, granule_table, run_stats, size_distribution, steady_state
+from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates, track_granules, track_run
 
 __all__ = [
     "__version__",
@@ -46,5 +50,6 @@ __all__ = [
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",
+    "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
     "GranalyticsError", "ValidationError", "RunFileError", "ParameterError",
 ]

@@ -544,6 +544,10 @@ def build_parser():
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_subset)
 
+    from .tracking import add_track_parser
+
+    add_track_parser(sub)
+
     p = sub.add_parser("export-vtk", help="VTK files for ParaView (one .vtu per frame + .pvd)",
                        description="Write particles (radius, velocities, film, granule label and size) and bonds "
                                    "(kept by GNA or not, F_coh, bridge volume, gap) per frame, plus a .pvd time series.")
