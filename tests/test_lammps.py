@@ -224,3 +224,14 @@ def test_real_liggghts_wet_drum_fixture_end_to_end(tmp_path, capsys):
     assert main(argv) == 0
     assert main(["stats", str(out), "--window", "0:1", "--quiet"]) == 0
     assert "yield_fraction" in capsys.readouterr().out
+
+
+def test_dump_with_zero_atoms_is_refused_naming_the_file(tmp_path, frames):
+    pf, cf = write_dumps(tmp_path, frames[:1])
+    lines = pf[0].read_text().splitlines()
+    pf[0].write_text("\n".join(lines[:3] + ["0"] + lines[4:9]) + "\n")
+    local = cf[0].read_text().splitlines()
+    cf[0].write_text("\n".join(local[:3] + ["0"] + local[4:9]) + "\n")
+    with pytest.raises(GranalyticsError, match="no particles") as err:
+        read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
+    assert str(pf[0]) in str(err.value)
