@@ -7,7 +7,7 @@ and exit status 2; the Python API lets them propagate.
 
 from __future__ import annotations
 
-__all__ = ["GranalyticsError", "ValidationError", "RunFileError", "ParameterError"]
+__all__ = ["GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError"]
 
 
 class GranalyticsError(Exception):
@@ -63,6 +63,14 @@ class ValidationError(GranalyticsError, ValueError):
 
 class RunFileError(GranalyticsError, OSError):
     """A run file cannot be opened, is not a granalytics run, or is structurally broken."""
+
+
+class RunLockedError(RunFileError, ValueError):
+    """Another writer holds the lock file of a run file (``PATH.lock``).
+
+    Also a :class:`ValueError`, so that command-line tools that report bad input (``ValueError``)
+    as one line with exit status 2 treat a busy output file the same way.
+    """
 
 
 class ParameterError(GranalyticsError, ValueError):

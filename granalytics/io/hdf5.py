@@ -5,6 +5,9 @@ metadata flushes so that the file on disk is always a consistent HDF5 file, even
 is killed. On top of that, every frame is committed by writing the frame's ``/frames/time`` entry
 *last*; a reader counts only the frames that every dataset holds completely, so a frame is either
 entirely in the file or absent.
+
+One writer at a time: :class:`RunWriter` holds an exclusive lock file ``PATH.lock`` from before it
+creates the file until it has closed (and compacted) it.
 """
 
 from __future__ import annotations
@@ -12,14 +15,17 @@ from __future__ import annotations
 import json
 import math
 import os
+import socket
+import time as _time
+import warnings
 from collections.abc import Sequence
 
 import h5py
 import numpy as np
 
 from .. import __version__
-from ..errors import RunFileError, ValidationError
-from ..snapshot import CONTACT_FIELDS, PARTICLE_FIELDS, RunMeta, Snapshot
+from ..errors import GranalyticsError, RunFileError, RunLockedError, ValidationError
+from ..snapshot import CONTACT_FIELDS, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
 
 __all__ = ["RunWriter", "open_run", "Run", "RunSlice", "subset_run", "FORMAT_NAME", "FORMAT_VERSION"]
 
@@ -48,6 +54,136 @@ assert tuple(_PARTICLE_LAYOUT) == PARTICLE_FIELDS and tuple(_CONTACT_LAYOUT) == 
 
 _CONTACT_CHUNK_ROWS = 1 << 10
 _CHUNK_CACHE_BYTES = 64 * 1024**2
+_INDEX_DATASETS = ("frames/time", "frames/step", "contacts/count")
+_PER_FRAME_DATASETS = _INDEX_DATASETS + tuple(f"particles/{name}" for name in PARTICLE_FIELDS)
+_CONTACT_DATASETS = tuple(f"contacts/{name}" for name, _unit in _CONTACT_LAYOUT.values())
+_LOCK_SUFFIX = ".lock"
+
+
+def _one_line(exc) -> str:
+    """An exception's message on one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+class _WriterLock:
+    """Exclusive lock of a run file: the file ``target + ".lock"``, created with O_EXCL and
+    holding the owner's pid and host as one JSON line."""
+
+    def __init__(self, target):
+        self.target = target
+        self.path = target + _LOCK_SUFFIX
+        self._record = None
+
+    def acquire(self) -> "_WriterLock":
+        record = json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                             "since": _time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n"
+        for _attempt in range(5):
+            try:
+                fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+            except FileExistsError:
+                text = _read_text(self.path)
+                if text is None:  # released in the meantime
+                    continue
+                owner = _parse_lock(text)
+                if owner is not None and _owner_is_dead(owner):
+                    if self._take_over(text):
+                        warnings.warn(
+                            f"{self.target}: took over the stale lock file {self.path} "
+                            f"(pid {owner['pid']} on host {owner['host']} is no longer running)",
+                            stacklevel=4,
+                        )
+                    continue
+                raise RunLockedError(f"{self.target}: another writer holds the lock file {self.path} "
+                                     f"({_describe_owner(owner, text)}); delete the lock file only if "
+                                     "no writer is running") from None
+            except OSError as exc:
+                raise RunFileError(f"{self.target}: cannot create the lock file {self.path} "
+                                   f"({exc.strerror or _one_line(exc)})") from None
+            try:
+                os.write(fd, record.encode())
+            finally:
+                os.close(fd)
+            self._record = record
+            return self
+        raise RunLockedError(f"{self.target}: the lock file {self.path} keeps changing hands; "
+                             "another writer is starting on the same file")
+
+    def _take_over(self, seen) -> bool:
+        """Remove a stale lock file whose content is ``seen``; False if it changed meanwhile."""
+        aside = f"{self.path}.stale.{os.getpid()}"
+        try:
+            os.rename(self.path, aside)
+        except FileNotFoundError:
+            return False
+        except OSError as exc:
+            raise RunFileError(f"{self.target}: cannot remove the stale lock file {self.path} "
+                               f"({exc.strerror or _one_line(exc)})") from None
+        if _read_text(aside) == seen:
+            os.unlink(aside)
+            return True
+        try:  # another process took it over first: put its lock back
+            os.link(aside, self.path)
+        except OSError:
+            pass
+        os.unlink(aside)
+        return False
+
+    def release(self) -> None:
+        """Remove the lock file if it is still this holder's (idempotent)."""
+        if self._record is None:
+            return
+        record, self._record = self._record, None
+        text = _read_text(self.path)
+        if text == record:
+            try:
+                os.unlink(self.path)
+            except FileNotFoundError:
+                pass
+        elif text is not None:
+            warnings.warn(f"{self.target}: the lock file {self.path} was replaced while this writer "
+                          "held it; left in place", stacklevel=3)
+
+
+def _read_text(path):
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return f.read()
+    except FileNotFoundError:
+        return None
+    except OSError:
+        return ""
+
+
+def _parse_lock(text):
+    try:
+        owner = json.loads(text)
+        if isinstance(owner, dict) and isinstance(owner.get("pid"), int) and isinstance(owner.get("host"), str):
+            return owner
+    except ValueError:
+        pass
+    return None
+
+
+def _owner_is_dead(owner) -> bool:
+    """True only when the owner ran on this host and its pid is gone."""
+    if owner["host"] != socket.gethostname() or owner["pid"] <= 0:
+        return False
+    if owner["pid"] == os.getpid():
+        return False
+    try:
+        os.kill(owner["pid"], 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # exists, owned by another user
+        return False
+    return False
+
+
+def _describe_owner(owner, text):
+    if owner is None:
+        return f"unreadable content {text.strip()[:60]!r}"
+    since = f", since {owner['since']}" if owner.get("since") else ""
+    return f"pid {owner['pid']} on host {owner['host']}{since}"
 
 
 class _HDF5Handle:
@@ -71,6 +207,11 @@ class _HDF5Handle:
 class RunWriter(_HDF5Handle):
     """Append snapshots to a new run file, one complete frame at a time.
 
+    The writer holds an exclusive lock file ``PATH.lock`` (pid and host of the writer) from
+    before it creates the file until :meth:`close` has finished; a second writer on the same
+    path raises :class:`~granalytics.errors.RunLockedError`. A lock left by a writer that is no
+    longer running on this host is taken over with a warning.
+
     Parameters
     ----------
     path : str or path-like
@@ -88,6 +229,13 @@ class RunWriter(_HDF5Handle):
         always float64). ``"float32"`` halves the file for bundling and archiving (relative
         precision 6e-8: 2 nm on a 4 cm drum); readers always return float64 arrays.
 
+    Raises
+    ------
+    RunLockedError
+        Another writer holds ``PATH.lock``.
+    RunFileError
+        The file exists (without ``overwrite``) or cannot be created.
+
     Examples
     --------
     >>> with RunWriter("run.h5", meta) as writer:       # doctest: +SKIP
@@ -95,12 +243,15 @@ class RunWriter(_HDF5Handle):
     ...         writer.append(snapshot)
     """
 
-    def __init__(self, path, meta, *, compression="gzip", compression_level=4, overwrite=False, float_dtype="float64"):
+    _file = None
+    _lock = None
+
+    def __init__(self, path, meta, *, compression="gzip", compression_level=4, overwrite=False, float_dtype="float64",
+                 _lock=None):
         if not isinstance(meta, RunMeta):
             raise ValidationError("meta", f"must be a RunMeta, got {type(meta).__name__}")
+        meta.validate()  # fields may have been changed since construction
         self.path = os.fspath(path)
-        if os.path.exists(self.path) and not overwrite:
-            raise RunFileError(f"{self.path}: file exists (pass overwrite=True to replace it)")
         self.meta = meta
         if float_dtype not in ("float64", "float32"):
             raise ValidationError("float_dtype", f"must be 'float64' or 'float32', got {float_dtype!r}")
@@ -109,18 +260,29 @@ class RunWriter(_HDF5Handle):
             raise ValidationError("compression", f"must be 'gzip', 'lzf' or None, got {compression!r}")
         self._filter = {}
         if compression is not None:
-            self._filter = {"compression": compression, "shuffle": True}
+            self._filter.update(compression=compression, shuffle=True)
             if compression == "gzip":
                 self._filter["compression_opts"] = int(compression_level)
+        # the lock exists before the file is created or truncated, and until close() is done
+        lock = _lock if _lock is not None else _WriterLock(self.path).acquire()
         try:
-            self._file = h5py.File(self.path, "w", libver="latest")
-        except OSError as exc:
-            raise RunFileError(f"{self.path}: cannot create run file ({exc})") from None
-        self._file.attrs["format"] = FORMAT_NAME
-        self._file.attrs["format_version"] = FORMAT_VERSION
-        self._file.attrs["created_by"] = f"granalytics {__version__}"
-        _write_meta(self._file.create_group("meta"), meta)
-        self._file.flush()
+            if os.path.exists(self.path) and not overwrite:
+                raise RunFileError(f"{self.path}: file exists (pass overwrite=True to replace it)")
+            try:
+                self._file = h5py.File(self.path, "w", libver="latest")
+            except OSError as exc:
+                raise RunFileError(f"{self.path}: cannot create run file ({_one_line(exc)})") from None
+            self._file.attrs["format"] = FORMAT_NAME
+            self._file.attrs["format_version"] = FORMAT_VERSION
+            self._file.attrs["created_by"] = f"granalytics {__version__}"
+            _write_meta(self._file.create_group("meta"), meta)
+            self._file.flush()
+        except BaseException:
+            self._discard()
+            if _lock is None:
+                lock.release()
+            raise
+        self._lock = lock
         self._n_particles = None
         self._n_frames = 0
         self._n_contact_rows = 0
@@ -132,29 +294,70 @@ class RunWriter(_HDF5Handle):
         """Number of frames committed so far."""
         return self._n_frames
 
+    @property
+    def lock_path(self) -> str:
+        """The lock file this writer holds while it is open."""
+        return self.path + _LOCK_SUFFIX
+
     @classmethod
     def continue_from(cls, path, n_frames, **kwargs) -> "RunWriter":
         """Reopen a run for appending after its first ``n_frames`` complete frames.
 
-        Used to resume a killed writer (e.g. a simulation restarted from a checkpoint): the
-        first ``n_frames`` frames and the metadata are copied bit for bit into a new file that
-        then atomically replaces ``path``; later frames of the old file are dropped.
+        Used to resume a killed writer (e.g. a simulation restarted from a checkpoint): under
+        the run's lock, the first ``n_frames`` frames and the metadata are copied into a new file,
+        checked against the original, and the new file then atomically replaces ``path``; later
+        frames of the old file are dropped. The storage (compression, float type) and the
+        metadata attributes are kept as they were unless ``kwargs`` (as for :class:`RunWriter`)
+        say otherwise. On any error ``path`` is left untouched.
 
         Raises
         ------
+        ValidationError
+            ``n_frames`` is not an integer >= 0.
         RunFileError
-            If ``path`` holds fewer than ``n_frames`` complete frames.
+            ``path`` does not exist, cannot be read, or holds fewer than ``n_frames`` complete
+            frames; :class:`~granalytics.errors.RunLockedError` if another writer holds its lock.
         """
         path = os.fspath(path)
+        if isinstance(n_frames, (bool, np.bool_)) or not isinstance(n_frames, (int, np.integer)) or n_frames < 0:
+            raise ValidationError("n_frames", f"must be an integer >= 0, got {n_frames!r}")
+        n_frames = int(n_frames)
+        if kwargs.pop("overwrite", True) is not True:
+            raise ValidationError("overwrite", "continue_from always replaces the file it continues")
+        if not os.path.exists(path):
+            raise RunFileError(f"{path}: no such file: nothing to continue")
+        lock = _WriterLock(path).acquire()
         tmp = path + ".continue.tmp"
-        with open_run(path) as run:
-            if len(run) < n_frames:
-                raise RunFileError(f"{path}: holds {len(run)} complete frames, cannot continue after frame {n_frames}")
-            writer = cls(tmp, run.meta, overwrite=True, **kwargs)
-            for k in range(n_frames):
-                writer.append(run[k])
-        writer._file.flush()
-        os.replace(tmp, path)  # the open handle follows the file to its new name
+        writer = None
+        try:
+            with open_run(path) as run:
+                if len(run) < n_frames:
+                    raise RunFileError(
+                        f"{path}: holds {len(run)} complete frames, cannot continue after frame {n_frames}")
+                settings = {**_storage_settings(run._file), **kwargs}
+                writer = cls(tmp, run.meta, overwrite=True, _lock=lock, **settings)
+                # keep the metadata and file attributes exactly as stored
+                for key, value in run._file.attrs.items():
+                    writer._file.attrs[key] = value
+                dst_meta = writer._file["meta"].attrs
+                for key in list(dst_meta):
+                    del dst_meta[key]
+                for key, value in run._file["meta"].attrs.items():
+                    dst_meta[key] = value
+                for k in range(n_frames):
+                    writer.append(run[k])
+                writer._file.flush()
+                _check_continued(run, writer, n_frames, path)
+            os.replace(tmp, path)  # the open handle follows the file to its new name
+        except BaseException:
+            if writer is not None:
+                writer._discard()
+            try:
+                os.remove(tmp)
+            except OSError:
+                pass
+            lock.release()
+            raise
         writer.path = path
         return writer
 
@@ -183,7 +386,6 @@ class RunWriter(_HDF5Handle):
                     "radius", f"frame has {n} particles but meta.n_particles is {self.meta.n_particles}",
                     frame=frame, path=self.path,
                 )
-            self._create_datasets(n)
         elif n != self._n_particles:
             raise ValidationError(
                 "radius", f"particle count changed from {self._n_particles} to {n}; a run holds a fixed particle set",
@@ -194,23 +396,29 @@ class RunWriter(_HDF5Handle):
                 "time", f"must increase from frame to frame: {snapshot.time!r} after {self._last_time!r}",
                 frame=frame, path=self.path,
             )
+        if self._n_particles is None:
+            self._create_datasets(n)
         f = self._file
-        for name in PARTICLE_FIELDS:
-            ds = f["particles"][name]
-            ds.resize(frame + 1, axis=0)
-            ds[frame] = getattr(snapshot, name)
-            ds.flush()
         m = snapshot.n_contacts
         start, stop = self._n_contact_rows, self._n_contact_rows + m
-        for field, (name, _unit) in _CONTACT_LAYOUT.items():
-            ds = f["contacts"][name]
-            ds.resize(stop, axis=0)
-            if m:
-                ds[start:stop] = getattr(snapshot, field)
-            ds.flush()
-        self._append_scalar(f["contacts/count"], frame, m)
-        self._append_scalar(f["frames/step"], frame, snapshot.step)
-        self._append_scalar(f["frames/time"], frame, snapshot.time)  # commit point: written last
+        try:
+            for name in PARTICLE_FIELDS:
+                ds = f["particles"][name]
+                ds.resize(frame + 1, axis=0)
+                ds[frame] = getattr(snapshot, name)
+                ds.flush()
+            for field, (name, _unit) in _CONTACT_LAYOUT.items():
+                ds = f["contacts"][name]
+                ds.resize(stop, axis=0)
+                if m:
+                    ds[start:stop] = getattr(snapshot, field)
+                ds.flush()
+            self._append_scalar(f["contacts/count"], frame, m)
+            self._append_scalar(f["frames/step"], frame, snapshot.step)
+            self._append_scalar(f["frames/time"], frame, snapshot.time)  # commit point: written last
+        except BaseException:  # e.g. Ctrl-C or a full disk: drop the partial frame
+            self._trim()
+            raise
         self._n_contact_rows = stop
         self._n_frames += 1
         self._last_time = snapshot.time
@@ -219,10 +427,13 @@ class RunWriter(_HDF5Handle):
         """Merge ``items`` into the run's ``provenance`` metadata when the writer closes.
 
         For facts known only at the end of a run, e.g. the producing code's wall time
-        (``wall_time_s``). Values must be JSON-serialisable. A killed writer loses them; its
-        frames are unaffected.
+        (``wall_time_s``). Values must be JSON-serialisable (else :class:`ValidationError`). A
+        killed writer loses them; its frames are unaffected.
         """
-        json.dumps(items)  # refuse what cannot be stored, now rather than at close
+        problem = json_problem(items)  # refuse what cannot be stored, now rather than at close
+        if problem:
+            raise ValidationError("provenance", f"update_provenance: must be JSON-serialisable: {problem}",
+                                  path=self.path)
         self._provenance_update.update(items)
 
     @staticmethod
@@ -231,19 +442,60 @@ class RunWriter(_HDF5Handle):
         ds[frame] = value
         ds.flush()
 
+    def _trim(self) -> None:
+        """Cut every dataset back to the committed frames (drops a partially written frame)."""
+        f = self._file
+        if f is None or self._n_particles is None:
+            return
+        try:
+            for name in _INDEX_DATASETS[::-1] + _PER_FRAME_DATASETS[3:]:  # time first: un-commit
+                if f[name].shape[0] != self._n_frames:
+                    f[name].resize(self._n_frames, axis=0)
+                    f[name].flush()
+            for name in _CONTACT_DATASETS:
+                if f[name].shape[0] != self._n_contact_rows:
+                    f[name].resize(self._n_contact_rows, axis=0)
+                    f[name].flush()
+        except Exception:  # the file stays readable: a reader ignores a partial frame
+            pass
+
+    def _discard(self) -> None:
+        """Close the HDF5 file without compacting it; the lock is not touched."""
+        if self._file is not None:
+            try:
+                self._file.close()
+            except Exception:
+                pass
+            self._file = None
+
     def close(self, compact=True) -> None:
-        """Close the file (idempotent).
+        """Close the file (idempotent) and release the lock file.
 
         With ``compact`` (default), the datasets are then copied into a fresh file that replaces
         the original: appending in SWMR mode leaves the space of every rewritten partial chunk
         unused, and the copy drops it (and HDF5's "open for write" flag). A killed writer skips
-        this step; its file stays valid, only larger.
+        this step; its file stays valid, only larger. The lock is held until the copy is done.
         """
         if self._file is None:
             return
-        super().close()
-        if compact:
-            tmp = self.path + ".compact.tmp"
+        try:
+            self._trim()
+            super().close()
+            if compact:
+                self._compact()
+            elif self._provenance_update:
+                try:
+                    with h5py.File(self.path, "r+") as f:
+                        self._write_provenance_update(f)
+                except OSError as exc:
+                    raise RunFileError(f"{self.path}: cannot record the provenance ({_one_line(exc)})") from None
+        finally:
+            if self._lock is not None:
+                self._lock.release()
+
+    def _compact(self) -> None:
+        tmp = self.path + ".compact.tmp"
+        try:
             with h5py.File(self.path, "r") as src, h5py.File(tmp, "w", libver="latest") as dst:
                 for key, value in src.attrs.items():
                     dst.attrs[key] = value
@@ -251,9 +503,24 @@ class RunWriter(_HDF5Handle):
                     src.copy(src[name], dst, name=name)
                 self._write_provenance_update(dst)
             os.replace(tmp, self.path)
-        elif self._provenance_update:
-            with h5py.File(self.path, "r+") as f:
-                self._write_provenance_update(f)
+        except BaseException as exc:
+            try:
+                os.remove(tmp)
+            except OSError:
+                pass
+            if isinstance(exc, OSError) and not isinstance(exc, GranalyticsError):
+                raise RunFileError(f"{self.path}: all frames are written, but compacting the file failed "
+                                   f"({_one_line(exc)})") from None
+            raise
+
+    def __del__(self):
+        # a writer dropped without close(): free the file and the lock (no compaction)
+        try:
+            self._discard()
+            if self._lock is not None:
+                self._lock.release()
+        except Exception:
+            pass
 
     def _write_provenance_update(self, f) -> None:
         if self._provenance_update:
@@ -289,6 +556,39 @@ class RunWriter(_HDF5Handle):
         self._n_particles = n
         f.swmr_mode = True
 
+
+def _storage_settings(f) -> dict:
+    """``compression``, ``compression_level`` and ``float_dtype`` of an existing run file."""
+    if "particles/radius" not in f:
+        return {}
+    ds = f["particles/radius"]
+    out = {"float_dtype": "float32" if ds.dtype == np.float32 else "float64"}
+    if ds.compression in ("gzip", "lzf"):
+        out["compression"] = ds.compression
+        if ds.compression == "gzip" and ds.compression_opts is not None:
+            out["compression_level"] = int(ds.compression_opts)
+    else:
+        out["compression"] = None
+    return out
+
+
+def _check_continued(run, writer, n_frames, path) -> None:
+    """The continued file holds exactly the first ``n_frames`` frames' index and the metadata."""
+    f = writer._file
+    same_meta = dict(f["meta"].attrs.items()).keys() == dict(run._file["meta"].attrs.items()).keys() and all(
+        np.array_equal(np.asarray(value), np.asarray(run._file["meta"].attrs[key]))
+        for key, value in f["meta"].attrs.items()
+    )
+    if n_frames:
+        index_same = (np.array_equal(f["frames/time"][:], run.times[:n_frames])
+                      and np.array_equal(f["frames/step"][:], run.steps[:n_frames])
+                      and np.array_equal(f["contacts/count"][:], run.n_contacts[:n_frames])
+                      and f["contacts/i"].shape[0] == int(run.n_contacts[:n_frames].sum()))
+    else:
+        index_same = "frames" not in f
+    if not (same_meta and index_same):
+        raise RunFileError(f"{path}: the copy of its first {n_frames} frames differs from the original; "
+                           "the file was left unchanged")
 
 
 def _write_meta(group, meta: RunMeta):
