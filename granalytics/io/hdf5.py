@@ -7,15 +7,19 @@ is killed. On top of that, every frame is committed by writing the frame's ``/fr
 entirely in the file or absent.
 
 One writer at a time: :class:`RunWriter` holds an exclusive lock file ``PATH.lock`` from before it
-creates the file until it has closed (and compacted) it.
+creates the file until it has closed (and compacted) it. Every dataset carries a Fletcher-32
+checksum per chunk, and :func:`open_run` checks the frame index (lengths, contact counts, time and
+step order, particle count) before any frame is read.
 """
 
 from __future__ import annotations
 
+import ctypes
 import json
 import math
 import os
 import socket
+import struct
 import time as _time
 import warnings
 from collections.abc import Sequence
@@ -57,6 +61,10 @@ _CHUNK_CACHE_BYTES = 64 * 1024**2
 _INDEX_DATASETS = ("frames/time", "frames/step", "contacts/count")
 _PER_FRAME_DATASETS = _INDEX_DATASETS + tuple(f"particles/{name}" for name in PARTICLE_FIELDS)
 _CONTACT_DATASETS = tuple(f"contacts/{name}" for name, _unit in _CONTACT_LAYOUT.values())
+# HDF5 retries a metadata read that fails its checksum in SWMR read mode (the writer may be
+# updating it), doubling the wait each time from 1 ns: its default of 100 attempts sleeps for
+# hours on a file that was cut short. 30 attempts wait about 1 s in all.
+_SWMR_READ_ATTEMPTS = 30
 _LOCK_SUFFIX = ".lock"
 
 
@@ -258,7 +266,8 @@ class RunWriter(_HDF5Handle):
         self._float = np.dtype(float_dtype)
         if compression not in ("gzip", "lzf", None):
             raise ValidationError("compression", f"must be 'gzip', 'lzf' or None, got {compression!r}")
-        self._filter = {}
+        # every dataset gets a Fletcher-32 checksum per chunk: HDF5 refuses a damaged chunk on read
+        self._filter = {"fletcher32": True}
         if compression is not None:
             self._filter.update(compression=compression, shuffle=True)
             if compression == "gzip":
@@ -287,6 +296,8 @@ class RunWriter(_HDF5Handle):
         self._n_frames = 0
         self._n_contact_rows = 0
         self._last_time = -math.inf
+        self._last_step = None
+        self._constant_steps = False  # every frame has the same step: the producer did not record steps
         self._provenance_update = {}
 
     @property
@@ -368,7 +379,7 @@ class RunWriter(_HDF5Handle):
         ------
         ValidationError
             If the snapshot is invalid, has a different particle count than earlier frames or
-            than ``meta.n_particles``, or its time does not increase.
+            than ``meta.n_particles``, or its time or step does not increase.
         """
         if self._file is None:
             raise RunFileError(f"{self.path}: writer is closed")
@@ -394,6 +405,16 @@ class RunWriter(_HDF5Handle):
         if not snapshot.time > self._last_time:
             raise ValidationError(
                 "time", f"must increase from frame to frame: {snapshot.time!r} after {self._last_time!r}",
+                frame=frame, path=self.path,
+            )
+        if self._last_step is not None and not (
+            snapshot.step > self._last_step and not self._constant_steps
+            or snapshot.step == self._last_step and (self._constant_steps or frame == 1)
+        ):
+            raise ValidationError(
+                "step", f"must increase from frame to frame: {snapshot.step} after {self._last_step}"
+                + (" (or stay the same in every frame when steps are not recorded)"
+                   if frame == 1 or self._constant_steps else ""),
                 frame=frame, path=self.path,
             )
         if self._n_particles is None:
@@ -422,6 +443,8 @@ class RunWriter(_HDF5Handle):
         self._n_contact_rows = stop
         self._n_frames += 1
         self._last_time = snapshot.time
+        self._constant_steps = frame >= 1 and snapshot.step == self._last_step
+        self._last_step = snapshot.step
 
     def update_provenance(self, **items) -> None:
         """Merge ``items`` into the run's ``provenance`` metadata when the writer closes.
@@ -530,10 +553,11 @@ class RunWriter(_HDF5Handle):
 
     def _create_datasets(self, n):
         f = self._file
+        checksum = {"fletcher32": True}
         frames = f.create_group("frames")
-        frames.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(4096,))
+        frames.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(4096,), **checksum)
         frames["time"].attrs["unit"] = "s"
-        frames.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,))
+        frames.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,), **checksum)
         frames["step"].attrs["unit"] = "1"
         particles = f.create_group("particles")
         for name, (trailing, dtype, unit) in _PARTICLE_LAYOUT.items():
@@ -552,7 +576,7 @@ class RunWriter(_HDF5Handle):
                 **self._filter,
             )
             ds.attrs["unit"] = unit
-        contacts.create_dataset("count", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,))
+        contacts.create_dataset("count", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,), **checksum)
         self._n_particles = n
         f.swmr_mode = True
 
@@ -707,8 +731,9 @@ class _FrameSequence(Sequence):
 class Run(_HDF5Handle, _FrameSequence):
     """A run file opened for lazy reading: a sequence of :class:`Snapshot`.
 
-    Frames are read and validated only when accessed. Use :func:`open_run` to create one, and
-    close it (or use it as a context manager) when done.
+    Frames are read and validated only when accessed; the frame index (see ``docs/format.md``,
+    "Checks on open") is checked when the file is opened. Use :func:`open_run` to create one,
+    and close it (or use it as a context manager) when done.
 
     Attributes
     ----------
@@ -723,17 +748,15 @@ class Run(_HDF5Handle, _FrameSequence):
         self.validate = validate
         if not os.path.exists(self.path):
             raise RunFileError(f"{self.path}: no such file")
-        self._file = _open_h5(self.path)
+        self._file, self._writer_open = _open_h5(self.path)
         try:
             self._load_index()
-        except (OSError, KeyError) as exc:
-            self._file.close()
-            if isinstance(exc, RunFileError):
-                raise
-            raise RunFileError(f"{self.path}: broken run file ({exc})") from None
-        except Exception:
+        except GranalyticsError:
             self._file.close()
             raise
+        except Exception as exc:  # h5py raises OSError, KeyError, ValueError, ... on a damaged file
+            self._file.close()
+            raise RunFileError(f"{self.path}: broken run file ({_one_line(exc)})") from None
 
     def _load_index(self):
         f, path = self._file, self.path
@@ -754,10 +777,7 @@ class Run(_HDF5Handle, _FrameSequence):
             self._offset = np.zeros(1, dtype=np.int64)
             self._indices = np.zeros(0, dtype=np.int64)
             return
-        required = ["frames/time", "frames/step", "contacts/count"]
-        required += [f"particles/{name}" for name in PARTICLE_FIELDS]
-        required += [f"contacts/{name}" for name, _ in _CONTACT_LAYOUT.values()]
-        for name in required:
+        for name in _PER_FRAME_DATASETS + _CONTACT_DATASETS:
             if name not in f:
                 raise RunFileError(f"{path}: missing dataset /{name}")
         n_particles = f["particles/radius"].shape[1]
@@ -768,44 +788,87 @@ class Run(_HDF5Handle, _FrameSequence):
                     f"{path}: dataset /particles/{name} has shape {shape}, expected (frames, {n_particles}"
                     + "".join(f", {t}" for t in trailing) + ")"
                 )
-        # committed frames: those every per-frame dataset holds completely
-        n_frames = min(
-            [len(f["frames/time"]), len(f["frames/step"]), len(f["contacts/count"])]
-            + [len(f["particles"][name]) for name in PARTICLE_FIELDS]
-        )
-        count = f["contacts/count"][:n_frames].astype(np.int64)
+        if n_particles != self._meta.n_particles:
+            raise ValidationError(
+                "/meta", f"attribute n_particles is {self._meta.n_particles}, but /particles/radius holds "
+                f"{n_particles} particles per frame", path=path,
+            )
+        lengths = {name: f[name].shape[0] for name in _PER_FRAME_DATASETS}
+        rows = {name: f[name].shape[0] for name in _CONTACT_DATASETS}
+        if self._writer_open:
+            # the writer is running or was killed: its last frame may be partly written, so the
+            # per-frame datasets may hold one entry more than the committed frames
+            n_frames = min(lengths.values())
+            for name, n in lengths.items():
+                if n > n_frames + 1:
+                    short = min(lengths, key=lengths.get)
+                    raise RunFileError(f"{path}: dataset /{name}, index {n_frames + 1}: holds {n} frames, but "
+                                       f"/{short} only {n_frames} (a killed writer leaves at most one partial frame)")
+        else:
+            # closed normally: one entry per frame in every per-frame dataset
+            n_frames = lengths["frames/time"]
+            for name, n in lengths.items():
+                if n != n_frames:
+                    raise RunFileError(f"{path}: dataset /{name}, index {min(n, n_frames)}: holds {n} frames, "
+                                       f"but /frames/time holds {n_frames}")
+            n_rows = rows[_CONTACT_DATASETS[0]]
+            for name, n in rows.items():
+                if n != n_rows:
+                    raise RunFileError(f"{path}: dataset /{name}, index {min(n, n_rows)}: holds {n} contact rows, "
+                                       f"but /{_CONTACT_DATASETS[0]} holds {n_rows}")
+        count = _read_index(f, "contacts/count", n_frames, path).astype(np.int64)
         if (count < 0).any():
             k = int(np.flatnonzero(count < 0)[0])
-            raise ValidationError("contacts/count", f"negative count {count[k]}", index=k, frame=k, path=path)
+            raise ValidationError("/contacts/count", f"negative count {count[k]}", index=k, path=path)
         offset = np.zeros(n_frames + 1, dtype=np.int64)
         np.cumsum(count, out=offset[1:])
-        rows = min(len(f["contacts"][name]) for name, _ in _CONTACT_LAYOUT.values())
-        n_frames = int(np.searchsorted(offset, rows, side="right")) - 1
+        if self._writer_open:
+            n_frames = int(np.searchsorted(offset, min(rows.values()), side="right")) - 1
+        elif offset[-1] != n_rows:
+            raise ValidationError(
+                "/contacts/count", f"the counts of the {n_frames} frames add up to {offset[-1]} contact rows, "
+                f"but the contact datasets hold {n_rows}: an entry was changed or contact rows are missing",
+                path=path,
+            )
+        time = _read_index(f, "frames/time", n_frames, path).astype(np.float64)
+        step = _read_index(f, "frames/step", n_frames, path).astype(np.int64)
+        _check_index(time, step, path)
         self.n_particles = int(n_particles)
-        self._time = f["frames/time"][:n_frames].astype(np.float64)
-        self._step = f["frames/step"][:n_frames].astype(np.int64)
+        self._time = time
+        self._step = step
         self._count = count[:n_frames]
         self._offset = offset[: n_frames + 1]
         self._indices = np.arange(n_frames, dtype=np.int64)
-        if not np.isfinite(self._time).all():
-            k = int(np.flatnonzero(~np.isfinite(self._time))[0])
-            raise ValidationError("time", f"non-finite value {self._time[k]}", frame=k, path=path)
+        if self._writer_open:
+            _check_inside_file(f, path, n_frames, int(self._offset[-1]))
+
+    def _read(self, name, selection, frame):
+        try:
+            return self._file[name][selection]
+        except Exception as exc:
+            raise RunFileError(f"{self.path}: dataset /{name}, frame {frame}: cannot be read "
+                               f"({_one_line(exc)}); the file is damaged or was cut short") from None
 
     def frame(self, index: int) -> Snapshot:
-        """Read and validate frame ``index`` (an index into the file, 0-based)."""
+        """Read and validate frame ``index`` (an index into the file, 0-based).
+
+        Raises
+        ------
+        RunFileError
+            A chunk of the frame cannot be read (e.g. its checksum does not match): the message
+            names the file, the dataset and the frame.
+        ValidationError
+            The frame's data violate the data model.
+        """
         if self._file is None:
             raise RunFileError(f"{self.path}: run is closed")
-        f = self._file
         start, stop = int(self._offset[index]), int(self._offset[index + 1])
-        try:
-            data = {name: f["particles"][name][index] for name in PARTICLE_FIELDS}
-            for field, (name, _unit) in _CONTACT_LAYOUT.items():
-                data[field] = f["contacts"][name][start:stop]
-            for name, value in data.items():  # float32 storage is read back as float64
-                if value.dtype == np.float32:
-                    data[name] = value.astype(np.float64)
-        except (OSError, KeyError, ValueError) as exc:
-            raise RunFileError(f"{self.path}: frame {index} cannot be read ({exc})") from None
+        data = {name: self._read(f"particles/{name}", index, index) for name in PARTICLE_FIELDS}
+        for field, (name, _unit) in _CONTACT_LAYOUT.items():
+            data[field] = self._read(f"contacts/{name}", slice(start, stop), index)
+        for name, value in data.items():  # float32 storage is read back as float64
+            if value.dtype == np.float32:
+                data[name] = value.astype(np.float64)
         try:
             return _make_snapshot(
                 self.validate, time=self._time[index], step=self._step[index], meta=self._meta, **data
@@ -860,19 +923,183 @@ def _make_snapshot(validate, **fields) -> Snapshot:
     return snapshot
 
 
-def _open_h5(path) -> h5py.File:
-    """Open for reading. A file whose SWMR writer is still running or was killed is flagged
-    'open for write' and opens only in SWMR read mode; every other file opens normally, which
-    also lets HDF5 detect truncation."""
+def _read_index(f, name, n, path) -> np.ndarray:
+    """The first ``n`` entries of an index dataset; a damaged chunk names its frames."""
+    ds = f[name]
     try:
-        return h5py.File(path, "r", rdcc_nbytes=_CHUNK_CACHE_BYTES)
+        return ds[:n]
+    except Exception as exc:
+        reason = _one_line(exc)
+    chunk = ds.chunks[0] if ds.chunks else max(n, 1)
+    for start in range(0, n, chunk):
+        stop = min(start + chunk, n)
+        try:
+            ds[start:stop]
+        except Exception:
+            raise RunFileError(f"{path}: dataset /{name}, frames {start}-{stop - 1}: cannot be read ({reason}); "
+                               "the file is damaged or was cut short") from None
+    raise RunFileError(f"{path}: dataset /{name} cannot be read ({reason}); the file is damaged or was cut short")
+
+
+def _check_index(time, step, path) -> None:
+    """Times finite and strictly increasing; steps >= 0 and strictly increasing (or all equal:
+    the producer did not record steps)."""
+    bad = np.flatnonzero(~np.isfinite(time))
+    if bad.size:
+        k = int(bad[0])
+        raise ValidationError("/frames/time", f"non-finite value {time[k]}", index=k, path=path)
+    bad = np.flatnonzero(np.diff(time) <= 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise ValidationError("/frames/time", f"must increase from frame to frame: {time[k]!r} after "
+                              f"{time[k - 1]!r}", index=k, path=path)
+    bad = np.flatnonzero(step < 0)
+    if bad.size:
+        k = int(bad[0])
+        raise ValidationError("/frames/step", f"must be >= 0, got {step[k]}", index=k, path=path)
+    if step.size > 1 and not (step == step[0]).all():
+        bad = np.flatnonzero(np.diff(step) <= 0)
+        if bad.size:
+            k = int(bad[0]) + 1
+            raise ValidationError("/frames/step", f"must increase from frame to frame: {step[k]} after "
+                                  f"{step[k - 1]}", index=k, path=path)
+
+
+def _check_inside_file(f, path, n_frames, n_rows) -> None:
+    """Every chunk of the committed frames lies inside the file. A file whose writer did not
+    close it records no reliable end-of-file address, so a copy cut short is found here.
+
+    The file size is taken after the chunk index is read: a running writer writes a chunk before
+    the index entry that points to it, so only a cut file has chunks beyond its end."""
+    for name in _PER_FRAME_DATASETS + _CONTACT_DATASETS:
+        ds = f[name]
+        limit = n_frames if name in _PER_FRAME_DATASETS else n_rows
+        if ds.chunks is None or not hasattr(ds.id, "chunk_iter"):
+            continue
+        chunks = []
+        ds.id.chunk_iter(lambda info, chunks=chunks: chunks.append(
+            (info.chunk_offset[0], info.byte_offset + info.size)))
+        size = os.path.getsize(path)
+        beyond = [start for start, end in chunks if start < limit and end > size]
+        if beyond:
+            first = min(beyond)
+            where = f"frame {first}" if name in _PER_FRAME_DATASETS else f"contact row {first}"
+            raise RunFileError(f"{path}: dataset /{name}, {where}: stored beyond the end of the file "
+                               f"({size} bytes); the file was cut short")
+
+
+def _superblock(path):
+    """``(flags, end_of_file)`` from an HDF5 superblock, or None if none is found."""
+    try:
+        size = os.path.getsize(path)
+        with open(path, "rb") as f:
+            offset = 0
+            while offset + 8 <= size:
+                f.seek(offset)
+                if f.read(8) == b"\x89HDF\r\n\x1a\n":
+                    break
+                offset = 512 if offset == 0 else 2 * offset
+            else:
+                return None
+            head = f.read(64)
+    except OSError:
+        return None
+    try:
+        version = head[0]
+        if version in (2, 3):
+            width, flags, first = head[1], head[3], 4
+        elif version in (0, 1):
+            width, flags, first = head[5], struct.unpack_from("<I", head, 12)[0], 16 + 4 * version
+        else:
+            return None
+        code = {2: "<H", 4: "<I", 8: "<Q"}[width]
+        # base address, extension / free-space address, end-of-file address; HDF5 compares the
+        # last with the size of the whole file (a user block included)
+        _base, _, eof = (struct.unpack_from(code, head, first + k * width)[0] for k in range(3))
+    except (IndexError, KeyError, struct.error):
+        return None
+    if eof == (1 << 8 * width) - 1:  # undefined address
+        return None
+    return flags, eof
+
+
+_HDF5_LIB = []
+
+
+def _hdf5_library():
+    """The HDF5 library h5py uses, through ctypes (for the settings h5py does not expose), or None."""
+    if not _HDF5_LIB:
+        lib = None
+        candidates = []
+        try:
+            with open("/proc/self/maps") as maps:
+                candidates = sorted({line.split(None, 5)[-1].strip() for line in maps if "libhdf5" in line})
+        except OSError:
+            folder = os.path.dirname(os.path.dirname(h5py.__file__))
+            for sub in ("h5py.libs", os.path.join("h5py", ".dylibs")):
+                try:
+                    candidates += [os.path.join(folder, sub, n) for n in sorted(os.listdir(os.path.join(folder, sub)))]
+                except OSError:
+                    pass
+        for candidate in candidates:
+            name = os.path.basename(candidate)
+            if not name.startswith("libhdf5") or name.startswith("libhdf5_hl"):
+                continue
+            try:
+                found = ctypes.CDLL(candidate)
+                setter = found.H5Pset_metadata_read_attempts
+            except (OSError, AttributeError):
+                continue
+            setter.argtypes = [ctypes.c_int64, ctypes.c_uint]
+            setter.restype = ctypes.c_int
+            lib = found
+            break
+        _HDF5_LIB.append(lib)
+    return _HDF5_LIB[0]
+
+
+def _swmr_fapl():
+    """File access properties for SWMR reading with a bounded metadata retry loop (None when the
+    library cannot be reached)."""
+    lib = _hdf5_library()
+    if lib is None:
+        return None
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    cache = list(fapl.get_cache())
+    cache[2] = _CHUNK_CACHE_BYTES
+    fapl.set_cache(*cache)
+    if lib.H5Pset_metadata_read_attempts(fapl.id, _SWMR_READ_ATTEMPTS) < 0:
+        return None
+    return fapl
+
+
+def _open_h5(path):
+    """Open for reading; returns ``(file, writer_open)``.
+
+    A file whose SWMR writer is still running or was killed is flagged 'open for write' and opens
+    only in SWMR read mode, with HDF5's metadata retry loop bounded to about a second (its default
+    waits for hours on a file that was cut short). Every other file opens normally, after checking
+    that it is as long as its superblock says."""
+    found = _superblock(path)
+    if found is not None:
+        flags, eof = found
+        size = os.path.getsize(path)
+        if not flags & 0b101 and size < eof:
+            raise RunFileError(f"{path}: the file was cut short: {size} bytes, but its HDF5 superblock records "
+                               f"{eof}")
+    try:
+        return h5py.File(path, "r", rdcc_nbytes=_CHUNK_CACHE_BYTES), False
     except OSError as exc:
         if "already open for write" not in str(exc):
-            raise RunFileError(f"{path}: cannot read as HDF5 ({exc})") from None
+            raise RunFileError(f"{path}: cannot read as HDF5 ({_one_line(exc)})") from None
     try:
-        return h5py.File(path, "r", swmr=True, rdcc_nbytes=_CHUNK_CACHE_BYTES)
-    except OSError as exc:
-        raise RunFileError(f"{path}: cannot read as HDF5 ({exc})") from None
+        fapl = _swmr_fapl()
+        if fapl is None:
+            return h5py.File(path, "r", swmr=True, rdcc_nbytes=_CHUNK_CACHE_BYTES), True
+        fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
+        return h5py.File(fid), True
+    except Exception as exc:
+        raise RunFileError(f"{path}: cannot read as HDF5 ({_one_line(exc)})") from None
 
 
 def open_run(path, *, validate=True) -> Run:
@@ -893,12 +1120,18 @@ def open_run(path, *, validate=True) -> Run:
         A sequence of :class:`Snapshot` with ``len``, indexing, slicing, iteration, and
         :meth:`~Run.select` / :meth:`~Run.nearest` by time or revolution.
 
+    Opening checks the frame index (``docs/format.md``, "Checks on open") and returns or raises
+    within seconds, also for a file that was cut short. Reading a frame whose chunk fails its
+    checksum raises :class:`RunFileError` naming the dataset and the frame.
+
     Raises
     ------
     RunFileError
-        The file is missing, not HDF5, truncated, or not a granalytics run.
+        The file is missing, not HDF5, cut short, damaged, structurally inconsistent (per-frame
+        datasets of different lengths), or not a granalytics run.
     ValidationError
-        Metadata or frame index data are invalid.
+        Metadata or frame index data are invalid (contact counts that do not add up to the
+        contact rows, time or step not increasing, ``n_particles`` not matching the arrays).
     """
     return Run(path, validate=validate)
 
