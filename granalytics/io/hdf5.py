@@ -796,14 +796,10 @@ class Run(_HDF5Handle, _FrameSequence):
         lengths = {name: f[name].shape[0] for name in _PER_FRAME_DATASETS}
         rows = {name: f[name].shape[0] for name in _CONTACT_DATASETS}
         if self._writer_open:
-            # the writer is running or was killed: its last frame may be partly written, so the
-            # per-frame datasets may hold one entry more than the committed frames
+            # the writer is running or was killed: its last frame may be partly written, and a
+            # running writer appends while the lengths are read, so the committed frames are
+            # those every per-frame dataset holds
             n_frames = min(lengths.values())
-            for name, n in lengths.items():
-                if n > n_frames + 1:
-                    short = min(lengths, key=lengths.get)
-                    raise RunFileError(f"{path}: dataset /{name}, index {n_frames + 1}: holds {n} frames, but "
-                                       f"/{short} only {n_frames} (a killed writer leaves at most one partial frame)")
         else:
             # closed normally: one entry per frame in every per-frame dataset
             n_frames = lengths["frames/time"]
