@@ -7,7 +7,7 @@ and exit status 2; the Python API lets them propagate.
 
 from __future__ import annotations
 
-__all__ = ["GranalyticsError", "ValidationError", "RunFileError", "ParameterError"]
+__all__ = ["GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError"]
 
 
 class GranalyticsError(Exception):
@@ -20,7 +20,9 @@ class ValidationError(GranalyticsError, ValueError):
     Parameters
     ----------
     field : str
-        Name of the offending field (e.g. ``"position"``, ``"contact_i"``).
+        Name of the offending field (e.g. ``"position"``, ``"contact_i"``), or the path of the
+        offending dataset in a run file (e.g. ``"/contacts/count"``: the message then says
+        "dataset" instead of "field").
     message : str
         What is wrong, including the first offending value.
     index : int, optional
@@ -55,7 +57,8 @@ class ValidationError(GranalyticsError, ValueError):
             where.append(f"file {self.path}")
         if self.frame is not None:
             where.append(f"frame {self.frame}")
-        where.append(f"field '{self.field}'")
+        kind = "dataset" if str(self.field).startswith("/") else "field"
+        where.append(f"{kind} '{self.field}'")
         if self.index is not None:
             where.append(f"index {self.index}")
         return ", ".join(where) + ": " + self.detail
@@ -63,6 +66,14 @@ class ValidationError(GranalyticsError, ValueError):
 
 class RunFileError(GranalyticsError, OSError):
     """A run file cannot be opened, is not a granalytics run, or is structurally broken."""
+
+
+class RunLockedError(RunFileError, ValueError):
+    """Another writer holds the lock file of a run file (``PATH.lock``).
+
+    Also a :class:`ValueError`, so that command-line tools that report bad input (``ValueError``)
+    as one line with exit status 2 treat a busy output file the same way.
+    """
 
 
 class ParameterError(GranalyticsError, ValueError):

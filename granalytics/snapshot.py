@@ -24,6 +24,29 @@ from .errors import ValidationError
 __all__ = ["RunMeta", "Snapshot"]
 
 
+def json_problem(value) -> str | None:
+    """Why ``value`` cannot be stored as JSON and read back unchanged, or None if it can.
+
+    Refused: objects JSON has no type for, circular references, and dict keys that are not
+    strings (JSON would silently turn ``{1: x}`` into ``{"1": x}``).
+    """
+    try:
+        json.dumps(value)
+    except (TypeError, ValueError, RecursionError) as exc:
+        return str(exc)
+    stack = [(value, "")]
+    while stack:
+        item, where = stack.pop()
+        if isinstance(item, dict):
+            for key, sub in item.items():
+                if not isinstance(key, str):
+                    return f"key {key!r}{' in ' + where if where else ''} is not a string"
+                stack.append((sub, f"{where}[{key!r}]"))
+        elif isinstance(item, (list, tuple)):
+            stack.extend((sub, f"{where}[{k}]") for k, sub in enumerate(item))
+    return None
+
+
 @dataclass
 class RunMeta:
     """Metadata of a run: what CG-aware statistics need, plus provenance.
@@ -120,10 +143,19 @@ class RunMeta:
         else:
             raise ValidationError("capillary_in_contact", f"must be true or false, got {self.capillary_in_contact!r}")
         for name in ("sim_config", "provenance"):
-            try:
-                json.dumps(getattr(self, name))
-            except TypeError as exc:
-                raise ValidationError(name, f"must be JSON-serialisable: {exc}") from None
+            problem = json_problem(getattr(self, name))
+            if problem:
+                raise ValidationError(name, f"must be JSON-serialisable: {problem}")
+
+    def validate(self) -> None:
+        """Check every field again, e.g. after fields were assigned since construction.
+
+        Raises
+        ------
+        ValidationError
+            Naming the offending field.
+        """
+        self.__post_init__()
 
     @property
     def mean_particle_volume(self) -> float:
@@ -268,6 +300,8 @@ class Snapshot:
             arr = _coerce(name, getattr(self, name), spec, n)
             n = arr.shape[0] if n is None else n
             setattr(self, name, arr)
+        if n == 0:
+            raise ValidationError("ids", "the frame has no particles: a snapshot needs at least one")
         m = None
         for name, spec in _CONTACT_FIELDS.items():
             arr = _coerce(name, getattr(self, name), spec, m)

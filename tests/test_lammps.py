@@ -224,3 +224,67 @@ def test_real_liggghts_wet_drum_fixture_end_to_end(tmp_path, capsys):
     assert main(argv) == 0
     assert main(["stats", str(out), "--window", "0:1", "--quiet"]) == 0
     assert "yield_fraction" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("gz", [False, True])
+@pytest.mark.parametrize("target", ["atoms", "pairs"])
+def test_dump_cut_inside_its_last_number_is_refused(tmp_path, frames, gz, target):
+    pf, cf = write_dumps(tmp_path, frames, gz=gz)
+    path = pf[0] if target == "atoms" else cf[0]
+    opener = gzip.open if gz else open
+    with opener(path, "rt") as f:
+        text = f.read()
+    last = text.rstrip("\n").rsplit("\n", 1)[1]
+    assert last.split()[-1].count(".") == 1
+    cut = text.rstrip("\n")[:-3]  # the writer died inside the last number of the last line
+    with opener(path, "wt") as f:
+        f.write(cut)
+    n_lines = cut.count("\n") + 1
+    with pytest.raises(DumpFormatError) as err:
+        read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
+    msg = str(err.value)
+    assert msg.startswith(f"{path}, line {n_lines}: ") and "cut short" in msg and "\n" not in msg
+
+
+def test_convert_cli_refuses_a_cut_dump_with_exit_2(tmp_path, frames, capsys):
+    from granalytics.cli import main
+
+    pf, cf = write_dumps(tmp_path, frames)
+    text = pf[0].read_text()
+    pf[0].write_text(text[:-5])
+    toml = tmp_path / "map.toml"
+    toml.write_text("\n".join(f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {v}" for k, v in MAPPING.items()))
+    out = tmp_path / "run.h5"
+    assert main(["convert", str(pf[0]), "--contacts", str(cf[0]), "--mapping", str(toml), "--dt-s", str(DT),
+                 "--out", str(out), "--quiet"]) == 2
+    assert "cut short" in capsys.readouterr().err and not out.exists()
+
+
+def test_binary_mapping_file_gives_one_line_naming_it(tmp_path, frames, capsys):
+    from granalytics.cli import main
+    from granalytics.io.lammps import load_toml
+
+    binary = tmp_path / "map.toml"
+    binary.write_bytes(b'units = "si"\n' + bytes(range(128, 256)) + b"\x00\x01")
+    with pytest.raises(GranalyticsError) as err:
+        load_toml(binary)
+    msg = str(err.value)
+    assert msg.startswith(f"{binary}: ") and "UTF-8" in msg and "\n" not in msg
+    with pytest.raises(GranalyticsError, match="UTF-8"):
+        DumpMapping.from_toml(binary)
+    pf, cf = write_dumps(tmp_path, frames)
+    assert main(["convert", str(pf[0]), "--contacts", str(cf[0]), "--mapping", str(binary), "--dt-s", str(DT),
+                 "--out", str(tmp_path / "run.h5"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(binary) in err
+
+
+def test_dump_with_zero_atoms_is_refused_naming_the_file(tmp_path, frames):
+    pf, cf = write_dumps(tmp_path, frames[:1])
+    lines = pf[0].read_text().splitlines()
+    pf[0].write_text("\n".join(lines[:3] + ["0"] + lines[4:9]) + "\n")
+    local = cf[0].read_text().splitlines()
+    cf[0].write_text("\n".join(local[:3] + ["0"] + local[4:9]) + "\n")
+    with pytest.raises(GranalyticsError, match="no particles") as err:
+        read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
+    assert str(pf[0]) in str(err.value)

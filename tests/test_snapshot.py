@@ -110,3 +110,32 @@ def test_run_meta_defaults_and_validation():
     with pytest.warns(UserWarning, match="unknown keys"):
         m2 = RunMeta.from_dict(dict(m.to_dict(), future_field=3))
     assert m2.provenance["unknown_meta"] == {"future_field": 3}
+
+
+def test_a_frame_without_particles_is_refused_with_a_clear_message():
+    empty = {name: np.zeros((0, 3) if name in ("position", "velocity", "angular_velocity") else 0)
+             for name in ("radius", "position", "velocity", "angular_velocity", "film_volume", "f_cap", "f_normal",
+                          "gap", "bridge_volume")}
+    with pytest.raises(ValidationError, match="no particles") as err:
+        Snapshot(time=0.0, step=0, ids=np.zeros(0, np.int64), contact_i=np.zeros(0, np.int64),
+                 contact_j=np.zeros(0, np.int64), **empty)
+    assert err.value.field == "ids" and "\n" not in str(err.value)
+
+
+def test_run_meta_json_fields_must_be_dicts_that_json_stores_unchanged():
+    loop = {}
+    loop["again"] = loop
+    for field, value, words in [
+        ("sim_config", "not a dict", "must be a dict"),
+        ("provenance", ["a", "list"], "must be a dict"),
+        ("provenance", loop, "Circular reference"),
+        ("sim_config", {"params": {1: 2.0}}, r"key 1 in \['params'\] is not a string"),
+        ("provenance", {"files": [{"size": {3}}]}, "set is not JSON serializable"),
+    ]:
+        with pytest.raises(ValidationError, match=words) as err:
+            make_meta(10, **{field: value})
+        assert err.value.field == field, (field, value)
+    m = make_meta(10, provenance={"ok": [1, 2.5, None, "x", {"nested": True}]})
+    m.sim_config = {"when": object()}  # changed after construction: validate() catches it
+    with pytest.raises(ValidationError, match="field 'sim_config'"):
+        m.validate()

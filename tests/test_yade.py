@@ -48,3 +48,20 @@ def test_malformed_yade_csv_names_file_and_line(tmp_path):
     meta.write_text("surface_tension = 0.1\ndensity = 2500.0\ndrum_omega = 2.0\ngravityy = 1\n")
     with pytest.raises(GranalyticsError, match="unknown keys"):
         read_yade_csv(PARTICLES, CONTACTS, meta)
+
+
+@pytest.mark.parametrize("gz", [False, True])
+@pytest.mark.parametrize("which", ["particles", "contacts"])
+def test_yade_csv_cut_inside_its_last_line_is_refused(tmp_path, gz, which):
+    source = (PARTICLES if which == "particles" else CONTACTS)[-1]
+    text = gzip.open(source, "rt").read()
+    cut = text.rstrip("\n")[:-3]
+    path = tmp_path / (source.name if gz else source.name[:-3])
+    with (gzip.open(path, "wt") if gz else open(path, "w")) as f:
+        f.write(cut)
+    particles = [path] if which == "particles" else PARTICLES[-1:]
+    contacts = [path] if which == "contacts" else CONTACTS[-1:]
+    with pytest.raises(GranalyticsError) as err:
+        read_yade_csv(particles, contacts, DATA / "meta.toml")
+    msg = str(err.value)
+    assert msg.startswith(f"{path}, line {cut.count(chr(10)) + 1}: ") and "cut short" in msg

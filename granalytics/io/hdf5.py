@@ -5,21 +5,31 @@ metadata flushes so that the file on disk is always a consistent HDF5 file, even
 is killed. On top of that, every frame is committed by writing the frame's ``/frames/time`` entry
 *last*; a reader counts only the frames that every dataset holds completely, so a frame is either
 entirely in the file or absent.
+
+One writer at a time: :class:`RunWriter` holds an exclusive lock file ``PATH.lock`` from before it
+creates the file until it has closed (and compacted) it. Every dataset carries a Fletcher-32
+checksum per chunk, and :func:`open_run` checks the frame index (lengths, contact counts, time and
+step order, particle count) before any frame is read.
 """
 
 from __future__ import annotations
 
+import ctypes
 import json
 import math
 import os
+import socket
+import struct
+import time as _time
+import warnings
 from collections.abc import Sequence
 
 import h5py
 import numpy as np
 
 from .. import __version__
-from ..errors import RunFileError, ValidationError
-from ..snapshot import CONTACT_FIELDS, PARTICLE_FIELDS, RunMeta, Snapshot
+from ..errors import GranalyticsError, RunFileError, RunLockedError, ValidationError
+from ..snapshot import CONTACT_FIELDS, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
 
 __all__ = ["RunWriter", "open_run", "Run", "RunSlice", "subset_run", "FORMAT_NAME", "FORMAT_VERSION"]
 
@@ -48,6 +58,140 @@ assert tuple(_PARTICLE_LAYOUT) == PARTICLE_FIELDS and tuple(_CONTACT_LAYOUT) == 
 
 _CONTACT_CHUNK_ROWS = 1 << 10
 _CHUNK_CACHE_BYTES = 64 * 1024**2
+_INDEX_DATASETS = ("frames/time", "frames/step", "contacts/count")
+_PER_FRAME_DATASETS = _INDEX_DATASETS + tuple(f"particles/{name}" for name in PARTICLE_FIELDS)
+_CONTACT_DATASETS = tuple(f"contacts/{name}" for name, _unit in _CONTACT_LAYOUT.values())
+# HDF5 retries a metadata read that fails its checksum in SWMR read mode (the writer may be
+# updating it), doubling the wait each time from 1 ns: its default of 100 attempts sleeps for
+# hours on a file that was cut short. 30 attempts wait about 1 s in all.
+_SWMR_READ_ATTEMPTS = 30
+_LOCK_SUFFIX = ".lock"
+
+
+def _one_line(exc) -> str:
+    """An exception's message on one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+class _WriterLock:
+    """Exclusive lock of a run file: the file ``target + ".lock"``, created with O_EXCL and
+    holding the owner's pid and host as one JSON line."""
+
+    def __init__(self, target):
+        self.target = target
+        self.path = target + _LOCK_SUFFIX
+        self._record = None
+
+    def acquire(self) -> "_WriterLock":
+        record = json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                             "since": _time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n"
+        for _attempt in range(5):
+            try:
+                fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+            except FileExistsError:
+                text = _read_text(self.path)
+                if text is None:  # released in the meantime
+                    continue
+                owner = _parse_lock(text)
+                if owner is not None and _owner_is_dead(owner):
+                    if self._take_over(text):
+                        warnings.warn(
+                            f"{self.target}: took over the stale lock file {self.path} "
+                            f"(pid {owner['pid']} on host {owner['host']} is no longer running)",
+                            stacklevel=4,
+                        )
+                    continue
+                raise RunLockedError(f"{self.target}: another writer holds the lock file {self.path} "
+                                     f"({_describe_owner(owner, text)}); delete the lock file only if "
+                                     "no writer is running") from None
+            except OSError as exc:
+                raise RunFileError(f"{self.target}: cannot create the lock file {self.path} "
+                                   f"({exc.strerror or _one_line(exc)})") from None
+            try:
+                os.write(fd, record.encode())
+            finally:
+                os.close(fd)
+            self._record = record
+            return self
+        raise RunLockedError(f"{self.target}: the lock file {self.path} keeps changing hands; "
+                             "another writer is starting on the same file")
+
+    def _take_over(self, seen) -> bool:
+        """Remove a stale lock file whose content is ``seen``; False if it changed meanwhile."""
+        aside = f"{self.path}.stale.{os.getpid()}"
+        try:
+            os.rename(self.path, aside)
+        except FileNotFoundError:
+            return False
+        except OSError as exc:
+            raise RunFileError(f"{self.target}: cannot remove the stale lock file {self.path} "
+                               f"({exc.strerror or _one_line(exc)})") from None
+        if _read_text(aside) == seen:
+            os.unlink(aside)
+            return True
+        try:  # another process took it over first: put its lock back
+            os.link(aside, self.path)
+        except OSError:
+            pass
+        os.unlink(aside)
+        return False
+
+    def release(self) -> None:
+        """Remove the lock file if it is still this holder's (idempotent)."""
+        if self._record is None:
+            return
+        record, self._record = self._record, None
+        text = _read_text(self.path)
+        if text == record:
+            try:
+                os.unlink(self.path)
+            except FileNotFoundError:
+                pass
+        elif text is not None:
+            warnings.warn(f"{self.target}: the lock file {self.path} was replaced while this writer "
+                          "held it; left in place", stacklevel=3)
+
+
+def _read_text(path):
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return f.read()
+    except FileNotFoundError:
+        return None
+    except OSError:
+        return ""
+
+
+def _parse_lock(text):
+    try:
+        owner = json.loads(text)
+        if isinstance(owner, dict) and isinstance(owner.get("pid"), int) and isinstance(owner.get("host"), str):
+            return owner
+    except ValueError:
+        pass
+    return None
+
+
+def _owner_is_dead(owner) -> bool:
+    """True only when the owner ran on this host and its pid is gone."""
+    if owner["host"] != socket.gethostname() or owner["pid"] <= 0:
+        return False
+    if owner["pid"] == os.getpid():
+        return False
+    try:
+        os.kill(owner["pid"], 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # exists, owned by another user
+        return False
+    return False
+
+
+def _describe_owner(owner, text):
+    if owner is None:
+        return f"unreadable content {text.strip()[:60]!r}"
+    since = f", since {owner['since']}" if owner.get("since") else ""
+    return f"pid {owner['pid']} on host {owner['host']}{since}"
 
 
 class _HDF5Handle:
@@ -71,6 +215,11 @@ class _HDF5Handle:
 class RunWriter(_HDF5Handle):
     """Append snapshots to a new run file, one complete frame at a time.
 
+    The writer holds an exclusive lock file ``PATH.lock`` (pid and host of the writer) from
+    before it creates the file until :meth:`close` has finished; a second writer on the same
+    path raises :class:`~granalytics.errors.RunLockedError`. A lock left by a writer that is no
+    longer running on this host is taken over with a warning.
+
     Parameters
     ----------
     path : str or path-like
@@ -88,6 +237,13 @@ class RunWriter(_HDF5Handle):
         always float64). ``"float32"`` halves the file for bundling and archiving (relative
         precision 6e-8: 2 nm on a 4 cm drum); readers always return float64 arrays.
 
+    Raises
+    ------
+    RunLockedError
+        Another writer holds ``PATH.lock``.
+    RunFileError
+        The file exists (without ``overwrite``) or cannot be created.
+
     Examples
     --------
     >>> with RunWriter("run.h5", meta) as writer:       # doctest: +SKIP
@@ -95,36 +251,53 @@ class RunWriter(_HDF5Handle):
     ...         writer.append(snapshot)
     """
 
-    def __init__(self, path, meta, *, compression="gzip", compression_level=4, overwrite=False, float_dtype="float64"):
+    _file = None
+    _lock = None
+
+    def __init__(self, path, meta, *, compression="gzip", compression_level=4, overwrite=False, float_dtype="float64",
+                 _lock=None):
         if not isinstance(meta, RunMeta):
             raise ValidationError("meta", f"must be a RunMeta, got {type(meta).__name__}")
+        meta.validate()  # fields may have been changed since construction
         self.path = os.fspath(path)
-        if os.path.exists(self.path) and not overwrite:
-            raise RunFileError(f"{self.path}: file exists (pass overwrite=True to replace it)")
         self.meta = meta
         if float_dtype not in ("float64", "float32"):
             raise ValidationError("float_dtype", f"must be 'float64' or 'float32', got {float_dtype!r}")
         self._float = np.dtype(float_dtype)
         if compression not in ("gzip", "lzf", None):
             raise ValidationError("compression", f"must be 'gzip', 'lzf' or None, got {compression!r}")
-        self._filter = {}
+        # every dataset gets a Fletcher-32 checksum per chunk: HDF5 refuses a damaged chunk on read
+        self._filter = {"fletcher32": True}
         if compression is not None:
-            self._filter = {"compression": compression, "shuffle": True}
+            self._filter.update(compression=compression, shuffle=True)
             if compression == "gzip":
                 self._filter["compression_opts"] = int(compression_level)
+        # the lock exists before the file is created or truncated, and until close() is done
+        lock = _lock if _lock is not None else _WriterLock(self.path).acquire()
         try:
-            self._file = h5py.File(self.path, "w", libver="latest")
-        except OSError as exc:
-            raise RunFileError(f"{self.path}: cannot create run file ({exc})") from None
-        self._file.attrs["format"] = FORMAT_NAME
-        self._file.attrs["format_version"] = FORMAT_VERSION
-        self._file.attrs["created_by"] = f"granalytics {__version__}"
-        _write_meta(self._file.create_group("meta"), meta)
-        self._file.flush()
+            if os.path.exists(self.path) and not overwrite:
+                raise RunFileError(f"{self.path}: file exists (pass overwrite=True to replace it)")
+            try:
+                self._file = h5py.File(self.path, "w", libver="latest")
+            except OSError as exc:
+                raise RunFileError(f"{self.path}: cannot create run file ({_one_line(exc)})") from None
+            self._file.attrs["format"] = FORMAT_NAME
+            self._file.attrs["format_version"] = FORMAT_VERSION
+            self._file.attrs["created_by"] = f"granalytics {__version__}"
+            _write_meta(self._file.create_group("meta"), meta)
+            self._file.flush()
+        except BaseException:
+            self._discard()
+            if _lock is None:
+                lock.release()
+            raise
+        self._lock = lock
         self._n_particles = None
         self._n_frames = 0
         self._n_contact_rows = 0
         self._last_time = -math.inf
+        self._last_step = None
+        self._constant_steps = False  # every frame has the same step: the producer did not record steps
         self._provenance_update = {}
 
     @property
@@ -132,29 +305,70 @@ class RunWriter(_HDF5Handle):
         """Number of frames committed so far."""
         return self._n_frames
 
+    @property
+    def lock_path(self) -> str:
+        """The lock file this writer holds while it is open."""
+        return self.path + _LOCK_SUFFIX
+
     @classmethod
     def continue_from(cls, path, n_frames, **kwargs) -> "RunWriter":
         """Reopen a run for appending after its first ``n_frames`` complete frames.
 
-        Used to resume a killed writer (e.g. a simulation restarted from a checkpoint): the
-        first ``n_frames`` frames and the metadata are copied bit for bit into a new file that
-        then atomically replaces ``path``; later frames of the old file are dropped.
+        Used to resume a killed writer (e.g. a simulation restarted from a checkpoint): under
+        the run's lock, the first ``n_frames`` frames and the metadata are copied into a new file,
+        checked against the original, and the new file then atomically replaces ``path``; later
+        frames of the old file are dropped. The storage (compression, float type) and the
+        metadata attributes are kept as they were unless ``kwargs`` (as for :class:`RunWriter`)
+        say otherwise. On any error ``path`` is left untouched.
 
         Raises
         ------
+        ValidationError
+            ``n_frames`` is not an integer >= 0.
         RunFileError
-            If ``path`` holds fewer than ``n_frames`` complete frames.
+            ``path`` does not exist, cannot be read, or holds fewer than ``n_frames`` complete
+            frames; :class:`~granalytics.errors.RunLockedError` if another writer holds its lock.
         """
         path = os.fspath(path)
+        if isinstance(n_frames, (bool, np.bool_)) or not isinstance(n_frames, (int, np.integer)) or n_frames < 0:
+            raise ValidationError("n_frames", f"must be an integer >= 0, got {n_frames!r}")
+        n_frames = int(n_frames)
+        if kwargs.pop("overwrite", True) is not True:
+            raise ValidationError("overwrite", "continue_from always replaces the file it continues")
+        if not os.path.exists(path):
+            raise RunFileError(f"{path}: no such file: nothing to continue")
+        lock = _WriterLock(path).acquire()
         tmp = path + ".continue.tmp"
-        with open_run(path) as run:
-            if len(run) < n_frames:
-                raise RunFileError(f"{path}: holds {len(run)} complete frames, cannot continue after frame {n_frames}")
-            writer = cls(tmp, run.meta, overwrite=True, **kwargs)
-            for k in range(n_frames):
-                writer.append(run[k])
-        writer._file.flush()
-        os.replace(tmp, path)  # the open handle follows the file to its new name
+        writer = None
+        try:
+            with open_run(path) as run:
+                if len(run) < n_frames:
+                    raise RunFileError(
+                        f"{path}: holds {len(run)} complete frames, cannot continue after frame {n_frames}")
+                settings = {**_storage_settings(run._file), **kwargs}
+                writer = cls(tmp, run.meta, overwrite=True, _lock=lock, **settings)
+                # keep the metadata and file attributes exactly as stored
+                for key, value in run._file.attrs.items():
+                    writer._file.attrs[key] = value
+                dst_meta = writer._file["meta"].attrs
+                for key in list(dst_meta):
+                    del dst_meta[key]
+                for key, value in run._file["meta"].attrs.items():
+                    dst_meta[key] = value
+                for k in range(n_frames):
+                    writer.append(run[k])
+                writer._file.flush()
+                _check_continued(run, writer, n_frames, path)
+            os.replace(tmp, path)  # the open handle follows the file to its new name
+        except BaseException:
+            if writer is not None:
+                writer._discard()
+            try:
+                os.remove(tmp)
+            except OSError:
+                pass
+            lock.release()
+            raise
         writer.path = path
         return writer
 
@@ -165,7 +379,7 @@ class RunWriter(_HDF5Handle):
         ------
         ValidationError
             If the snapshot is invalid, has a different particle count than earlier frames or
-            than ``meta.n_particles``, or its time does not increase.
+            than ``meta.n_particles``, or its time or step does not increase.
         """
         if self._file is None:
             raise RunFileError(f"{self.path}: writer is closed")
@@ -183,7 +397,6 @@ class RunWriter(_HDF5Handle):
                     "radius", f"frame has {n} particles but meta.n_particles is {self.meta.n_particles}",
                     frame=frame, path=self.path,
                 )
-            self._create_datasets(n)
         elif n != self._n_particles:
             raise ValidationError(
                 "radius", f"particle count changed from {self._n_particles} to {n}; a run holds a fixed particle set",
@@ -194,35 +407,56 @@ class RunWriter(_HDF5Handle):
                 "time", f"must increase from frame to frame: {snapshot.time!r} after {self._last_time!r}",
                 frame=frame, path=self.path,
             )
+        if self._last_step is not None and not (
+            snapshot.step > self._last_step and not self._constant_steps
+            or snapshot.step == self._last_step and (self._constant_steps or frame == 1)
+        ):
+            raise ValidationError(
+                "step", f"must increase from frame to frame: {snapshot.step} after {self._last_step}"
+                + (" (or stay the same in every frame when steps are not recorded)"
+                   if frame == 1 or self._constant_steps else ""),
+                frame=frame, path=self.path,
+            )
+        if self._n_particles is None:
+            self._create_datasets(n)
         f = self._file
-        for name in PARTICLE_FIELDS:
-            ds = f["particles"][name]
-            ds.resize(frame + 1, axis=0)
-            ds[frame] = getattr(snapshot, name)
-            ds.flush()
         m = snapshot.n_contacts
         start, stop = self._n_contact_rows, self._n_contact_rows + m
-        for field, (name, _unit) in _CONTACT_LAYOUT.items():
-            ds = f["contacts"][name]
-            ds.resize(stop, axis=0)
-            if m:
-                ds[start:stop] = getattr(snapshot, field)
-            ds.flush()
-        self._append_scalar(f["contacts/count"], frame, m)
-        self._append_scalar(f["frames/step"], frame, snapshot.step)
-        self._append_scalar(f["frames/time"], frame, snapshot.time)  # commit point: written last
+        try:
+            for name in PARTICLE_FIELDS:
+                ds = f["particles"][name]
+                ds.resize(frame + 1, axis=0)
+                ds[frame] = getattr(snapshot, name)
+                ds.flush()
+            for field, (name, _unit) in _CONTACT_LAYOUT.items():
+                ds = f["contacts"][name]
+                ds.resize(stop, axis=0)
+                if m:
+                    ds[start:stop] = getattr(snapshot, field)
+                ds.flush()
+            self._append_scalar(f["contacts/count"], frame, m)
+            self._append_scalar(f["frames/step"], frame, snapshot.step)
+            self._append_scalar(f["frames/time"], frame, snapshot.time)  # commit point: written last
+        except BaseException:  # e.g. Ctrl-C or a full disk: drop the partial frame
+            self._trim()
+            raise
         self._n_contact_rows = stop
         self._n_frames += 1
         self._last_time = snapshot.time
+        self._constant_steps = frame >= 1 and snapshot.step == self._last_step
+        self._last_step = snapshot.step
 
     def update_provenance(self, **items) -> None:
         """Merge ``items`` into the run's ``provenance`` metadata when the writer closes.
 
         For facts known only at the end of a run, e.g. the producing code's wall time
-        (``wall_time_s``). Values must be JSON-serialisable. A killed writer loses them; its
-        frames are unaffected.
+        (``wall_time_s``). Values must be JSON-serialisable (else :class:`ValidationError`). A
+        killed writer loses them; its frames are unaffected.
         """
-        json.dumps(items)  # refuse what cannot be stored, now rather than at close
+        problem = json_problem(items)  # refuse what cannot be stored, now rather than at close
+        if problem:
+            raise ValidationError("provenance", f"update_provenance: must be JSON-serialisable: {problem}",
+                                  path=self.path)
         self._provenance_update.update(items)
 
     @staticmethod
@@ -231,19 +465,60 @@ class RunWriter(_HDF5Handle):
         ds[frame] = value
         ds.flush()
 
+    def _trim(self) -> None:
+        """Cut every dataset back to the committed frames (drops a partially written frame)."""
+        f = self._file
+        if f is None or self._n_particles is None:
+            return
+        try:
+            for name in _INDEX_DATASETS[::-1] + _PER_FRAME_DATASETS[3:]:  # time first: un-commit
+                if f[name].shape[0] != self._n_frames:
+                    f[name].resize(self._n_frames, axis=0)
+                    f[name].flush()
+            for name in _CONTACT_DATASETS:
+                if f[name].shape[0] != self._n_contact_rows:
+                    f[name].resize(self._n_contact_rows, axis=0)
+                    f[name].flush()
+        except Exception:  # the file stays readable: a reader ignores a partial frame
+            pass
+
+    def _discard(self) -> None:
+        """Close the HDF5 file without compacting it; the lock is not touched."""
+        if self._file is not None:
+            try:
+                self._file.close()
+            except Exception:
+                pass
+            self._file = None
+
     def close(self, compact=True) -> None:
-        """Close the file (idempotent).
+        """Close the file (idempotent) and release the lock file.
 
         With ``compact`` (default), the datasets are then copied into a fresh file that replaces
         the original: appending in SWMR mode leaves the space of every rewritten partial chunk
         unused, and the copy drops it (and HDF5's "open for write" flag). A killed writer skips
-        this step; its file stays valid, only larger.
+        this step; its file stays valid, only larger. The lock is held until the copy is done.
         """
         if self._file is None:
             return
-        super().close()
-        if compact:
-            tmp = self.path + ".compact.tmp"
+        try:
+            self._trim()
+            super().close()
+            if compact:
+                self._compact()
+            elif self._provenance_update:
+                try:
+                    with h5py.File(self.path, "r+") as f:
+                        self._write_provenance_update(f)
+                except OSError as exc:
+                    raise RunFileError(f"{self.path}: cannot record the provenance ({_one_line(exc)})") from None
+        finally:
+            if self._lock is not None:
+                self._lock.release()
+
+    def _compact(self) -> None:
+        tmp = self.path + ".compact.tmp"
+        try:
             with h5py.File(self.path, "r") as src, h5py.File(tmp, "w", libver="latest") as dst:
                 for key, value in src.attrs.items():
                     dst.attrs[key] = value
@@ -251,9 +526,24 @@ class RunWriter(_HDF5Handle):
                     src.copy(src[name], dst, name=name)
                 self._write_provenance_update(dst)
             os.replace(tmp, self.path)
-        elif self._provenance_update:
-            with h5py.File(self.path, "r+") as f:
-                self._write_provenance_update(f)
+        except BaseException as exc:
+            try:
+                os.remove(tmp)
+            except OSError:
+                pass
+            if isinstance(exc, OSError) and not isinstance(exc, GranalyticsError):
+                raise RunFileError(f"{self.path}: all frames are written, but compacting the file failed "
+                                   f"({_one_line(exc)})") from None
+            raise
+
+    def __del__(self):
+        # a writer dropped without close(): free the file and the lock (no compaction)
+        try:
+            self._discard()
+            if self._lock is not None:
+                self._lock.release()
+        except Exception:
+            pass
 
     def _write_provenance_update(self, f) -> None:
         if self._provenance_update:
@@ -263,10 +553,11 @@ class RunWriter(_HDF5Handle):
 
     def _create_datasets(self, n):
         f = self._file
+        checksum = {"fletcher32": True}
         frames = f.create_group("frames")
-        frames.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(4096,))
+        frames.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(4096,), **checksum)
         frames["time"].attrs["unit"] = "s"
-        frames.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,))
+        frames.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,), **checksum)
         frames["step"].attrs["unit"] = "1"
         particles = f.create_group("particles")
         for name, (trailing, dtype, unit) in _PARTICLE_LAYOUT.items():
@@ -285,10 +576,43 @@ class RunWriter(_HDF5Handle):
                 **self._filter,
             )
             ds.attrs["unit"] = unit
-        contacts.create_dataset("count", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,))
+        contacts.create_dataset("count", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,), **checksum)
         self._n_particles = n
         f.swmr_mode = True
 
+
+def _storage_settings(f) -> dict:
+    """``compression``, ``compression_level`` and ``float_dtype`` of an existing run file."""
+    if "particles/radius" not in f:
+        return {}
+    ds = f["particles/radius"]
+    out = {"float_dtype": "float32" if ds.dtype == np.float32 else "float64"}
+    if ds.compression in ("gzip", "lzf"):
+        out["compression"] = ds.compression
+        if ds.compression == "gzip" and ds.compression_opts is not None:
+            out["compression_level"] = int(ds.compression_opts)
+    else:
+        out["compression"] = None
+    return out
+
+
+def _check_continued(run, writer, n_frames, path) -> None:
+    """The continued file holds exactly the first ``n_frames`` frames' index and the metadata."""
+    f = writer._file
+    same_meta = dict(f["meta"].attrs.items()).keys() == dict(run._file["meta"].attrs.items()).keys() and all(
+        np.array_equal(np.asarray(value), np.asarray(run._file["meta"].attrs[key]))
+        for key, value in f["meta"].attrs.items()
+    )
+    if n_frames:
+        index_same = (np.array_equal(f["frames/time"][:], run.times[:n_frames])
+                      and np.array_equal(f["frames/step"][:], run.steps[:n_frames])
+                      and np.array_equal(f["contacts/count"][:], run.n_contacts[:n_frames])
+                      and f["contacts/i"].shape[0] == int(run.n_contacts[:n_frames].sum()))
+    else:
+        index_same = "frames" not in f
+    if not (same_meta and index_same):
+        raise RunFileError(f"{path}: the copy of its first {n_frames} frames differs from the original; "
+                           "the file was left unchanged")
 
 
 def _write_meta(group, meta: RunMeta):
@@ -407,8 +731,9 @@ class _FrameSequence(Sequence):
 class Run(_HDF5Handle, _FrameSequence):
     """A run file opened for lazy reading: a sequence of :class:`Snapshot`.
 
-    Frames are read and validated only when accessed. Use :func:`open_run` to create one, and
-    close it (or use it as a context manager) when done.
+    Frames are read and validated only when accessed; the frame index (see ``docs/format.md``,
+    "Checks on open") is checked when the file is opened. Use :func:`open_run` to create one,
+    and close it (or use it as a context manager) when done.
 
     Attributes
     ----------
@@ -423,17 +748,15 @@ class Run(_HDF5Handle, _FrameSequence):
         self.validate = validate
         if not os.path.exists(self.path):
             raise RunFileError(f"{self.path}: no such file")
-        self._file = _open_h5(self.path)
+        self._file, self._writer_open = _open_h5(self.path)
         try:
             self._load_index()
-        except (OSError, KeyError) as exc:
-            self._file.close()
-            if isinstance(exc, RunFileError):
-                raise
-            raise RunFileError(f"{self.path}: broken run file ({exc})") from None
-        except Exception:
+        except GranalyticsError:
             self._file.close()
             raise
+        except Exception as exc:  # h5py raises OSError, KeyError, ValueError, ... on a damaged file
+            self._file.close()
+            raise RunFileError(f"{self.path}: broken run file ({_one_line(exc)})") from None
 
     def _load_index(self):
         f, path = self._file, self.path
@@ -454,10 +777,7 @@ class Run(_HDF5Handle, _FrameSequence):
             self._offset = np.zeros(1, dtype=np.int64)
             self._indices = np.zeros(0, dtype=np.int64)
             return
-        required = ["frames/time", "frames/step", "contacts/count"]
-        required += [f"particles/{name}" for name in PARTICLE_FIELDS]
-        required += [f"contacts/{name}" for name, _ in _CONTACT_LAYOUT.values()]
-        for name in required:
+        for name in _PER_FRAME_DATASETS + _CONTACT_DATASETS:
             if name not in f:
                 raise RunFileError(f"{path}: missing dataset /{name}")
         n_particles = f["particles/radius"].shape[1]
@@ -468,44 +788,83 @@ class Run(_HDF5Handle, _FrameSequence):
                     f"{path}: dataset /particles/{name} has shape {shape}, expected (frames, {n_particles}"
                     + "".join(f", {t}" for t in trailing) + ")"
                 )
-        # committed frames: those every per-frame dataset holds completely
-        n_frames = min(
-            [len(f["frames/time"]), len(f["frames/step"]), len(f["contacts/count"])]
-            + [len(f["particles"][name]) for name in PARTICLE_FIELDS]
-        )
-        count = f["contacts/count"][:n_frames].astype(np.int64)
+        if n_particles != self._meta.n_particles:
+            raise ValidationError(
+                "/meta", f"attribute n_particles is {self._meta.n_particles}, but /particles/radius holds "
+                f"{n_particles} particles per frame", path=path,
+            )
+        lengths = {name: f[name].shape[0] for name in _PER_FRAME_DATASETS}
+        rows = {name: f[name].shape[0] for name in _CONTACT_DATASETS}
+        if self._writer_open:
+            # the writer is running or was killed: its last frame may be partly written, and a
+            # running writer appends while the lengths are read, so the committed frames are
+            # those every per-frame dataset holds
+            n_frames = min(lengths.values())
+        else:
+            # closed normally: one entry per frame in every per-frame dataset
+            n_frames = lengths["frames/time"]
+            for name, n in lengths.items():
+                if n != n_frames:
+                    raise RunFileError(f"{path}: dataset /{name}, index {min(n, n_frames)}: holds {n} frames, "
+                                       f"but /frames/time holds {n_frames}")
+            n_rows = rows[_CONTACT_DATASETS[0]]
+            for name, n in rows.items():
+                if n != n_rows:
+                    raise RunFileError(f"{path}: dataset /{name}, index {min(n, n_rows)}: holds {n} contact rows, "
+                                       f"but /{_CONTACT_DATASETS[0]} holds {n_rows}")
+        count = _read_index(f, "contacts/count", n_frames, path).astype(np.int64)
         if (count < 0).any():
             k = int(np.flatnonzero(count < 0)[0])
-            raise ValidationError("contacts/count", f"negative count {count[k]}", index=k, frame=k, path=path)
+            raise ValidationError("/contacts/count", f"negative count {count[k]}", index=k, path=path)
         offset = np.zeros(n_frames + 1, dtype=np.int64)
         np.cumsum(count, out=offset[1:])
-        rows = min(len(f["contacts"][name]) for name, _ in _CONTACT_LAYOUT.values())
-        n_frames = int(np.searchsorted(offset, rows, side="right")) - 1
+        if self._writer_open:
+            n_frames = int(np.searchsorted(offset, min(rows.values()), side="right")) - 1
+        elif offset[-1] != n_rows:
+            raise ValidationError(
+                "/contacts/count", f"the counts of the {n_frames} frames add up to {offset[-1]} contact rows, "
+                f"but the contact datasets hold {n_rows}: an entry was changed or contact rows are missing",
+                path=path,
+            )
+        time = _read_index(f, "frames/time", n_frames, path).astype(np.float64)
+        step = _read_index(f, "frames/step", n_frames, path).astype(np.int64)
+        _check_index(time, step, path)
         self.n_particles = int(n_particles)
-        self._time = f["frames/time"][:n_frames].astype(np.float64)
-        self._step = f["frames/step"][:n_frames].astype(np.int64)
+        self._time = time
+        self._step = step
         self._count = count[:n_frames]
         self._offset = offset[: n_frames + 1]
         self._indices = np.arange(n_frames, dtype=np.int64)
-        if not np.isfinite(self._time).all():
-            k = int(np.flatnonzero(~np.isfinite(self._time))[0])
-            raise ValidationError("time", f"non-finite value {self._time[k]}", frame=k, path=path)
+        if self._writer_open:
+            _check_inside_file(f, path, n_frames, int(self._offset[-1]))
+
+    def _read(self, name, selection, frame):
+        try:
+            return self._file[name][selection]
+        except Exception as exc:
+            raise RunFileError(f"{self.path}: dataset /{name}, frame {frame}: cannot be read "
+                               f"({_one_line(exc)}); the file is damaged or was cut short") from None
 
     def frame(self, index: int) -> Snapshot:
-        """Read and validate frame ``index`` (an index into the file, 0-based)."""
+        """Read and validate frame ``index`` (an index into the file, 0-based).
+
+        Raises
+        ------
+        RunFileError
+            A chunk of the frame cannot be read (e.g. its checksum does not match): the message
+            names the file, the dataset and the frame.
+        ValidationError
+            The frame's data violate the data model.
+        """
         if self._file is None:
             raise RunFileError(f"{self.path}: run is closed")
-        f = self._file
         start, stop = int(self._offset[index]), int(self._offset[index + 1])
-        try:
-            data = {name: f["particles"][name][index] for name in PARTICLE_FIELDS}
-            for field, (name, _unit) in _CONTACT_LAYOUT.items():
-                data[field] = f["contacts"][name][start:stop]
-            for name, value in data.items():  # float32 storage is read back as float64
-                if value.dtype == np.float32:
-                    data[name] = value.astype(np.float64)
-        except (OSError, KeyError, ValueError) as exc:
-            raise RunFileError(f"{self.path}: frame {index} cannot be read ({exc})") from None
+        data = {name: self._read(f"particles/{name}", index, index) for name in PARTICLE_FIELDS}
+        for field, (name, _unit) in _CONTACT_LAYOUT.items():
+            data[field] = self._read(f"contacts/{name}", slice(start, stop), index)
+        for name, value in data.items():  # float32 storage is read back as float64
+            if value.dtype == np.float32:
+                data[name] = value.astype(np.float64)
         try:
             return _make_snapshot(
                 self.validate, time=self._time[index], step=self._step[index], meta=self._meta, **data
@@ -560,19 +919,183 @@ def _make_snapshot(validate, **fields) -> Snapshot:
     return snapshot
 
 
-def _open_h5(path) -> h5py.File:
-    """Open for reading. A file whose SWMR writer is still running or was killed is flagged
-    'open for write' and opens only in SWMR read mode; every other file opens normally, which
-    also lets HDF5 detect truncation."""
+def _read_index(f, name, n, path) -> np.ndarray:
+    """The first ``n`` entries of an index dataset; a damaged chunk names its frames."""
+    ds = f[name]
     try:
-        return h5py.File(path, "r", rdcc_nbytes=_CHUNK_CACHE_BYTES)
+        return ds[:n]
+    except Exception as exc:
+        reason = _one_line(exc)
+    chunk = ds.chunks[0] if ds.chunks else max(n, 1)
+    for start in range(0, n, chunk):
+        stop = min(start + chunk, n)
+        try:
+            ds[start:stop]
+        except Exception:
+            raise RunFileError(f"{path}: dataset /{name}, frames {start}-{stop - 1}: cannot be read ({reason}); "
+                               "the file is damaged or was cut short") from None
+    raise RunFileError(f"{path}: dataset /{name} cannot be read ({reason}); the file is damaged or was cut short")
+
+
+def _check_index(time, step, path) -> None:
+    """Times finite and strictly increasing; steps >= 0 and strictly increasing (or all equal:
+    the producer did not record steps)."""
+    bad = np.flatnonzero(~np.isfinite(time))
+    if bad.size:
+        k = int(bad[0])
+        raise ValidationError("/frames/time", f"non-finite value {time[k]}", index=k, path=path)
+    bad = np.flatnonzero(np.diff(time) <= 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise ValidationError("/frames/time", f"must increase from frame to frame: {time[k]!r} after "
+                              f"{time[k - 1]!r}", index=k, path=path)
+    bad = np.flatnonzero(step < 0)
+    if bad.size:
+        k = int(bad[0])
+        raise ValidationError("/frames/step", f"must be >= 0, got {step[k]}", index=k, path=path)
+    if step.size > 1 and not (step == step[0]).all():
+        bad = np.flatnonzero(np.diff(step) <= 0)
+        if bad.size:
+            k = int(bad[0]) + 1
+            raise ValidationError("/frames/step", f"must increase from frame to frame: {step[k]} after "
+                                  f"{step[k - 1]}", index=k, path=path)
+
+
+def _check_inside_file(f, path, n_frames, n_rows) -> None:
+    """Every chunk of the committed frames lies inside the file. A file whose writer did not
+    close it records no reliable end-of-file address, so a copy cut short is found here.
+
+    The file size is taken after the chunk index is read: a running writer writes a chunk before
+    the index entry that points to it, so only a cut file has chunks beyond its end."""
+    for name in _PER_FRAME_DATASETS + _CONTACT_DATASETS:
+        ds = f[name]
+        limit = n_frames if name in _PER_FRAME_DATASETS else n_rows
+        if ds.chunks is None or not hasattr(ds.id, "chunk_iter"):
+            continue
+        chunks = []
+        ds.id.chunk_iter(lambda info, chunks=chunks: chunks.append(
+            (info.chunk_offset[0], info.byte_offset + info.size)))
+        size = os.path.getsize(path)
+        beyond = [start for start, end in chunks if start < limit and end > size]
+        if beyond:
+            first = min(beyond)
+            where = f"frame {first}" if name in _PER_FRAME_DATASETS else f"contact row {first}"
+            raise RunFileError(f"{path}: dataset /{name}, {where}: stored beyond the end of the file "
+                               f"({size} bytes); the file was cut short")
+
+
+def _superblock(path):
+    """``(flags, end_of_file)`` from an HDF5 superblock, or None if none is found."""
+    try:
+        size = os.path.getsize(path)
+        with open(path, "rb") as f:
+            offset = 0
+            while offset + 8 <= size:
+                f.seek(offset)
+                if f.read(8) == b"\x89HDF\r\n\x1a\n":
+                    break
+                offset = 512 if offset == 0 else 2 * offset
+            else:
+                return None
+            head = f.read(64)
+    except OSError:
+        return None
+    try:
+        version = head[0]
+        if version in (2, 3):
+            width, flags, first = head[1], head[3], 4
+        elif version in (0, 1):
+            width, flags, first = head[5], struct.unpack_from("<I", head, 12)[0], 16 + 4 * version
+        else:
+            return None
+        code = {2: "<H", 4: "<I", 8: "<Q"}[width]
+        # base address, extension / free-space address, end-of-file address; HDF5 compares the
+        # last with the size of the whole file (a user block included)
+        _base, _, eof = (struct.unpack_from(code, head, first + k * width)[0] for k in range(3))
+    except (IndexError, KeyError, struct.error):
+        return None
+    if eof == (1 << 8 * width) - 1:  # undefined address
+        return None
+    return flags, eof
+
+
+_HDF5_LIB = []
+
+
+def _hdf5_library():
+    """The HDF5 library h5py uses, through ctypes (for the settings h5py does not expose), or None."""
+    if not _HDF5_LIB:
+        lib = None
+        candidates = []
+        try:
+            with open("/proc/self/maps") as maps:
+                candidates = sorted({line.split(None, 5)[-1].strip() for line in maps if "libhdf5" in line})
+        except OSError:
+            folder = os.path.dirname(os.path.dirname(h5py.__file__))
+            for sub in ("h5py.libs", os.path.join("h5py", ".dylibs")):
+                try:
+                    candidates += [os.path.join(folder, sub, n) for n in sorted(os.listdir(os.path.join(folder, sub)))]
+                except OSError:
+                    pass
+        for candidate in candidates:
+            name = os.path.basename(candidate)
+            if not name.startswith("libhdf5") or name.startswith("libhdf5_hl"):
+                continue
+            try:
+                found = ctypes.CDLL(candidate)
+                setter = found.H5Pset_metadata_read_attempts
+            except (OSError, AttributeError):
+                continue
+            setter.argtypes = [ctypes.c_int64, ctypes.c_uint]
+            setter.restype = ctypes.c_int
+            lib = found
+            break
+        _HDF5_LIB.append(lib)
+    return _HDF5_LIB[0]
+
+
+def _swmr_fapl():
+    """File access properties for SWMR reading with a bounded metadata retry loop (None when the
+    library cannot be reached)."""
+    lib = _hdf5_library()
+    if lib is None:
+        return None
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    cache = list(fapl.get_cache())
+    cache[2] = _CHUNK_CACHE_BYTES
+    fapl.set_cache(*cache)
+    if lib.H5Pset_metadata_read_attempts(fapl.id, _SWMR_READ_ATTEMPTS) < 0:
+        return None
+    return fapl
+
+
+def _open_h5(path):
+    """Open for reading; returns ``(file, writer_open)``.
+
+    A file whose SWMR writer is still running or was killed is flagged 'open for write' and opens
+    only in SWMR read mode, with HDF5's metadata retry loop bounded to about a second (its default
+    waits for hours on a file that was cut short). Every other file opens normally, after checking
+    that it is as long as its superblock says."""
+    found = _superblock(path)
+    if found is not None:
+        flags, eof = found
+        size = os.path.getsize(path)
+        if not flags & 0b101 and size < eof:
+            raise RunFileError(f"{path}: the file was cut short: {size} bytes, but its HDF5 superblock records "
+                               f"{eof}")
+    try:
+        return h5py.File(path, "r", rdcc_nbytes=_CHUNK_CACHE_BYTES), False
     except OSError as exc:
         if "already open for write" not in str(exc):
-            raise RunFileError(f"{path}: cannot read as HDF5 ({exc})") from None
+            raise RunFileError(f"{path}: cannot read as HDF5 ({_one_line(exc)})") from None
     try:
-        return h5py.File(path, "r", swmr=True, rdcc_nbytes=_CHUNK_CACHE_BYTES)
-    except OSError as exc:
-        raise RunFileError(f"{path}: cannot read as HDF5 ({exc})") from None
+        fapl = _swmr_fapl()
+        if fapl is None:
+            return h5py.File(path, "r", swmr=True, rdcc_nbytes=_CHUNK_CACHE_BYTES), True
+        fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
+        return h5py.File(fid), True
+    except Exception as exc:
+        raise RunFileError(f"{path}: cannot read as HDF5 ({_one_line(exc)})") from None
 
 
 def open_run(path, *, validate=True) -> Run:
@@ -593,12 +1116,18 @@ def open_run(path, *, validate=True) -> Run:
         A sequence of :class:`Snapshot` with ``len``, indexing, slicing, iteration, and
         :meth:`~Run.select` / :meth:`~Run.nearest` by time or revolution.
 
+    Opening checks the frame index (``docs/format.md``, "Checks on open") and returns or raises
+    within seconds, also for a file that was cut short. Reading a frame whose chunk fails its
+    checksum raises :class:`RunFileError` naming the dataset and the frame.
+
     Raises
     ------
     RunFileError
-        The file is missing, not HDF5, truncated, or not a granalytics run.
+        The file is missing, not HDF5, cut short, damaged, structurally inconsistent (per-frame
+        datasets of different lengths), or not a granalytics run.
     ValidationError
-        Metadata or frame index data are invalid.
+        Metadata or frame index data are invalid (contact counts that do not add up to the
+        contact rows, time or step not increasing, ``n_particles`` not matching the arrays).
     """
     return Run(path, validate=validate)
 

@@ -121,6 +121,26 @@ def _open_text(path):
     return gzip.open(path, "rt") if path.endswith(".gz") else open(path)
 
 
+def read_complete_lines(path) -> list:
+    """The lines of a text file (plain or gzip), refusing a file that was cut short.
+
+    LAMMPS, LIGGGHTS and the YADE export end every line with a newline, so a file whose last
+    line has none was cut while being written or copied; its last number may be cut too
+    (``-156.81`` read as ``-156``). Such a file raises :class:`DumpFormatError` naming the file
+    and the line.
+    """
+    try:
+        with _open_text(path) as f:
+            text = f.read()
+    except (OSError, EOFError, UnicodeDecodeError, gzip.BadGzipFile) as exc:
+        raise DumpFormatError(f"{path}: cannot read ({' '.join(str(exc).split())})") from None
+    lines = text.splitlines()
+    if text and not text.endswith(("\n", "\r")):
+        raise DumpFormatError(f"{path}, line {len(lines)}: the last line does not end with a newline: the file "
+                              f"was cut short (last line {lines[-1][-60:]!r})")
+    return lines
+
+
 def read_dump_blocks(path, kind):
     """Yield ``(timestep, columns, data, first_line)`` for every block of a dump file.
 
@@ -130,11 +150,7 @@ def read_dump_blocks(path, kind):
         Particle dump (``dump custom``) or local dump (``dump local``).
     """
     count_item = "NUMBER OF ATOMS" if kind == "ATOMS" else "NUMBER OF ENTRIES"
-    try:
-        with _open_text(path) as f:
-            lines = f.read().splitlines()
-    except (OSError, EOFError, UnicodeDecodeError) as exc:
-        raise DumpFormatError(f"{path}: cannot read ({exc})") from None
+    lines = read_complete_lines(path)
     k = 0
     seen = set()
 
@@ -290,8 +306,12 @@ def load_toml(path) -> dict:
     try:
         with open(path, "rb") as f:
             return tomllib.load(f)
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise GranalyticsError(f"{path}: cannot read the mapping ({exc})") from None
+    except UnicodeDecodeError as exc:
+        raise GranalyticsError(f"{path}: cannot read the mapping: not UTF-8 text (byte "
+                               f"0x{exc.object[exc.start]:02x} at offset {exc.start}); a TOML file is "
+                               "UTF-8 text") from None
+    except (OSError, ValueError) as exc:  # tomllib.TOMLDecodeError is a ValueError
+        raise GranalyticsError(f"{path}: cannot read the mapping ({' '.join(str(exc).split())})") from None
 
 
 def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):

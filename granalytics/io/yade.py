@@ -10,7 +10,7 @@ Material metadata (γ, ρ, Ω, θ, α) come from a TOML file, as the CSVs do not
 
 from __future__ import annotations
 
-import gzip
+import io
 import re
 
 import numpy as np
@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..errors import GranalyticsError, ValidationError
 from ..snapshot import RunMeta, Snapshot
-from .lammps import DumpFormatError, load_toml
+from .lammps import DumpFormatError, load_toml, read_complete_lines
 
 __all__ = ["read_yade_csv", "PARTICLE_COLUMNS", "CONTACT_COLUMNS"]
 
@@ -28,12 +28,13 @@ _META_KEYS = {"surface_tension", "density", "drum_omega", "contact_angle", "alph
 
 
 def _read(path, columns):
+    lines = read_complete_lines(path)  # refuses a file whose last line was cut
+    header = lines[0] if lines else ""
     try:
-        with (gzip.open(path, "rt") if str(path).endswith(".gz") else open(path)) as f:
-            header = f.readline()
-            table = pd.read_csv(f, dtype=float)
-    except (OSError, EOFError, UnicodeDecodeError, pd.errors.ParserError, ValueError) as exc:
-        raise DumpFormatError(f"{path}: cannot read as a granalytics YADE export ({exc})") from None
+        table = pd.read_csv(io.StringIO("\n".join(lines[1:]) + "\n"), dtype=float)
+    except (pd.errors.ParserError, ValueError) as exc:
+        raise DumpFormatError(f"{path}: cannot read as a granalytics YADE export "
+                              f"({' '.join(str(exc).split())})") from None
     info = dict(re.findall(r"(\w+)=(\S+)", header)) if header.startswith("#") else {}
     if "time_s" not in info or "step" not in info:
         raise DumpFormatError(f"{path}, line 1: expected '# time_s=... step=...', found {header.strip()[:60]!r}")
