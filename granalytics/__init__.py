@@ -17,6 +17,9 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 - granule life histories (tracking, coalescence and breakage events, population-balance rates):
   :func:`track_granules`, :func:`track_run`, :class:`GranuleTracks`, :func:`event_rates`,
   :func:`coalescence_kernel`, :func:`breakage_rate`
+- parameter studies (paper §3.2, Fig 7): :func:`study_table`, :func:`fit_granule_growth`,
+  :class:`GrowthFit`, :func:`fit_surrogate`, :class:`Surrogate` (sweeps run with
+  ``granalytics sweep`` / ``python -m sim sweep``)
 - errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
   :class:`ParameterError`
 """
@@ -39,6 +42,7 @@ from .io import Run, RunSlice, RunWriter, open_run, subset_run
 from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
 from .stats import frame_stats, granule_table, run_stats, size_distribution, steady_state
+from .study import GrowthFit, Surrogate, fit_granule_growth, fit_surrogate, study_table
 from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates, track_granules, track_run
 
 __all__ = [
@@ -50,6 +54,7 @@ __all__ = [
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",
+    "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
     "GranalyticsError", "ValidationError", "RunFileError", "ParameterError",
 ]

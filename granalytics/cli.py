@@ -544,9 +544,17 @@ def build_parser():
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_subset)
 
+    from .study import add_study_parser
     from .tracking import add_track_parser
 
     add_track_parser(sub)
+    add_study_parser(sub)
+    p = sub.add_parser("sweep", help="run a parameter sweep of the simulator on dask (same as python -m sim sweep)",
+                       description="Run a parameter sweep of the bundled simulator on dask: the arguments are those of "
+                                   "'python -m sim sweep' (SPEC.toml --out DIR [--workers N] [--scheduler ADDR]); "
+                                   "see docs/parameter_studies.md.", add_help=False)
+    p.add_argument("sweep_args", nargs=argparse.REMAINDER, help="SPEC.toml --out DIR [--workers N] [--scheduler ADDR]")
+    # handled in main() before parsing: the sweep runner lives in the simulator and is imported only then
 
     p = sub.add_parser("export-vtk", help="VTK files for ParaView (one .vtu per frame + .pvd)",
                        description="Write particles (radius, velocities, film, granule label and size) and bonds "
@@ -578,6 +586,11 @@ def build_parser():
 
 def main(argv=None):
     """Entry point of the ``granalytics`` console script; returns the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["sweep"]:  # the simulator's own command line, options and --help included
+        from sim.sweep import main as sweep_main
+
+        return sweep_main(argv[1:])
     args = build_parser().parse_args(argv)
     import matplotlib
 

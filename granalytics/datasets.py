@@ -57,7 +57,7 @@ _LAB_CODE = "85aa70e85a0494805a84ffec09690de064b05e85"  # git commit whose simul
 DATASETS = {
     "lab-cg3": {
         "file": "lab-cg3.h5",
-        "sha256": "aa53e6e4e8376f784e190cb9be3af3b25c259a4093958199c0b0a1c34b03c3b6",
+        "sha256": "56d25fc98249fea05d27afda6918a5a1b2cc5f9a5f0b56dd1da9d9ebca6cfd73",
         "commands": _recipe("lab-cg3", 6),
         "code_version": _LAB_CODE,
         "wall_time": "3 min 41 s (1 thread; the other core busy)",

@@ -1,0 +1,554 @@
+"""Parameter sweeps on dask: ``python -m sim sweep SPEC.toml --out DIR [--workers N] [--scheduler ADDR]``.
+
+A sweep is a TOML file::
+
+    preset = "lab-cg3"          # any of sim.params.PRESETS (default lab-cg3)
+    revolutions = 6.0           # drum revolutions after settling (required)
+    frame_every_rev = 0.05      # output interval [revolutions] (default 0.05)
+    checkpoint_every = 20       # checkpoint every N frames (default 20; resume needs checkpoints)
+    threads = 1                 # numba threads per point (default 1)
+
+    [grid]                      # every key a list; the points are the cartesian product
+    gamma = [0.05, 0.1, 0.2]    # surface tension of the ORIGINAL system [N/m] (scaled by alpha)
+    omega = [2.0, 3.0]          # drum angular velocity [rad/s]
+    alpha = [2.0]               # CG factor (default: the preset's)
+    seed = [0, 1]               # filling seed
+    particles = [3000]          # particle count of the ORIGINAL system (scaled by 1/alpha^3)
+
+``gamma``, ``omega``, ``seed`` and ``particles`` apply to the original (α = 1) system, exactly
+like the options of ``python -m sim run``; the point is then coarse-grained by ``alpha``. Any
+other scalar field of :class:`sim.params.SimParams` of the original system (``viscosity``,
+``friction``, ``spray_dose``, ``settle_time``, …) may also be swept under its own name.
+
+Each point runs as one dask task and writes ``DIR/points/<point>.h5``; the client records it in
+``DIR/manifest.csv`` (rewritten atomically after every finished point). A point whose manifest row
+says ``done`` and whose file still has the recorded sha256 is skipped; any other point is run,
+resuming from its checkpoint ``<point>.h5.ckpt.npz`` when there is one. A failing point is
+recorded with its one-line error and the others go on. See docs/parameter_studies.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+import hashlib
+import itertools
+import math
+import os
+import sys
+import time
+import uuid
+from dataclasses import dataclass, field
+
+from granalytics.errors import ParameterError
+
+from .params import PRESETS, SimParams, cg_scale, preset_original
+
+__all__ = [
+    "SweepSpec", "SweepPoint", "PointTask", "load_spec", "parse_spec", "point_name", "run_point", "run_sweep",
+    "read_manifest", "add_sweep_parser", "cmd_sweep", "main", "GRID_ALIASES", "MANIFEST_COLUMNS",
+]
+
+#: grid keys that are the ``python -m sim run`` overrides -> SimParams field of the original system
+GRID_ALIASES = {"gamma": "surface_tension", "omega": "drum_omega", "seed": "seed", "particles": "n_particles"}
+#: canonical order of the named keys in point names and manifest columns (others follow, sorted)
+_NAMED = ("gamma", "omega", "alpha", "seed", "particles")
+#: SimParams fields that cannot be grid keys under their own name
+_NOT_FIELDS = {"alpha", "surface_tension", "drum_omega", "n_particles", "seed", "gravity"}
+_TOP_LEVEL = {"preset", "revolutions", "frame_every_rev", "checkpoint_every", "threads", "grid"}
+
+#: manifest columns (after ``point``, ``status`` and the parameters)
+MANIFEST_COLUMNS = ("preset", "revolutions", "frame_every_rev", "wall_time_s", "resumed", "file", "sha256",
+                    "error", "finished_utc")
+_SETTINGS = ("preset", "revolutions", "frame_every_rev")
+_SIM_FIELDS = {f.name: f for f in dataclasses.fields(SimParams)}
+
+
+# ----------------------------------------------------------------------------- the spec
+@dataclass(frozen=True)
+class SweepPoint:
+    """One point of a sweep: its name, the grid values (``grid``, spec names) and the five named
+    parameters of the original system resolved from the preset where the grid does not set them
+    (``resolved``: gamma, omega, alpha, seed, particles, then the other grid keys)."""
+
+    name: str
+    grid: dict
+    resolved: dict
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A parsed sweep: fixed settings and the points (cartesian product of ``grid``)."""
+
+    path: str
+    preset: str
+    revolutions: float
+    frame_every_rev: float
+    checkpoint_every: int
+    threads: int
+    grid: dict
+    points: tuple = field(default_factory=tuple)
+
+
+@dataclass(frozen=True)
+class PointTask:
+    """What a point runner gets (picklable; sent to a dask worker).
+
+    ``out`` is the absolute path of the run file to write (its checkpoint is ``out + '.ckpt.npz'``);
+    ``overrides`` are SimParams fields of the original system (``alpha``: the CG factor)."""
+
+    name: str
+    point: dict
+    overrides: dict
+    preset: str
+    revolutions: float
+    frame_every_rev: float
+    checkpoint_every: int
+    threads: int
+    out: str
+
+    def sim_params(self) -> tuple[SimParams, SimParams]:
+        """(original, params): the α = 1 parameters and those of the simulated (CG) system."""
+        return _build_params(self.preset, self.overrides)
+
+
+def _build_params(preset, overrides):
+    original, alpha = preset_original(preset)
+    changes = {k: v for k, v in overrides.items() if k != "alpha"}
+    original = dataclasses.replace(original, **changes)
+    alpha = float(overrides.get("alpha", alpha))
+    return original, (original if alpha == 1 else cg_scale(original, alpha))
+
+
+def _fmt_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        text = repr(value)
+        return text[:-2] if text.endswith(".0") else text
+    return str(value)
+
+
+def point_name(grid_values: dict) -> str:
+    """Deterministic file-system-safe name of a point from its grid values, e.g.
+    ``gamma=0.1_omega=2_seed=0``: the named keys (gamma, omega, alpha, seed, particles) in that
+    order, then the other keys alphabetically; floats in their shortest exact form."""
+    keys = [k for k in _NAMED if k in grid_values] + sorted(k for k in grid_values if k not in _NAMED)
+    name = "_".join(f"{k}={_fmt_value(grid_values[k])}" for k in keys)
+    if len(name) > 150:  # keep file names short; the hash keeps them unique
+        digest = hashlib.sha256(name.encode()).hexdigest()[:12]
+        name = f"{name[:130]}_{digest}"
+    return name
+
+
+def _expected_type(key):
+    """(python types, description) a grid value of ``key`` must have."""
+    if key in ("gamma", "omega", "alpha"):
+        return float, "a number"
+    if key in ("seed", "particles"):
+        return int, "an integer"
+    default = _SIM_FIELDS[key].default
+    if isinstance(default, bool):
+        return bool, "true or false"
+    if isinstance(default, int):
+        return int, "an integer"
+    if isinstance(default, float):
+        return float, "a number"
+    return str, "a string"
+
+
+def _check_value(where, key, value):
+    kind, what = _expected_type(key)
+    if kind is float:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        value = float(value) if ok else value
+    elif kind is int:
+        ok = isinstance(value, int) and not isinstance(value, bool)
+    else:
+        ok = isinstance(value, kind)
+    if not ok:
+        raise ParameterError(f"{where}: grid key {key!r}: every value must be {what}, got {value!r}")
+    if key == "omega" and value == 0:
+        raise ParameterError(f"{where}: grid key 'omega': a sweep needs a rotating drum, got 0")
+    if key == "alpha" and value < 1:
+        raise ParameterError(f"{where}: grid key 'alpha': the CG factor must be >= 1, got {value!r}")
+    return value
+
+
+def _number(where, spec, key, default, kind, positive=True):
+    value = spec.get(key, default)
+    if value is None:
+        raise ParameterError(f"{where}: {key} is required")
+    good = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind is int:
+        good = good and isinstance(value, int)
+    if not good or not math.isfinite(value) or (positive and value <= 0):
+        raise ParameterError(f"{where}: {key} must be {'an integer' if kind is int else 'a number'} > 0, got {value!r}")
+    return kind(value)
+
+
+def parse_spec(spec: dict, path="<spec>") -> SweepSpec:
+    """Validate a sweep spec (the TOML file as a dict) and expand its grid.
+
+    Raises
+    ------
+    ParameterError
+        One line naming the file and the problem: an unknown key, a grid value that is not a
+        list, an empty grid or list, a duplicate or invalid value, a point the simulator refuses.
+    """
+    where = str(path)
+    unknown = sorted(set(spec) - _TOP_LEVEL)
+    if unknown:
+        raise ParameterError(f"{where}: unknown key {unknown[0]!r} (known: {', '.join(sorted(_TOP_LEVEL))})")
+    preset = spec.get("preset", "lab-cg3")
+    if preset not in PRESETS:
+        raise ParameterError(f"{where}: unknown preset {preset!r}; available: {', '.join(PRESETS)}")
+    revolutions = _number(where, spec, "revolutions", None, float)
+    frame_every_rev = _number(where, spec, "frame_every_rev", 0.05, float)
+    checkpoint_every = _number(where, spec, "checkpoint_every", 20, int)
+    threads = _number(where, spec, "threads", 1, int)
+    grid = spec.get("grid")
+    if not isinstance(grid, dict):
+        raise ParameterError(f"{where}: a [grid] table is required (keys: parameters, values: lists)")
+    if not grid:
+        raise ParameterError(f"{where}: the [grid] table is empty")
+    known = set(_NAMED) | (set(_SIM_FIELDS) - _NOT_FIELDS)
+    values = {}
+    for key, items in grid.items():
+        if key not in known:
+            hint = f" (use {next(k for k, v in GRID_ALIASES.items() if v == key)!r})" if key in GRID_ALIASES.values() else ""
+            raise ParameterError(f"{where}: unknown grid key {key!r}{hint}; known: {', '.join(_NAMED)} "
+                                 f"or a field of sim.params.SimParams")
+        if not isinstance(items, list):
+            raise ParameterError(f"{where}: grid key {key!r} must be a list of values, got {items!r}")
+        if not items:
+            raise ParameterError(f"{where}: grid key {key!r} has an empty list")
+        checked = [_check_value(where, key, v) for v in items]
+        if len({_fmt_value(v) for v in checked}) != len(checked):
+            raise ParameterError(f"{where}: grid key {key!r} lists a value twice: {items!r}")
+        values[key] = checked
+    keys = [k for k in _NAMED if k in values] + sorted(k for k in values if k not in _NAMED)
+    points = []
+    for combo in itertools.product(*(values[k] for k in keys)):
+        grid_values = dict(zip(keys, combo))
+        name = point_name(grid_values)
+        overrides = {GRID_ALIASES.get(k, k): v for k, v in grid_values.items()}
+        try:
+            original, params = _build_params(preset, overrides)
+        except ValueError as exc:
+            raise ParameterError(f"{where}: point {name}: {exc}") from None
+        resolved = {"gamma": original.surface_tension, "omega": original.drum_omega, "alpha": params.alpha,
+                    "seed": original.seed, "particles": original.n_particles}
+        resolved.update({k: v for k, v in grid_values.items() if k not in resolved})
+        points.append(SweepPoint(name, grid_values, resolved))
+    return SweepSpec(where, preset, revolutions, frame_every_rev, checkpoint_every, threads,
+                     {k: values[k] for k in keys}, tuple(points))
+
+
+def load_spec(path) -> SweepSpec:
+    """Read and validate a sweep spec TOML file (see the module docstring)."""
+    try:
+        import tomllib
+    except ImportError:  # Python < 3.11
+        import tomli as tomllib
+    try:
+        with open(path, "rb") as f:
+            spec = tomllib.load(f)
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot read the sweep spec ({exc.strerror or exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"{path}: not valid TOML ({' '.join(str(exc).split())})") from None
+    return parse_spec(spec, path)
+
+
+# ----------------------------------------------------------------------------- running one point
+def run_point(task: PointTask) -> dict:
+    """The real point runner: simulate the point with :mod:`sim` and write ``task.out``.
+
+    Resumes from ``task.out + '.ckpt.npz'`` when the checkpoint exists (bit-identical to an
+    uninterrupted run). Returns ``{"resumed": bool}``.
+    """
+    import numba
+
+    from .run import Simulation
+
+    numba.set_num_threads(max(1, min(task.threads, numba.config.NUMBA_NUM_THREADS)))
+    original, params = task.sim_params()
+    frame_every = max(1, int(round(task.frame_every_rev * params.revolution_period / params.dt)))
+    ckpt = f"{task.out}.ckpt.npz"
+    resumed = os.path.exists(ckpt) and os.path.exists(f"{ckpt}.json") and os.path.exists(task.out)
+    if resumed:
+        sim = Simulation.resume(task.out)
+        if sim.params != params:
+            raise ValueError(f"{ckpt}: checkpoint was made with other parameters")
+    else:
+        sim = Simulation(params, original)
+    sim.run(task.out, task.revolutions, frame_every=frame_every, checkpoint_every=task.checkpoint_every,
+            progress=False, resume=resumed)
+    return {"resumed": resumed}
+
+
+def _one_line(exc) -> str:
+    text = " ".join(str(exc).split())
+    text = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+    return text if len(text) <= 500 else text[:497] + "..."
+
+
+def _sha256(path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _execute(runner, task: PointTask) -> dict:
+    """Run one point on a worker; never raises for a failing point (the error is returned)."""
+    t0 = time.perf_counter()
+    try:
+        info = runner(task) or {}
+        if not os.path.isfile(task.out):
+            raise RuntimeError(f"the point runner wrote no run file {task.out}")
+        return {"status": "done", "wall_time_s": time.perf_counter() - t0, "sha256": _sha256(task.out),
+                "error": "", "resumed": bool(info.get("resumed", False))}
+    except Exception as exc:  # reported in the manifest; the sweep goes on
+        return {"status": "failed", "wall_time_s": time.perf_counter() - t0, "sha256": "", "error": _one_line(exc),
+                "resumed": False}
+
+
+# ----------------------------------------------------------------------------- manifest
+def read_manifest(out_dir):
+    """``DIR/manifest.csv`` as a DataFrame (empty strings for missing text)."""
+    import pandas as pd
+
+    path = os.path.join(out_dir, "manifest.csv")
+    table = pd.read_csv(path, dtype={"point": str, "status": str, "preset": str, "file": str, "sha256": str,
+                                     "error": str, "finished_utc": str})
+    for col in ("sha256", "error", "file", "finished_utc"):
+        if col in table:
+            table[col] = table[col].fillna("")
+    return table
+
+
+def _load_rows(out_dir) -> dict:
+    if not os.path.exists(os.path.join(out_dir, "manifest.csv")):
+        return {}
+    try:
+        table = read_manifest(out_dir)
+    except Exception as exc:
+        raise ParameterError(f"{os.path.join(out_dir, 'manifest.csv')}: cannot read the manifest ({_one_line(exc)})") from None
+    if "point" not in table or "status" not in table:
+        raise ParameterError(f"{os.path.join(out_dir, 'manifest.csv')}: not a sweep manifest (no point/status columns)")
+    rows = {}
+    for row in table.to_dict("records"):
+        rows[row["point"]] = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
+    return rows
+
+
+def _write_manifest(out_dir, rows):
+    import pandas as pd
+
+    params = []
+    for row in rows.values():
+        for key in row:
+            if key not in ("point", "status", *MANIFEST_COLUMNS) and key not in params:
+                params.append(key)
+    params = [k for k in _NAMED if k in params] + sorted(k for k in params if k not in _NAMED)
+    columns = ["point", "status", *params, *MANIFEST_COLUMNS]
+    table = pd.DataFrame(list(rows.values()), columns=columns)
+    path = os.path.join(out_dir, "manifest.csv")
+    tmp = f"{path}.{os.getpid()}.tmp"
+    table.to_csv(tmp, index=False)
+    os.replace(tmp, path)
+
+
+def _is_complete(out_dir, row) -> bool:
+    if not row or row.get("status") != "done" or not row.get("sha256"):
+        return False
+    path = os.path.join(out_dir, row.get("file") or "")
+    return os.path.isfile(path) and _sha256(path) == row["sha256"]
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return float(a) == float(b)
+    return str(a) == str(b)
+
+
+# ----------------------------------------------------------------------------- the sweep
+def run_sweep(spec_path, out_dir, workers=None, scheduler=None, progress=True, point_runner=None):
+    """Run every point of a sweep on dask and return the manifest.
+
+    Parameters
+    ----------
+    spec_path : path
+        Sweep spec (TOML; see the module docstring).
+    out_dir : path
+        Sweep folder: ``points/<point>.h5`` and ``manifest.csv``.
+    workers : int, optional
+        Worker processes of the local cluster (``LocalCluster(n_workers=workers,
+        threads_per_worker=1)``); default: the number of cores, at most the points to run.
+    scheduler : str, optional
+        Address of an existing dask scheduler (``tcp://host:port``) to use instead of a local
+        cluster; its workers must see ``out_dir`` at the same path (shared file system).
+    progress : bool, default True
+        A tqdm bar over the points.
+    point_runner : callable, optional
+        ``point_runner(task: PointTask) -> dict | None`` writes ``task.out``; default
+        :func:`run_point` (the simulator). Tests pass a fast fake. It must be importable or
+        picklable by the workers.
+
+    Returns
+    -------
+    DataFrame
+        The manifest (all rows of ``DIR/manifest.csv``, also those of points of earlier sweeps
+        into the same folder that this spec does not list).
+
+    Raises
+    ------
+    ParameterError
+        A bad spec, folder, worker count or scheduler (before any point runs), or a folder whose
+        manifest ran these points with another preset, revolutions or frame interval.
+    """
+    spec = load_spec(spec_path)
+    if workers is not None and scheduler is not None:
+        raise ParameterError("--workers applies to the local cluster only; the scheduler's cluster has its own workers")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ParameterError(f"--workers must be an integer >= 1, got {workers!r}")
+    out_dir = os.path.abspath(os.fspath(out_dir))
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise ParameterError(f"{out_dir}: exists and is not a folder")
+    runner = point_runner if point_runner is not None else run_point
+    rows = _load_rows(out_dir)
+    settings = {"preset": spec.preset, "revolutions": spec.revolutions, "frame_every_rev": spec.frame_every_rev}
+    todo = []
+    for point in spec.points:
+        row = rows.get(point.name)
+        if row is not None:
+            for key in _SETTINGS:
+                if row.get(key) is not None and not _same(row[key], settings[key]):
+                    raise ParameterError(
+                        f"{os.path.join(out_dir, 'manifest.csv')}: point {point.name} was run with {key}="
+                        f"{row[key]!r}, the spec has {settings[key]!r}; use another --out folder")
+        if not _is_complete(out_dir, row):
+            todo.append(point)
+    os.makedirs(os.path.join(out_dir, "points"), exist_ok=True)
+    if todo:
+        _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler, progress)
+    elif not os.path.exists(os.path.join(out_dir, "manifest.csv")):
+        _write_manifest(out_dir, rows)
+    return read_manifest(out_dir)
+
+
+def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler, progress):
+    import logging
+
+    from tqdm.auto import tqdm
+
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:  # pragma: no cover - a declared dependency
+        raise ParameterError("sweeps need dask.distributed: pip install 'dask[distributed]'") from None
+
+    tasks = {}
+    for point in todo:
+        rel = os.path.join("points", f"{point.name}.h5")
+        rows[point.name] = {"point": point.name, "status": "running", **point.resolved, **settings,
+                            "wall_time_s": None, "resumed": None, "file": rel, "sha256": "", "error": "",
+                            "finished_utc": ""}
+        overrides = {GRID_ALIASES.get(k, k): v for k, v in point.grid.items()}
+        tasks[point.name] = PointTask(point.name, dict(point.resolved), overrides, spec.preset, spec.revolutions,
+                                      spec.frame_every_rev, spec.checkpoint_every, spec.threads,
+                                      os.path.join(out_dir, rel))
+    _write_manifest(out_dir, rows)
+    cluster = None
+    try:
+        if scheduler is not None:
+            try:
+                client = Client(scheduler, timeout="20s")
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise ParameterError(f"cannot connect to the dask scheduler {scheduler} ({_one_line(exc)})") from None
+        else:
+            n = workers if workers is not None else max(1, min(os.cpu_count() or 1, len(todo)))
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                   silence_logs=logging.ERROR)
+            client = Client(cluster)
+        try:
+            token = uuid.uuid4().hex[:8]
+            futures = {client.submit(_execute, runner, task, key=f"sweep-{token}-{name}", pure=False, retries=0): name
+                       for name, task in tasks.items()}
+            bar = tqdm(as_completed(list(futures)), total=len(spec.points), initial=len(spec.points) - len(todo),
+                       unit="point", desc="sweep", disable=not progress)
+            for future in bar:
+                name = futures[future]
+                try:
+                    result = future.result()
+                except Exception as exc:  # the task itself did not finish (e.g. its worker kept dying)
+                    result = {"status": "failed", "wall_time_s": None, "sha256": "", "error": _one_line(exc),
+                              "resumed": False}
+                rows[name].update(result)
+                rows[name]["finished_utc"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+                _write_manifest(out_dir, rows)
+                bar.set_postfix_str(f"{name}: {result['status']}")
+            bar.close()
+        finally:
+            client.close()
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+# ----------------------------------------------------------------------------- command line
+def _configure(p):
+    p.add_argument("spec", help="sweep spec (.toml): preset, revolutions, frame_every_rev and a [grid] of lists")
+    p.add_argument("--out", required=True, help="sweep folder: points/<point>.h5 and manifest.csv")
+    p.add_argument("--workers", type=int, help="worker processes of the local dask cluster, one thread each "
+                                               "(default: the cores, at most the points to run)")
+    p.add_argument("--scheduler", metavar="ADDR", help="use an existing dask cluster (tcp://host:port) instead "
+                                                       "of a local one; its workers must see --out at the same path")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sweep)
+    return p
+
+
+def add_sweep_parser(subparsers):
+    """Add the ``sweep`` subcommand to ``subparsers`` (from ``ArgumentParser.add_subparsers``);
+    its ``func`` is :func:`cmd_sweep`. Returns the subcommand's parser."""
+    p = subparsers.add_parser(
+        "sweep", help="run a parameter study on dask (one run file per grid point)",
+        description="Run every point of the grid of a TOML sweep spec as a dask task (a local cluster of "
+                    "single-threaded worker processes, or --scheduler), one run file per point in OUT/points, "
+                    "recorded in OUT/manifest.csv. Finished points are skipped, interrupted ones resume from "
+                    "their checkpoint, failed ones are recorded and the others go on. See docs/parameter_studies.md.")
+    return _configure(p)
+
+
+def cmd_sweep(args) -> int:
+    """Run the ``sweep`` subcommand. Bad input raises :class:`ParameterError` (a ``ValueError``;
+    the caller prints it as one line, exit 2). Returns 0, or 1 when a point failed."""
+    table = run_sweep(args.spec, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    spec = load_spec(args.spec)
+    mine = table[table["point"].isin([p.name for p in spec.points])]
+    done = int((mine["status"] == "done").sum())
+    failed = mine[mine["status"] == "failed"]
+    print(f"sweep {args.out}: {len(mine)} points, {done} done, {len(failed)} failed; "
+          f"manifest {os.path.join(args.out, 'manifest.csv')}")
+    for row in failed.itertuples():
+        print(f"  failed {row.point}: {row.error}")
+    return 1 if len(failed) else 0
+
+
+def main(argv=None) -> int:
+    """``python -m sim.sweep SPEC.toml --out DIR ...`` (the same as ``python -m sim sweep``)."""
+    parser = argparse.ArgumentParser(prog="python -m sim.sweep", description="Run a parameter sweep on dask.")
+    args = _configure(parser).parse_args(argv)
+    try:
+        return args.func(args)
+    except ValueError as exc:  # ParameterError included
+        print(f"sim: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
