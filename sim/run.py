@@ -17,7 +17,6 @@ import numpy as np
 from granalytics import RunMeta, RunWriter, Snapshot, __version__
 
 from . import _kernels
-from .capillary import CAPILLARY_MODELS
 from .drum import n_walls
 from .neighbours import empty_slots, rebuild
 from .params import SimParams
@@ -129,23 +128,13 @@ class Simulation:
     # ------------------------------------------------------------------ stepping
     def _advance(self, n_steps: int, settling: bool = False) -> None:
         p, s = self.params, self.state
-        model = CAPILLARY_MODELS[p.capillary_model]
-        gravity = np.asarray(p.gravity, dtype=np.float64)
+        kp = _kernels.kernel_params(p, self.n_walls)
         remaining = n_steps
         step = 0 if settling else s.step
         while remaining > 0:
+            body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(self.n_walls)])
             done, s.n_sprays, sprayed = _kernels.advance(
-                remaining, step, p.dt, settling,
-                s.pos, s.vel, s.omega, s.radius, s.mass, s.inertia, s.film, s.x_ref,
-                s.pair_i, s.pair_j, s.alive, s.created, s.ruptured, s.v_b, s.v_max, s.fs, s.nprev,
-                s.force, s.torque_i, s.torque_j, s.f_normal, s.f_cap, s.gap,
-                s.part_start, s.part_slots, s.body_start, s.body_slots,
-                np.concatenate([s.ids, s.ids.max() + 1 + np.arange(self.n_walls)]),
-                self.n_walls, p.drum_radius, p.drum_length, p.n_baffles, p.baffle_height, p.drum_omega, gravity,
-                p.k_n, p.k_t, p.c_n, p.c_t, p.friction, p.surface_tension, p.viscosity, p.contact_angle,
-                model, p.viscous, p.capillary_in_contact, p.v_min,
-                p.spray_interval, p.spray_dose, p.spray_radius, s.n_sprays, p.skin / 2,
-            )
+                remaining, step, settling, s.n_sprays, kp, _kernels.kernel_arrays(s, body_key))
             s.sprayed_total += sprayed
             remaining -= done
             step += done
