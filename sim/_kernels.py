@@ -6,24 +6,18 @@ Verlet list. Every slot carries its own state (alive, bridge volume, tangential 
 previous normal), so the per-slot force loop is race-free; per-particle sums then gather the
 slots of each particle in a fixed order. Results are therefore bit-identical for any thread
 count.
+
+Importing this module changes no global state; the threading set-up the simulator wants is
+:func:`sim.run.configure_threading`, applied by the CLI and by :class:`sim.run.Simulation`.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from collections import namedtuple
 
 import numpy as np
-import numba
 from numba import njit, prange
-
-# OpenMP first: its parallel regions start in microseconds, TBB's take ~0.5 ms on this kind of
-# machine, which dominates a time step of a few thousand particles. Falls back when absent.
-numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
-# Idle OpenMP threads spin before sleeping; with the default spin count two processes sharing
-# the cores slow each other down ~100x. A short spin keeps the start-up fast and sharing sane.
-os.environ.setdefault("GOMP_SPINCOUNT", "3000")
 
 from .capillary import capillary_force, rupture_distance, viscous_force
 from .contact import mechanical_force, rotate_spring

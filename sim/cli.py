@@ -48,6 +48,10 @@ def _params(args):
 
 def main(argv=None):
     args = build_parser().parse_args(argv)
+    if args.command == "run":
+        from .run import configure_threading
+
+        configure_threading()
     if args.command == "presets":
         from .params import preset
 

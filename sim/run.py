@@ -22,7 +22,36 @@ from .neighbours import empty_slots, rebuild
 from .params import SimParams
 from .state import State
 
-__all__ = ["Simulation"]
+__all__ = ["Simulation", "configure_threading"]
+
+#: what :func:`configure_threading` sets (docs/simulator.md, "Threads")
+THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+GOMP_SPINCOUNT = "3000"
+
+
+def configure_threading() -> None:
+    """Set up the process for the simulator's parallel kernels; a no-op once numba has started
+    its threads (the threading layer and OpenMP's settings are fixed from then on).
+
+    - numba's threading layer priority becomes OpenMP first: its parallel regions start in
+      microseconds, TBB's take ~0.5 ms, which dominates a time step of a few thousand
+      particles (falls back to TBB, then workqueue, when OpenMP is absent);
+    - ``GOMP_SPINCOUNT`` is set to 3000 unless already set: idle OpenMP threads spin before
+      sleeping, and with the default spin count two processes sharing the cores slow each other
+      down ~100x.
+
+    Called by the command line and by :class:`Simulation` (creating or running one); importing
+    ``sim`` or using its force laws changes no global state.
+    """
+    import numba
+
+    try:
+        numba.threading_layer()
+        return  # threads already launched: too late to change anything
+    except ValueError:
+        pass
+    numba.config.THREADING_LAYER_PRIORITY = list(THREADING_LAYER_PRIORITY)
+    os.environ.setdefault("GOMP_SPINCOUNT", GOMP_SPINCOUNT)
 
 
 class Simulation:
@@ -40,6 +69,7 @@ class Simulation:
     """
 
     def __init__(self, params: SimParams, original: SimParams | None = None, state: State | None = None):
+        configure_threading()
         self.params = params
         if original is None:
             if params.alpha != 1:
@@ -59,6 +89,7 @@ class Simulation:
         position : (N, 3) [m]; radius : (N,) [m]; velocity, angular_velocity : (N, 3), default 0;
         film : (N,) liquid film volumes [m³], default 0.
         """
+        configure_threading()
         position = np.array(position, dtype=np.float64)
         n = len(position)
         params = dataclasses.replace(params, n_particles=n)
@@ -214,6 +245,7 @@ class Simulation:
         """
         from tqdm.auto import tqdm
 
+        configure_threading()
         p = self.params
         if frame_every is None:
             frame_every = max(1, int(round(0.05 * p.revolution_period / p.dt)))

@@ -203,3 +203,39 @@ def test_trajectory_is_bit_identical_to_the_reference(config):
     sim.advance(2500)
     assert sim.state.n_sprays == 2
     assert _state_digest(sim.state) == REFERENCE_DIGESTS[config]
+
+
+# --- global state ---------------------------------------------------------------------------------
+
+def _python(code):
+    """Run ``code`` in a fresh interpreter without GOMP_SPINCOUNT in its environment; its stdout."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "GOMP_SPINCOUNT"}
+    return subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout
+
+
+def test_importing_sim_and_its_force_laws_changes_no_global_state():
+    # (granalytics, which sim.run imports, sets the same for its own kernels at import: not
+    # sim's to change, so the check starts after importing it)
+    out = _python(
+        "import os, numba, granalytics\n"
+        "os.environ.pop('GOMP_SPINCOUNT', None)\n"
+        "numba.config.THREADING_LAYER_PRIORITY = default = ['tbb', 'omp', 'workqueue']\n"
+        "import sim, sim.run, sim.cli, sim._kernels, sim.neighbours\n"
+        "sim.capillary_force(1e-5, 1e-3, 1e-3, 1e-12, 0.1)\n"
+        "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY == default)\n")
+    assert out.split() == ["None", "True"]
+
+
+def test_the_simulator_sets_up_openmp_when_it_runs():
+    out = _python(
+        "import os, numba\n"
+        "from sim.params import SimParams\n"
+        "from sim.run import Simulation\n"
+        "p = SimParams(n_particles=2, n_baffles=0, drum_omega=0.0, drum_radius=0.05, drum_length=0.05)\n"
+        "Simulation.from_particles(p, [[0, -0.02, 0.02], [0.0016, -0.02, 0.02]], [7.5e-4, 7.5e-4]).advance(2)\n"
+        "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY[0], numba.threading_layer())\n")
+    assert out.split()[:2] == ["3000", "omp"]
