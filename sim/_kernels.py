@@ -19,7 +19,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
-from .capillary import capillary_force, rupture_distance, viscous_force
+from .capillary import bridge_force, bridge_ruptured, effective_radius, viscous_force
 from .contact import mechanical_force, rotate_spring
 from .drum import baffle_directions, wall_contact
 from .liquid import migrate_liquid, spray
@@ -412,7 +412,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             if not ok:
                 u = -1.0
             rj = math.inf
-            r_eff = ri
+            r_eff = effective_radius(ri, rj)
             vjx, vjy, vjz = wvx, wvy, 0.0
             ojx, ojy, ojz = 0.0, 0.0, omega_drum
         else:
@@ -426,7 +426,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
                 dist = 1e-300
             nx, ny, nz = dx / dist, dy / dist, dz / dist
             u = ri + rj - dist
-            r_eff = 2.0 * ri * rj / (ri + rj)
+            r_eff = effective_radius(ri, rj)
             ojx, ojy, ojz = omega_p[j, 0], omega_p[j, 1], omega_p[j, 2]
             vjx = vel[j, 0] - (ojy * nz - ojz * ny) * rj
             vjy = vel[j, 1] - (ojz * nx - ojx * nz) * rj
@@ -441,7 +441,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             fs[k, 1] = 0.0
             fs[k, 2] = 0.0
             nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-        elif u < 0.0 and -u >= rupture_distance(v_b[k], r_eff, theta):
+        elif bridge_ruptured(-u, v_b[k], r_eff, theta):
             alive[k] = False
             ruptured[k] = v_b[k]
             v_b[k] = 0.0
@@ -460,7 +460,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             f_n, sx, sy, sz, tx, ty, tz = mechanical_force(u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t, c_n, c_t, mu, dt)
             fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
             nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-            f_contact = capillary_force(model, 0.0, v_b[k], r_eff, gamma, theta)
+            f_contact = bridge_force(model, -u, v_b[k], r_eff, gamma, theta)  # the value at contact
             f_pull = f_contact if capillary_in_contact else 0.0
             fn_net = f_n - f_pull  # along −n on i (repulsive when positive)
             force[k, 0] = -fn_net * nx + tx
@@ -477,7 +477,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             f_cap[k] = f_contact
         else:  # separated, bridge active (0 < s < s_crit)
             s = -u
-            f_c = capillary_force(model, s, v_b[k], r_eff, gamma, theta)
+            f_c = bridge_force(model, s, v_b[k], r_eff, gamma, theta)
             f_v = 0.0
             if viscous:
                 f_v = viscous_force(eta, ri, rj, vrx * nx + vry * ny + vrz * nz, s, v_b[k])

@@ -17,6 +17,7 @@ import numpy as np
 from granalytics import RunMeta, RunWriter, Snapshot, __version__
 
 from . import _kernels
+from .capillary import pair_capillary_force
 from .drum import n_walls
 from .neighbours import empty_slots, rebuild
 from .params import SimParams
@@ -200,14 +201,24 @@ class Simulation:
     def snapshot(self, meta: RunMeta | None = None) -> Snapshot:
         """The current state as a granalytics snapshot: every particle and every live
         particle–particle interaction (contact or bridge). Wall interactions are not pairs of
-        particles and are left out; liquid held by walls is ``state.film[N:]``."""
-        s = self.state
+        particles and are left out; liquid held by walls is ``state.film[N:]``.
+
+        ``f_cap`` is the force law of ``sim.capillary_force`` (the engine's own) at each pair's
+        gap and *current* bridge volume. That is the force the last step computed, except for a
+        bridge created or refilled by that step's liquid migration: the step's force pass ran
+        before the migration, with the earlier volume (0 for a new bridge), and
+        ``state.f_cap`` keeps that value.
+        """
+        s, p = self.state, self.params
         n = s.n_particles
         live = np.flatnonzero(s.alive[n * self.n_walls:]) + n * self.n_walls
+        i, j = s.pair_i[live], s.pair_j[live]
+        f_cap = pair_capillary_force(s.gap[live], s.radius[i], s.radius[j], s.v_b[live], p.surface_tension,
+                                     p.contact_angle, p.capillary_model)
         return Snapshot(
             time=self.time, step=s.step, ids=s.ids, radius=s.radius, position=s.pos, velocity=s.vel,
             angular_velocity=s.omega, film_volume=s.film[:n],
-            contact_i=s.pair_i[live], contact_j=s.pair_j[live], f_cap=s.f_cap[live],
+            contact_i=i, contact_j=j, f_cap=f_cap,
             f_normal=s.f_normal[live], gap=s.gap[live], bridge_volume=s.v_b[live],
             meta=meta if meta is not None else self.run_meta(),
         )

@@ -39,7 +39,8 @@ class State:
         spring on i [N], previous contact normal.
     force, torque_i, torque_j, f_normal, f_cap, gap
         Per-slot outputs of the last step: force on i [N], torques on i and j [N m], net normal
-        force (positive repulsive) [N], the bridge's cohesive force F_cap(max(s, 0⁺)) [N], gap [m].
+        force (positive repulsive) [N], the bridge's cohesive force F_cap(max(s, 0⁺)) [N] with the
+        bridge volume the step's force pass saw (before liquid migration), gap [m].
     part_start, part_slots, body_start, body_slots
         CSR slot lists per particle (pair slots) and per body (all slots).
     """
