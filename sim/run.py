@@ -6,6 +6,7 @@ the next Verlet-list rebuild, typically hundreds of steps).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
@@ -24,6 +25,10 @@ from .params import SimParams
 from .state import State
 
 __all__ = ["Simulation", "configure_threading"]
+
+#: version of the one-file checkpoint (the JSON information inside the .npz under _INFO_KEY)
+CHECKPOINT_FORMAT = 2
+_INFO_KEY = "checkpoint_info"
 
 #: what :func:`configure_threading` sets (docs/simulator.md, "Threads")
 THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
@@ -225,24 +230,85 @@ class Simulation:
 
     # ------------------------------------------------------------------ checkpoints
     def save_checkpoint(self, path, extra=None) -> None:
-        """Write the state and parameters atomically (temporary file, then rename)."""
-        tmp = f"{path}.tmp.npz"
-        self.state.save(tmp)
-        info = {"params": self.params.to_dict(), "original": self.original.to_dict(),
+        """Write the state and parameters as ONE file, atomically.
+
+        The state arrays and the JSON information (parameters, initial liquid, ``extra``) go
+        into a single ``.npz`` (the JSON as the 0-d string array ``checkpoint_info``), written
+        to ``path + '.tmp'`` in the same directory, flushed to disk (fsync), then renamed over
+        ``path`` (``os.replace``, atomic) and the directory synced. A kill at any point leaves
+        either the previous checkpoint or the new one, never a mix. A legacy ``path + '.json'``
+        beside it (the two-file format of earlier versions) is removed afterwards.
+        """
+        path = os.fspath(path)
+        info = {"format": CHECKPOINT_FORMAT, "params": self.params.to_dict(), "original": self.original.to_dict(),
                 "liquid_initial": self.liquid_initial, **(extra or {})}
-        with open(f"{path}.json.tmp", "w") as f:
-            json.dump(info, f)
-        os.replace(tmp, path)
-        os.replace(f"{path}.json.tmp", f"{path}.json")
+        arrays = self.state.to_arrays()
+        arrays[_INFO_KEY] = np.array(json.dumps(info))
+        tmp = f"{path}.tmp"
+        try:
+            with open(tmp, "wb") as f:
+                np.savez(f, **arrays)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except Exception:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        _fsync_directory(os.path.dirname(os.path.abspath(path)))
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(f"{path}.json")  # legacy sidecar: the information is inside the .npz now
 
     @classmethod
     def from_checkpoint(cls, path) -> tuple["Simulation", dict]:
-        """Restore a simulation from :meth:`save_checkpoint`; returns it and the extra info."""
-        with open(f"{path}.json") as f:
-            info = json.load(f)
-        sim = cls(SimParams.from_dict(info.pop("params")), SimParams.from_dict(info.pop("original")),
-                  state=State.load(path))
-        sim.liquid_initial = info.pop("liquid_initial")
+        """Restore a simulation from :meth:`save_checkpoint`; returns it and the extra info.
+
+        Reads the one-file format and the legacy two-file format (``path`` with the JSON in
+        ``path + '.json'``). A legacy pair may be mixed (a kill between its two renames left a
+        newer ``.npz`` beside an older ``.json``); everything in the ``.json`` except the frame
+        count and wall time is the same for the whole run, so the frame count is taken from the
+        state's step instead (``step / frame_every + 1``).
+
+        Raises
+        ------
+        ValueError
+            Missing, unreadable or damaged checkpoint (one line, naming the file).
+        """
+        path = os.fspath(path)
+        if not os.path.exists(path):
+            raise ValueError(f"{path}: no checkpoint to resume from")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {name: data[name] for name in data.files}
+            legacy = _INFO_KEY not in arrays
+            if legacy:
+                try:
+                    with open(f"{path}.json") as f:
+                        info = json.load(f)
+                except FileNotFoundError:
+                    raise ValueError(f"{path}: checkpoint without its information (no '{_INFO_KEY}' inside, "
+                                     f"no {os.path.basename(path)}.json beside it)") from None
+            else:
+                info = json.loads(str(arrays.pop(_INFO_KEY)))
+            state = State.from_arrays(arrays)
+            params = SimParams.from_dict(info.pop("params"))
+            original = SimParams.from_dict(info.pop("original"))
+            liquid_initial = float(info.pop("liquid_initial"))
+            if "frames" in info or "frame_every" in info:
+                frames, frame_every = int(info["frames"]), int(info["frame_every"])
+                if legacy and frame_every >= 1 and state.step % frame_every == 0:
+                    frames = info["frames"] = state.step // frame_every + 1
+                if frame_every < 1 or state.step != (frames - 1) * frame_every:
+                    raise ValueError(f"state at step {state.step} is not the last of {frames} frames every "
+                                     f"{frame_every} steps")
+        except ValueError as exc:
+            message = str(exc)
+            raise ValueError(message if message.startswith(path) else f"{path}: damaged checkpoint ({message})") from None
+        except Exception as exc:  # zip, npy and JSON errors of a truncated or garbled file
+            raise ValueError(f"{path}: damaged checkpoint ({type(exc).__name__}: {exc})") from None
+        info.pop("format", None)
+        sim = cls(params, original, state=state)
+        sim.liquid_initial = liquid_initial
         return sim, info
 
     # ------------------------------------------------------------------ runs
@@ -304,3 +370,17 @@ class Simulation:
         sim._resume_frame = info["frames"]
         sim._resume_wall_s = float(info.get("wall_s", 0.0))
         return sim
+
+
+def _fsync_directory(directory) -> None:
+    """Make a rename in ``directory`` durable (POSIX; a no-op where directories cannot be opened)."""
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

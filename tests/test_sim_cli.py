@@ -49,7 +49,7 @@ def test_a_killed_run_resumes_from_its_checkpoint_bit_identically(tmp_path):
     full, part = tmp_path / "full.h5", tmp_path / "part.h5"
     subprocess.run(args + ["--out", str(full)], check=True, capture_output=True)
     proc = subprocess.Popen(args + ["--out", str(part)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    marker = f"{part}.ckpt.npz.json"
+    marker = f"{part}.ckpt.npz"  # one file, renamed into place when complete
     deadline = time.time() + 120
     while not os.path.exists(marker) and time.time() < deadline:
         time.sleep(0.02)

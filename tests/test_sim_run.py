@@ -239,3 +239,147 @@ def test_the_simulator_sets_up_openmp_when_it_runs():
         "Simulation.from_particles(p, [[0, -0.02, 0.02], [0.0016, -0.02, 0.02]], [7.5e-4, 7.5e-4]).advance(2)\n"
         "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY[0], numba.threading_layer())\n")
     assert out.split()[:2] == ["3000", "omp"]
+
+
+# --- checkpoints: one atomic file, kills at any point, legacy two-file format ----------------------
+
+RESUME_PARAMS = dataclasses.replace(SMALL, settle_time=0.01)
+FRAME_EVERY = 400
+REVS = 12 * FRAME_EVERY * RESUME_PARAMS.dt / RESUME_PARAMS.revolution_period  # 12 frames after the first
+
+
+class Killed(BaseException):
+    """Stands for SIGKILL: no ``except Exception`` clean-up runs."""
+
+
+@pytest.fixture(scope="module")
+def full_run(tmp_path_factory):
+    path = tmp_path_factory.mktemp("full") / "full.h5"
+    Simulation(RESUME_PARAMS, ORIGINAL).run(path, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False)
+    return path
+
+
+def assert_same_run(a_path, b_path, n_frames=13):
+    with ga.open_run(a_path) as a, ga.open_run(b_path) as b:
+        assert len(a) == len(b) == n_frames
+        for fa, fb in zip(a, b):
+            assert fa.time == fb.time and fa.step == fb.step
+            for name in ("ids", "position", "velocity", "angular_velocity", "film_volume", "contact_i", "contact_j",
+                         "f_cap", "f_normal", "gap", "bridge_volume"):
+                assert np.array_equal(getattr(fa, name), getattr(fb, name)), name
+
+
+def keep_checkpoint_copies(monkeypatch):
+    """Copy every checkpoint written to ``CKPT.<frames>`` (with a legacy .json beside it, if any)."""
+    import os
+    import shutil
+
+    save = Simulation.save_checkpoint
+
+    def saving(self, path, extra=None):
+        save(self, path, extra)
+        shutil.copyfile(path, f"{path}.{extra['frames']}")
+        if os.path.exists(f"{path}.json"):
+            shutil.copyfile(f"{path}.json", f"{path}.{extra['frames']}.json")
+
+    monkeypatch.setattr(Simulation, "save_checkpoint", saving)
+
+
+@pytest.mark.parametrize("point, resumed_from", [
+    ("write", 4),          # killed while writing the temporary file
+    ("fsync", 4),          # written, killed before it reached the disk
+    ("replace", 4),        # killed just before the rename
+    ("after replace", 8),  # renamed, killed before anything else happened
+])
+def test_a_kill_at_any_point_of_a_checkpoint_leaves_a_complete_one(tmp_path, monkeypatch, full_run, point, resumed_from):
+    import os
+
+    part = tmp_path / "part.h5"
+    ckpt = f"{part}.ckpt.npz"
+    real_savez, real_fsync, real_replace = np.savez, os.fsync, os.replace
+    armed = {"on": False}  # the second checkpoint (frame 8) is killed; the first completes
+    save = Simulation.save_checkpoint
+
+    def saving(self, path, extra=None):
+        armed["on"] = extra["frames"] == 8
+        save(self, path, extra)
+
+    def savez(file, *args, **kwds):
+        if armed["on"] and point == "write":
+            if isinstance(file, (str, os.PathLike)):
+                file = open(file, "wb")
+            file.write(b"PK\x03\x04 half a checkpoint")
+            file.flush()
+            raise Killed
+        return real_savez(file, *args, **kwds)
+
+    def fsync(fd):
+        if armed["on"] and point == "fsync":
+            raise Killed
+        return real_fsync(fd)
+
+    def replace(src, dst):
+        if armed["on"] and os.fspath(dst).startswith(ckpt):
+            if point == "replace":
+                raise Killed
+            real_replace(src, dst)
+            if point == "after replace":
+                raise Killed
+            return None
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(Simulation, "save_checkpoint", saving)
+    monkeypatch.setattr(np, "savez", savez)
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(Killed):
+        Simulation(RESUME_PARAMS, ORIGINAL).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False)
+    monkeypatch.undo()
+    # one complete checkpoint, consistent in itself: the previous one or the new one
+    sim, info = Simulation.from_checkpoint(ckpt)
+    assert info["frames"] == resumed_from and info["frame_every"] == FRAME_EVERY
+    assert sim.state.step == (resumed_from - 1) * FRAME_EVERY
+    assert not os.path.exists(f"{ckpt}.json")  # one file
+    Simulation.resume(part).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False, resume=True)
+    assert_same_run(full_run, part)
+
+
+@pytest.mark.parametrize("mixed", [False, True])
+def test_legacy_two_file_checkpoints_still_resume(tmp_path, monkeypatch, full_run, mixed):
+    """Checkpoints of earlier versions: the state in OUT.ckpt.npz, the information in
+    OUT.ckpt.npz.json, renamed one after the other. A kill between the two renames left a newer
+    .npz beside an older .json (``mixed``); resuming must still continue from the .npz's frame."""
+    import json
+    import os
+
+    part = tmp_path / "part.h5"
+    ckpt = f"{part}.ckpt.npz"
+    keep_checkpoint_copies(monkeypatch)
+    Simulation(RESUME_PARAMS, ORIGINAL).run(part, REVS * 9 / 12, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False)
+    monkeypatch.undo()
+
+    def legacy(frames):
+        with np.load(f"{ckpt}.{frames}") as data:
+            arrays = {name: data[name] for name in data.files}
+        if "checkpoint_info" in arrays:
+            info = json.loads(str(arrays.pop("checkpoint_info")))
+            info.pop("format")
+        else:  # made by a version that wrote the legacy format itself
+            with open(f"{ckpt}.{frames}.json") as f:
+                info = json.load(f)
+        return arrays, info
+
+    state, _ = legacy(8)
+    _, info = legacy(4 if mixed else 8)
+    assert info["frames"] == (4 if mixed else 8)
+    for name in (ckpt, f"{ckpt}.json"):
+        if os.path.exists(name):
+            os.unlink(name)
+    np.savez(ckpt, **state)
+    with open(f"{ckpt}.json", "w") as f:
+        json.dump(info, f)
+    Simulation.resume(part).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False, resume=True)
+    assert_same_run(full_run, part)
+    # the next checkpoint was written in the one-file format and the sidecar is gone
+    assert not os.path.exists(f"{ckpt}.json")
+    assert Simulation.from_checkpoint(ckpt)[1]["frames"] == 12
