@@ -312,30 +312,79 @@ class Simulation:
         return sim, info
 
     # ------------------------------------------------------------------ runs
-    def run(self, out, revolutions, *, frame_every=None, checkpoint_every=20, progress=True, resume=False):
-        """Simulate ``revolutions`` drum revolutions, writing a frame every ``frame_every``
-        steps (default: every 0.05 revolution) to the granalytics run file ``out``.
+    def frame_plan(self, revolutions, frame_every=None) -> tuple[int, int]:
+        """``(frame_every, n_frames)`` of a run of ``revolutions`` drum revolutions.
 
-        A checkpoint ``out + '.ckpt.npz'`` is written every ``checkpoint_every`` frames; with
-        ``resume=True`` the run continues from it (the file keeps the frames written up to the
-        checkpoint) and the trajectory is bit-identical to an uninterrupted run.
+        Frames are written every ``frame_every`` steps (default: the step count nearest to 0.05
+        revolution), frame 0 at t = 0, and the last one at the requested end: ``revolutions``
+        must be a whole number n of frame intervals, up to the rounding of the interval to whole
+        steps (|n·frame_every − revolutions·T/Δt| ≤ (n + 1)/2 steps), and ``n_frames`` = n + 1.
+
+        Raises
+        ------
+        ValueError
+            ``revolutions`` not finite and > 0, a drum that does not turn, ``frame_every`` not a
+            positive integer, or ``revolutions`` not a whole number of frame intervals.
+        """
+        p = self.params
+        if not (isinstance(revolutions, (int, float, np.integer, np.floating)) and math.isfinite(revolutions)
+                and revolutions > 0):
+            raise ValueError(f"revolutions must be a finite number > 0, got {revolutions!r}")
+        if not math.isfinite(p.revolution_period):
+            raise ValueError("the drum does not turn (drum_omega = 0): a run is measured in revolutions")
+        if frame_every is None:
+            frame_every = max(1, int(round(0.05 * p.revolution_period / p.dt)))
+        if not (isinstance(frame_every, (int, np.integer)) and not isinstance(frame_every, bool) and frame_every >= 1):
+            raise ValueError(f"frame_every must be a positive whole number of steps, got {frame_every!r}")
+        frame_every = int(frame_every)
+        total = revolutions * p.revolution_period / p.dt  # steps, not rounded
+        n = int(round(total / frame_every))
+        if n < 1 or abs(n * frame_every - total) > (n + 1) / 2:
+            raise ValueError(
+                f"revolutions = {revolutions:g} ({total:.6g} steps) is not a whole number of frame intervals of "
+                f"{frame_every} steps ({total / frame_every:.6g}); the last frame would miss the requested end")
+        return frame_every, n + 1
+
+    def run(self, out, revolutions, *, frame_every=None, checkpoint_every=20, progress=True, resume=False,
+            overwrite=False):
+        """Simulate ``revolutions`` drum revolutions, writing a frame every ``frame_every``
+        steps (default: every 0.05 revolution) to the granalytics run file ``out``; see
+        :meth:`frame_plan`.
+
+        A checkpoint ``out + '.ckpt.npz'`` is written every ``checkpoint_every`` frames (None:
+        never); with ``resume=True`` the run continues from it (the file keeps the frames written
+        up to the checkpoint) and the trajectory is bit-identical to an uninterrupted run. A
+        resume first checks that the run file and the checkpoint belong together (parameters,
+        frame interval, frame count, time and step of the checkpoint's frame) and refuses with
+        ``ValueError``, changing nothing on disk, when they do not.
+
+        An existing ``out`` is replaced only with ``overwrite=True`` (``FileExistsError``
+        otherwise); a new run removes a checkpoint of ``out`` left by an earlier run.
         """
         from tqdm.auto import tqdm
 
         configure_threading()
         p = self.params
-        if frame_every is None:
-            frame_every = max(1, int(round(0.05 * p.revolution_period / p.dt)))
-        total_steps = int(round(revolutions * p.revolution_period / p.dt))
-        n_frames = total_steps // frame_every + 1
+        out = os.fspath(out)
+        frame_every, n_frames = self.frame_plan(revolutions, frame_every)
+        if checkpoint_every is not None and not (
+                isinstance(checkpoint_every, (int, np.integer)) and not isinstance(checkpoint_every, bool)
+                and checkpoint_every >= 1):
+            raise ValueError(f"checkpoint_every must be a whole number of frames >= 1 (or None), got {checkpoint_every!r}")
         ckpt = f"{out}.ckpt.npz"
         meta = self.run_meta()
         if resume:
             if not hasattr(self, "_resume_frame"):
                 raise ValueError("resume=True needs a simulation restored with Simulation.resume(out)")
+            self.check_resume(out, frame_every, n_frames)
             writer = RunWriter.continue_from(out, self._resume_frame)
         else:
-            writer = RunWriter(out, meta, overwrite=True)
+            if os.path.exists(out) and not overwrite:
+                raise FileExistsError(f"{out}: file exists (pass overwrite=True, or --overwrite, to replace it)")
+            writer = RunWriter(out, meta, overwrite=overwrite)
+            for stale in (ckpt, f"{ckpt}.json"):  # an earlier run's checkpoint of this file
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(stale)
             writer.append(self.snapshot(meta))
         wall0 = _time.perf_counter()
         steps0 = self.state.step
@@ -346,7 +395,7 @@ class Simulation:
             while writer.n_frames < n_frames:
                 self.advance(writer.n_frames * frame_every - self.state.step)
                 writer.append(self.snapshot(meta))
-                if checkpoint_every and writer.n_frames % checkpoint_every == 0:
+                if checkpoint_every is not None and writer.n_frames % checkpoint_every == 0:
                     self.save_checkpoint(ckpt, {"frames": writer.n_frames, "frame_every": frame_every,
                                                 "wall_s": wall_before + _time.perf_counter() - wall0})
                 bar.update(1)
@@ -365,11 +414,71 @@ class Simulation:
 
     @classmethod
     def resume(cls, out) -> "Simulation":
-        """The simulation of run ``out`` restored from its checkpoint, ready for ``run(..., resume=True)``."""
-        sim, info = cls.from_checkpoint(f"{out}.ckpt.npz")
-        sim._resume_frame = info["frames"]
+        """The simulation of run ``out`` restored from its checkpoint, ready for ``run(..., resume=True)``.
+
+        Raises
+        ------
+        ValueError
+            No checkpoint, or a damaged one.
+        """
+        sim, info = cls.from_checkpoint(f"{os.fspath(out)}.ckpt.npz")
+        try:
+            sim._resume_frame = int(info["frames"])
+            sim._resume_frame_every = int(info["frame_every"])
+        except KeyError as exc:
+            raise ValueError(f"{out}.ckpt.npz: not a run checkpoint (no {exc.args[0]!r})") from None
         sim._resume_wall_s = float(info.get("wall_s", 0.0))
         return sim
+
+    def check_resume(self, out, frame_every, n_frames) -> None:
+        """Check that run file ``out`` and this simulation's checkpoint belong together before a
+        resume changes anything: same parameters (preset, overrides, seed: the whole
+        :class:`SimParams` and its original), same frame interval, the checkpoint's frame
+        within the requested run, the run file holding at least the checkpoint's frame count on
+        the same grid of steps, and its frame ``frames − 1`` at exactly the checkpoint's time and
+        step.
+
+        Raises
+        ------
+        ValueError
+            One line naming what does not match.
+        """
+        from granalytics import open_run
+
+        ckpt = f"{out}.ckpt.npz"
+        frames, s = self._resume_frame, self.state
+        if self._resume_frame_every != frame_every:
+            raise ValueError(
+                f"{ckpt}: the run writes a frame every {self._resume_frame_every} steps, the resumed run asks for "
+                f"{frame_every} (give the same frame interval, --frame-every-rev, as when the run started)")
+        if frames > n_frames:
+            raise ValueError(f"{ckpt}: the checkpoint comes after {frames} frames, past the end of the requested "
+                             f"run ({n_frames} frames); ask for at least as many revolutions as it holds")
+        if not os.path.exists(out):
+            raise ValueError(f"{out}: run file missing; the checkpoint {ckpt} continues it and cannot be resumed without it")
+        try:
+            with open_run(out, validate=False) as run:
+                meta, steps, times = run.meta, run.steps, run.times
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"{out}: cannot resume, the run file is unreadable ({exc})") from None
+        try:
+            file_params = SimParams.from_dict(meta.sim_config["params"])
+            file_original = SimParams.from_dict(meta.sim_config["original"])
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"{out}: not a run of this simulator (no simulation parameters in its metadata)") from None
+        if file_params != self.params or file_original != self.original:
+            changed = sorted(k for k, v in self.params.to_dict().items() if file_params.to_dict().get(k) != v)
+            changed += sorted(f"original {k}" for k, v in self.original.to_dict().items()
+                              if file_original.to_dict().get(k) != v)
+            raise ValueError(f"{out}: the run file and the checkpoint {ckpt} were made with different parameters "
+                             f"({', '.join(changed)})")
+        if len(steps) < frames:
+            raise ValueError(f"{out}: holds {len(steps)} frames but the checkpoint {ckpt} comes after {frames}")
+        if not np.array_equal(steps[:frames], np.arange(frames) * frame_every):
+            raise ValueError(f"{out}: its frames are not every {frame_every} steps like the checkpoint's {ckpt}")
+        if steps[frames - 1] != s.step or times[frames - 1] != self.time:
+            raise ValueError(f"{out}: frame {frames - 1} (the checkpoint's last) is at step {steps[frames - 1]}, "
+                             f"t = {times[frames - 1]!r} s, the checkpoint {ckpt} at step {s.step}, t = {self.time!r} s")
 
 
 def _fsync_directory(directory) -> None:

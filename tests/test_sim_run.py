@@ -383,3 +383,61 @@ def test_legacy_two_file_checkpoints_still_resume(tmp_path, monkeypatch, full_ru
     # the next checkpoint was written in the one-file format and the sidecar is gone
     assert not os.path.exists(f"{ckpt}.json")
     assert Simulation.from_checkpoint(ckpt)[1]["frames"] == 12
+
+
+def test_resume_refuses_a_run_file_that_is_not_the_checkpoints(tmp_path):
+    import os
+    import shutil
+
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    Simulation(RESUME_PARAMS, ORIGINAL).run(a, REVS / 3, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False)
+    other = dataclasses.replace(RESUME_PARAMS, seed=1)
+    Simulation(other, dataclasses.replace(ORIGINAL, seed=1)).run(b, REVS / 3, frame_every=FRAME_EVERY,
+                                                                   checkpoint_every=2, progress=False)
+    shutil.copyfile(f"{a}.ckpt.npz", f"{b}.ckpt.npz")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    sim = Simulation.resume(b)
+    with pytest.raises(ValueError, match="different parameters.*seed"):
+        sim.run(b, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+    with pytest.raises(ValueError, match="frame every 400 steps"):
+        Simulation.resume(a).run(a, REVS, frame_every=200, checkpoint_every=2, progress=False, resume=True)
+    with pytest.raises(ValueError, match="past the end"):
+        Simulation.resume(a).run(a, REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    os.unlink(a)
+    with pytest.raises(ValueError, match="run file missing"):
+        Simulation.resume(a).run(a, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+
+
+def test_a_new_run_refuses_to_replace_a_file_unless_told(tmp_path):
+    out = tmp_path / "r.h5"
+    out.write_bytes(b"precious")
+    sim = Simulation.from_particles(dataclasses.replace(RESUME_PARAMS, n_particles=2),
+                                    [[0.0, -0.02, 0.01], [0.01, -0.02, 0.01]], [0.002, 0.002])
+    with pytest.raises(FileExistsError, match="overwrite"):
+        sim.run(out, REVS / 12, frame_every=FRAME_EVERY, progress=False)
+    assert out.read_bytes() == b"precious"
+    sim.run(out, REVS / 12, frame_every=FRAME_EVERY, progress=False, overwrite=True)
+    with ga.open_run(out) as run:
+        assert len(run) == 2
+
+
+def test_a_run_ends_at_the_requested_revolutions(tmp_path):
+    sim = Simulation.from_particles(dataclasses.replace(RESUME_PARAMS, n_particles=2),
+                                    [[0.0, -0.02, 0.01], [0.01, -0.02, 0.01]], [0.002, 0.002])
+    p = sim.params
+    steps_per_rev = p.revolution_period / p.dt
+    frame_every = int(round(0.0015 * steps_per_rev))  # 523.6 steps, rounded up to 524
+    assert frame_every > 0.0015 * steps_per_rev
+    assert sim.frame_plan(0.006, frame_every) == (frame_every, 5)
+    with pytest.raises(ValueError, match="whole number of frame intervals"):
+        sim.frame_plan(0.006, int(round(0.0025 * steps_per_rev)))
+    for bad in (math.inf, math.nan, 0.0, -1.0):
+        with pytest.raises(ValueError, match="revolutions"):
+            sim.frame_plan(bad)
+    with pytest.raises(ValueError, match="checkpoint_every"):
+        sim.run(tmp_path / "r.h5", 0.006, frame_every=frame_every, checkpoint_every=0, progress=False)
+    sim.run(tmp_path / "r.h5", 0.006, frame_every=frame_every, progress=False)
+    with ga.open_run(tmp_path / "r.h5") as run:
+        assert len(run) == 5
+        assert abs(run.steps[-1] - 0.006 * steps_per_rev) <= 2.5  # the requested end, to the rounding of the interval
