@@ -1,5 +1,5 @@
-"""Liquid-bridge forces (physics spec §3 and §6): capillary force models, rupture distance and
-the Pitois viscous lubrication force.
+"""Liquid-bridge forces (docs/physics.md, "Liquid bridges" and "Capillary models"): capillary
+force models, rupture distance and the Pitois viscous lubrication force.
 
 The scalar functions are numba kernels on plain floats, callable from other kernels; the model
 is passed as an integer id, ``CAPILLARY_MODELS[name]``. SI units throughout: lengths [m],
@@ -38,7 +38,8 @@ def _willett_numeric(s, v_b, r, gamma, theta):
     """Willett (2000) appendix fit, YADE's ``Willett_numeric``.
 
     With L = ln(V_b/R³), t = θ and s⁺ = (s/2)/√(V_b/R):
-    F = 2πRγ·exp(f1 − f2·exp(f3·ln s⁺ + f4·(ln s⁺)²)), f1…f4 polynomials in L and t (spec §6).
+    F = 2πRγ·exp(f1 − f2·exp(f3·ln s⁺ + f4·(ln s⁺)²)), f1…f4 polynomials in L and t
+    (docs/physics.md, "Capillary models").
     For s ≤ 0 returns the limit s → 0⁺, 2πRγ·exp(f1). Requires v_b > 0.
     """
     lv = math.log(v_b / r**3)
@@ -107,7 +108,8 @@ def _rabinovich(s, v_b, r, gamma, theta):
 
 @njit(cache=True)
 def capillary_force(model, s, v_b, r_eff, gamma, theta):
-    """Attractive magnitude of the capillary force of a liquid bridge (spec §6).
+    """Attractive magnitude of the capillary force of a liquid bridge (docs/physics.md,
+    "Capillary models").
 
     Parameters
     ----------
@@ -154,7 +156,8 @@ def capillary_force(model, s, v_b, r_eff, gamma, theta):
 
 @njit(cache=True)
 def rupture_distance(v_b, r_eff, theta):
-    """Gap at which a bridge ruptures (Willett 2000 eq. 15, full gap; spec §3).
+    """Gap at which a bridge ruptures (Willett 2000 eq. 15, full gap; docs/physics.md,
+    "Liquid bridges").
 
     s_crit = (1 + θ/2)·(V_b^⅓ + 0.1·V_b^⅔/R).
 
@@ -215,7 +218,8 @@ def pair_bridge_force(model, gap, r_i, r_j, v_b, gamma, theta):
 
 @njit(cache=True)
 def viscous_force(eta, r_i, r_j, v_n, s, v_b):
-    """Pitois et al. (2000) normal lubrication force of an active bridge (spec §3).
+    """Pitois et al. (2000) normal lubrication force of an active bridge (docs/physics.md,
+    "Liquid bridges").
 
     F_vis = 6πη·R*²·v_n/s·(1 − 1/√(1 + 2V_b/(πR*·s²)))², R* = R_i·R_j/(R_i + R_j), with s
     replaced by max(s, 1e-3·R*). The bracket is evaluated as b/(p(p + s)), b = 2V_b/(πR*),

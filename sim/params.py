@@ -170,7 +170,8 @@ class SimParams:
 
 
 def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimParams:
-    """Coarse-grain the *original* (α = 1) parameters by a factor α (Table 2, Weber scaling).
+    """Coarse-grain the *original* (α = 1) parameters by a factor α (Table 2 of the paper, Weber
+    scaling; docs/physics.md, "Coarse-graining rules").
 
     Radii ×α, particle count ×1/α³ (rounded), γ ×α, η ×α, k_n and k_t ×α, c_n and c_t ×α²,
     Δt ×α (unless ``scale_dt=False``); volumes per particle follow the radius (same fractions of
