@@ -447,9 +447,10 @@ class Simulation:
 
         ckpt = f"{out}.ckpt.npz"
         frames, s = self._resume_frame, self.state
-        if self._resume_frame_every != frame_every:
+        ckpt_frame_every = getattr(self, "_resume_frame_every", frame_every)
+        if ckpt_frame_every != frame_every:
             raise ValueError(
-                f"{ckpt}: the run writes a frame every {self._resume_frame_every} steps, the resumed run asks for "
+                f"{ckpt}: the run writes a frame every {ckpt_frame_every} steps, the resumed run asks for "
                 f"{frame_every} (give the same frame interval, --frame-every-rev, as when the run started)")
         if frames > n_frames:
             raise ValueError(f"{ckpt}: the checkpoint comes after {frames} frames, past the end of the requested "
