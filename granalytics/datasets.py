@@ -123,6 +123,8 @@ def make_dataset(name: str, *, dry_run=False) -> str:
         raw = argv[argv.index("--out") + 1]
         if argv[1:3] == ["-m", "sim"] and (root / f"{raw}.ckpt.npz").exists():
             argv.append("--resume")
+        elif argv[1:3] == ["-m", "sim"] and (root / raw).exists():
+            argv.append("--overwrite")  # a raw run without its checkpoint cannot be resumed: make it again
         print("$", shlex.join(argv), flush=True)
         if not dry_run:
             subprocess.run(argv, cwd=root, check=True)

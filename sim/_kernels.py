@@ -6,25 +6,20 @@ Verlet list. Every slot carries its own state (alive, bridge volume, tangential 
 previous normal), so the per-slot force loop is race-free; per-particle sums then gather the
 slots of each particle in a fixed order. Results are therefore bit-identical for any thread
 count.
+
+Importing this module changes no global state; the threading set-up the simulator wants is
+:func:`sim.run.configure_threading`, applied by the CLI and by :class:`sim.run.Simulation`.
 """
 
 from __future__ import annotations
 
 import math
-import os
+from collections import namedtuple
 
 import numpy as np
-import numba
 from numba import njit, prange
 
-# OpenMP first: its parallel regions start in microseconds, TBB's take ~0.5 ms on this kind of
-# machine, which dominates a time step of a few thousand particles. Falls back when absent.
-numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
-# Idle OpenMP threads spin before sleeping; with the default spin count two processes sharing
-# the cores slow each other down ~100x. A short spin keeps the start-up fast and sharing sane.
-os.environ.setdefault("GOMP_SPINCOUNT", "3000")
-
-from .capillary import capillary_force, rupture_distance, viscous_force
+from .capillary import bridge_force, bridge_ruptured, effective_radius, viscous_force
 from .contact import mechanical_force, rotate_spring
 from .drum import baffle_directions, wall_contact
 from .liquid import migrate_liquid, spray
@@ -174,19 +169,67 @@ def build_csr(n_particles, n_walls, pair_i, pair_j, first_pair_slot):
 
 # ----------------------------------------------------------------------------- time steps
 
+#: The float/int/bool parameters of the time-step kernels, passed by name (never by position:
+#: two swapped floats would run silently with wrong physics). Built only by :func:`kernel_params`.
+KernelParams = namedtuple("KernelParams", [
+    "dt",  # time step [s]
+    "n_walls", "drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega",
+    "gravity",  # (gx, gy, gz) [m/s²]
+    "k_n", "k_t", "c_n", "c_t", "mu",  # contact law (docs/physics.md, "Contact law")
+    "gamma", "eta", "theta", "model", "viscous", "capillary_in_contact",  # "Liquid bridges", "Capillary models"
+    "v_min",  # "Liquid migration"
+    "spray_interval", "spray_dose", "spray_radius",  # "Spraying"
+    "half_skin",  # half the Verlet skin [m]: rebuild trigger
+])
+
+#: The arrays the time-step kernels read and write (views of a :class:`~sim.state.State`),
+#: passed by name. Built only by :func:`kernel_arrays`.
+KernelArrays = namedtuple("KernelArrays", [
+    "pos", "vel", "omega", "radius", "mass", "inertia", "film", "x_ref",
+    "pair_i", "pair_j", "alive", "created", "ruptured", "v_b", "v_max", "fs", "nprev",
+    "force", "torque_i", "torque_j", "f_normal", "f_cap", "gap",
+    "part_start", "part_slots", "body_start", "body_slots", "body_key",
+])
+
+
+def kernel_params(params, n_walls: int) -> KernelParams:
+    """The kernel parameters of a :class:`~sim.params.SimParams`, converted to fixed types
+    (float, int, bool) so that the kernels compile once."""
+    from .capillary import CAPILLARY_MODELS
+
+    p = params
+    return KernelParams(
+        dt=float(p.dt), n_walls=int(n_walls), drum_radius=float(p.drum_radius), drum_length=float(p.drum_length),
+        n_baffles=int(p.n_baffles), baffle_height=float(p.baffle_height), drum_omega=float(p.drum_omega),
+        gravity=tuple(float(g) for g in p.gravity),
+        k_n=float(p.k_n), k_t=float(p.k_t), c_n=float(p.c_n), c_t=float(p.c_t), mu=float(p.friction),
+        gamma=float(p.surface_tension), eta=float(p.viscosity), theta=float(p.contact_angle),
+        model=int(CAPILLARY_MODELS[p.capillary_model]), viscous=bool(p.viscous),
+        capillary_in_contact=bool(p.capillary_in_contact), v_min=float(p.v_min),
+        spray_interval=float(p.spray_interval), spray_dose=float(p.spray_dose), spray_radius=float(p.spray_radius),
+        half_skin=float(p.skin / 2),
+    )
+
+
+def kernel_arrays(state, body_key) -> KernelArrays:
+    """The arrays of ``state`` for the kernels (no copies); ``body_key`` orders bodies in
+    liquid migration (particle ids, then the walls)."""
+    s = state
+    return KernelArrays(
+        pos=s.pos, vel=s.vel, omega=s.omega, radius=s.radius, mass=s.mass, inertia=s.inertia, film=s.film,
+        x_ref=s.x_ref, pair_i=s.pair_i, pair_j=s.pair_j, alive=s.alive, created=s.created, ruptured=s.ruptured,
+        v_b=s.v_b, v_max=s.v_max, fs=s.fs, nprev=s.nprev, force=s.force, torque_i=s.torque_i,
+        torque_j=s.torque_j, f_normal=s.f_normal, f_cap=s.f_cap, gap=s.gap, part_start=s.part_start,
+        part_slots=s.part_slots, body_start=s.body_start, body_slots=s.body_slots, body_key=body_key,
+    )
+
 
 @njit(cache=True, parallel=True)
-def advance(
-    n_steps, step0, dt, settling,
-    pos, vel, omega_p, radius, mass, inertia, film, x_ref,
-    pair_i, pair_j, alive, created, ruptured, v_b, v_max, fs, nprev,
-    force, torque_i, torque_j, f_normal, f_cap, gap,
-    part_start, part_slots, body_start, body_slots, body_key,
-    n_walls, drum_radius, drum_length, n_baffles, baffle_height, drum_omega, gravity,
-    k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact, v_min,
-    spray_interval, spray_dose, spray_radius, n_sprays, half_skin,
-):
+def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     """Advance up to ``n_steps`` leapfrog steps from step number ``step0`` (t = step·Δt).
+
+    ``kp`` is a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays` (modified in place);
+    ``n_sprays`` is the number of sprays done before ``step0``.
 
     Per step: slot forces (parallel over slots) → liquid migration (sequential) → gather and
     integrate (parallel over particles) → spray when t crosses the next spray time. Stops early,
@@ -201,10 +244,43 @@ def advance(
     sprayed : float
         Liquid volume added by sprays in this call [m³].
     """
+    pos = arrays.pos
+    vel = arrays.vel
+    omega_p = arrays.omega
+    radius = arrays.radius
+    mass = arrays.mass
+    inertia = arrays.inertia
+    film = arrays.film
+    x_ref = arrays.x_ref
+    pair_i = arrays.pair_i
+    pair_j = arrays.pair_j
+    alive = arrays.alive
+    created = arrays.created
+    ruptured = arrays.ruptured
+    v_b = arrays.v_b
+    v_max = arrays.v_max
+    force = arrays.force
+    torque_i = arrays.torque_i
+    torque_j = arrays.torque_j
+    part_start = arrays.part_start
+    part_slots = arrays.part_slots
+    body_start = arrays.body_start
+    body_slots = arrays.body_slots
+    body_key = arrays.body_key
+    dt = kp.dt
+    n_walls = kp.n_walls
+    n_baffles = kp.n_baffles
+    gx, gy, gz = kp.gravity
+    v_min = kp.v_min
+    spray_interval = kp.spray_interval
+    spray_dose = kp.spray_dose
+    spray_radius = kp.spray_radius
+    half_skin = kp.half_skin
+
     n = pos.shape[0]
     n_wall_slots = n * n_walls
     n_slots = pair_i.shape[0]
-    omega_drum = 0.0 if settling else drum_omega
+    omega_drum = 0.0 if settling else kp.drum_omega
     sprayed = 0.0
     done = 0
     baffle_dir = np.empty((max(n_baffles, 1), 2))
@@ -224,16 +300,13 @@ def advance(
         baffle_directions(n_baffles, omega_drum * (step0 + it) * dt, baffle_dir)
         # slot forces: wall slots, then pair slots, each range split evenly over the threads
         for lo, hi in ((0, n_wall_slots), (n_wall_slots, n_slots)):
-            _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos, vel, omega_p, radius,
-                         pair_i, pair_j, alive, created, ruptured, v_b, fs, nprev, force, torque_i, torque_j,
-                         f_normal, f_cap, gap, drum_radius, drum_length, n_baffles, baffle_height,
-                         k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact)
+            _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays)
         migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min, body_key)
         n_far = 0
         for i in prange(n):
-            fx = mass[i] * gravity[0]
-            fy = mass[i] * gravity[1]
-            fz = mass[i] * gravity[2]
+            fx = mass[i] * gx
+            fy = mass[i] * gy
+            fz = mass[i] * gz
             tx = 0.0
             ty = 0.0
             tz = 0.0
@@ -283,16 +356,49 @@ def advance(
 
 
 @njit(cache=True, parallel=True)
-def _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos, vel, omega_p, radius,
-                 pair_i, pair_j, alive, created, ruptured, v_b, fs, nprev, force, torque_i, torque_j,
-                 f_normal, f_cap, gap, drum_radius, drum_length, n_baffles, baffle_height,
-                 k_n, k_t, c_n, c_t, mu, gamma, eta, theta, model, viscous, capillary_in_contact):
-    """Interaction state, force and torques of slots lo … hi−1 (physics spec §2, §3).
+def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
+    """Interaction state, force and torques of slots lo … hi−1 (docs/physics.md, "Contact law"
+    and "Liquid bridges"); ``kp`` a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays`.
 
     The body is written out in the loop: a numba call per slot with this many array arguments
     costs ~10x the work itself. Wall slots and pair slots are passed as separate ranges so that
     each thread gets an equal share of the expensive pair slots.
     """
+    pos = arrays.pos
+    vel = arrays.vel
+    omega_p = arrays.omega
+    radius = arrays.radius
+    pair_i = arrays.pair_i
+    pair_j = arrays.pair_j
+    alive = arrays.alive
+    created = arrays.created
+    ruptured = arrays.ruptured
+    v_b = arrays.v_b
+    fs = arrays.fs
+    nprev = arrays.nprev
+    force = arrays.force
+    torque_i = arrays.torque_i
+    torque_j = arrays.torque_j
+    f_normal = arrays.f_normal
+    f_cap = arrays.f_cap
+    gap = arrays.gap
+    dt = kp.dt
+    n_walls = kp.n_walls
+    drum_radius = kp.drum_radius
+    drum_length = kp.drum_length
+    n_baffles = kp.n_baffles
+    baffle_height = kp.baffle_height
+    k_n = kp.k_n
+    k_t = kp.k_t
+    c_n = kp.c_n
+    c_t = kp.c_t
+    mu = kp.mu
+    gamma = kp.gamma
+    eta = kp.eta
+    theta = kp.theta
+    model = kp.model
+    viscous = kp.viscous
+    capillary_in_contact = kp.capillary_in_contact
     for k in prange(lo, hi):
         created[k] = False
         ruptured[k] = 0.0
@@ -306,7 +412,7 @@ def _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos,
             if not ok:
                 u = -1.0
             rj = math.inf
-            r_eff = ri
+            r_eff = effective_radius(ri, rj)
             vjx, vjy, vjz = wvx, wvy, 0.0
             ojx, ojy, ojz = 0.0, 0.0, omega_drum
         else:
@@ -320,7 +426,7 @@ def _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos,
                 dist = 1e-300
             nx, ny, nz = dx / dist, dy / dist, dz / dist
             u = ri + rj - dist
-            r_eff = 2.0 * ri * rj / (ri + rj)
+            r_eff = effective_radius(ri, rj)
             ojx, ojy, ojz = omega_p[j, 0], omega_p[j, 1], omega_p[j, 2]
             vjx = vel[j, 0] - (ojy * nz - ojz * ny) * rj
             vjy = vel[j, 1] - (ojz * nx - ojx * nz) * rj
@@ -335,7 +441,7 @@ def _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos,
             fs[k, 1] = 0.0
             fs[k, 2] = 0.0
             nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-        elif u < 0.0 and -u >= rupture_distance(v_b[k], r_eff, theta):
+        elif bridge_ruptured(-u, v_b[k], r_eff, theta):
             alive[k] = False
             ruptured[k] = v_b[k]
             v_b[k] = 0.0
@@ -354,7 +460,7 @@ def _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos,
             f_n, sx, sy, sz, tx, ty, tz = mechanical_force(u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t, c_n, c_t, mu, dt)
             fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
             nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-            f_contact = capillary_force(model, 0.0, v_b[k], r_eff, gamma, theta)
+            f_contact = bridge_force(model, -u, v_b[k], r_eff, gamma, theta)  # the value at contact
             f_pull = f_contact if capillary_in_contact else 0.0
             fn_net = f_n - f_pull  # along −n on i (repulsive when positive)
             force[k, 0] = -fn_net * nx + tx
@@ -371,7 +477,7 @@ def _slot_forces(lo, hi, n_wall_slots, n_walls, dt, baffle_dir, omega_drum, pos,
             f_cap[k] = f_contact
         else:  # separated, bridge active (0 < s < s_crit)
             s = -u
-            f_c = capillary_force(model, s, v_b[k], r_eff, gamma, theta)
+            f_c = bridge_force(model, s, v_b[k], r_eff, gamma, theta)
             f_v = 0.0
             if viscous:
                 f_v = viscous_force(eta, ri, rj, vrx * nx + vry * ny + vrz * nz, s, v_b[k])

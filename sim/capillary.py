@@ -1,5 +1,5 @@
-"""Liquid-bridge forces (physics spec §3 and §6): capillary force models, rupture distance and
-the Pitois viscous lubrication force.
+"""Liquid-bridge forces (docs/physics.md, "Liquid bridges" and "Capillary models"): capillary
+force models, rupture distance and the Pitois viscous lubrication force.
 
 The scalar functions are numba kernels on plain floats, callable from other kernels; the model
 is passed as an integer id, ``CAPILLARY_MODELS[name]``. SI units throughout: lengths [m],
@@ -22,6 +22,10 @@ __all__ = [
     "CAPILLARY_MODELS",
     "capillary_force",
     "rupture_distance",
+    "effective_radius",
+    "bridge_ruptured",
+    "bridge_force",
+    "pair_bridge_force",
     "viscous_force",
     "capillary_force_curve",
 ]
@@ -34,7 +38,8 @@ def _willett_numeric(s, v_b, r, gamma, theta):
     """Willett (2000) appendix fit, YADE's ``Willett_numeric``.
 
     With L = ln(V_b/R³), t = θ and s⁺ = (s/2)/√(V_b/R):
-    F = 2πRγ·exp(f1 − f2·exp(f3·ln s⁺ + f4·(ln s⁺)²)), f1…f4 polynomials in L and t (spec §6).
+    F = 2πRγ·exp(f1 − f2·exp(f3·ln s⁺ + f4·(ln s⁺)²)), f1…f4 polynomials in L and t
+    (docs/physics.md, "Capillary models").
     For s ≤ 0 returns the limit s → 0⁺, 2πRγ·exp(f1). Requires v_b > 0.
     """
     lv = math.log(v_b / r**3)
@@ -103,7 +108,8 @@ def _rabinovich(s, v_b, r, gamma, theta):
 
 @njit(cache=True)
 def capillary_force(model, s, v_b, r_eff, gamma, theta):
-    """Attractive magnitude of the capillary force of a liquid bridge (spec §6).
+    """Attractive magnitude of the capillary force of a liquid bridge (docs/physics.md,
+    "Capillary models").
 
     Parameters
     ----------
@@ -150,7 +156,8 @@ def capillary_force(model, s, v_b, r_eff, gamma, theta):
 
 @njit(cache=True)
 def rupture_distance(v_b, r_eff, theta):
-    """Gap at which a bridge ruptures (Willett 2000 eq. 15, full gap; spec §3).
+    """Gap at which a bridge ruptures (Willett 2000 eq. 15, full gap; docs/physics.md,
+    "Liquid bridges").
 
     s_crit = (1 + θ/2)·(V_b^⅓ + 0.1·V_b^⅔/R).
 
@@ -174,9 +181,45 @@ def rupture_distance(v_b, r_eff, theta):
     return (1.0 + 0.5 * theta) * (c + 0.1 * c * c / r_eff)
 
 
+@njit(cache=True, inline="always")
+def effective_radius(r_i, r_j):
+    """Effective radius of a bridge, 2·R_i·R_j/(R_i + R_j) [m]; a wall (``r_j = inf``) gives R_i."""
+    if math.isinf(r_j):
+        return r_i
+    return 2.0 * r_i * r_j / (r_i + r_j)
+
+
+@njit(cache=True, inline="always")
+def bridge_ruptured(gap, v_b, r_eff, theta):
+    """Whether a bridge at surface gap ``gap`` [m] has ruptured: s > 0 and s ≥ s_crit(V_b)
+    (:func:`rupture_distance`). The engine ends a bridge in the first step where this holds."""
+    return gap > 0.0 and gap >= rupture_distance(v_b, r_eff, theta)
+
+
+@njit(cache=True, inline="always")
+def bridge_force(model, gap, v_b, r_eff, gamma, theta):
+    """Capillary force [N] ≥ 0 of a bridge that has not ruptured, at surface gap ``gap`` [m]:
+    :func:`capillary_force` at max(gap, 0⁺) (touching or overlapping pairs get the value at
+    contact). This is the value the engine computes for every live bridge, applied while the
+    pair is separated (and in contact too with ``capillary_in_contact``)."""
+    return capillary_force(model, gap if gap > 0.0 else 0.0, v_b, r_eff, gamma, theta)
+
+
+@njit(cache=True)
+def pair_bridge_force(model, gap, r_i, r_j, v_b, gamma, theta):
+    """The engine's capillary force law for one pair, in one function: 0 once the bridge has
+    ruptured (:func:`bridge_ruptured`), else :func:`bridge_force`, with the effective radius of
+    radii ``r_i``, ``r_j`` (``r_j = inf``: a wall). Used by the public ``sim.capillary_force``."""
+    r_eff = effective_radius(r_i, r_j)
+    if bridge_ruptured(gap, v_b, r_eff, theta):
+        return 0.0
+    return bridge_force(model, gap, v_b, r_eff, gamma, theta)
+
+
 @njit(cache=True)
 def viscous_force(eta, r_i, r_j, v_n, s, v_b):
-    """Pitois et al. (2000) normal lubrication force of an active bridge (spec §3).
+    """Pitois et al. (2000) normal lubrication force of an active bridge (docs/physics.md,
+    "Liquid bridges").
 
     F_vis = 6πη·R*²·v_n/s·(1 − 1/√(1 + 2V_b/(πR*·s²)))², R* = R_i·R_j/(R_i + R_j), with s
     replaced by max(s, 1e-3·R*). The bracket is evaluated as b/(p(p + s)), b = 2V_b/(πR*),
@@ -255,38 +298,55 @@ def capillary_force_curve(model: str, s, v_b, r_eff, gamma, theta=0.0) -> np.nda
         )
     args = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64)
                                  for x in (s, v_b, r_eff, gamma, theta)))
-    flat = [np.ascontiguousarray(x).ravel() for x in args]
+    flat = [np.array(x, dtype=np.float64).ravel() for x in args]
     out = np.empty(flat[0].size)
     _force_loop(CAPILLARY_MODELS[model], *flat, out)
     return out.reshape(args[0].shape)
 
 
-def _effective_radius(r1, r2):
-    """2·R1·R2/(R1 + R2) [m]; a wall (R2 = inf) gives R1."""
-    r1, r2 = np.asarray(r1, dtype=np.float64), np.asarray(r2, dtype=np.float64)
-    with np.errstate(invalid="ignore"):
-        return np.where(np.isinf(r2), r1, 2.0 * r1 * r2 / (r1 + r2))
+@njit(cache=True)
+def _pair_force_loop(model, gap, r1, r2, v_b, gamma, theta, out):
+    for k in range(out.size):
+        out[k] = pair_bridge_force(model, gap[k], r1[k], r2[k], v_b[k], gamma[k], theta[k])
+
+
+@njit(cache=True)
+def _pair_rupture_loop(v_b, r1, r2, theta, out):
+    for k in range(out.size):
+        out[k] = rupture_distance(v_b[k], effective_radius(r1[k], r2[k]), theta[k])
+
+
+def _flat_float_arrays(*values):
+    """Broadcast ``values`` together; contiguous flat float64 copies and the common shape."""
+    args = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in values))
+    return [np.array(x, dtype=np.float64).ravel() for x in args], args[0].shape  # copies: writeable, contiguous
 
 
 def pair_rupture_distance(bridge_volume, r1, r2, contact_angle=0.0) -> np.ndarray:
     """Rupture distance s_crit [m] of bridges between spheres of radii r1, r2 [m] (arrays
     broadcast; r2 = inf for a wall), bridge volume [m³], contact angle [rad]. Exported as
     ``sim.rupture_distance``."""
-    args = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in (bridge_volume, r1, r2, contact_angle)))
-    v, a, b, th = (np.ascontiguousarray(x).ravel() for x in args)
-    r_eff = _effective_radius(a, b)
-    out = np.array([rupture_distance(v[k], r_eff[k], th[k]) for k in range(v.size)])
-    return out.reshape(args[0].shape)
+    (v, a, b, th), shape = _flat_float_arrays(bridge_volume, r1, r2, contact_angle)
+    out = np.empty(v.size)
+    _pair_rupture_loop(v, a, b, th, out)
+    return out.reshape(shape)
 
 
 def pair_capillary_force(gap, r1, r2, bridge_volume, surface_tension, contact_angle=0.0, model="willett_numeric") -> np.ndarray:
     """Attractive capillary force [N] ≥ 0 of bridges between spheres of radii r1, r2 [m] at
     surface gap ``gap`` [m] (arrays broadcast; r2 = inf for a wall): the model's value at
     max(gap, 0⁺) while gap < s_crit, 0 from the rupture distance on. Exported as
-    ``sim.capillary_force``; ``model`` is one of :data:`CAPILLARY_MODELS`."""
-    args = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64)
-                                 for x in (gap, r1, r2, bridge_volume, surface_tension, contact_angle)))
-    s, a, b, v, g, th = args
-    force = capillary_force_curve(model, np.maximum(s, 0.0), v, _effective_radius(a, b), g, th)
-    ruptured = (s > 0) & (s >= pair_rupture_distance(v, a, b, th))
-    return np.where(ruptured, 0.0, force)
+    ``sim.capillary_force``; ``model`` is one of :data:`CAPILLARY_MODELS`.
+
+    This is the engine's own law (:func:`pair_bridge_force`, the same compiled code the time
+    step uses), so for every live pair of a frame written by the simulator it returns the
+    frame's ``f_cap`` bit for bit, given the frame's gap, radii and bridge volume.
+    """
+    if model not in CAPILLARY_MODELS:
+        raise ValueError(
+            f"unknown capillary model {model!r}; valid models: {', '.join(CAPILLARY_MODELS)}"
+        )
+    (s, a, b, v, g, th), shape = _flat_float_arrays(gap, r1, r2, bridge_volume, surface_tension, contact_angle)
+    out = np.empty(s.size)
+    _pair_force_loop(CAPILLARY_MODELS[model], s, a, b, v, g, th, out)
+    return out.reshape(shape)

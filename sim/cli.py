@@ -2,37 +2,75 @@
 
 Overrides (``--gamma``, ``--omega``, ``--seed``, ``--particles``) apply to the *original*
 (α = 1) system; the run is then coarse-grained by the preset's α or ``--alpha`` (Table 2), so
-``--gamma 0.2 --alpha 2`` simulates γ = 0.4 N/m on CG2 particles. A bad parameter is reported
-in one line with exit status 2.
+``--gamma 0.2 --alpha 2`` simulates γ = 0.4 N/m on CG2 particles.
+
+Every refusal — a bad option value, an existing ``--out`` without ``--overwrite``, a checkpoint
+that does not belong to the run file — is one line on stderr with exit status 2, before anything
+is written. A simulation that fails while running (e.g. a particle left the drum) exits with 1.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
 import sys
 
 from .params import PRESETS, cg_scale, preset_original
 
+MIN_PARTICLES = 2  # fewest particles a run may have after coarse-graining
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, with its errors in one line like every other refusal of the command."""
+
+    def error(self, message):
+        self.exit(2, f"sim: error: {message} (see {self.prog} --help)\n")
+
+
+def _check_options(args) -> None:
+    """Refuse option values the simulation cannot use, naming the option (ValueError)."""
+    finite = math.isfinite
+    checks = [
+        ("--revolutions", args.revolutions, finite(args.revolutions) and args.revolutions > 0, "a finite number > 0"),
+        ("--frame-every-rev", args.frame_every_rev, finite(args.frame_every_rev) and args.frame_every_rev > 0,
+         "a finite number > 0"),
+        ("--checkpoint-every", args.checkpoint_every, args.checkpoint_every >= 1, "a whole number of frames >= 1"),
+        ("--omega", args.omega, args.omega is None or (finite(args.omega) and args.omega != 0),
+         "a finite non-zero number (a run is measured in drum revolutions)"),
+        ("--gamma", args.gamma, args.gamma is None or finite(args.gamma), "a finite number"),
+        ("--alpha", args.alpha, args.alpha is None or finite(args.alpha), "a finite number >= 1"),
+        ("--particles", args.particles, args.particles is None or args.particles >= 1, "a whole number >= 1"),
+        ("--seed", args.seed, args.seed is None or args.seed >= 0, "a whole number >= 0"),
+    ]
+    for option, value, ok, requirement in checks:
+        if not ok:
+            raise ValueError(f"{option} must be {requirement}, got {value:g}")
+
 
 def build_parser():
-    parser = argparse.ArgumentParser(prog="python -m sim", description="Numba wet-DEM of a baffled drum granulator.")
+    parser = _Parser(prog="python -m sim", description="Numba wet-DEM of a baffled drum granulator.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     p = sub.add_parser("run", help="simulate and write a granalytics run file",
                        description="Fill and settle the drum, then simulate and write a frame every --frame-every-rev revolutions.")
     p.add_argument("--preset", choices=PRESETS, default="lab-cg3", help="parameter set (default lab-cg3)")
-    p.add_argument("--revolutions", type=float, required=True, help="drum revolutions to simulate after settling")
+    p.add_argument("--revolutions", type=float, required=True,
+                   help="drum revolutions to simulate after settling: a whole number of --frame-every-rev intervals")
     p.add_argument("--out", required=True, help="run file to write (.h5); the checkpoint is OUT.ckpt.npz")
-    p.add_argument("--alpha", type=float, help="CG factor α (default: the preset's)")
+    p.add_argument("--overwrite", action="store_true", help="replace --out if it exists (refused otherwise)")
+    p.add_argument("--alpha", type=float, help="CG factor α >= 1 (default: the preset's)")
     p.add_argument("--gamma", type=float, help="surface tension of the original system [N/m] (scaled by α)")
-    p.add_argument("--omega", type=float, help="drum angular velocity [rad/s]")
-    p.add_argument("--particles", type=int, help="particle count of the original system (scaled by 1/α³)")
-    p.add_argument("--seed", type=int, help="random seed of the filling")
+    p.add_argument("--omega", type=float, help="drum angular velocity [rad/s], not 0")
+    p.add_argument("--particles", type=int,
+                   help=f"particle count of the original system (scaled by 1/α³, at least {MIN_PARTICLES} after scaling)")
+    p.add_argument("--seed", type=int, help="random seed of the filling (>= 0)")
     p.add_argument("--threads", type=int, help="numba threads (default: all cores)")
-    p.add_argument("--frame-every-rev", type=float, default=0.05, help="output interval [revolutions] (default 0.05)")
-    p.add_argument("--checkpoint-every", type=int, default=20, help="checkpoint every N frames (default 20)")
-    p.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    p.add_argument("--frame-every-rev", type=float, default=0.05,
+                   help="output interval [revolutions] (default 0.05)")
+    p.add_argument("--checkpoint-every", type=int, default=20, help="checkpoint every N >= 1 frames (default 20)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in --out from its checkpoint (same options as when it started)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     sub.add_parser("presets", help="list the presets")
     return parser
@@ -43,7 +81,73 @@ def _params(args):
     changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles}
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha
-    return original, (original if alpha == 1 else cg_scale(original, alpha))
+    params = original if alpha == 1 else cg_scale(original, alpha)
+    scaled = round(original.n_particles / alpha**3)
+    if scaled < MIN_PARTICLES:
+        given = f"--particles {original.n_particles}" if args.particles is not None else f"{original.n_particles} original particles"
+        raise ValueError(f"{given} gives {scaled} particles after coarse-graining by α = {alpha:g} "
+                         f"({original.n_particles}/α³ = {original.n_particles / alpha**3:.3g}, rounded); "
+                         f"at least {MIN_PARTICLES} are needed")
+    return original, params
+
+
+def _frame_every(args, params):
+    """Steps per frame for --frame-every-rev, after checking that --revolutions is a whole
+    number of frame intervals (so that the last frame is at the requested end)."""
+    ratio = args.revolutions / args.frame_every_rev
+    n = round(ratio)
+    if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
+        raise ValueError(f"--revolutions {args.revolutions:g} is not a whole number of --frame-every-rev "
+                         f"{args.frame_every_rev:g} intervals ({ratio:.6g}); the last frame would miss the requested end")
+    steps = args.frame_every_rev * params.revolution_period / params.dt
+    if steps < 1:
+        raise ValueError(f"--frame-every-rev {args.frame_every_rev:g} is shorter than one time step "
+                         f"(Δt = {params.dt:g} s, {params.revolution_period / params.dt:.6g} steps per revolution)")
+    return int(round(steps))
+
+
+def _run(args) -> int:
+    from .run import configure_threading
+
+    configure_threading()
+    out, ckpt = args.out, f"{args.out}.ckpt.npz"
+    _check_options(args)
+    if args.resume and args.overwrite:
+        raise ValueError("--resume continues --out and --overwrite replaces it: give one of them")
+    if not args.resume and os.path.exists(out) and not args.overwrite:
+        raise ValueError(f"{out} exists; give --overwrite to replace it, or --resume to continue it from its checkpoint")
+    original, params = _params(args)
+    if args.threads is not None:
+        import numba
+
+        if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
+            raise ValueError(f"--threads must be in [1, {numba.config.NUMBA_NUM_THREADS}], got {args.threads}")
+        numba.set_num_threads(args.threads)
+    frame_every = _frame_every(args, params)
+    from .run import Simulation
+
+    if args.resume:
+        if not os.path.exists(ckpt):
+            raise ValueError(f"{ckpt}: no checkpoint to resume from")
+        sim = Simulation.resume(out)
+        if sim.params != params or sim.original != original:
+            changed = sorted(k for k, v in params.to_dict().items() if sim.params.to_dict().get(k) != v)
+            raise ValueError(f"{ckpt}: checkpoint was made with other parameters ({', '.join(changed) or 'original system'}); "
+                             f"give the options the run started with")
+    else:
+        sim = Simulation(params, original)
+    try:
+        sim.run(out, args.revolutions, frame_every=frame_every, checkpoint_every=args.checkpoint_every,
+                progress=not args.quiet, resume=args.resume, overwrite=args.overwrite)
+    except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
+        print(f"sim: error: {_one_line(exc)} (the last checkpoint is {ckpt})", file=sys.stderr)
+        return 1
+    print(f"wrote {out}")
+    return 0
+
+
+def _one_line(exc) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def main(argv=None):
@@ -57,33 +161,7 @@ def main(argv=None):
                   f"L={p.drum_length:.4f} m  Δt={p.dt:.1e} s  r_s={p.spray_radius:.4f} m")
         return 0
     try:
-        original, params = _params(args)
-        if args.threads is not None:
-            import numba
-
-            if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
-                raise ValueError(f"--threads must be in [1, {numba.config.NUMBA_NUM_THREADS}], got {args.threads}")
-            numba.set_num_threads(args.threads)
-        if args.revolutions <= 0 or args.frame_every_rev <= 0:
-            raise ValueError("--revolutions and --frame-every-rev must be > 0")
-        from .run import Simulation
-
-        frame_every = max(1, int(round(args.frame_every_rev * params.revolution_period / params.dt)))
-        if args.resume:
-            if not os.path.exists(f"{args.out}.ckpt.npz"):
-                raise ValueError(f"{args.out}.ckpt.npz: no checkpoint to resume from")
-            sim = Simulation.resume(args.out)
-            if sim.params != params:
-                raise ValueError(f"{args.out}.ckpt.npz: checkpoint was made with other parameters")
-        else:
-            sim = Simulation(params, original)
-        sim.run(args.out, args.revolutions, frame_every=frame_every, checkpoint_every=args.checkpoint_every,
-                progress=not args.quiet, resume=args.resume)
-    except ValueError as exc:
-        print(f"sim: error: {exc}", file=sys.stderr)
+        return _run(args)
+    except (ValueError, OSError, OverflowError) as exc:
+        print(f"sim: error: {_one_line(exc)}", file=sys.stderr)
         return 2
-    except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
-        print(f"sim: error: {exc} (the last checkpoint is {args.out}.ckpt.npz)", file=sys.stderr)
-        return 1
-    print(f"wrote {args.out}")
-    return 0

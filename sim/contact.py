@@ -1,4 +1,4 @@
-"""Mechanical contact law (physics spec §2): linear viscoelastic normal force and a tangential
+"""Mechanical contact law (docs/physics.md, "Contact law"): linear viscoelastic normal force and a tangential
 spring–dashpot with Coulomb friction, history rotated into the current tangent plane (YADE's
 ScGeom::rotate). Plain numba functions on scalars (tuples in, tuples out, no allocation), shared
 by particle–particle and particle–wall contacts.

@@ -1,4 +1,4 @@
-"""Analytic drum walls (physics spec §4): a cylinder of radius R_d about the z axis, radial
+"""Analytic drum walls (the study's baffled drum; docs/simulator.md): a cylinder of radius R_d about the z axis, radial
 baffles of height h = baffle_height·R_d rotating with the drum, and flat end plates at z = 0 and
 z = L. Walls are infinitely massive bodies; their surface velocity at a point c is Ω ẑ × c.
 

@@ -1,5 +1,6 @@
-"""Liquid bookkeeping (physics spec §3–§5): liquid migration between films and bridges (Mani,
-Kadau & Herrmann 2013, as YADE's ``LiqControl``), spraying, and the total liquid volume.
+"""Liquid bookkeeping (docs/physics.md, "Liquid bridges", "Spraying", "Liquid migration"): liquid
+migration between films and bridges (Mani, Kadau & Herrmann 2013, as YADE's ``LiqControl``),
+spraying, and the total liquid volume.
 
 Bodies are the particles 0 … N−1 followed by the walls N … N+W−1; every body has a film volume
 (a wall's starts at 0 and only ever holds what ruptured wall bridges return to it). Interactions
@@ -46,7 +47,8 @@ def _count_in_sorted(a, x):
 @njit(cache=True)
 def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_volume,
                    body_start, body_slots, v_min, body_key):
-    """One step of liquid migration (spec §5), in place; call once per step after the forces.
+    """One step of liquid migration (docs/physics.md, "Liquid migration"), in place; call once per
+    step after the forces.
 
     1. Each slot with ``ruptured_volume[k] > 0`` returns half of it to each of its two bodies'
        films (ascending slot order); those bodies are *marked*.
@@ -80,7 +82,7 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
         V_b of each bridge ruptured this step [m³], 0 elsewhere; the caller has already set
         alive False and v_b 0 for those slots. Read only. A slot must not be both ruptured and
         created in the same step (its pair would be unknown). A dry bridge (V_b = 0) that
-        ruptures marks nothing (spec: "every particle that received liquid"; YADE would mark
+        ruptures marks nothing ("Liquid migration": "every particle that received liquid"; YADE would mark
         its bodies too, which only matters for a body holding film and an under-filled bridge).
     body_start : (B+1,) int64
     body_slots : (M,) int64
@@ -227,7 +229,7 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
 
 @njit(cache=True)
 def spray(film, position, radius, n_particles, r_spray, dose_fraction):
-    """Spray once (spec §4): each particle i < n_particles whose centre lies in the spray
+    """Spray once (docs/physics.md, "Spraying"): each particle i < n_particles whose centre lies in the spray
     cylinder, √(x² + y²) < r_spray (drum axis along z), gets film_i += dose_fraction·(4/3)πR_i³.
 
     Parameters

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original"]
 
 CAPILLARY_MODEL_NAMES = ("willett_numeric", "willett_analytic", "rabinovich", "lambert")
+#: Δt must resolve the contact of the smallest particles with at least this many steps
+MIN_STEPS_PER_CONTACT = 20
 
 
 @dataclass(frozen=True)
@@ -33,7 +35,7 @@ class SimParams:
         drum_omega Ω [rad/s] about +z, gravity [m/s²], fill_fraction (bed volume / drum volume at
         packing 0.6, used only to document presets), n_particles.
     Numerics
-        dt [s], skin [m] (Verlet skin beyond the bridge range), settle_time [s] (static drum,
+        dt [s] (at most t_c/20, t_c = :meth:`contact_time` of the smallest particles), skin [m] (Verlet skin beyond the bridge range), settle_time [s] (static drum,
         dry, before t = 0), seed.
     CG
         alpha (CG factor of *these* parameters), and the original (α = 1) values are recovered
@@ -102,6 +104,16 @@ class SimParams:
             raise ValueError(f"parameter gravity must have 3 components, got {self.gravity!r}")
         if self.d_mean * (1 + self.d_spread) * 3 > self.drum_length:
             raise ValueError(f"drum_length {self.drum_length} m is shorter than 3 particle diameters")
+        if not (isinstance(self.seed, int) and not isinstance(self.seed, bool) and self.seed >= 0):
+            raise ValueError(f"parameter seed must be a non-negative integer, got {self.seed!r}")
+        # time step: at least MIN_STEPS_PER_CONTACT steps per contact of the smallest particles
+        r_min = self.r_mean * (1 - self.d_spread)
+        t_c = self.contact_time(r_min)
+        if self.dt > t_c / MIN_STEPS_PER_CONTACT:
+            raise ValueError(
+                f"parameter dt = {self.dt:.3g} s is above t_c/{MIN_STEPS_PER_CONTACT} = {t_c / MIN_STEPS_PER_CONTACT:.3g} s, "
+                f"where t_c = {t_c:.3g} s is the contact time of the smallest particles (R = {r_min:.3g} m); "
+                f"that is {t_c / self.dt:.3g} steps per contact")
 
     # ---- derived quantities
     @property
@@ -120,12 +132,22 @@ class SimParams:
         return 2 * math.pi / abs(self.drum_omega) if self.drum_omega else math.inf
 
     def contact_time(self, radius=None) -> float:
-        """Closed-form normal contact time of two equal spheres, π/(ω₀√(1−ζ²)) [s]."""
+        """Closed-form normal contact time of two equal spheres of ``radius`` (default the mean
+        radius), π/(ω₀√(1−ζ²)) [s].
+
+        Raises
+        ------
+        ValueError
+            If the contact is overdamped (ζ ≥ 1: no rebound, no contact time).
+        """
         r = self.r_mean if radius is None else radius
         m = self.density * 4 / 3 * math.pi * r**3
         m_eff = m / 2
         w0 = math.sqrt(self.k_n / m_eff)
         zeta = self.c_n / (2 * math.sqrt(self.k_n * m_eff))
+        if zeta >= 1:
+            raise ValueError(f"parameter c_n = {self.c_n:.3g} N s/m overdamps the normal contact of particles of "
+                             f"radius {r:.3g} m (damping ratio ζ = {zeta:.3g} >= 1)")
         return math.pi / (w0 * math.sqrt(1 - zeta**2))
 
     def to_dict(self) -> dict:
@@ -148,7 +170,8 @@ class SimParams:
 
 
 def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimParams:
-    """Coarse-grain the *original* (α = 1) parameters by a factor α (Table 2, Weber scaling).
+    """Coarse-grain the *original* (α = 1) parameters by a factor α (Table 2 of the paper, Weber
+    scaling; docs/physics.md, "Coarse-graining rules").
 
     Radii ×α, particle count ×1/α³ (rounded), γ ×α, η ×α, k_n and k_t ×α, c_n and c_t ×α²,
     Δt ×α (unless ``scale_dt=False``); volumes per particle follow the radius (same fractions of

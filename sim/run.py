@@ -6,6 +6,7 @@ the next Verlet-list rebuild, typically hundreds of steps).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
@@ -17,13 +18,46 @@ import numpy as np
 from granalytics import RunMeta, RunWriter, Snapshot, __version__
 
 from . import _kernels
-from .capillary import CAPILLARY_MODELS
+from .capillary import pair_capillary_force
 from .drum import n_walls
 from .neighbours import empty_slots, rebuild
 from .params import SimParams
 from .state import State
 
-__all__ = ["Simulation"]
+__all__ = ["Simulation", "configure_threading"]
+
+#: version of the one-file checkpoint (the JSON information inside the .npz under _INFO_KEY)
+CHECKPOINT_FORMAT = 2
+_INFO_KEY = "checkpoint_info"
+
+#: what :func:`configure_threading` sets (docs/simulator.md, "Threads")
+THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+GOMP_SPINCOUNT = "3000"
+
+
+def configure_threading() -> None:
+    """Set up the process for the simulator's parallel kernels; a no-op once numba has started
+    its threads (the threading layer and OpenMP's settings are fixed from then on).
+
+    - numba's threading layer priority becomes OpenMP first: its parallel regions start in
+      microseconds, TBB's take ~0.5 ms, which dominates a time step of a few thousand
+      particles (falls back to TBB, then workqueue, when OpenMP is absent);
+    - ``GOMP_SPINCOUNT`` is set to 3000 unless already set: idle OpenMP threads spin before
+      sleeping, and with the default spin count two processes sharing the cores slow each other
+      down ~100x.
+
+    Called by the command line and by :class:`Simulation` (creating or running one); importing
+    ``sim`` or using its force laws changes no global state.
+    """
+    import numba
+
+    try:
+        numba.threading_layer()
+        return  # threads already launched: too late to change anything
+    except ValueError:
+        pass
+    numba.config.THREADING_LAYER_PRIORITY = list(THREADING_LAYER_PRIORITY)
+    os.environ.setdefault("GOMP_SPINCOUNT", GOMP_SPINCOUNT)
 
 
 class Simulation:
@@ -41,6 +75,7 @@ class Simulation:
     """
 
     def __init__(self, params: SimParams, original: SimParams | None = None, state: State | None = None):
+        configure_threading()
         self.params = params
         if original is None:
             if params.alpha != 1:
@@ -60,6 +95,7 @@ class Simulation:
         position : (N, 3) [m]; radius : (N,) [m]; velocity, angular_velocity : (N, 3), default 0;
         film : (N,) liquid film volumes [m³], default 0.
         """
+        configure_threading()
         position = np.array(position, dtype=np.float64)
         n = len(position)
         params = dataclasses.replace(params, n_particles=n)
@@ -129,23 +165,13 @@ class Simulation:
     # ------------------------------------------------------------------ stepping
     def _advance(self, n_steps: int, settling: bool = False) -> None:
         p, s = self.params, self.state
-        model = CAPILLARY_MODELS[p.capillary_model]
-        gravity = np.asarray(p.gravity, dtype=np.float64)
+        kp = _kernels.kernel_params(p, self.n_walls)
         remaining = n_steps
         step = 0 if settling else s.step
         while remaining > 0:
+            body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(self.n_walls)])
             done, s.n_sprays, sprayed = _kernels.advance(
-                remaining, step, p.dt, settling,
-                s.pos, s.vel, s.omega, s.radius, s.mass, s.inertia, s.film, s.x_ref,
-                s.pair_i, s.pair_j, s.alive, s.created, s.ruptured, s.v_b, s.v_max, s.fs, s.nprev,
-                s.force, s.torque_i, s.torque_j, s.f_normal, s.f_cap, s.gap,
-                s.part_start, s.part_slots, s.body_start, s.body_slots,
-                np.concatenate([s.ids, s.ids.max() + 1 + np.arange(self.n_walls)]),
-                self.n_walls, p.drum_radius, p.drum_length, p.n_baffles, p.baffle_height, p.drum_omega, gravity,
-                p.k_n, p.k_t, p.c_n, p.c_t, p.friction, p.surface_tension, p.viscosity, p.contact_angle,
-                model, p.viscous, p.capillary_in_contact, p.v_min,
-                p.spray_interval, p.spray_dose, p.spray_radius, s.n_sprays, p.skin / 2,
-            )
+                remaining, step, settling, s.n_sprays, kp, _kernels.kernel_arrays(s, body_key))
             s.sprayed_total += sprayed
             remaining -= done
             step += done
@@ -180,64 +206,185 @@ class Simulation:
     def snapshot(self, meta: RunMeta | None = None) -> Snapshot:
         """The current state as a granalytics snapshot: every particle and every live
         particle–particle interaction (contact or bridge). Wall interactions are not pairs of
-        particles and are left out; liquid held by walls is ``state.film[N:]``."""
-        s = self.state
+        particles and are left out; liquid held by walls is ``state.film[N:]``.
+
+        ``f_cap`` is the force law of ``sim.capillary_force`` (the engine's own) at each pair's
+        gap and *current* bridge volume. That is the force the last step computed, except for a
+        bridge created or refilled by that step's liquid migration: the step's force pass ran
+        before the migration, with the earlier volume (0 for a new bridge), and
+        ``state.f_cap`` keeps that value.
+        """
+        s, p = self.state, self.params
         n = s.n_particles
         live = np.flatnonzero(s.alive[n * self.n_walls:]) + n * self.n_walls
+        i, j = s.pair_i[live], s.pair_j[live]
+        f_cap = pair_capillary_force(s.gap[live], s.radius[i], s.radius[j], s.v_b[live], p.surface_tension,
+                                     p.contact_angle, p.capillary_model)
         return Snapshot(
             time=self.time, step=s.step, ids=s.ids, radius=s.radius, position=s.pos, velocity=s.vel,
             angular_velocity=s.omega, film_volume=s.film[:n],
-            contact_i=s.pair_i[live], contact_j=s.pair_j[live], f_cap=s.f_cap[live],
+            contact_i=i, contact_j=j, f_cap=f_cap,
             f_normal=s.f_normal[live], gap=s.gap[live], bridge_volume=s.v_b[live],
             meta=meta if meta is not None else self.run_meta(),
         )
 
     # ------------------------------------------------------------------ checkpoints
     def save_checkpoint(self, path, extra=None) -> None:
-        """Write the state and parameters atomically (temporary file, then rename)."""
-        tmp = f"{path}.tmp.npz"
-        self.state.save(tmp)
-        info = {"params": self.params.to_dict(), "original": self.original.to_dict(),
+        """Write the state and parameters as ONE file, atomically.
+
+        The state arrays and the JSON information (parameters, initial liquid, ``extra``) go
+        into a single ``.npz`` (the JSON as the 0-d string array ``checkpoint_info``), written
+        to ``path + '.tmp'`` in the same directory, flushed to disk (fsync), then renamed over
+        ``path`` (``os.replace``, atomic) and the directory synced. A kill at any point leaves
+        either the previous checkpoint or the new one, never a mix. A legacy ``path + '.json'``
+        beside it (the two-file format of earlier versions) is removed afterwards.
+        """
+        path = os.fspath(path)
+        info = {"format": CHECKPOINT_FORMAT, "params": self.params.to_dict(), "original": self.original.to_dict(),
                 "liquid_initial": self.liquid_initial, **(extra or {})}
-        with open(f"{path}.json.tmp", "w") as f:
-            json.dump(info, f)
-        os.replace(tmp, path)
-        os.replace(f"{path}.json.tmp", f"{path}.json")
+        arrays = self.state.to_arrays()
+        arrays[_INFO_KEY] = np.array(json.dumps(info))
+        tmp = f"{path}.tmp"
+        try:
+            with open(tmp, "wb") as f:
+                np.savez(f, **arrays)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except Exception:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        _fsync_directory(os.path.dirname(os.path.abspath(path)))
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(f"{path}.json")  # legacy sidecar: the information is inside the .npz now
 
     @classmethod
     def from_checkpoint(cls, path) -> tuple["Simulation", dict]:
-        """Restore a simulation from :meth:`save_checkpoint`; returns it and the extra info."""
-        with open(f"{path}.json") as f:
-            info = json.load(f)
-        sim = cls(SimParams.from_dict(info.pop("params")), SimParams.from_dict(info.pop("original")),
-                  state=State.load(path))
-        sim.liquid_initial = info.pop("liquid_initial")
+        """Restore a simulation from :meth:`save_checkpoint`; returns it and the extra info.
+
+        Reads the one-file format and the legacy two-file format (``path`` with the JSON in
+        ``path + '.json'``). A legacy pair may be mixed (a kill between its two renames left a
+        newer ``.npz`` beside an older ``.json``); everything in the ``.json`` except the frame
+        count and wall time is the same for the whole run, so the frame count is taken from the
+        state's step instead (``step / frame_every + 1``).
+
+        Raises
+        ------
+        ValueError
+            Missing, unreadable or damaged checkpoint (one line, naming the file).
+        """
+        path = os.fspath(path)
+        if not os.path.exists(path):
+            raise ValueError(f"{path}: no checkpoint to resume from")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {name: data[name] for name in data.files}
+            legacy = _INFO_KEY not in arrays
+            if legacy:
+                try:
+                    with open(f"{path}.json") as f:
+                        info = json.load(f)
+                except FileNotFoundError:
+                    raise ValueError(f"{path}: checkpoint without its information (no '{_INFO_KEY}' inside, "
+                                     f"no {os.path.basename(path)}.json beside it)") from None
+            else:
+                info = json.loads(str(arrays.pop(_INFO_KEY)))
+            state = State.from_arrays(arrays)
+            params = SimParams.from_dict(info.pop("params"))
+            original = SimParams.from_dict(info.pop("original"))
+            liquid_initial = float(info.pop("liquid_initial"))
+            if "frames" in info or "frame_every" in info:
+                frames, frame_every = int(info["frames"]), int(info["frame_every"])
+                if legacy and frame_every >= 1 and state.step % frame_every == 0:
+                    frames = info["frames"] = state.step // frame_every + 1
+                if frame_every < 1 or state.step != (frames - 1) * frame_every:
+                    raise ValueError(f"state at step {state.step} is not the last of {frames} frames every "
+                                     f"{frame_every} steps")
+        except ValueError as exc:
+            message = str(exc)
+            raise ValueError(message if message.startswith(path) else f"{path}: damaged checkpoint ({message})") from None
+        except Exception as exc:  # zip, npy and JSON errors of a truncated or garbled file
+            raise ValueError(f"{path}: damaged checkpoint ({type(exc).__name__}: {exc})") from None
+        info.pop("format", None)
+        sim = cls(params, original, state=state)
+        sim.liquid_initial = liquid_initial
         return sim, info
 
     # ------------------------------------------------------------------ runs
-    def run(self, out, revolutions, *, frame_every=None, checkpoint_every=20, progress=True, resume=False):
-        """Simulate ``revolutions`` drum revolutions, writing a frame every ``frame_every``
-        steps (default: every 0.05 revolution) to the granalytics run file ``out``.
+    def frame_plan(self, revolutions, frame_every=None) -> tuple[int, int]:
+        """``(frame_every, n_frames)`` of a run of ``revolutions`` drum revolutions.
 
-        A checkpoint ``out + '.ckpt.npz'`` is written every ``checkpoint_every`` frames; with
-        ``resume=True`` the run continues from it (the file keeps the frames written up to the
-        checkpoint) and the trajectory is bit-identical to an uninterrupted run.
+        Frames are written every ``frame_every`` steps (default: the step count nearest to 0.05
+        revolution), frame 0 at t = 0, and the last one at the requested end: ``revolutions``
+        must be a whole number n of frame intervals, up to the rounding of the interval to whole
+        steps (|n·frame_every − revolutions·T/Δt| ≤ (n + 1)/2 steps), and ``n_frames`` = n + 1.
+
+        Raises
+        ------
+        ValueError
+            ``revolutions`` not finite and > 0, a drum that does not turn, ``frame_every`` not a
+            positive integer, or ``revolutions`` not a whole number of frame intervals.
+        """
+        p = self.params
+        if not (isinstance(revolutions, (int, float, np.integer, np.floating)) and math.isfinite(revolutions)
+                and revolutions > 0):
+            raise ValueError(f"revolutions must be a finite number > 0, got {revolutions!r}")
+        if not math.isfinite(p.revolution_period):
+            raise ValueError("the drum does not turn (drum_omega = 0): a run is measured in revolutions")
+        if frame_every is None:
+            frame_every = max(1, int(round(0.05 * p.revolution_period / p.dt)))
+        if not (isinstance(frame_every, (int, np.integer)) and not isinstance(frame_every, bool) and frame_every >= 1):
+            raise ValueError(f"frame_every must be a positive whole number of steps, got {frame_every!r}")
+        frame_every = int(frame_every)
+        total = revolutions * p.revolution_period / p.dt  # steps, not rounded
+        n = int(round(total / frame_every))
+        if n < 1 or abs(n * frame_every - total) > (n + 1) / 2:
+            raise ValueError(
+                f"revolutions = {revolutions:g} ({total:.6g} steps) is not a whole number of frame intervals of "
+                f"{frame_every} steps ({total / frame_every:.6g}); the last frame would miss the requested end")
+        return frame_every, n + 1
+
+    def run(self, out, revolutions, *, frame_every=None, checkpoint_every=20, progress=True, resume=False,
+            overwrite=False):
+        """Simulate ``revolutions`` drum revolutions, writing a frame every ``frame_every``
+        steps (default: every 0.05 revolution) to the granalytics run file ``out``; see
+        :meth:`frame_plan`.
+
+        A checkpoint ``out + '.ckpt.npz'`` is written every ``checkpoint_every`` frames (None:
+        never); with ``resume=True`` the run continues from it (the file keeps the frames written
+        up to the checkpoint) and the trajectory is bit-identical to an uninterrupted run. A
+        resume first checks that the run file and the checkpoint belong together (parameters,
+        frame interval, frame count, time and step of the checkpoint's frame) and refuses with
+        ``ValueError``, changing nothing on disk, when they do not.
+
+        An existing ``out`` is replaced only with ``overwrite=True`` (``FileExistsError``
+        otherwise); a new run removes a checkpoint of ``out`` left by an earlier run.
         """
         from tqdm.auto import tqdm
 
+        configure_threading()
         p = self.params
-        if frame_every is None:
-            frame_every = max(1, int(round(0.05 * p.revolution_period / p.dt)))
-        total_steps = int(round(revolutions * p.revolution_period / p.dt))
-        n_frames = total_steps // frame_every + 1
+        out = os.fspath(out)
+        frame_every, n_frames = self.frame_plan(revolutions, frame_every)
+        if checkpoint_every is not None and not (
+                isinstance(checkpoint_every, (int, np.integer)) and not isinstance(checkpoint_every, bool)
+                and checkpoint_every >= 1):
+            raise ValueError(f"checkpoint_every must be a whole number of frames >= 1 (or None), got {checkpoint_every!r}")
         ckpt = f"{out}.ckpt.npz"
         meta = self.run_meta()
         if resume:
             if not hasattr(self, "_resume_frame"):
                 raise ValueError("resume=True needs a simulation restored with Simulation.resume(out)")
+            self.check_resume(out, frame_every, n_frames)
             writer = RunWriter.continue_from(out, self._resume_frame)
         else:
-            writer = RunWriter(out, meta, overwrite=True)
+            if os.path.exists(out) and not overwrite:
+                raise FileExistsError(f"{out}: file exists (pass overwrite=True, or --overwrite, to replace it)")
+            writer = RunWriter(out, meta, overwrite=overwrite)
+            for stale in (ckpt, f"{ckpt}.json"):  # an earlier run's checkpoint of this file
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(stale)
             writer.append(self.snapshot(meta))
         wall0 = _time.perf_counter()
         steps0 = self.state.step
@@ -248,7 +395,7 @@ class Simulation:
             while writer.n_frames < n_frames:
                 self.advance(writer.n_frames * frame_every - self.state.step)
                 writer.append(self.snapshot(meta))
-                if checkpoint_every and writer.n_frames % checkpoint_every == 0:
+                if checkpoint_every is not None and writer.n_frames % checkpoint_every == 0:
                     self.save_checkpoint(ckpt, {"frames": writer.n_frames, "frame_every": frame_every,
                                                 "wall_s": wall_before + _time.perf_counter() - wall0})
                 bar.update(1)
@@ -267,8 +414,83 @@ class Simulation:
 
     @classmethod
     def resume(cls, out) -> "Simulation":
-        """The simulation of run ``out`` restored from its checkpoint, ready for ``run(..., resume=True)``."""
-        sim, info = cls.from_checkpoint(f"{out}.ckpt.npz")
-        sim._resume_frame = info["frames"]
+        """The simulation of run ``out`` restored from its checkpoint, ready for ``run(..., resume=True)``.
+
+        Raises
+        ------
+        ValueError
+            No checkpoint, or a damaged one.
+        """
+        sim, info = cls.from_checkpoint(f"{os.fspath(out)}.ckpt.npz")
+        try:
+            sim._resume_frame = int(info["frames"])
+            sim._resume_frame_every = int(info["frame_every"])
+        except KeyError as exc:
+            raise ValueError(f"{out}.ckpt.npz: not a run checkpoint (no {exc.args[0]!r})") from None
         sim._resume_wall_s = float(info.get("wall_s", 0.0))
         return sim
+
+    def check_resume(self, out, frame_every, n_frames) -> None:
+        """Check that run file ``out`` and this simulation's checkpoint belong together before a
+        resume changes anything: same parameters (preset, overrides, seed: the whole
+        :class:`SimParams` and its original), same frame interval, the checkpoint's frame
+        within the requested run, the run file holding at least the checkpoint's frame count on
+        the same grid of steps, and its frame ``frames − 1`` at exactly the checkpoint's time and
+        step.
+
+        Raises
+        ------
+        ValueError
+            One line naming what does not match.
+        """
+        from granalytics import open_run
+
+        ckpt = f"{out}.ckpt.npz"
+        frames, s = self._resume_frame, self.state
+        ckpt_frame_every = getattr(self, "_resume_frame_every", frame_every)
+        if ckpt_frame_every != frame_every:
+            raise ValueError(
+                f"{ckpt}: the run writes a frame every {ckpt_frame_every} steps, the resumed run asks for "
+                f"{frame_every} (give the same frame interval, --frame-every-rev, as when the run started)")
+        if frames > n_frames:
+            raise ValueError(f"{ckpt}: the checkpoint comes after {frames} frames, past the end of the requested "
+                             f"run ({n_frames} frames); ask for at least as many revolutions as it holds")
+        if not os.path.exists(out):
+            raise ValueError(f"{out}: run file missing; the checkpoint {ckpt} continues it and cannot be resumed without it")
+        try:
+            with open_run(out, validate=False) as run:
+                meta, steps, times = run.meta, run.steps, run.times
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"{out}: cannot resume, the run file is unreadable ({exc})") from None
+        try:
+            file_params = SimParams.from_dict(meta.sim_config["params"])
+            file_original = SimParams.from_dict(meta.sim_config["original"])
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"{out}: not a run of this simulator (no simulation parameters in its metadata)") from None
+        if file_params != self.params or file_original != self.original:
+            changed = sorted(k for k, v in self.params.to_dict().items() if file_params.to_dict().get(k) != v)
+            changed += sorted(f"original {k}" for k, v in self.original.to_dict().items()
+                              if file_original.to_dict().get(k) != v)
+            raise ValueError(f"{out}: the run file and the checkpoint {ckpt} were made with different parameters "
+                             f"({', '.join(changed)})")
+        if len(steps) < frames:
+            raise ValueError(f"{out}: holds {len(steps)} frames but the checkpoint {ckpt} comes after {frames}")
+        if not np.array_equal(steps[:frames], np.arange(frames) * frame_every):
+            raise ValueError(f"{out}: its frames are not every {frame_every} steps like the checkpoint's {ckpt}")
+        if steps[frames - 1] != s.step or times[frames - 1] != self.time:
+            raise ValueError(f"{out}: frame {frames - 1} (the checkpoint's last) is at step {steps[frames - 1]}, "
+                             f"t = {times[frames - 1]!r} s, the checkpoint {ckpt} at step {s.step}, t = {self.time!r} s")
+
+
+def _fsync_directory(directory) -> None:
+    """Make a rename in ``directory`` durable (POSIX; a no-op where directories cannot be opened)."""
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

@@ -39,7 +39,8 @@ class State:
         spring on i [N], previous contact normal.
     force, torque_i, torque_j, f_normal, f_cap, gap
         Per-slot outputs of the last step: force on i [N], torques on i and j [N m], net normal
-        force (positive repulsive) [N], the bridge's cohesive force F_cap(max(s, 0⁺)) [N], gap [m].
+        force (positive repulsive) [N], the bridge's cohesive force F_cap(max(s, 0⁺)) [N] with the
+        bridge volume the step's force pass saw (before liquid migration), gap [m].
     part_start, part_slots, body_start, body_slots
         CSR slot lists per particle (pair slots) and per body (all slots).
     """
@@ -84,16 +85,34 @@ class State:
         """Σ films (particles and walls) + Σ bridge volumes of live interactions [m³]."""
         return float(self.film.sum() + self.v_b[self.alive].sum())
 
+    def to_arrays(self) -> dict:
+        """Every field as a numpy array (counters as 0-d arrays), by name."""
+        return {f.name: np.asarray(getattr(self, f.name)) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_arrays(cls, arrays) -> "State":
+        """Inverse of :meth:`to_arrays`.
+
+        Raises
+        ------
+        ValueError
+            If a field is missing.
+        """
+        missing = [f.name for f in dataclasses.fields(cls) if f.name not in arrays]
+        if missing:
+            raise ValueError(f"state arrays missing: {', '.join(missing)}")
+        values = {f.name: np.asarray(arrays[f.name]) for f in dataclasses.fields(cls)}
+        for name in ("step", "n_sprays"):
+            values[name] = int(values[name])
+        values["sprayed_total"] = float(values["sprayed_total"])
+        return cls(**values)
+
     def save(self, path) -> None:
         """Write every array and counter to an ``.npz`` file."""
-        np.savez(path, **{f.name: np.asarray(getattr(self, f.name)) for f in dataclasses.fields(self)})
+        np.savez(path, **self.to_arrays())
 
     @classmethod
     def load(cls, path) -> "State":
         """Read a file written by :meth:`save`."""
         with np.load(path) as data:
-            values = {f.name: data[f.name] for f in dataclasses.fields(cls)}
-        for name in ("step", "n_sprays"):
-            values[name] = int(values[name])
-        values["sprayed_total"] = float(values["sprayed_total"])
-        return cls(**values)
+            return cls.from_arrays({name: data[name] for name in data.files})

@@ -1,4 +1,5 @@
-"""Liquid-bridge forces (sim.capillary) against physics spec §3/§6 and YADE 2023.02a curves."""
+"""Liquid-bridge forces (sim.capillary) against docs/physics.md ("Liquid bridges", "Capillary models")
+and YADE 2023.02a curves."""
 
 import math
 from pathlib import Path
@@ -82,7 +83,7 @@ def test_rupture_distance_grows_with_contact_angle():
                                                           rel=1e-14)
 
 
-# --- spec §6 check values --------------------------------------------------------------------
+# --- check values of "Capillary models" --------------------------------------------------------------------
 
 SPEC_TABLE = {
     "willett_analytic": (5.00671e-4, 3.49822e-4, 1.45347e-4, 7.24192e-5),
@@ -131,7 +132,7 @@ def test_contact_value_closed_form(model):
 
 
 def test_rabinovich_contact_value_closed_form():
-    # s → 0⁺ of spec §6: s/(2 d_sp) → 0 and α² = (s/R)(−1 + √(1 + 2V/(πRs²))) → √(2V/(πR))/R
+    # s → 0⁺ of the formula ("Capillary models"): s/(2 d_sp) → 0 and α² = (s/R)(−1 + √(1 + 2V/(πRs²))) → √(2V/(πR))/R
     theta = 0.3
     alpha0 = (2 * V_B / (math.pi * R**3)) ** 0.25
     want = 2 * math.pi * R * GAMMA * (math.cos(theta) + math.sin(alpha0) * math.sin(theta + alpha0))

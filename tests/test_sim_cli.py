@@ -1,6 +1,7 @@
 import pytest
 
 from sim.cli import main
+from sim.params import PRESETS
 
 
 @pytest.mark.parametrize(
@@ -49,7 +50,7 @@ def test_a_killed_run_resumes_from_its_checkpoint_bit_identically(tmp_path):
     full, part = tmp_path / "full.h5", tmp_path / "part.h5"
     subprocess.run(args + ["--out", str(full)], check=True, capture_output=True)
     proc = subprocess.Popen(args + ["--out", str(part)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    marker = f"{part}.ckpt.npz.json"
+    marker = f"{part}.ckpt.npz"  # one file, renamed into place when complete
     deadline = time.time() + 120
     while not os.path.exists(marker) and time.time() < deadline:
         time.sleep(0.02)
@@ -58,8 +59,136 @@ def test_a_killed_run_resumes_from_its_checkpoint_bit_identically(tmp_path):
     proc.wait()
     subprocess.run(args + ["--out", str(part), "--resume"], check=True, capture_output=True)
     with ga.open_run(full) as a, ga.open_run(part) as b:
-        assert len(a) == len(b) == 10  # 0.1 revolution, a frame every 3 491 steps
+        assert len(a) == len(b) == 11  # 0.1 revolution, a frame every 3 491 steps: 10 intervals
         for fa, fb in zip(a, b):
             for name in ("time", "ids", "position", "velocity", "angular_velocity", "film_volume",
                          "contact_i", "contact_j", "f_cap", "f_normal", "gap", "bridge_volume"):
+                assert np.array_equal(getattr(fa, name), getattr(fb, name)), name
+
+
+# --- refusals, overwrite, resume checks (a tiny drum: 200 particles, settled in 0.01 s) ---------
+
+import dataclasses  # noqa: E402
+import hashlib  # noqa: E402
+import shutil  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+import granalytics as ga  # noqa: E402
+import sim.cli  # noqa: E402
+from sim.params import _ORIGINALS  # noqa: E402
+
+TINY = dataclasses.replace(_ORIGINALS["lab"], n_particles=5400, settle_time=0.01, spray_interval=0.01, initial_film=0.004)
+# a frame every 0.001 revolution (349 steps), 4 frames after the first, a checkpoint every 2 frames
+BASE = ["--revolutions", "0.004", "--frame-every-rev", "0.001", "--checkpoint-every", "2", "--quiet"]
+
+
+@pytest.fixture
+def cli(monkeypatch, capsys, tmp_path):
+    """``cli(out, *args)`` runs ``python -m sim run`` on the tiny preset (CG3 of TINY); returns
+    (exit status, stderr lines)."""
+    monkeypatch.setattr(sim.cli, "preset_original", lambda name: (TINY, 3.0))
+
+    def run(out, *args):
+        capsys.readouterr()
+        try:
+            code = main(["run", "--out", str(tmp_path / out), *BASE, *args])
+        except SystemExit as exc:  # argparse's own errors
+            code = exc.code
+        return code, capsys.readouterr().err.strip().splitlines()
+
+    return run
+
+
+def files(directory):
+    """Name -> sha256 of every file in ``directory``: what 'nothing changed on disk' compares."""
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(directory.iterdir())}
+
+
+def refused(result, *words):
+    code, err = result
+    assert code == 2 and len(err) == 1 and err[0].startswith("sim: error:"), err
+    for word in words:
+        assert word in err[0], err[0]
+    return err[0]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--seed", "abc"], ["--seed"]),
+    (["--seed", "-1"], ["--seed"]),
+    (["--particles", "10"], ["--particles 10", "0 particles"]),
+    (["--checkpoint-every", "0"], ["--checkpoint-every"]),
+    (["--revolutions", "inf"], ["--revolutions"]),
+    (["--revolutions", "nan"], ["--revolutions"]),
+    (["--omega", "0"], ["--omega"]),
+    (["--frame-every-rev", "inf"], ["--frame-every-rev"]),
+    (["--revolutions", "0.006", "--frame-every-rev", "0.0025"], ["--revolutions", "--frame-every-rev", "whole number"]),
+    (["--alpha", "inf"], ["alpha"]),
+])
+def test_bad_option_values_are_refused_in_one_line_before_anything_is_written(cli, tmp_path, args, words):
+    refused(cli("r.h5", *args), *words)
+    assert files(tmp_path) == {}
+
+
+def test_a_time_step_too_long_for_the_contacts_is_refused():
+    from sim.params import SimParams, preset
+
+    with pytest.raises(ValueError, match=r"dt = 0\.0001 s is above t_c/20 = 1\.37e-05 s.*t_c = 0\.000273 s"):
+        SimParams(dt=1e-4)
+    for name in PRESETS:  # every preset resolves the contact of its smallest particles with > 20 steps
+        p = preset(name)
+        assert p.dt <= p.contact_time(p.r_mean * (1 - p.d_spread)) / 20
+
+
+def test_an_existing_out_is_replaced_only_with_overwrite(cli, tmp_path):
+    out = tmp_path / "r.h5"
+    out.write_bytes(b"a precious file")
+    refused(cli("r.h5"), "exists", "--overwrite")
+    assert files(tmp_path) == {"r.h5": hashlib.sha256(b"a precious file").hexdigest()}
+    assert cli("r.h5", "--overwrite")[0] == 0
+    with ga.open_run(out) as run:
+        assert len(run) == 5
+    refused(cli("r.h5", "--overwrite", "--resume"), "--resume", "--overwrite")
+
+
+def test_the_last_frame_is_at_the_requested_revolutions(cli, tmp_path):
+    # 0.0015 revolution is 523.6 steps, rounded up to 524: 4 intervals reach 0.006 revolution
+    assert cli("r.h5", "--revolutions", "0.006", "--frame-every-rev", "0.0015")[0] == 0
+    p = sim.cli.cg_scale(TINY, 3.0)
+    with ga.open_run(tmp_path / "r.h5") as run:
+        assert len(run) == 5 and np.array_equal(run.steps, np.arange(5) * 524)
+        assert abs(run.times[-1] - 0.006 * p.revolution_period) <= 2 * p.dt
+
+
+def test_resume_refuses_a_checkpoint_that_is_not_the_run_files_and_changes_nothing(cli, tmp_path):
+    assert cli("a.h5")[0] == 0
+    assert cli("b.h5", "--seed", "1")[0] == 0
+    assert cli("short.h5", "--revolutions", "0.002")[0] == 0  # 3 frames
+    assert cli("fine.h5", "--frame-every-rev", "0.0005")[0] == 0  # frames every 175 steps
+    for name in ("b", "short", "fine"):
+        shutil.copyfile(tmp_path / "a.h5.ckpt.npz", tmp_path / f"{name}.h5.ckpt.npz")  # a.h5 after 4 frames
+    before = files(tmp_path)
+    refused(cli("b.h5", "--resume"), "different parameters", "seed")  # a seed-1 file, a seed-0 checkpoint
+    refused(cli("b.h5", "--resume", "--seed", "1"), "other parameters", "seed")
+    refused(cli("a.h5", "--resume", "--frame-every-rev", "0.0005", "--revolutions", "0.004"), "frame every 349 steps")
+    refused(cli("short.h5", "--resume"), "holds 3 frames", "comes after 4")
+    refused(cli("fine.h5", "--resume"), "not every 349 steps")
+    refused(cli("a.h5", "--resume", "--revolutions", "0.001"), "past the end")
+    assert files(tmp_path) == before
+    # a deleted run file, a damaged checkpoint: one line each
+    (tmp_path / "b.h5").unlink()
+    refused(cli("b.h5", "--resume"), "run file missing")
+    damaged = tmp_path / "short.h5.ckpt.npz"
+    damaged.write_bytes(damaged.read_bytes()[: damaged.stat().st_size // 2])
+    refused(cli("short.h5", "--resume"), "damaged checkpoint")
+    (tmp_path / "fine.h5.ckpt.npz").write_bytes(b"not a checkpoint")
+    refused(cli("fine.h5", "--resume"), "damaged checkpoint")
+    # and the matching pair resumes: a.h5 extended to 0.006 revolution equals a run made at once
+    assert cli("a.h5", "--resume", "--revolutions", "0.006")[0] == 0
+    assert cli("once.h5", "--revolutions", "0.006")[0] == 0
+    with ga.open_run(tmp_path / "a.h5") as a, ga.open_run(tmp_path / "once.h5") as b:
+        assert len(a) == len(b) == 7
+        for fa, fb in zip(a, b):
+            for name in ("time", "step", "position", "velocity", "angular_velocity", "film_volume", "contact_i",
+                         "contact_j", "f_cap", "f_normal", "gap", "bridge_volume"):
                 assert np.array_equal(getattr(fa, name), getattr(fb, name)), name

@@ -1,6 +1,7 @@
-"""Liquid migration and spraying (sim/liquid.py; physics spec §3–§5).
+"""Liquid migration and spraying (sim/liquid.py; docs/physics.md, "Liquid bridges", "Spraying",
+"Liquid migration").
 
-Expected values are worked out by hand from the spec's rules; volumes are in units of
+Expected values are worked out by hand from those rules; volumes are in units of
 U = 1e-12 m³ to keep the arithmetic readable.
 """
 
@@ -240,7 +241,7 @@ def test_v_min_in_refill():
 
 
 def reference_step(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, lists, v_min):
-    """Spec §5 written out plainly (Python lists and dicts)."""
+    """The rules of "Liquid migration" written out plainly (Python lists and dicts)."""
     marked = set()
     for k in range(len(pair_i)):
         if ruptured[k] > 0:

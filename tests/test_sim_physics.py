@@ -154,3 +154,56 @@ def test_bad_parameters_name_the_parameter():
         SimParams(capillary_model="magic")
     with pytest.raises(ValueError, match="unknown parameters"):
         SimParams.from_dict({"k_nn": 1})
+
+
+def test_public_capillary_force_is_the_engine_law_for_a_tiny_bridge():
+    """A touching CG3 pair picks up a tiny bridge (V_b = 1.7e-17 m³, a migration leftover, where
+    willett_numeric is capped at 2πRγ), is pulled apart through the capped range and ruptures.
+    At every step the engine's f_cap must equal sim.capillary_force of the same inputs: the
+    force pass against the volume it saw, every frame against the frame's gap and volume."""
+    import sim as sim_pkg
+
+    p = dataclasses.replace(cg_scale(FREE, 3.0), drum_radius=0.05, drum_length=0.05)
+    r_a, r_b = 2.2e-3, 2.5e-3
+    sim = Simulation.from_particles(p, [[-r_a, 0, 0.025], [r_b + 1e-7, 0, 0.025]], [r_a, r_b],
+                                    velocity=[[1e-3, 0, 0], [-1e-3, 0, 0]], film=[0.85e-17, 0.85e-17])
+    s = sim.state
+    k = 2 * sim.n_walls  # the only pair slot
+    r_eff = 2 * r_a * r_b / (r_a + r_b)
+    cap = 2 * math.pi * r_eff * p.surface_tension
+    seen = set()
+    for step in range(400):
+        if step == 60:  # pull the pair apart, fast enough to break the bridge
+            s.vel[:] = 0
+            s.vel[np.argsort(s.ids)] = [[-0.02, 0, 0], [0.02, 0, 0]]
+        v_before = s.v_b[k]
+        sim.advance(1)
+        assert s.pair_i[k] < s.pair_j[k] < 2
+        if not s.alive[k]:
+            if "bridge" in seen:
+                seen.add("ruptured")
+                break
+            continue
+        r1, r2 = s.radius[s.pair_i[k]], s.radius[s.pair_j[k]]
+        # the force pass: what the engine applied (capillary_in_contact) or would apply when separated
+        law = sim_pkg.capillary_force(s.gap[k], r1, r2, v_before, p.surface_tension, p.contact_angle)
+        assert s.f_cap[k] == law, (step, s.gap[k], v_before)
+        # the frame: its f_cap against its own gap, radii and bridge volume, bit for bit
+        snap = sim.snapshot()
+        r = snap.radius
+        frame_law = sim_pkg.capillary_force(snap.gap, r[snap.contact_i], r[snap.contact_j], snap.bridge_volume,
+                                            snap.meta.surface_tension, snap.meta.contact_angle)
+        assert snap.n_contacts == 1 and np.array_equal(snap.f_cap, frame_law), (step, snap.gap, snap.bridge_volume, snap.f_cap)
+        if s.v_b[k] > 0:
+            seen.add("bridge")
+            assert s.v_b[k] == pytest.approx(1.7e-17, rel=1e-12)
+            if v_before == 0:
+                seen.add("created")
+                assert snap.f_cap[0] == pytest.approx(cap, rel=1e-12)  # touching: the capped value at contact
+            elif s.gap[k] <= 0:
+                seen.add("contact")
+            elif s.f_cap[k] == cap:
+                seen.add("separated, capped")
+            else:
+                seen.add("separated")
+    assert seen == {"bridge", "created", "contact", "separated, capped", "separated", "ruptured"}, seen

@@ -131,3 +131,313 @@ def test_trajectory_does_not_depend_on_how_steps_are_split_into_calls(settled):
         b.advance(50)
     for f in dataclasses.fields(a.state):
         assert np.array_equal(getattr(a.state, f.name), getattr(b.state, f.name)), f.name
+
+
+# --- kernel seams: parameters by name, trajectory unchanged --------------------------------------
+
+def test_kernel_parameters_are_passed_by_name_from_simparams():
+    import inspect
+
+    from sim import _kernels
+    from sim.capillary import CAPILLARY_MODELS
+
+    # every float parameter distinct, so that a swapped pair cannot go unnoticed
+    p = dataclasses.replace(SMALL, k_n=101.0, k_t=102.0, c_n=0.0103, c_t=0.0104, friction=0.45,
+                            surface_tension=0.31, viscosity=0.0027, contact_angle=0.21, v_min=1e-15,
+                            spray_interval=0.011, spray_dose=0.012, spray_radius=0.013, skin=0.9e-3,
+                            baffle_height=0.14, drum_omega=2.5, gravity=(0.1, -9.7, 0.2),
+                            capillary_model="lambert", viscous=False, capillary_in_contact=True)
+    kp = _kernels.kernel_params(p, 7)
+    by_name = {"dt": p.dt, "n_walls": 7, "drum_radius": p.drum_radius, "drum_length": p.drum_length,
+               "n_baffles": p.n_baffles, "baffle_height": 0.14, "drum_omega": 2.5, "gravity": (0.1, -9.7, 0.2),
+               "k_n": 101.0, "k_t": 102.0, "c_n": 0.0103, "c_t": 0.0104, "mu": 0.45, "gamma": 0.31,
+               "eta": 0.0027, "theta": 0.21, "model": CAPILLARY_MODELS["lambert"], "viscous": False,
+               "capillary_in_contact": True, "v_min": 1e-15, "spray_interval": 0.011, "spray_dose": 0.012,
+               "spray_radius": 0.013, "half_skin": 0.45e-3}
+    assert kp._asdict() == by_name
+    assert [type(v) for v in kp] == [type(by_name[k]) for k in kp._fields]
+    # the time-step kernels take the parameters and the arrays as two named structures
+    for kernel in (_kernels.advance, _kernels._slot_forces):
+        params = list(inspect.signature(kernel.py_func).parameters)
+        assert len(params) <= 7 and params[-2:] == ["kp", "arrays"], params
+    state = Simulation.from_particles(p, [[0.0, -0.02, 0.01], [0.005, -0.02, 0.01]], [0.002, 0.002]).state
+    arrays = _kernels.kernel_arrays(state, np.arange(2 + 7))
+    assert arrays.pos is state.pos and arrays.f_cap is state.f_cap and arrays.omega is state.omega
+
+
+# sha256 of the state after filling, settling and 2 500 steps, made by the code before the
+# kernels took named parameters (commit 24f5f85). The simulator must stay bit-identical: runs
+# made before and after a refactoring have to be the same runs. Regenerate only for an
+# intentional change of the physics, and say so in the commit.
+REFERENCE_DIGESTS = {
+    "default": "91f6e5d71a4e1c11301ddd924da91150fdca44070270e539c32630854ee08b87",
+    "variant": "2256871c1994d94530a1b25d58e84937d0b0d47134ccae2f25e6be5fab2c2bd3",
+}
+REFERENCE_PLATFORM = ("0.68.1", "x86_64", ("glibc", "2.36"))  # numba, machine, libc of the digests
+
+
+def _state_digest(state):
+    import hashlib
+
+    h = hashlib.sha256()
+    for name in ("step", "n_sprays", "sprayed_total", "ids", "pos", "vel", "omega", "film", "alive", "v_b",
+                 "fs", "nprev", "force", "f_normal", "f_cap", "gap"):
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(np.asarray(getattr(state, name))).tobytes())
+    return h.hexdigest()
+
+
+@pytest.mark.parametrize("config", sorted(REFERENCE_DIGESTS))
+def test_trajectory_is_bit_identical_to_the_reference(config):
+    import platform
+
+    here = (numba.__version__, platform.machine(), platform.libc_ver())
+    if here != REFERENCE_PLATFORM:
+        pytest.skip(f"reference digests were made with numba/machine/libc {REFERENCE_PLATFORM}, here {here}")
+    params = {
+        "default": SMALL,
+        "variant": dataclasses.replace(SMALL, capillary_model="rabinovich", capillary_in_contact=True, viscous=False,
+                                       v_min=1e-13, contact_angle=0.2, friction=0.4, spray_dose=0.02, seed=3),
+    }[config]
+    sim = Simulation(params, ORIGINAL)
+    sim.advance(2500)
+    assert sim.state.n_sprays == 2
+    assert _state_digest(sim.state) == REFERENCE_DIGESTS[config]
+
+
+# --- global state ---------------------------------------------------------------------------------
+
+def _python(code):
+    """Run ``code`` in a fresh interpreter without GOMP_SPINCOUNT in its environment; its stdout."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "GOMP_SPINCOUNT"}
+    return subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout
+
+
+def test_importing_sim_and_its_force_laws_changes_no_global_state():
+    # (granalytics, which sim.run imports, sets the same for its own kernels at import: not
+    # sim's to change, so the check starts after importing it)
+    out = _python(
+        "import os, numba, granalytics\n"
+        "os.environ.pop('GOMP_SPINCOUNT', None)\n"
+        "numba.config.THREADING_LAYER_PRIORITY = default = ['tbb', 'omp', 'workqueue']\n"
+        "import sim, sim.run, sim.cli, sim._kernels, sim.neighbours\n"
+        "sim.capillary_force(1e-5, 1e-3, 1e-3, 1e-12, 0.1)\n"
+        "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY == default)\n")
+    assert out.split() == ["None", "True"]
+
+
+def test_the_simulator_sets_up_openmp_when_it_runs():
+    out = _python(
+        "import os, numba\n"
+        "from sim.params import SimParams\n"
+        "from sim.run import Simulation\n"
+        "p = SimParams(n_particles=2, n_baffles=0, drum_omega=0.0, drum_radius=0.05, drum_length=0.05)\n"
+        "Simulation.from_particles(p, [[0, -0.02, 0.02], [0.0016, -0.02, 0.02]], [7.5e-4, 7.5e-4]).advance(2)\n"
+        "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY[0], numba.threading_layer())\n")
+    assert out.split()[:2] == ["3000", "omp"]
+
+
+# --- checkpoints: one atomic file, kills at any point, legacy two-file format ----------------------
+
+RESUME_PARAMS = dataclasses.replace(SMALL, settle_time=0.01)
+FRAME_EVERY = 400
+REVS = 12 * FRAME_EVERY * RESUME_PARAMS.dt / RESUME_PARAMS.revolution_period  # 12 frames after the first
+
+
+class Killed(BaseException):
+    """Stands for SIGKILL: no ``except Exception`` clean-up runs."""
+
+
+@pytest.fixture(scope="module")
+def full_run(tmp_path_factory):
+    path = tmp_path_factory.mktemp("full") / "full.h5"
+    Simulation(RESUME_PARAMS, ORIGINAL).run(path, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False)
+    return path
+
+
+def assert_same_run(a_path, b_path, n_frames=13):
+    with ga.open_run(a_path) as a, ga.open_run(b_path) as b:
+        assert len(a) == len(b) == n_frames
+        for fa, fb in zip(a, b):
+            assert fa.time == fb.time and fa.step == fb.step
+            for name in ("ids", "position", "velocity", "angular_velocity", "film_volume", "contact_i", "contact_j",
+                         "f_cap", "f_normal", "gap", "bridge_volume"):
+                assert np.array_equal(getattr(fa, name), getattr(fb, name)), name
+
+
+def keep_checkpoint_copies(monkeypatch):
+    """Copy every checkpoint written to ``CKPT.<frames>`` (with a legacy .json beside it, if any)."""
+    import os
+    import shutil
+
+    save = Simulation.save_checkpoint
+
+    def saving(self, path, extra=None):
+        save(self, path, extra)
+        shutil.copyfile(path, f"{path}.{extra['frames']}")
+        if os.path.exists(f"{path}.json"):
+            shutil.copyfile(f"{path}.json", f"{path}.{extra['frames']}.json")
+
+    monkeypatch.setattr(Simulation, "save_checkpoint", saving)
+
+
+@pytest.mark.parametrize("point, resumed_from", [
+    ("write", 4),          # killed while writing the temporary file
+    ("fsync", 4),          # written, killed before it reached the disk
+    ("replace", 4),        # killed just before the rename
+    ("after replace", 8),  # renamed, killed before anything else happened
+])
+def test_a_kill_at_any_point_of_a_checkpoint_leaves_a_complete_one(tmp_path, monkeypatch, full_run, point, resumed_from):
+    import os
+
+    part = tmp_path / "part.h5"
+    ckpt = f"{part}.ckpt.npz"
+    real_savez, real_fsync, real_replace = np.savez, os.fsync, os.replace
+    armed = {"on": False}  # the second checkpoint (frame 8) is killed; the first completes
+    save = Simulation.save_checkpoint
+
+    def saving(self, path, extra=None):
+        armed["on"] = extra["frames"] == 8
+        save(self, path, extra)
+
+    def savez(file, *args, **kwds):
+        if armed["on"] and point == "write":
+            if isinstance(file, (str, os.PathLike)):
+                file = open(file, "wb")
+            file.write(b"PK\x03\x04 half a checkpoint")
+            file.flush()
+            raise Killed
+        return real_savez(file, *args, **kwds)
+
+    def fsync(fd):
+        if armed["on"] and point == "fsync":
+            raise Killed
+        return real_fsync(fd)
+
+    def replace(src, dst):
+        if armed["on"] and os.fspath(dst).startswith(ckpt):
+            if point == "replace":
+                raise Killed
+            real_replace(src, dst)
+            if point == "after replace":
+                raise Killed
+            return None
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(Simulation, "save_checkpoint", saving)
+    monkeypatch.setattr(np, "savez", savez)
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(Killed):
+        Simulation(RESUME_PARAMS, ORIGINAL).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False)
+    monkeypatch.undo()
+    # one complete checkpoint, consistent in itself: the previous one or the new one
+    sim, info = Simulation.from_checkpoint(ckpt)
+    assert info["frames"] == resumed_from and info["frame_every"] == FRAME_EVERY
+    assert sim.state.step == (resumed_from - 1) * FRAME_EVERY
+    assert not os.path.exists(f"{ckpt}.json")  # one file
+    Simulation.resume(part).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False, resume=True)
+    assert_same_run(full_run, part)
+
+
+@pytest.mark.parametrize("mixed", [False, True])
+def test_legacy_two_file_checkpoints_still_resume(tmp_path, monkeypatch, full_run, mixed):
+    """Checkpoints of earlier versions: the state in OUT.ckpt.npz, the information in
+    OUT.ckpt.npz.json, renamed one after the other. A kill between the two renames left a newer
+    .npz beside an older .json (``mixed``); resuming must still continue from the .npz's frame."""
+    import json
+    import os
+
+    part = tmp_path / "part.h5"
+    ckpt = f"{part}.ckpt.npz"
+    keep_checkpoint_copies(monkeypatch)
+    Simulation(RESUME_PARAMS, ORIGINAL).run(part, REVS * 9 / 12, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False)
+    monkeypatch.undo()
+
+    def legacy(frames):
+        with np.load(f"{ckpt}.{frames}") as data:
+            arrays = {name: data[name] for name in data.files}
+        if "checkpoint_info" in arrays:
+            info = json.loads(str(arrays.pop("checkpoint_info")))
+            info.pop("format")
+        else:  # made by a version that wrote the legacy format itself
+            with open(f"{ckpt}.{frames}.json") as f:
+                info = json.load(f)
+        return arrays, info
+
+    state, _ = legacy(8)
+    _, info = legacy(4 if mixed else 8)
+    assert info["frames"] == (4 if mixed else 8)
+    for name in (ckpt, f"{ckpt}.json"):
+        if os.path.exists(name):
+            os.unlink(name)
+    np.savez(ckpt, **state)
+    with open(f"{ckpt}.json", "w") as f:
+        json.dump(info, f)
+    Simulation.resume(part).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False, resume=True)
+    assert_same_run(full_run, part)
+    # the next checkpoint was written in the one-file format and the sidecar is gone
+    assert not os.path.exists(f"{ckpt}.json")
+    assert Simulation.from_checkpoint(ckpt)[1]["frames"] == 12
+
+
+def test_resume_refuses_a_run_file_that_is_not_the_checkpoints(tmp_path):
+    import os
+    import shutil
+
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    Simulation(RESUME_PARAMS, ORIGINAL).run(a, REVS / 3, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False)
+    other = dataclasses.replace(RESUME_PARAMS, seed=1)
+    Simulation(other, dataclasses.replace(ORIGINAL, seed=1)).run(b, REVS / 3, frame_every=FRAME_EVERY,
+                                                                   checkpoint_every=2, progress=False)
+    shutil.copyfile(f"{a}.ckpt.npz", f"{b}.ckpt.npz")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    sim = Simulation.resume(b)
+    with pytest.raises(ValueError, match="different parameters.*seed"):
+        sim.run(b, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+    with pytest.raises(ValueError, match="frame every 400 steps"):
+        Simulation.resume(a).run(a, REVS, frame_every=200, checkpoint_every=2, progress=False, resume=True)
+    with pytest.raises(ValueError, match="past the end"):
+        Simulation.resume(a).run(a, REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    os.unlink(a)
+    with pytest.raises(ValueError, match="run file missing"):
+        Simulation.resume(a).run(a, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+
+
+def test_a_new_run_refuses_to_replace_a_file_unless_told(tmp_path):
+    out = tmp_path / "r.h5"
+    out.write_bytes(b"precious")
+    sim = Simulation.from_particles(dataclasses.replace(RESUME_PARAMS, n_particles=2),
+                                    [[0.0, -0.02, 0.01], [0.01, -0.02, 0.01]], [0.002, 0.002])
+    with pytest.raises(FileExistsError, match="overwrite"):
+        sim.run(out, REVS / 12, frame_every=FRAME_EVERY, progress=False)
+    assert out.read_bytes() == b"precious"
+    sim.run(out, REVS / 12, frame_every=FRAME_EVERY, progress=False, overwrite=True)
+    with ga.open_run(out) as run:
+        assert len(run) == 2
+
+
+def test_a_run_ends_at_the_requested_revolutions(tmp_path):
+    sim = Simulation.from_particles(dataclasses.replace(RESUME_PARAMS, n_particles=2),
+                                    [[0.0, -0.02, 0.01], [0.01, -0.02, 0.01]], [0.002, 0.002])
+    p = sim.params
+    steps_per_rev = p.revolution_period / p.dt
+    frame_every = int(round(0.0015 * steps_per_rev))  # 523.6 steps, rounded up to 524
+    assert frame_every > 0.0015 * steps_per_rev
+    assert sim.frame_plan(0.006, frame_every) == (frame_every, 5)
+    with pytest.raises(ValueError, match="whole number of frame intervals"):
+        sim.frame_plan(0.006, int(round(0.0025 * steps_per_rev)))
+    for bad in (math.inf, math.nan, 0.0, -1.0):
+        with pytest.raises(ValueError, match="revolutions"):
+            sim.frame_plan(bad)
+    with pytest.raises(ValueError, match="checkpoint_every"):
+        sim.run(tmp_path / "r.h5", 0.006, frame_every=frame_every, checkpoint_every=0, progress=False)
+    sim.run(tmp_path / "r.h5", 0.006, frame_every=frame_every, progress=False)
+    with ga.open_run(tmp_path / "r.h5") as run:
+        assert len(run) == 5
+        assert abs(run.steps[-1] - 0.006 * steps_per_rev) <= 2.5  # the requested end, to the rounding of the interval
