@@ -26,6 +26,7 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 
 __version__ = "0.1.0"
 
+from ._threading import configure_threading
 from .errors import GranalyticsError, ParameterError, RunFileError, ValidationError
 from .cg import CGComparison, compare_cg
 from .cohesion import COHESION_CONVENTIONS, cohesive_force
@@ -56,5 +57,5 @@ __all__ = [
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",
     "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
-    "GranalyticsError", "ValidationError", "RunFileError", "ParameterError",
+    "GranalyticsError", "ValidationError", "RunFileError", "ParameterError", "configure_threading",
 ]

@@ -3,18 +3,10 @@ the GNA filter against a NumPy/arccos implementation, union-find against network
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import numba
 from numba import njit, prange
 
-# OpenMP first: its parallel regions start in microseconds, TBB's take ~0.5 ms on this kind of
-# machine, which dominates a time step of a few thousand particles. Falls back when absent.
-numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
-# Idle OpenMP threads spin before sleeping; with the default spin count two processes sharing
-# the cores slow each other down ~100x. A short spin keeps the start-up fast and sharing sane.
-os.environ.setdefault("GOMP_SPINCOUNT", "3000")
 
 
 @njit(cache=True, inline="always")

@@ -595,6 +595,9 @@ def main(argv=None):
     import matplotlib
 
     matplotlib.use("Agg")  # the command line only writes figures to files
+    from . import configure_threading
+
+    configure_threading()
     try:
         return args.func(args)
     except (GranalyticsError, OSError, ValueError, OverflowError) as exc:  # bad input or environment: one line

@@ -73,6 +73,9 @@ def build_parser():
                    help="continue the run in --out from its checkpoint (same options as when it started)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     sub.add_parser("presets", help="list the presets")
+    from .sweep import add_sweep_parser
+
+    add_sweep_parser(sub)
     return parser
 
 
@@ -161,7 +164,7 @@ def main(argv=None):
                   f"L={p.drum_length:.4f} m  Δt={p.dt:.1e} s  r_s={p.spray_radius:.4f} m")
         return 0
     try:
-        return _run(args)
+        return args.func(args) if args.command == "sweep" else _run(args)
     except (ValueError, OSError, OverflowError) as exc:
         print(f"sim: error: {_one_line(exc)}", file=sys.stderr)
         return 2

@@ -217,13 +217,12 @@ def _python(code):
     return subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout
 
 
-def test_importing_sim_and_its_force_laws_changes_no_global_state():
-    # (granalytics, which sim.run imports, sets the same for its own kernels at import: not
-    # sim's to change, so the check starts after importing it)
+def test_importing_granalytics_and_sim_and_their_force_laws_changes_no_global_state():
     out = _python(
-        "import os, numba, granalytics\n"
+        "import os, numba\n"
         "os.environ.pop('GOMP_SPINCOUNT', None)\n"
         "numba.config.THREADING_LAYER_PRIORITY = default = ['tbb', 'omp', 'workqueue']\n"
+        "import granalytics, granalytics._kernels, granalytics.plot, granalytics.cli\n"
         "import sim, sim.run, sim.cli, sim._kernels, sim.neighbours\n"
         "sim.capillary_force(1e-5, 1e-3, 1e-3, 1e-12, 0.1)\n"
         "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY == default)\n")
