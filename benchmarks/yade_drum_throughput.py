@@ -1,4 +1,4 @@
-# Copied unchanged (apart from this line) from the project reference ../shared/reference/yade_drum_throughput.py.
+# The YADE side of the throughput comparison (run by benchmarks/sim_throughput.py with yade -x); kept unchanged from the reference case.
 # YADE anchor: wet rotating baffled drum (ViscElCapMat, Willett_numeric), throughput in particle-steps/s.
 # Spheres start on a lattice in the lower part of the drum, settle with numerical damping, then the
 # measured window runs with the study's parameters (dt 3e-6 s, no numerical damping, 2 rad/s).

@@ -55,6 +55,15 @@ _LAB_CODE = "85aa70e85a0494805a84ffec09690de064b05e85"  # git commit whose simul
 #: name -> file, sha256, the commands that made it (from the repository root, in order), the
 #: code version (git commit) and simulator wall time, description
 DATASETS = {
+    "lab-cg2": {
+        "file": "lab-cg2.h5",
+        "sha256": "d5a0064dfdcbbe4d7d8d224b60bb9c7144868e3f85652ab84664611f467ae5ce",
+        "commands": _recipe("lab-cg2", 6),
+        "code_version": _LAB_CODE,
+        "wall_time": "47 min 11 s (1 thread, sharing the 2 cores with two other runs and tests)",
+        "description": "lab drum, CG2: 375 particles of 3 mm standing for 3 000 of 1.5 mm, to 5.95 revolutions "
+                       "(the simulator of that version stopped one frame short of 6), every frame (120 frames)",
+    },
     "lab-cg3": {
         "file": "lab-cg3.h5",
         "sha256": "56d25fc98249fea05d27afda6918a5a1b2cc5f9a5f0b56dd1da9d9ebca6cfd73",

@@ -18,10 +18,7 @@ from sim.capillary import (
 )
 
 CSV_NAME = "yade_capillary_equal_spheres.csv"
-CSV_CANDIDATES = (
-    Path(__file__).resolve().parent / "data" / CSV_NAME,
-    Path(__file__).resolve().parents[2] / "shared" / "reference" / CSV_NAME,
-)
+CSV_CANDIDATES = (Path(__file__).resolve().parent / "data" / CSV_NAME,)  # inside the repository only
 YADE_NAMES = {
     "Willett_numeric": "willett_numeric",
     "Willett_analytic": "willett_analytic",
