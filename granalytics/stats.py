@@ -134,14 +134,16 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     by : {"revolutions", "time_s"}, default "revolutions"
         ``"time_s"`` for runs without drum rotation (static beds, hoppers).
     n_blocks : int, optional
-        Blocks for the standard error. Default: one per revolution (``by="revolutions"``) or 5
-        equal blocks (``by="time_s"``).
+        Blocks for the standard error. Default: one per revolution when the window spans three
+        revolutions or more, else 4 equal blocks (for a one-revolution window, one baffle passage
+        of the four-baffle drum each); 5 equal blocks for ``by="time_s"``.
 
     Returns
     -------
     DataFrame indexed by metric with columns ``mean``, ``std`` (over frames), ``sem`` (standard
     error from block means — by default blocks of one revolution [lo, lo+1), [lo+1, lo+2), …,
-    the window's closing edge joining the last block — NaN with fewer than two blocks),
+    the window's closing edge joining the last block, see ``n_blocks`` — NaN with fewer than
+    two blocks),
     ``n_frames`` (frames in the window with a finite value), ``n_blocks``.
     """
     lo, hi = (float(w) for w in window)
@@ -160,10 +162,12 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
             f"no frame in the window [{lo:g}, {hi:g}] {unit}; the run covers "
             f"[{np.nanmin(axis):.3g}, {np.nanmax(axis):.3g}]"
         )
-    if by == "revolutions" and n_blocks is None:
-        n_blocks, width = max(1, math.ceil(hi - lo)), 1.0  # one block per revolution
+    if by == "revolutions" and n_blocks is None and math.ceil(hi - lo) >= 3:
+        n_blocks, width = math.ceil(hi - lo), 1.0  # one block per revolution
     else:
-        n_blocks = 5 if n_blocks is None else int(n_blocks)
+        if n_blocks is None:  # shorter revolution windows: 4 blocks (a baffle passage each for one revolution)
+            n_blocks = 5 if by == "time_s" else 4
+        n_blocks = int(n_blocks)
         if n_blocks < 1:
             raise ParameterError(f"n_blocks must be >= 1, got {n_blocks}")
         width = (hi - lo) / n_blocks

@@ -21,6 +21,8 @@ from granalytics.errors import RunLockedError
 from granalytics.snapshot import CONTACT_FIELDS, PARTICLE_FIELDS
 from granalytics.synthetic import synthetic_meta, synthetic_snapshot
 
+from test_io import WRITER  # a writer appending frames until it is killed
+
 N = 300
 # child processes import the granalytics under test
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(
@@ -209,24 +211,6 @@ def test_interrupted_append_leaves_a_consistent_file(tmp_path, frames, monkeypat
 
 # ------------------------------------------------------------------- files cut by a killed writer
 
-KILLED_WRITER = textwrap.dedent(
-    """
-    import sys
-    from granalytics import RunWriter
-    from granalytics.synthetic import synthetic_meta, synthetic_snapshot
-    n = 2000
-    meta = synthetic_meta(n)
-    base = [synthetic_snapshot(n, seed=s, meta=meta) for s in range(3)]
-    with RunWriter(sys.argv[1], meta) as writer:
-        k = 0
-        while True:
-            frame = base[k % 3]
-            frame.time, frame.step = 0.01 * k, k
-            writer.append(frame)
-            print(k, flush=True)
-            k += 1
-    """
-)
 
 READ_ALL = textwrap.dedent(
     """
@@ -249,7 +233,7 @@ READ_ALL = textwrap.dedent(
 def killed_run(tmp_path_factory):
     """A run whose writer was SIGKILLed after 6 frames: 'open for write' flag set."""
     path = tmp_path_factory.mktemp("killed") / "killed.h5"
-    proc = subprocess.Popen([sys.executable, "-c", KILLED_WRITER, str(path)], stdout=subprocess.PIPE, text=True,
+    proc = subprocess.Popen([sys.executable, "-c", WRITER, str(path), "2000"], stdout=subprocess.PIPE, text=True,
                             env=ENV)
     for _ in range(6):
         proc.stdout.readline()

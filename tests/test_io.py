@@ -115,12 +115,13 @@ def test_corrupt_values_in_a_file_name_file_frame_field_and_index(run_path):
             run[1]
         run[0]  # untouched frames still read
 
+#: a writer appending frames until it is killed: python -c WRITER PATH [N_PARTICLES]
 WRITER = textwrap.dedent(
     """
     import sys
     from granalytics import RunWriter
     from granalytics.synthetic import synthetic_meta, synthetic_snapshot
-    n = 20000
+    n = int(sys.argv[2]) if len(sys.argv) > 2 else 20000
     meta = synthetic_meta(n)
     base = [synthetic_snapshot(n, seed=s, meta=meta) for s in range(3)]
     with RunWriter(sys.argv[1], meta) as writer:
