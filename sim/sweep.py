@@ -277,15 +277,16 @@ def run_point(task: PointTask) -> dict:
     original, params = task.sim_params()
     frame_every = max(1, int(round(task.frame_every_rev * params.revolution_period / params.dt)))
     ckpt = f"{task.out}.ckpt.npz"
-    resumed = os.path.exists(ckpt) and os.path.exists(f"{ckpt}.json") and os.path.exists(task.out)
+    resumed = os.path.exists(ckpt) and os.path.exists(task.out)
     if resumed:
         sim = Simulation.resume(task.out)
         if sim.params != params:
             raise ValueError(f"{ckpt}: checkpoint was made with other parameters")
     else:
         sim = Simulation(params, original)
+    # the sweep owns its points folder: a point file without a checkpoint is an earlier failed start
     sim.run(task.out, task.revolutions, frame_every=frame_every, checkpoint_every=task.checkpoint_every,
-            progress=False, resume=resumed)
+            progress=False, resume=resumed, overwrite=not resumed)
     return {"resumed": resumed}
 
 

@@ -56,3 +56,14 @@ def small_snapshot():
     from granalytics.synthetic import synthetic_snapshot
 
     return synthetic_snapshot(2000, seed=3)
+
+
+def former_lab_original(n_particles):
+    """The original (α = 1) parameters of the lab drum as it was sized for 10 000 particles
+    (R_d = 39.7 mm, L = 0.6 R_d, r_s = 0.63 R_d), holding ``n_particles``: the system the
+    simulator's reference digests and CLI tests were made with, independent of the preset."""
+    from sim.params import SimParams
+
+    bed_volume = 10_000 * math.pi * 1.5e-3**3 / 6 / 0.6
+    radius = (bed_volume / (0.25 * math.pi * 0.6)) ** (1 / 3)
+    return SimParams(n_particles=n_particles, drum_radius=radius, drum_length=0.6 * radius, spray_radius=0.63 * radius)

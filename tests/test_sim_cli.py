@@ -76,9 +76,10 @@ import numpy as np  # noqa: E402
 
 import granalytics as ga  # noqa: E402
 import sim.cli  # noqa: E402
-from sim.params import _ORIGINALS  # noqa: E402
 
-TINY = dataclasses.replace(_ORIGINALS["lab"], n_particles=5400, settle_time=0.01, spray_interval=0.01, initial_film=0.004)
+from conftest import former_lab_original  # noqa: E402
+
+TINY = dataclasses.replace(former_lab_original(5400), settle_time=0.01, spray_interval=0.01, initial_film=0.004)
 # a frame every 0.001 revolution (349 steps), 4 frames after the first, a checkpoint every 2 frames
 BASE = ["--revolutions", "0.004", "--frame-every-rev", "0.001", "--checkpoint-every", "2", "--quiet"]
 

@@ -9,10 +9,12 @@ import numpy as np
 import pytest
 
 import granalytics as ga
-from sim.params import _ORIGINALS, cg_scale
+from sim.params import cg_scale
 from sim.run import Simulation
 
-ORIGINAL = dataclasses.replace(_ORIGINALS["lab"], n_particles=5400)
+from conftest import former_lab_original  # noqa: E402
+
+ORIGINAL = former_lab_original(5400)
 SMALL = dataclasses.replace(cg_scale(ORIGINAL, 3.0), settle_time=0.02, spray_interval=0.01, initial_film=0.004)
 
 

@@ -284,7 +284,7 @@ def test_a_point_whose_worker_is_killed_resumes_from_its_checkpoint_bit_identica
     spec = write_spec(tmp_path / "spec.toml", REAL_SPEC.format(gammas="[0.1]"))
     out = tmp_path / "sweep"
     name = "gamma=0.1_particles=1080_settle_time=0.02"
-    marker = out / "points" / f"{name}.h5.ckpt.npz.json"
+    marker = out / "points" / f"{name}.h5.ckpt.npz"  # the checkpoint: one file, renamed into place when complete
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         (pid,) = client.run(os.getpid).values()
