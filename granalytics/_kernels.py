@@ -4,9 +4,7 @@ the GNA filter against a NumPy/arccos implementation, union-find against network
 from __future__ import annotations
 
 import numpy as np
-import numba
 from numba import njit, prange
-
 
 
 @njit(cache=True, inline="always")
