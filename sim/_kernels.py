@@ -35,7 +35,7 @@ def cell_index(pos, lo, cell_size, n_cells):
     for i in range(n):
         c = 0
         for d in range(3):
-            k = int(math.floor((pos[i, d] - lo[d]) / cell_size))
+            k = math.floor((pos[i, d] - lo[d]) / cell_size)
             if k < 0:
                 k = 0
             elif k >= n_cells[d]:
@@ -245,11 +245,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
         Liquid volume added by sprays in this call [m³].
     """
     pos = arrays.pos
-    vel = arrays.vel
-    omega_p = arrays.omega
     radius = arrays.radius
-    mass = arrays.mass
-    inertia = arrays.inertia
     film = arrays.film
     x_ref = arrays.x_ref
     pair_i = arrays.pair_i
@@ -259,11 +255,6 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     ruptured = arrays.ruptured
     v_b = arrays.v_b
     v_max = arrays.v_max
-    force = arrays.force
-    torque_i = arrays.torque_i
-    torque_j = arrays.torque_j
-    part_start = arrays.part_start
-    part_slots = arrays.part_slots
     body_start = arrays.body_start
     body_slots = arrays.body_slots
     body_key = arrays.body_key
@@ -302,57 +293,87 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
         for lo, hi in ((0, n_wall_slots), (n_wall_slots, n_slots)):
             _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays)
         migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min, body_key)
-        n_far = 0
-        for i in prange(n):
-            fx = mass[i] * gx
-            fy = mass[i] * gy
-            fz = mass[i] * gz
-            tx = 0.0
-            ty = 0.0
-            tz = 0.0
-            for w in range(n_walls):
-                k = i * n_walls + w
+        n_far = _gather_integrate(gx, gy, gz, kp, arrays)
+        done += 1
+        if not settling and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
+            sprayed += spray(film, pos, radius, n, spray_radius, spray_dose)
+            n_sprays += 1
+    return done, n_sprays, sprayed
+
+
+@njit(cache=True, parallel=True)
+def _gather_integrate(gx, gy, gz, kp, arrays):
+    """Sum each particle's wall and pair slot forces and torques (in slot order) plus gravity,
+    then one leapfrog update of velocity, angular velocity and position. Returns the number of
+    particles now more than half the Verlet skin from their position at the last rebuild."""
+    pos = arrays.pos
+    vel = arrays.vel
+    omega_p = arrays.omega
+    mass = arrays.mass
+    inertia = arrays.inertia
+    x_ref = arrays.x_ref
+    pair_i = arrays.pair_i
+    alive = arrays.alive
+    force = arrays.force
+    torque_i = arrays.torque_i
+    torque_j = arrays.torque_j
+    part_start = arrays.part_start
+    part_slots = arrays.part_slots
+    dt = kp.dt
+    n_walls = kp.n_walls
+    half_skin = kp.half_skin
+    n = pos.shape[0]
+    n_far = 0
+    for i in prange(n):
+        fx = mass[i] * gx
+        fy = mass[i] * gy
+        fz = mass[i] * gz
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        for w in range(n_walls):
+            k = i * n_walls + w
+            if not alive[k]:
+                continue  # zero force and torque (the invariant of _slot_forces)
+            fx += force[k, 0]
+            fy += force[k, 1]
+            fz += force[k, 2]
+            tx += torque_i[k, 0]
+            ty += torque_i[k, 1]
+            tz += torque_i[k, 2]
+        for q in range(part_start[i], part_start[i + 1]):
+            k = part_slots[q]
+            if not alive[k]:
+                continue
+            if pair_i[k] == i:
                 fx += force[k, 0]
                 fy += force[k, 1]
                 fz += force[k, 2]
                 tx += torque_i[k, 0]
                 ty += torque_i[k, 1]
                 tz += torque_i[k, 2]
-            for q in range(part_start[i], part_start[i + 1]):
-                k = part_slots[q]
-                if pair_i[k] == i:
-                    fx += force[k, 0]
-                    fy += force[k, 1]
-                    fz += force[k, 2]
-                    tx += torque_i[k, 0]
-                    ty += torque_i[k, 1]
-                    tz += torque_i[k, 2]
-                else:
-                    fx -= force[k, 0]
-                    fy -= force[k, 1]
-                    fz -= force[k, 2]
-                    tx += torque_j[k, 0]
-                    ty += torque_j[k, 1]
-                    tz += torque_j[k, 2]
-            vel[i, 0] += dt * fx / mass[i]
-            vel[i, 1] += dt * fy / mass[i]
-            vel[i, 2] += dt * fz / mass[i]
-            omega_p[i, 0] += dt * tx / inertia[i]
-            omega_p[i, 1] += dt * ty / inertia[i]
-            omega_p[i, 2] += dt * tz / inertia[i]
-            pos[i, 0] += dt * vel[i, 0]
-            pos[i, 1] += dt * vel[i, 1]
-            pos[i, 2] += dt * vel[i, 2]
-            dx = pos[i, 0] - x_ref[i, 0]
-            dy = pos[i, 1] - x_ref[i, 1]
-            dz = pos[i, 2] - x_ref[i, 2]
-            if dx * dx + dy * dy + dz * dz > half_skin * half_skin:
-                n_far += 1
-        done += 1
-        if not settling and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
-            sprayed += spray(film, pos, radius, n, spray_radius, spray_dose)
-            n_sprays += 1
-    return done, n_sprays, sprayed
+            else:
+                fx -= force[k, 0]
+                fy -= force[k, 1]
+                fz -= force[k, 2]
+                tx += torque_j[k, 0]
+                ty += torque_j[k, 1]
+                tz += torque_j[k, 2]
+        vel[i, 0] += dt * fx / mass[i]
+        vel[i, 1] += dt * fy / mass[i]
+        vel[i, 2] += dt * fz / mass[i]
+        omega_p[i, 0] += dt * tx / inertia[i]
+        omega_p[i, 1] += dt * ty / inertia[i]
+        omega_p[i, 2] += dt * tz / inertia[i]
+        pos[i, 0] += dt * vel[i, 0]
+        pos[i, 1] += dt * vel[i, 1]
+        pos[i, 2] += dt * vel[i, 2]
+        dx = pos[i, 0] - x_ref[i, 0]
+        dy = pos[i, 1] - x_ref[i, 1]
+        dz = pos[i, 2] - x_ref[i, 2]
+        if dx * dx + dy * dy + dz * dz > half_skin * half_skin:
+            n_far += 1
+    return n_far
 
 
 @njit(cache=True, parallel=True)
@@ -363,6 +384,11 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
     The body is written out in the loop: a numba call per slot with this many array arguments
     costs ~10x the work itself. Wall slots and pair slots are passed as separate ranges so that
     each thread gets an equal share of the expensive pair slots.
+
+    Invariant: the outputs (force, torques, f_normal, f_cap, gap) of a dead slot are zero. A
+    slot is born dead with zero outputs (:func:`sim.neighbours.empty_slots`) and dies only by
+    rupture, which clears them; so a slot that stays dead is skipped without writing anything,
+    which at large N saves most of the memory traffic of the N·W wall slots.
     """
     pos = arrays.pos
     vel = arrays.vel
@@ -383,7 +409,6 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
     f_cap = arrays.f_cap
     gap = arrays.gap
     dt = kp.dt
-    n_walls = kp.n_walls
     drum_radius = kp.drum_radius
     drum_length = kp.drum_length
     n_baffles = kp.n_baffles
@@ -399,15 +424,23 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
     model = kp.model
     viscous = kp.viscous
     capillary_in_contact = kp.capillary_in_contact
+    n_particles = pos.shape[0]
+    inner_radius = drum_radius * (1.0 - baffle_height)
     for k in prange(lo, hi):
-        created[k] = False
-        ruptured[k] = 0.0
+        # flags of the previous step: reset only where set (a read is cheaper than a write)
+        if created[k]:
+            created[k] = False
+        if ruptured[k] != 0.0:
+            ruptured[k] = 0.0
         i = pair_i[k]
         ri = radius[i]
         # contact point velocity of i is v_i + ω_i × (R_i n); of j, v_j + ω_j × (−R_j n)
         if k < n_wall_slots:
+            if not alive[k] and _wall_surely_apart(pair_j[k] - n_particles, pos[i, 0], pos[i, 1], pos[i, 2], ri,
+                                                   drum_radius, drum_length, n_baffles, inner_radius):
+                continue  # stays dead, outputs zero
             ok, nx, ny, nz, u, wvx, wvy = wall_contact(
-                k % n_walls, pos[i, 0], pos[i, 1], pos[i, 2], ri, drum_radius, drum_length,
+                pair_j[k] - n_particles, pos[i, 0], pos[i, 1], pos[i, 2], ri, drum_radius, drum_length,
                 n_baffles, baffle_height, omega_drum, baffle_dir)
             if not ok:
                 u = -1.0
@@ -422,10 +455,12 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             dy = pos[j, 1] - pos[i, 1]
             dz = pos[j, 2] - pos[i, 2]
             dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+            u = ri + rj - dist
+            if u < 0.0 and not alive[k]:
+                continue  # stays dead, outputs zero
             if dist == 0.0:
                 dist = 1e-300
             nx, ny, nz = dx / dist, dy / dist, dz / dist
-            u = ri + rj - dist
             r_eff = effective_radius(ri, rj)
             ojx, ojy, ojz = omega_p[j, 0], omega_p[j, 1], omega_p[j, 2]
             vjx = vel[j, 0] - (ojy * nz - ojz * ny) * rj
@@ -433,8 +468,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             vjz = vel[j, 2] - (ojx * ny - ojy * nx) * rj
         if not alive[k]:
             if u < 0.0:
-                _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
-                continue
+                continue  # a dead slot's outputs are all zero already (see the docstring)
             alive[k] = True
             created[k] = True
             fs[k, 0] = 0.0
@@ -494,6 +528,22 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             f_normal[k] = -pull
             f_cap[k] = f_c
         gap[k] = -u
+
+
+@njit(cache=True, inline="always")
+def _wall_surely_apart(w, px, py, pz, radius, drum_radius, drum_length, n_baffles, inner_radius):
+    """True when a particle cannot touch wall ``w`` (so a dead slot stays dead): the same overlap
+    :func:`sim.drum.wall_contact` computes is negative (cylinder, end plates, bit for bit), or,
+    for a baffle, the particle lies inside the circle of the baffles' inner edges with a margin
+    of 1e-9 of it (then its distance to any baffle exceeds its radius). False means "compute"."""
+    if w == 0:
+        return math.sqrt(px * px + py * py) + radius - drum_radius < 0.0
+    if w <= n_baffles:
+        reach = radius + 1e-9 * inner_radius
+        return px * px + py * py < (inner_radius - reach) * (inner_radius - reach) and inner_radius > reach
+    if w == n_baffles + 1:
+        return radius - pz < 0.0
+    return radius - (drum_length - pz) < 0.0
 
 
 @njit(cache=True)

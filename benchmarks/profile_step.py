@@ -1,0 +1,206 @@
+"""Where a simulator time step goes: per-component cost at several system sizes.
+
+Usage: python benchmarks/profile_step.py [--sizes 2435,20000,120000] [--threads 1,2] [--steps N]
+
+The system is the wet drum of ``benchmarks/yade_drum_throughput.py`` (cubic lattice of spacing
+1.85 mm in the lower part of the drum, radii 0.75 mm ± 20 %, films of 3 % V_p, Table 1 physics,
+no viscous force, Δt = 3e-6 s, 2 rad/s), scaled in drum radius and length to the requested
+particle count, settled in a static drum, then turned for 500 steps. For each size and thread
+count it prints, in ns per particle-step:
+
+- ``wall slots`` and ``pair slots``: the force pass over the N·W particle–wall slots and over the
+  Verlet pair slots (``_kernels._slot_forces`` called alone, minus the cost of an empty call);
+- ``migration``: the liquid-migration pass (sequential);
+- ``gather+integrate``: force/torque gathering per particle and the leapfrog update;
+- ``in-kernel rest``: the step kernel's time not explained by the four (parallel-region starts,
+  spray, the skin check);
+- ``rebuild`` and ``python``: Verlet-list rebuilds and the Python between kernel calls, per step
+  of a real run segment;
+- ``output``: one snapshot written to an HDF5 run file, amortised over the 0.05-revolution
+  frame interval.
+
+Settling uses fewer steps at the largest sizes (printed): those beds are less compacted and have
+fewer contacts per particle, which is printed beside the costs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import math
+import os
+import sys
+import tempfile
+import time
+
+import numba
+import numpy as np
+from numba import njit
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+
+from sim_throughput import live_counts, yade_lattice
+
+from granalytics import RunWriter
+from sim import _kernels
+from sim import run as sim_run
+from sim.drum import baffle_directions
+from sim.liquid import migrate_liquid
+from sim.params import SimParams
+from sim.run import Simulation
+
+#: particle count -> (drum radius [m], drum length [m], settling steps)
+SIZES = {2435: (0.04, 0.012, 40000), 20000: (0.07, 0.028, 20000), 120000: (0.12, 0.05, 6000)}
+
+
+def drum_system(size):
+    rd, length, settle = SIZES[size]
+    pos, rad = yade_lattice(rd, length)
+    p = SimParams(n_particles=len(pos), drum_radius=rd, drum_length=length, spray_radius=0.0,
+                  initial_film=0.03, viscous=False)
+    sim = Simulation.from_particles(p, pos, rad, film=p.initial_film * 4 / 3 * np.pi * rad**3)
+    sim._advance(settle, settling=True)
+    sim.advance(500)
+    return sim, settle
+
+
+@njit
+def _repeat_slot_forces(reps, lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
+    for _ in range(reps):
+        _kernels._slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays)
+
+
+@njit
+def _repeat_migration(reps, film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
+                      body_key):
+    for _ in range(reps):
+        migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
+                       body_key)
+
+
+@njit
+def _repeat_gather(reps, gx, gy, gz, kp, arrays):
+    for _ in range(reps):
+        _kernels._gather_integrate(gx, gy, gz, kp, arrays)
+
+
+def _best(fn, reps):
+    """Seconds per repetition of ``fn(reps)`` (which loops ``reps`` times in compiled code), best of 3."""
+    fn(1)  # compile, warm the caches
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        fn(reps)
+        best = min(best, (time.perf_counter() - t0) / reps)
+    return best
+
+
+def component_costs(sim, reps):
+    """Seconds per call of each step component on a copy of the current state (the copy is
+    mutated: positions drift by a few steps' motion, which changes nothing measurable)."""
+    s, p = copy.deepcopy(sim.state), sim.params
+    n = s.n_particles
+    kp = _kernels.kernel_params(p, sim.n_walls)
+    body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(sim.n_walls)])
+    arrays = _kernels.kernel_arrays(s, body_key)
+    baffle_dir = np.empty((max(p.n_baffles, 1), 2))
+    baffle_directions(p.n_baffles, 0.3, baffle_dir)
+    nws, ns = n * sim.n_walls, s.pair_i.shape[0]
+    # migration sees the flags of one real force pass (its events are those of one step)
+    _kernels._slot_forces(0, ns, nws, baffle_dir, p.drum_omega, kp, arrays)
+    flags = s.created.copy(), s.ruptured.copy()
+    mig = (s.film.copy(), s.pair_i, s.pair_j, s.v_b.copy(), s.v_max, s.alive.copy(), flags[0], flags[1],
+           s.body_start, s.body_slots, p.v_min, body_key)
+    out = {"wall slots": _best(lambda r: _repeat_slot_forces(r, 0, nws, nws, baffle_dir, p.drum_omega, kp, arrays), reps),
+           "pair slots": _best(lambda r: _repeat_slot_forces(r, nws, ns, nws, baffle_dir, p.drum_omega, kp, arrays), reps),
+           "migration": _best(lambda r: _repeat_migration(r, *mig), reps)}
+    g = p.gravity
+    out["gather+integrate"] = _best(lambda r: _repeat_gather(r, g[0], g[1], g[2], kp, arrays), reps)
+    return out
+
+
+def run_segment(sim, steps):
+    """Wall time of ``steps`` steps through Simulation.advance, split into kernel calls, rebuilds
+    and the Python around them."""
+    spent = {"kernel": 0.0, "rebuild": 0.0, "rebuilds": 0}
+    kernel, rebuild = _kernels.advance, sim_run.rebuild
+
+    def timed_kernel(*args):
+        t0 = time.perf_counter()
+        r = kernel(*args)
+        spent["kernel"] += time.perf_counter() - t0
+        return r
+
+    def timed_rebuild(*args):
+        t0 = time.perf_counter()
+        r = rebuild(*args)
+        spent["rebuild"] += time.perf_counter() - t0
+        spent["rebuilds"] += 1
+        return r
+
+    _kernels.advance, sim_run.rebuild = timed_kernel, timed_rebuild
+    try:
+        t0 = time.perf_counter()
+        sim.advance(steps)
+        total = time.perf_counter() - t0
+    finally:
+        _kernels.advance, sim_run.rebuild = kernel, rebuild
+    return total, spent
+
+
+def output_cost(sim):
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "run.h5")
+        meta = sim.run_meta()
+        with RunWriter(path, meta) as writer:
+            writer.append(sim.snapshot(meta))
+            spent = 0.0
+            for _ in range(3):
+                sim.advance(1)
+                t0 = time.perf_counter()
+                writer.append(sim.snapshot(meta))
+                spent += time.perf_counter() - t0
+            return spent / 3
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="2435,20000,120000")
+    parser.add_argument("--threads", default="1,2")
+    parser.add_argument("--steps", type=int, default=2000, help="steps of the run segment (default 2000)")
+    args = parser.parse_args()
+    sizes = [int(x) for x in args.sizes.split(",")]
+    threads = [int(x) for x in args.threads.split(",")]
+    print(f"numba {numba.__version__}, {numba.config.NUMBA_NUM_THREADS} cores; ns per particle-step")
+    cols = ("wall slots", "pair slots", "migration", "gather+integrate", "in-kernel rest", "rebuild", "python",
+            "output", "total")
+    print(f"{'N':>7}{'thr':>4}{'int/p':>6}{'br/p':>6}{'rebuild every':>14}" + "".join(f"{c:>17}" for c in cols)
+          + f"{'M p-steps/s':>12}")
+    for size in sizes:
+        t0 = time.perf_counter()
+        sim, settle = drum_system(size)
+        n = sim.state.n_particles
+        ips, bps = live_counts(sim)
+        print(f"# N = {n}: lattice in R_d = {SIZES[size][0]} m, L = {SIZES[size][1]} m, settled {settle} steps, "
+              f"set up in {time.perf_counter() - t0:.0f} s", flush=True)
+        frame_steps = max(1, round(0.05 * sim.params.revolution_period / sim.params.dt))
+        for thr in threads:
+            numba.set_num_threads(thr)
+            steps = max(200, int(args.steps * 2435 / n))
+            total, spent = run_segment(sim, steps)
+            per_step_kernel = spent["kernel"] / steps
+            comp = component_costs(sim, reps=max(3, int(50 * 2435 / n)))
+            row = dict(comp)
+            row["in-kernel rest"] = per_step_kernel - sum(comp.values())
+            row["rebuild"] = spent["rebuild"] / steps
+            row["python"] = (total - spent["kernel"] - spent["rebuild"]) / steps
+            row["output"] = output_cost(sim) / frame_steps
+            row["total"] = total / steps + row["output"]
+            every = steps / max(spent["rebuilds"], 1)
+            print(f"{n:>7}{thr:>4}{ips:>6.2f}{bps:>6.2f}{every:>14.0f}"
+                  + "".join(f"{row[c] / n * 1e9:>17.1f}" for c in cols) + f"{n / row['total'] / 1e6:>12.2f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
