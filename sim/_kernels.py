@@ -19,7 +19,13 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
-from .capillary import bridge_force, bridge_ruptured, effective_radius, viscous_force
+from .capillary import (
+    BRIDGE_CONSTANTS,
+    bridge_constants,
+    bridge_force_from_constants,
+    effective_radius,
+    viscous_force,
+)
 from .contact import mechanical_force, rotate_spring
 from .drum import baffle_directions, wall_contact
 from .liquid import migrate_liquid, spray
@@ -189,6 +195,7 @@ KernelArrays = namedtuple("KernelArrays", [
     "pair_i", "pair_j", "alive", "created", "ruptured", "v_b", "v_max", "fs", "nprev",
     "force", "torque_i", "torque_j", "f_normal", "f_cap", "gap",
     "part_start", "part_slots", "body_start", "body_slots", "body_key",
+    "bridge_table",  # (C, len(BRIDGE_CONSTANTS)) per-slot bridge constants, a cache keyed by v_b (not state)
 ])
 
 
@@ -211,16 +218,28 @@ def kernel_params(params, n_walls: int) -> KernelParams:
     )
 
 
-def kernel_arrays(state, body_key) -> KernelArrays:
+def new_bridge_table(n_slots: int) -> np.ndarray:
+    """An empty per-slot cache of bridge constants (:func:`sim.capillary.bridge_constants`):
+    every row's key (column 0, the volume it was computed for) is 0, which no live bridge has,
+    so each row is filled the first time its slot holds a bridge. Valid for one slot list only
+    (a rebuild renumbers the slots)."""
+    return np.zeros((n_slots, len(BRIDGE_CONSTANTS)))
+
+
+def kernel_arrays(state, body_key, bridge_table=None) -> KernelArrays:
     """The arrays of ``state`` for the kernels (no copies); ``body_key`` orders bodies in
-    liquid migration (particle ids, then the walls)."""
+    liquid migration (particle ids, then the walls); ``bridge_table`` is the cache of
+    :func:`new_bridge_table` for the state's current slot list (default: a new, empty one)."""
     s = state
+    if bridge_table is None:
+        bridge_table = new_bridge_table(s.pair_i.shape[0])
     return KernelArrays(
         pos=s.pos, vel=s.vel, omega=s.omega, radius=s.radius, mass=s.mass, inertia=s.inertia, film=s.film,
         x_ref=s.x_ref, pair_i=s.pair_i, pair_j=s.pair_j, alive=s.alive, created=s.created, ruptured=s.ruptured,
         v_b=s.v_b, v_max=s.v_max, fs=s.fs, nprev=s.nprev, force=s.force, torque_i=s.torque_i,
         torque_j=s.torque_j, f_normal=s.f_normal, f_cap=s.f_cap, gap=s.gap, part_start=s.part_start,
         part_slots=s.part_slots, body_start=s.body_start, body_slots=s.body_slots, body_key=body_key,
+        bridge_table=bridge_table,
     )
 
 
@@ -408,6 +427,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
     f_normal = arrays.f_normal
     f_cap = arrays.f_cap
     gap = arrays.gap
+    bridge_table = arrays.bridge_table
     dt = kp.dt
     drum_radius = kp.drum_radius
     drum_length = kp.drum_length
@@ -475,7 +495,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             fs[k, 1] = 0.0
             fs[k, 2] = 0.0
             nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-        elif bridge_ruptured(-u, v_b[k], r_eff, theta):
+        elif _bridge_ruptured(-u, model, v_b[k], r_eff, gamma, theta, bridge_table, k):
             alive[k] = False
             ruptured[k] = v_b[k]
             v_b[k] = 0.0
@@ -494,7 +514,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             f_n, sx, sy, sz, tx, ty, tz = mechanical_force(u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t, c_n, c_t, mu, dt)
             fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
             nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-            f_contact = bridge_force(model, -u, v_b[k], r_eff, gamma, theta)  # the value at contact
+            f_contact = bridge_table[k, 2] if v_b[k] > 0.0 else 0.0  # bridge_force at contact
             f_pull = f_contact if capillary_in_contact else 0.0
             fn_net = f_n - f_pull  # along −n on i (repulsive when positive)
             force[k, 0] = -fn_net * nx + tx
@@ -511,7 +531,9 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             f_cap[k] = f_contact
         else:  # separated, bridge active (0 < s < s_crit)
             s = -u
-            f_c = bridge_force(model, s, v_b[k], r_eff, gamma, theta)
+            f_c = 0.0
+            if v_b[k] > 0.0:
+                f_c = bridge_force_from_constants(model, s, v_b[k], r_eff, gamma, theta, bridge_table, k)
             f_v = 0.0
             if viscous:
                 f_v = viscous_force(eta, ri, rj, vrx * nx + vry * ny + vrz * nz, s, v_b[k])
@@ -528,6 +550,18 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             f_normal[k] = -pull
             f_cap[k] = f_c
         gap[k] = -u
+
+
+@njit(cache=True, inline="always")
+def _bridge_ruptured(gap, model, v_b, r_eff, gamma, theta, bridge_table, k):
+    """:func:`sim.capillary.bridge_ruptured` of live slot ``k`` with its s_crit from the bridge
+    table, whose row it first brings up to date with the slot's current volume (so that the
+    force pass that follows can read the row)."""
+    if v_b <= 0.0:
+        return gap > 0.0  # s_crit = 0: a dry pair parts as soon as it separates
+    if bridge_table[k, 0] != v_b:
+        bridge_constants(model, v_b, r_eff, gamma, theta, bridge_table, k)
+    return gap > 0.0 and gap >= bridge_table[k, 1]
 
 
 @njit(cache=True, inline="always")

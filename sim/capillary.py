@@ -28,9 +28,43 @@ __all__ = [
     "pair_bridge_force",
     "viscous_force",
     "capillary_force_curve",
+    "BRIDGE_CONSTANTS",
+    "bridge_constants",
+    "bridge_force_from_constants",
 ]
 
 CAPILLARY_MODELS = {"willett_numeric": 0, "willett_analytic": 1, "rabinovich": 2, "lambert": 3}
+
+
+@njit(cache=True, inline="always")
+def _willett_coefficients(v_b, r, theta):
+    """The polynomials f1 … f4 of Willett's fit (:func:`_willett_numeric`), functions of
+    L = ln(V_b/R³) and θ only. Requires v_b > 0."""
+    lv = math.log(v_b / r**3)
+    t = theta
+    t2 = t * t
+    f1 = ((-0.44507 + 0.050832 * t - 1.1466 * t2)
+          + (-0.1119 - 0.000411 * t - 0.1490 * t2) * lv
+          + (-0.012101 - 0.0036456 * t - 0.01255 * t2) * lv**2
+          + (-0.0005 - 0.0003505 * t - 0.00029076 * t2) * lv**3)
+    f2 = ((1.9222 - 0.57473 * t - 1.2918 * t2)
+          + (-0.0668 - 0.1201 * t - 0.22574 * t2) * lv
+          + (-0.0013375 - 0.0068988 * t - 0.01137 * t2) * lv**2)
+    f3 = ((1.268 - 0.01396 * t - 0.23566 * t2)
+          + (0.198 + 0.092 * t - 0.06418 * t2) * lv
+          + (0.02232 + 0.02238 * t - 0.009853 * t2) * lv**2
+          + (0.0008585 + 0.001318 * t - 0.00053 * t2) * lv**3)
+    f4 = ((-0.010703 + 0.073776 * t - 0.34742 * t2)
+          + (0.03345 + 0.04543 * t - 0.09056 * t2) * lv
+          + (0.0018574 + 0.004456 * t - 0.006257 * t2) * lv**2)
+    return f1, f2, f3, f4
+
+
+@njit(cache=True, inline="always")
+def _willett_separated(s, r, gamma, f1, f2, f3, f4, root):
+    """Willett's fit at gap s > 0 from its coefficients and root = √(V_b/R)."""
+    ls = math.log(0.5 * s / root)
+    return 2.0 * math.pi * r * gamma * math.exp(f1 - f2 * math.exp(f3 * ls + f4 * ls * ls))
 
 
 @njit(cache=True)
@@ -42,27 +76,10 @@ def _willett_numeric(s, v_b, r, gamma, theta):
     (docs/physics.md, "Capillary models").
     For s ≤ 0 returns the limit s → 0⁺, 2πRγ·exp(f1). Requires v_b > 0.
     """
-    lv = math.log(v_b / r**3)
-    t = theta
-    t2 = t * t
-    f1 = ((-0.44507 + 0.050832 * t - 1.1466 * t2)
-          + (-0.1119 - 0.000411 * t - 0.1490 * t2) * lv
-          + (-0.012101 - 0.0036456 * t - 0.01255 * t2) * lv**2
-          + (-0.0005 - 0.0003505 * t - 0.00029076 * t2) * lv**3)
+    f1, f2, f3, f4 = _willett_coefficients(v_b, r, theta)
     if s <= 0.0:
         return 2.0 * math.pi * r * gamma * math.exp(f1)
-    f2 = ((1.9222 - 0.57473 * t - 1.2918 * t2)
-          + (-0.0668 - 0.1201 * t - 0.22574 * t2) * lv
-          + (-0.0013375 - 0.0068988 * t - 0.01137 * t2) * lv**2)
-    f3 = ((1.268 - 0.01396 * t - 0.23566 * t2)
-          + (0.198 + 0.092 * t - 0.06418 * t2) * lv
-          + (0.02232 + 0.02238 * t - 0.009853 * t2) * lv**2
-          + (0.0008585 + 0.001318 * t - 0.00053 * t2) * lv**3)
-    f4 = ((-0.010703 + 0.073776 * t - 0.34742 * t2)
-          + (0.03345 + 0.04543 * t - 0.09056 * t2) * lv
-          + (0.0018574 + 0.004456 * t - 0.006257 * t2) * lv**2)
-    ls = math.log(0.5 * s / math.sqrt(v_b / r))
-    return 2.0 * math.pi * r * gamma * math.exp(f1 - f2 * math.exp(f3 * ls + f4 * ls * ls))
+    return _willett_separated(s, r, gamma, f1, f2, f3, f4, math.sqrt(v_b / r))
 
 
 @njit(cache=True)
@@ -203,6 +220,42 @@ def bridge_force(model, gap, v_b, r_eff, gamma, theta):
     contact). This is the value the engine computes for every live bridge, applied while the
     pair is separated (and in contact too with ``capillary_in_contact``)."""
     return capillary_force(model, gap if gap > 0.0 else 0.0, v_b, r_eff, gamma, theta)
+
+
+#: columns of a bridge-constants row (:func:`bridge_constants`)
+BRIDGE_CONSTANTS = ("v_b", "s_crit", "f_contact", "f1", "f2", "f3", "f4", "root")
+
+
+@njit(cache=True, inline="always")
+def bridge_constants(model, v_b, r_eff, gamma, theta, table, k):
+    """Fill row ``k`` of ``table`` (:data:`BRIDGE_CONSTANTS`) with what a bridge's force and
+    rupture test need that depends only on its volume (v_b > 0): the volume itself (the row's
+    key), s_crit (:func:`rupture_distance`), the force at contact (:func:`bridge_force` at
+    s ≤ 0) and, for ``willett_numeric``, f1 … f4 and √(V_b/R). A bridge's volume changes only
+    when liquid migrates, so the engine computes these once per volume instead of every step;
+    :func:`bridge_force_from_constants` then gives bit for bit what :func:`bridge_force` gives."""
+    table[k, 0] = v_b
+    table[k, 1] = rupture_distance(v_b, r_eff, theta)
+    table[k, 2] = capillary_force(model, 0.0, v_b, r_eff, gamma, theta)
+    if model == 0:
+        f1, f2, f3, f4 = _willett_coefficients(v_b, r_eff, theta)
+        table[k, 3] = f1
+        table[k, 4] = f2
+        table[k, 5] = f3
+        table[k, 6] = f4
+        table[k, 7] = math.sqrt(v_b / r_eff)
+
+
+@njit(cache=True, inline="always")
+def bridge_force_from_constants(model, gap, v_b, r_eff, gamma, theta, table, k):
+    """:func:`bridge_force` of a bridge whose row ``k`` of ``table`` holds its constants
+    (:func:`bridge_constants`, same v_b > 0)."""
+    if gap <= 0.0:
+        return table[k, 2]
+    if model == 0:
+        return min(_willett_separated(gap, r_eff, gamma, table[k, 3], table[k, 4], table[k, 5], table[k, 6],
+                                      table[k, 7]), 2.0 * math.pi * r_eff * gamma)
+    return capillary_force(model, gap, v_b, r_eff, gamma, theta)
 
 
 @njit(cache=True)

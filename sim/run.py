@@ -143,7 +143,7 @@ class Simulation:
         while remaining > 0:
             body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(self.n_walls)])
             done, s.n_sprays, sprayed = _kernels.advance(
-                remaining, step, settling, s.n_sprays, kp, _kernels.kernel_arrays(s, body_key))
+                remaining, step, settling, s.n_sprays, kp, _kernels.kernel_arrays(s, body_key, self._bridge_table()))
             s.sprayed_total += sprayed
             remaining -= done
             step += done
@@ -151,6 +151,14 @@ class Simulation:
                 s.step = step
             if remaining > 0:
                 self.state = s = rebuild(s, p, self.n_walls)
+
+    def _bridge_table(self) -> np.ndarray:
+        """The cache of bridge constants for the state's current slot list (a new one after a
+        rebuild or when the state was replaced): derived data, never checkpointed."""
+        slots = self.state.pair_i
+        if getattr(self, "_table_slots", None) is not slots:
+            self._table, self._table_slots = _kernels.new_bridge_table(slots.shape[0]), slots
+        return self._table
 
     def advance(self, n_steps: int) -> None:
         """Advance ``n_steps`` time steps (t = step·Δt)."""

@@ -11,6 +11,9 @@ from numba import njit
 
 from sim.capillary import (
     CAPILLARY_MODELS,
+    bridge_constants,
+    bridge_force,
+    bridge_force_from_constants,
     capillary_force,
     capillary_force_curve,
     rupture_distance,
@@ -262,3 +265,36 @@ def test_willett_numeric_stays_bounded_for_tiny_bridges():
             f = capillary_force(CAPILLARY_MODELS["willett_numeric"], s, v, r, gamma, 0.0)
             assert 0.0 <= f <= 2 * math.pi * r * gamma
     assert capillary_force(CAPILLARY_MODELS["willett_numeric"], 0.0, 1e-24, r, gamma, 0.0) == pytest.approx(2 * math.pi * r * gamma)
+
+
+@njit(cache=True)
+def _bridge_table_vs_direct(model, gaps, volumes, radii, gamma, theta, out):
+    """For every (gap, volume, radius): the engine's per-step values from a bridge-constants row
+    (force and s_crit) beside the direct formulas."""
+    table = np.zeros((1, 8))
+    for q in range(gaps.shape[0]):
+        bridge_constants(model, volumes[q], radii[q], gamma, theta, table, 0)
+        out[q, 0] = bridge_force_from_constants(model, gaps[q], volumes[q], radii[q], gamma, theta, table, 0)
+        out[q, 1] = bridge_force(model, gaps[q], volumes[q], radii[q], gamma, theta)
+        out[q, 2] = table[0, 1]
+        out[q, 3] = rupture_distance(volumes[q], radii[q], theta)
+
+
+@pytest.mark.parametrize("model", sorted(CAPILLARY_MODELS))
+@pytest.mark.parametrize("theta", [0.0, 0.3])
+def test_bridge_constants_give_the_direct_force_bit_for_bit(model, theta):
+    """The engine computes a bridge's volume-dependent constants once per volume (the bridge
+    table); force and rupture distance from them must equal the direct formulas exactly, at
+    contact, across the gap range and for migration's tiny leftover volumes (capped range)."""
+    rng = np.random.default_rng(3)
+    n = 4000
+    radii = rng.uniform(0.5e-3, 2.5e-3, n)
+    volumes = 10.0 ** rng.uniform(-24, -10, n)
+    s_crit = np.array([rupture_distance(v, r, theta) for v, r in zip(volumes, radii)])
+    gaps = np.where(rng.random(n) < 0.2, -rng.uniform(0, 1e-5, n), rng.uniform(0, 1.0, n) * s_crit)
+    gaps[:10] = 0.0
+    out = np.empty((n, 4))
+    _bridge_table_vs_direct(CAPILLARY_MODELS[model], gaps, volumes, radii, GAMMA, theta, out)
+    assert np.array_equal(out[:, 0], out[:, 1])
+    assert np.array_equal(out[:, 2], out[:, 3])
+    assert (out[gaps <= 0, 0] > 0).all() and (out[:, 0] >= 0).all()
