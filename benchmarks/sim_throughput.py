@@ -1,15 +1,20 @@
 """Simulator throughput: particle-steps per second, compile time, CG speed-up, and YADE.
 
-Usage: python benchmarks/sim_throughput.py [--quick] [--no-yade]
+Usage: python benchmarks/sim_throughput.py [--quick] [--no-yade] [--no-liggghts] [--no-scaling]
 
 1. Compile time of the kernels (fresh numba cache, in a child process) and cache-load time.
 2. The lab drum with 5 000 wet particles (films of 0.5 % V_p, Table 1 physics, migration on),
    settled 0.1 s: particle-steps/s at 1 and 2 threads, live contacts and bridges per particle.
 3. CG speed-up at equal physics: lab-cg1/2/3 settled, then simulated seconds per wall second.
-4. If ``yade`` is on the PATH: the drum of ``benchmarks/yade_drum_throughput.py`` (R_D = 0.04 m,
-   L = 0.012 m, the same lattice filling and radii) in YADE and here, same Δt, 1 and 2 threads;
-   YADE both with OpenMP's default spinning and with the short spin granalytics sets for itself
-   (GOMP_SPINCOUNT=3000), the ratio taken against YADE's best.
+4. The wet drum of ``benchmarks/yade_drum_throughput.py`` (2 435 particles, R_D = 0.04 m,
+   L = 0.012 m, the same lattice filling and radii in every code, Δt = 3e-6 s): this simulator
+   without the viscous force (as YADE's ViscElCapMat) and with it (as LIGGGHTS' easo law),
+   LIGGGHTS 3.8 (``benchmarks/liggghts_drum/run_bench.sh``, MPI processes) if ``liggghts`` is
+   on the PATH, YADE if ``yade`` is (both with OpenMP's default spinning and with the short spin
+   granalytics sets for itself, GOMP_SPINCOUNT=3000); 1 and 2 threads/processes, runs
+   alternating between the codes, best of 3, and the ratios against the targets.
+5. Scaling: particle-steps/s of the same drum scaled to 2 435, 20 000 and 120 000 particles
+   (``benchmarks/profile_step.py``) at 1 and 2 threads, and the 2-thread speed-up.
 """
 
 from __future__ import annotations
@@ -113,6 +118,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="shorter settling and measuring")
     parser.add_argument("--no-yade", action="store_true")
+    parser.add_argument("--no-liggghts", action="store_true")
+    parser.add_argument("--no-scaling", action="store_true", help="skip section 5 (minutes at 120 000 particles)")
     args = parser.parse_args()
     q = 0.3 if args.quick else 1.0
     cores = numba.config.NUMBA_NUM_THREADS
@@ -147,31 +154,89 @@ def main():
         base = base or speed
         print(f"{'lab-cg%d' % alpha:>8}{cg.state.n_particles:>11}{p.dt:>10.1e}{speed:>16.4f}{speed / base:>10.1f}")
 
-    if args.no_yade or shutil.which("yade") is None:
-        print("\n4. yade not on the PATH: skipped (apt-get install yade)")
-        return
+    comparison(q, cores, with_yade=not args.no_yade and shutil.which("yade") is not None,
+               with_liggghts=not args.no_liggghts and shutil.which("liggghts") is not None)
+    if not args.no_scaling:
+        scaling(q)
+
+
+def run_liggghts(procs, rd, length, settle, measure):
+    """LIGGGHTS' RESULT line from benchmarks/liggghts_drum/run_bench.sh (MPI processes)."""
+    res = subprocess.run(["bash", os.path.join(HERE, "liggghts_drum", "run_bench.sh"), str(rd), str(length), str(settle),
+                          str(measure), str(procs)], capture_output=True, text=True, timeout=3600)
+    line = next((l for l in res.stdout.splitlines() if l.startswith("RESULT")), None)
+    if line is None:
+        raise RuntimeError(f"run_bench.sh printed no RESULT line: {res.stdout[-300:]} {res.stderr[-300:]}")
+    return {k: float(v) for k, v in re.findall(r"(\w+)=([0-9.e+-]+)", line)}
+
+
+def comparison(q, cores, with_yade, with_liggghts):
+    """Section 4: the 2 435-particle drum in every code, alternating runs, best of 3."""
     rd, length = 0.04, 0.012
     settle, measure = int(40000 * q), int(3000 * q)
     pos, rad = yade_lattice(rd, length)
-    p = SimParams(n_particles=len(pos), drum_radius=rd, drum_length=length, spray_radius=0.0,
-                  initial_film=0.03, viscous=False)
-    ours = Simulation.from_particles(p, pos, rad, film=p.initial_film * 4 / 3 * np.pi * rad**3)
-    ours._advance(settle, settling=True)
-    ours.advance(500)
-    print(f"\n4. YADE drum (R_D = {rd} m, L = {length} m, {len(pos)} particles, Δt = {p.dt:g} s, "
-          f"{settle} settling + {measure} measured steps)")
-    print(f"{'threads':>8}{'ours ps/s':>12}{'YADE ps/s':>12}{'YADE spin3000':>15}{'ours int/p':>12}{'YADE int/p':>12}")
-    ours_best, yade_best = 0.0, 0.0
-    for threads in sorted({1, cores}):
-        r, _ = rate(ours, measure, threads)
-        y = run_yade(threads, rd, length, settle, measure, None)
-        y_spin = run_yade(threads, rd, length, settle, measure, 3000)
-        ours_best = max(ours_best, r)
-        yade_best = max(yade_best, y["particle_steps_per_s"], y_spin["particle_steps_per_s"])
-        print(f"{threads:>8}{r:>12.3e}{y['particle_steps_per_s']:>12.3e}{y_spin['particle_steps_per_s']:>15.3e}"
-              f"{live_counts(ours)[0]:>12.2f}{y['interactions_per_particle']:>12.2f}")
-    print(f"ours (best) / YADE (best thread count and OpenMP spin setting) = {ours_best / yade_best:.2f}")
+    print(f"\n4. the wet drum of benchmarks/yade_drum_throughput.py (R_D = {rd} m, L = {length} m, {len(pos)} "
+          f"particles, Δt = 3e-6 s, {settle} settling + {measure} measured steps), alternating runs, best of 3")
+    if not (with_yade or with_liggghts):
+        print("   yade and liggghts not on the PATH: only this simulator (apt-get install yade liggghts)")
+    ours = {}
+    for viscous in (False, True):  # YADE's ViscElCapMat has no viscous force, LIGGGHTS' easo law has
+        p = SimParams(n_particles=len(pos), drum_radius=rd, drum_length=length, spray_radius=0.0,
+                      initial_film=0.03, viscous=viscous)
+        sim = Simulation.from_particles(p, pos, rad, film=p.initial_film * 4 / 3 * np.pi * rad**3)
+        sim._advance(settle, settling=True)
+        sim.advance(500)
+        ours[viscous] = sim
+    threads = sorted({1, cores})
+    best = {}
+    for _ in range(3):
+        for t in threads:
+            for viscous, sim in ours.items():
+                key = ("ours, viscous" if viscous else "ours", t)
+                best[key] = max(best.get(key, 0.0), rate(sim, measure, t)[0])
+            if with_liggghts:
+                r = run_liggghts(t, rd, length, settle, measure)
+                best[("LIGGGHTS", t)] = max(best.get(("LIGGGHTS", t), 0.0), r["particle_steps_per_s"])
+            if with_yade:
+                for spin in (None, 3000):
+                    r = run_yade(t, rd, length, settle, measure, spin)
+                    best[("YADE", t)] = max(best.get(("YADE", t), 0.0), r["particle_steps_per_s"])
+    numba.set_num_threads(cores)
+    codes = ["ours", "ours, viscous"] + (["LIGGGHTS"] if with_liggghts else []) + (["YADE"] if with_yade else [])
+    print(f"{'code':<16}" + "".join(f"{f'{t} thr/proc':>14}" for t in threads) + f"{'best':>14}")
+    for code in codes:
+        print(f"{code:<16}" + "".join(f"{best[(code, t)]:>14.3e}" for t in threads)
+              + f"{max(best[(code, t)] for t in threads):>14.3e}")
 
+    def top(code):
+        return max(best[(code, t)] for t in threads)
+
+    if with_liggghts:
+        print(f"ours (viscous, like LIGGGHTS) / LIGGGHTS, 1 thread vs 1 process: "
+              f"{best[('ours, viscous', 1)] / best[('LIGGGHTS', 1)]:.2f}   (target >= 1.25)")
+        print(f"ours (viscous) best / LIGGGHTS best: {top('ours, viscous') / top('LIGGGHTS'):.2f}   (target >= 2)")
+    if with_yade:
+        print(f"ours (no viscous, like YADE) best / YADE best (thread count and OpenMP spin setting): "
+              f"{top('ours') / top('YADE'):.2f}   (target >= 3)")
+
+
+def scaling(q):
+    """Section 5: particle-steps/s against N (the same drum, scaled) at 1 and 2 threads."""
+    from profile_step import SIZES, drum_system
+
+    print("\n5. scaling: the same wet drum scaled in R_D and L (benchmarks/profile_step.py), best of 3")
+    print(f"{'particles':>10}{'int/p':>7}{'br/p':>7}{'1 thread':>12}{'2 threads':>12}{'speed-up':>10}")
+    for size in SIZES:
+        sim, _ = drum_system(size)
+        n = sim.state.n_particles
+        steps = max(100, int(3000 * q * 2435 / n))
+        r = {t: 0.0 for t in (1, 2)}
+        for _ in range(3):
+            for t in (1, 2):
+                r[t] = max(r[t], rate(sim, steps, t)[0])
+        ips, bps = live_counts(sim)
+        print(f"{n:>10}{ips:>7.2f}{bps:>7.2f}{r[1]:>12.3e}{r[2]:>12.3e}{r[2] / r[1]:>10.2f}", flush=True)
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
 
 if __name__ == "__main__":
     main()

@@ -474,10 +474,13 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
             dx = pos[j, 0] - pos[i, 0]
             dy = pos[j, 1] - pos[i, 1]
             dz = pos[j, 2] - pos[i, 2]
-            dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+            d2 = dx * dx + dy * dy + dz * dz
+            if not alive[k] and d2 > (ri + rj) * (ri + rj) * (1.0 + 1e-9):
+                continue  # clearly apart (no square root needed): stays dead, outputs zero
+            dist = math.sqrt(d2)
             u = ri + rj - dist
             if u < 0.0 and not alive[k]:
-                continue  # stays dead, outputs zero
+                continue
             if dist == 0.0:
                 dist = 1e-300
             nx, ny, nz = dx / dist, dy / dist, dz / dist
