@@ -36,10 +36,14 @@ def _pair_radius(radius, i, j, mean_radius):
 
 
 @njit(cache=True, inline="always")
-def _keep_contact(k, ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
+def _keep_contact(k, ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
+    """Both GNA criteria for contact k. F_coh is ``f_cap[k]`` where the cohesion convention counts
+    it (every contact with ``all_count``, else those with ``gap[k] > 0``) and 0 elsewhere: the
+    values of :func:`granalytics.cohesive_force`, without building that array."""
     i = ci[k]
     j = cj[k]
-    f_norm = f_cap[k] / (two_pi_gamma * _pair_radius(radius, i, j, mean_radius))
+    f_coh = f_cap[k] if all_count or gap[k] > 0.0 else 0.0
+    f_norm = f_coh / (two_pi_gamma * _pair_radius(radius, i, j, mean_radius))
     if not f_norm >= c_agg:
         return False
     if _angle_below(vel[i, 0], vel[i, 1], vel[i, 2], vel[j, 0], vel[j, 1], vel[j, 2], cos_a):
@@ -50,8 +54,9 @@ def _keep_contact(k, ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radiu
 
 
 @njit(cache=True, parallel=True)
-def gna_contact_mask(ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
-    """Boolean mask of the contacts that pass both GNA criteria (§2.2 of the paper).
+def gna_contact_mask(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
+    """Boolean mask of the contacts that pass both GNA criteria (§2.2 of the paper); F_coh as in
+    :func:`_keep_contact`.
 
     Each entry depends on its own contact only, so the parallel loop is deterministic.
     """
@@ -59,7 +64,7 @@ def gna_contact_mask(ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radiu
     keep = np.empty(m, dtype=np.bool_)
     for k in prange(m):
         keep[k] = _keep_contact(
-            k, ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a
+            k, ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a
         )
     return keep
 
@@ -164,7 +169,7 @@ def union_find_membership(n, ei, ej):
 
 
 @njit(cache=True, parallel=True)
-def gna_fused(ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
+def gna_fused(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
     """Filter, union-find and canonical labelling in one pass (the ``"fast"`` backend).
 
     Returns
@@ -178,7 +183,7 @@ def gna_fused(ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radius, c_ag
     keep = np.empty(m, dtype=np.bool_)
     for k in prange(m):  # filter: independent per contact, parallel
         keep[k] = _keep_contact(
-            k, ci, cj, f_cap, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a
+            k, ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a
         )
     parent = np.arange(n)
     for k in range(m):  # merge: sequential, in contact order

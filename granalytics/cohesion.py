@@ -26,7 +26,8 @@ import numpy as np
 from .errors import ParameterError
 from .snapshot import Snapshot
 
-__all__ = ["COHESION_CONVENTIONS", "DEFAULT_COHESION", "check_cohesion", "cohesion_counts", "cohesive_force"]
+__all__ = ["COHESION_CONVENTIONS", "DEFAULT_COHESION", "check_cohesion", "cohesion_counts", "cohesion_counts_all",
+           "cohesive_force"]
 
 COHESION_CONVENTIONS = ("acting", "bridge")
 DEFAULT_COHESION = "acting"
@@ -39,12 +40,18 @@ def check_cohesion(cohesion) -> str:
     return cohesion
 
 
+def cohesion_counts_all(snapshot: Snapshot, cohesion: str = DEFAULT_COHESION) -> bool:
+    """True when every contact's bridge force counts as cohesion under ``cohesion`` (``"bridge"``,
+    or a run that applied capillary force in contact); else only separated pairs count."""
+    check_cohesion(cohesion)
+    return cohesion == "bridge" or (snapshot.meta is not None and bool(snapshot.meta.capillary_in_contact))
+
+
 def cohesion_counts(snapshot: Snapshot, cohesion: str = DEFAULT_COHESION) -> np.ndarray:
     """Boolean mask of the contacts whose bridge force counts as cohesion under ``cohesion``:
     every contact for ``"bridge"``; for ``"acting"`` the separated ones (gap > 0), or all of
     them when the run applied capillary force in contact."""
-    check_cohesion(cohesion)
-    if cohesion == "bridge" or (snapshot.meta is not None and snapshot.meta.capillary_in_contact):
+    if cohesion_counts_all(snapshot, cohesion):
         return np.ones(snapshot.n_contacts, dtype=bool)
     return snapshot.gap > 0
 

@@ -23,7 +23,7 @@ import networkx as nx
 import numpy as np
 
 from .. import _kernels
-from ..cohesion import DEFAULT_COHESION, check_cohesion, cohesive_force
+from ..cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts_all
 from ..errors import ParameterError
 from ..snapshot import Snapshot
 from .common import Identifier, check_angle, check_c_agg, check_radius_mode, mean_radius, surface_tension
@@ -146,7 +146,11 @@ class GraphNetworkAnalysis(Identifier):
 
 
 def _contact_arrays(snapshot: Snapshot, cohesion) -> tuple:
+    """``(ci, cj, f_cap, gap, all_count, radius, vel, omega)`` for the GNA kernels: the
+    cohesion convention is applied inside them (:func:`granalytics.cohesion.cohesion_counts`)."""
+    all_count = cohesion_counts_all(snapshot, cohesion)
+    gap = np.zeros(0) if all_count else snapshot.gap
     return (
-        snapshot.contact_i, snapshot.contact_j, cohesive_force(snapshot, cohesion), snapshot.radius,
+        snapshot.contact_i, snapshot.contact_j, snapshot.f_cap, gap, all_count, snapshot.radius,
         snapshot.velocity, snapshot.angular_velocity,
     )
