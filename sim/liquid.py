@@ -6,7 +6,8 @@ Bodies are the particles 0 … N−1 followed by the walls N … N+W−1; every 
 (a wall's starts at 0 and only ever holds what ruptured wall bridges return to it). Interactions
 live in slots k = 0 … C−1 joining bodies ``pair_i[k] < pair_j[k]``. All volumes are in [m³].
 
-Everything is sequential with a fixed order, so results are bit-reproducible. No volume is
+Everything that moves liquid is sequential with a fixed order (only the counting of events is
+parallel), so results are bit-reproducible for any thread count. No volume is
 created or destroyed: Σ film + Σ V_b (live slots) after :func:`migrate_liquid` equals the same
 sum before it plus the volume returned by this step's ruptures, up to floating-point rounding.
 """
@@ -16,7 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 __all__ = ["migrate_liquid", "spray", "total_liquid"]
 
@@ -42,6 +43,40 @@ def _count_in_sorted(a, x):
         else:
             hi = mid
     return lo - first
+
+
+@njit(cache=True, parallel=True)
+def _count_events(created, ruptured_volume):
+    """The counting pass of :func:`migrate_liquid`, parallel over blocks of ``_BLOCK`` slots:
+    which blocks hold a rupture or creation, and how many of each (integer counts, so the
+    result does not depend on the thread count). Full blocks use a fixed-length inner loop so
+    that it vectorises."""
+    n_slots = created.shape[0]
+    n_full = n_slots // _BLOCK
+    n_blocks = (n_slots + _BLOCK - 1) // _BLOCK
+    block_events = np.zeros(n_blocks, dtype=np.bool_)
+    n_rup = 0
+    n_new = 0
+    for blk in prange(n_blocks):
+        lo = blk * _BLOCK
+        r = 0
+        c = 0
+        if blk < n_full:
+            for t in range(_BLOCK):
+                if ruptured_volume[lo + t] > 0.0:
+                    r += 1
+                if created[lo + t]:
+                    c += 1
+        else:
+            for k in range(lo, n_slots):
+                if ruptured_volume[k] > 0.0:
+                    r += 1
+                if created[k]:
+                    c += 1
+        block_events[blk] = r + c > 0
+        n_rup += r
+        n_new += c
+    return block_events, n_rup, n_new
 
 
 @njit(cache=True)
@@ -99,32 +134,7 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
     one bool array of C/256 entries, and arrays sized by this step's ruptures and creations.
     """
     n_slots = pair_i.shape[0]
-    # counting pass (vectorisable), remembering which blocks of _BLOCK slots hold an event
-    # (fixed-length inner loop for full blocks so that it vectorises; then the tail block)
-    n_full = n_slots // _BLOCK
-    n_blocks = (n_slots + _BLOCK - 1) // _BLOCK
-    block_events = np.zeros(n_blocks, dtype=np.bool_)
-    n_rup = 0
-    n_new = 0
-    for blk in range(n_blocks):
-        lo = blk * _BLOCK
-        r = 0
-        c = 0
-        if blk < n_full:
-            for t in range(_BLOCK):
-                if ruptured_volume[lo + t] > 0.0:
-                    r += 1
-                if created[lo + t]:
-                    c += 1
-        else:
-            for k in range(lo, n_slots):
-                if ruptured_volume[k] > 0.0:
-                    r += 1
-                if created[k]:
-                    c += 1
-        block_events[blk] = r + c > 0
-        n_rup += r
-        n_new += c
+    block_events, n_rup, n_new = _count_events(created, ruptured_volume)
     if n_rup == 0 and n_new == 0:
         return
 
