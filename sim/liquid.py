@@ -137,6 +137,7 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
     block_events, n_rup, n_new = _count_events(created, ruptured_volume)
     if n_rup == 0 and n_new == 0:
         return
+    n_blocks = block_events.shape[0]
 
     # ---- step 1: ruptures return V_b/2 to each body; collect the slots and marked bodies
     marked = np.empty(2 * n_rup, dtype=np.int64)
