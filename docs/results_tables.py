@@ -5,8 +5,10 @@ Usage: python docs/results_tables.py [--figures DIR]
 Every number in docs/results.md comes from this script: steady-state yield, ⟨V_g⟩/V_p and N_g/N
 of every bundled run under both cohesion conventions (GNA, C_agg = 0.6, A_agg = 20°), the CG
 comparisons (deviation from the finest run, Kolmogorov–Smirnov distance of the size
-distributions) and the measured speed-ups. With ``--figures DIR`` it also writes the CG figures
-(the paper's Figs 3–6) of the lab and paper-drum comparisons into DIR.
+distributions) and the measured speed-ups, and the γ × Ω study of every bundled sweep (steady
+state per point, the growth-law fit beside the paper's β and γ₁, the surrogate's leave-one-out
+error). With ``--figures DIR`` it also writes the CG figures (the paper's Figs 3–6) of the lab
+and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import argparse
 import os
 
 import granalytics as ga
-from granalytics.datasets import DATASETS, dataset_path
+from granalytics.datasets import DATASETS, SWEEPS, dataset_path, sweep_path
 
 C_AGG, A_AGG = 0.6, 20.0
 #: steady-state window [revolutions] of each run: [3, 6] for 6-revolution runs (paper Fig 5),
@@ -72,12 +74,61 @@ def cg_tables(figures=None):
                   f"{row.paper_speedup:.1f}× |")
 
 
+SWEEP_WINDOW = (3, 6)
+
+
+def sweep_tables(figures=None):
+    import matplotlib.pyplot as plt
+    from scipy.stats import linregress
+    from scipy.stats import t as student_t
+
+    from granalytics.study import growth_figure
+
+    for name in SWEEPS:
+        table = ga.study_table(sweep_path(name), window=SWEEP_WINDOW, c_agg=C_AGG, a_agg_deg=A_AGG,
+                               cohesion=ga.COHESION_CONVENTIONS)
+        print(f"\n**sweep {name}** (window {SWEEP_WINDOW[0]}–{SWEEP_WINDOW[1]} revolutions; γ of the original system)\n")
+        print("| γ [N/m] | Ω [rad/s] | cohesion | yield | ⟨V_g⟩/V_p | N_g/N |")
+        print("| --- | --- | --- | --- | --- | --- |")
+        for row in table.sort_values(["cohesion", "omega", "gamma"]).itertuples():
+            print(f"| {row.gamma:g} | {row.omega:g} | {row.cohesion} | {pm(row.yield_fraction_mean, row.yield_fraction_sem, 3)} | "
+                  f"{pm(row.mean_volume_norm_mean, row.mean_volume_norm_sem, 2)} | "
+                  f"{pm(row.n_granules_norm_mean, row.n_granules_norm_sem, 4)} |")
+        for cohesion in ga.COHESION_CONVENTIONS:
+            rows = table[table.cohesion == cohesion]
+            try:
+                fit = ga.fit_granule_growth(rows.gamma, rows.mean_volume_norm_mean, rows.mean_volume_norm_sem)
+                print(f"\ngrowth fit ({cohesion}): {fit.summary()}")
+            except ga.GranalyticsError as exc:
+                fit = None
+                print(f"\ngrowth fit ({cohesion}): none: {exc}")
+            slope = linregress(rows.gamma, rows.mean_volume_norm_mean)
+            half = student_t.ppf(0.975, len(rows) - 2) * slope.stderr
+            print(f"straight line through all points ({cohesion}): d⟨V_g⟩/V_p / dγ = {slope.slope:.2f} "
+                  f"[{slope.slope - half:.2f}, {slope.slope + half:.2f}] per N/m (95 %; the paper's β ≈ 70), "
+                  f"p = {slope.pvalue:.2g}")
+            surrogate = ga.fit_surrogate(table, inputs=("gamma", "omega"), cohesion=cohesion)
+            print(f"\nsurrogate ({cohesion}), leave-one-out error:\n")
+            loo = surrogate.loo
+            print("| output | LOO RMSE | LOO MAE | spread of the output (std) | points |")
+            print("| --- | --- | --- | --- | --- |")
+            for output, r in loo.iterrows():
+                print(f"| {output} | {r.rmse:.4g} | {r.mae:.4g} | {r.output_std:.4g} | {int(r.n_points)} |")
+            if figures:
+                fig = growth_figure(table, fit=fit, cohesion=cohesion)
+                fig.savefig(os.path.join(figures, f"fig7-{name}-{cohesion}.png"), dpi=120)
+                plt.close(fig)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", help="folder for the CG figures (PNG)")
     args = parser.parse_args()
+    if args.figures:
+        os.makedirs(args.figures, exist_ok=True)
     steady_table()
     cg_tables(args.figures)
+    sweep_tables(args.figures)
 
 
 if __name__ == "__main__":

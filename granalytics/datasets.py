@@ -15,13 +15,21 @@ frame, also as float32.
 Datasets
 --------
 lab-cg1, lab-cg2, lab-cg3
-    The lab drum (10 000 original particles of 1.5 mm, R_d = 39.7 mm, L = 23.8 mm, 4 baffles,
-    Ω = 2 rad/s, Table 1 physics) at CG factors 1, 2, 3 (10 000, 1 250, 370 particles), seed 0:
+    The lab drum (3 000 original particles of 1.5 mm, R_d = 25.2 mm, L = 17.7 mm, 4 baffles,
+    Ω = 2 rad/s, Table 1 physics) at CG factors 1, 2, 3 (3 000, 375, 111 particles), seed 0:
     the CG comparison with the original system. lab-cg1 runs 3 revolutions (steady window [2, 3]),
     lab-cg2 and lab-cg3 six.
 paper-cg2, paper-cg3
     The paper's drum (R_d = 0.1 m, L = 0.045 m, 120 000 original particles) at CG2 (15 000
     particles, 3 revolutions) and CG3 (4 444 particles, 6 revolutions), seed 0.
+
+Sweeps
+------
+gamma-omega-lab-cg3
+    Surface tension × drum speed on the lab drum at CG3 (the paper's Fig 7 study): 7 values of γ
+    from 0.01 to 0.444 N/m × Ω = 1.5, 2, 3 rad/s, 6 revolutions each, made by ``python -m sim
+    sweep`` and bundled by :func:`bundle_sweep` (every frame, float32). :func:`sweep_path`
+    returns its folder (manifest and point files checked), for ``granalytics study``.
 """
 
 from __future__ import annotations
@@ -34,7 +42,8 @@ from pathlib import Path
 
 from .errors import GranalyticsError
 
-__all__ = ["DATASETS", "dataset_path", "open_dataset", "make_dataset"]
+__all__ = ["DATASETS", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path", "bundle_sweep",
+           "make_sweep"]
 
 DATASET_DIR = Path(__file__).resolve().parents[1] / "datasets"
 _RAW_DIR = "build/runs"  # full-resolution simulator output (not bundled), relative to the repository root
@@ -83,6 +92,29 @@ DATASETS = {
         "wall_time": "3 min 41 s (1 thread; the other core busy)",
         "description": "lab drum, CG3: 111 particles of 4.5 mm standing for 3 000 of 1.5 mm, 6 revolutions, "
                        "every frame (0.05 revolution, 121 frames)",
+    },
+}
+
+
+#: name -> folder under datasets/, sha256 of its manifest.csv, spec, commands, code version, wall
+#: time, description (the point files' sums are in the manifest; :func:`sweep_path` checks both)
+SWEEPS = {
+    "gamma-omega-lab-cg3": {
+        "dir": "sweeps/gamma-omega-lab-cg3",
+        "manifest_sha256": "6bf7e18c9cec271610bfeeb91f2e0e7f1605bab37a472b64a6fc0c2997addc96",
+        "spec": "sweeps/gamma-omega-lab-cg3.toml",
+        "commands": [
+            "python -m sim sweep datasets/sweeps/gamma-omega-lab-cg3.toml --out build/sweeps/gamma-omega-lab-cg3 "
+            "--workers 2",
+            "python -m granalytics.datasets bundle-sweep build/sweeps/gamma-omega-lab-cg3 "
+            "datasets/sweeps/gamma-omega-lab-cg3 --overwrite",
+        ],
+        "code_version": "b6fe26ca0852387cd1d468b226ba8998be1d22d2",
+        "wall_time": "57 min on 1 worker (points 35 s to 8 min, sum 56 min), sharing the 2 cores with the paper-cg3 "
+                     "run and other work; the first two points were made by 68715a0 before the sweep was restarted "
+                     "with b6fe26c (bit-identical trajectories)",
+        "description": "lab drum at CG3 (111 particles), γ = 0.01, 0.03, 0.06, 0.1095, 0.2, 0.3, 0.444 N/m (original "
+                       "system) × Ω = 1.5, 2, 3 rad/s, 6 revolutions, every frame (0.05 revolution) as float32",
     },
 }
 
@@ -155,6 +187,111 @@ def make_dataset(name: str, *, dry_run=False) -> str:
     return digest
 
 
+def bundle_sweep(src, dst, *, overwrite=False, progress=True) -> Path:
+    """Copy the finished points of sweep folder ``src`` (``python -m sim sweep``) into ``dst``
+    for bundling: every frame of every point as float32 (:func:`granalytics.io.subset_run`), and
+    the manifest with the finished rows only, ``sha256`` the bundled file's sum and
+    ``source_sha256`` the simulator's file's. Points not finished are left out (and named).
+
+    Raises
+    ------
+    GranalyticsError
+        ``dst`` exists and ``overwrite`` is False, or ``src`` has no finished point.
+    """
+    import shutil
+    import tempfile
+
+
+    from .io import open_run, subset_run
+    from .study import read_manifest
+
+    src, dst = Path(src), Path(dst)
+    if dst.exists() and not overwrite:
+        raise GranalyticsError(f"{dst}: exists (pass overwrite=True, or --overwrite, to replace it)")
+    table = read_manifest(src)
+    done = table[table.status == "done"].copy()
+    if done.empty:
+        raise GranalyticsError(f"{src}/manifest.csv: no finished point to bundle")
+    left = table.point[table.status != "done"].tolist()
+    if left:
+        print(f"bundle-sweep: {len(left)} unfinished points left out: {', '.join(left)}", file=sys.stderr)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{dst.name}.", dir=dst.parent))  # built aside, then swapped in
+    try:
+        (tmp / "points").mkdir()
+        sums = []
+        iterator = done.file
+        if progress:
+            from tqdm.auto import tqdm
+
+            iterator = tqdm(done.file, desc="bundle-sweep", unit="point")
+        for rel in iterator:
+            with open_run(src / rel) as run:
+                n_frames = len(run)
+            subset_run(src / rel, tmp / rel, range(n_frames), float_dtype="float32")
+            sums.append(_sha256(tmp / rel))
+        done["source_sha256"] = done["sha256"]
+        done["sha256"] = sums
+        done.to_csv(tmp / "manifest.csv", index=False)
+        if dst.exists():
+            shutil.rmtree(dst)
+        tmp.rename(dst)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return dst
+
+
+def sweep_path(name: str) -> Path:
+    """Folder of a bundled sweep after checking the sha256 of its manifest and of every point
+    file the manifest lists (``granalytics.study_table(sweep_path(name))`` analyses it).
+
+    Raises
+    ------
+    GranalyticsError
+        Unknown name, missing folder or file, or a checksum mismatch.
+    """
+    import pandas as pd
+
+    try:
+        entry = SWEEPS[name]
+    except KeyError:
+        raise GranalyticsError(f"unknown sweep {name!r}; available: {', '.join(SWEEPS)}") from None
+    folder = DATASET_DIR / entry["dir"]
+    manifest = folder / "manifest.csv"
+    if not manifest.exists():
+        raise GranalyticsError(f"{manifest}: sweep manifest missing (made by: {' && '.join(entry['commands'])})")
+    digest = _sha256(manifest)
+    if digest != entry["manifest_sha256"]:
+        raise GranalyticsError(f"{manifest}: sha256 {digest} does not match the registry ({entry['manifest_sha256']})")
+    table = pd.read_csv(manifest, dtype={"file": str, "sha256": str})
+    for rel, expected in zip(table.file, table.sha256):
+        path = folder / rel
+        if not path.exists():
+            raise GranalyticsError(f"{path}: point file of sweep {name} missing")
+        if _sha256(path) != expected:
+            raise GranalyticsError(f"{path}: sha256 does not match {manifest}")
+    return folder
+
+
+def make_sweep(name: str, *, dry_run=False) -> str:
+    """Regenerate a bundled sweep from its recipe: the sweep (finished points skipped,
+    interrupted ones resumed) and then :func:`bundle_sweep`; returns the new manifest's sha256."""
+    entry = SWEEPS[name]
+    root = DATASET_DIR.parent
+    for command in entry["commands"]:
+        argv = shlex.split(command)
+        argv[0] = sys.executable
+        print("$", shlex.join(argv), flush=True)
+        if not dry_run:
+            subprocess.run(argv, cwd=root, check=True)
+    if dry_run:
+        return ""
+    digest = _sha256(DATASET_DIR / entry["dir"] / "manifest.csv")
+    print(f"{name}: manifest sha256 {digest}")
+    return digest
+
+
 def _main(argv=None) -> int:
     import argparse
 
@@ -165,20 +302,35 @@ def _main(argv=None) -> int:
     p = sub.add_parser("make", help="regenerate datasets from their recipes")
     p.add_argument("names", nargs="*", help="datasets (default: all)")
     p.add_argument("--dry-run", action="store_true", help="print the commands only")
+    b = sub.add_parser("bundle-sweep", help="copy a sweep folder's finished points as float32 for bundling")
+    b.add_argument("src", help="sweep folder written by python -m sim sweep")
+    b.add_argument("dst", help="folder to write")
+    b.add_argument("--overwrite", action="store_true", help="replace dst if it exists")
     args = parser.parse_args(argv)
     if args.command == "list":
-        for name, entry in DATASETS.items():
-            print(f"{name:<10} {entry['file']:<14} {entry['description']}")
+        for name, entry in {**DATASETS, **SWEEPS}.items():
+            print(f"{name:<20} {entry.get('file', entry.get('dir')):<28} {entry['description']}")
             for command in entry["commands"]:
-                print(f"           $ {command}")
+                print(f"{'':<21}$ {command}")
         return 0
-    unknown = [n for n in args.names if n not in DATASETS]
+    if args.command == "bundle-sweep":
+        try:
+            print(bundle_sweep(args.src, args.dst, overwrite=args.overwrite))
+        except GranalyticsError as exc:
+            print(f"python -m granalytics.datasets bundle-sweep: error: {exc}", file=sys.stderr)
+            return 2
+        return 0
+    known = {**DATASETS, **SWEEPS}
+    unknown = [n for n in args.names if n not in known]
     if unknown:
         print(f"python -m granalytics.datasets: error: unknown dataset {unknown[0]!r}; available: "
-              f"{', '.join(DATASETS)}", file=sys.stderr)
+              f"{', '.join(known)}", file=sys.stderr)
         return 2
-    for name in args.names or list(DATASETS):
-        make_dataset(name, dry_run=args.dry_run)
+    for name in args.names or list(known):
+        if name in SWEEPS:
+            make_sweep(name, dry_run=args.dry_run)
+        else:
+            make_dataset(name, dry_run=args.dry_run)
     return 0
 
 

@@ -60,3 +60,55 @@ def test_make_datasets_runs_the_recipe_and_never_downloads(capsys):
     assert "-m sim run --preset lab-cg3" in out and "-m granalytics subset" in out
     assert "http" not in out and "curl" not in out and "wget" not in out
     assert _main(["make", "no-such-set"]) == 2
+
+
+def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_path, capsys):
+    import h5py
+    import pandas as pd
+    from test_study import write_point
+
+    from granalytics.datasets import _sha256, bundle_sweep
+
+    src = tmp_path / "sweep"
+    (src / "points").mkdir(parents=True)
+    rows = []
+    for k, gamma in enumerate((0.05, 0.2)):
+        name = f"gamma={gamma:g}_omega=2"
+        write_point(src / "points" / f"{name}.h5", gamma, 2.0, seed=k)
+        rows.append({"point": name, "status": "done", "gamma": gamma, "omega": 2.0,
+                     "file": f"points/{name}.h5", "sha256": _sha256(src / "points" / f"{name}.h5")})
+    rows.append({"point": "gamma=0.3_omega=2", "status": "failed", "gamma": 0.3, "omega": 2.0,
+                 "file": "points/gamma=0.3_omega=2.h5", "sha256": ""})
+    pd.DataFrame(rows).to_csv(src / "manifest.csv", index=False)
+
+    dst = bundle_sweep(src, tmp_path / "bundled", progress=False)
+    assert "gamma=0.3_omega=2" in capsys.readouterr().err  # the unfinished point is named
+    table = pd.read_csv(dst / "manifest.csv")
+    assert list(table.point) == [r["point"] for r in rows[:2]]
+    assert list(table.source_sha256) == [r["sha256"] for r in rows[:2]]
+    for rel, digest in zip(table.file, table.sha256):
+        assert _sha256(dst / rel) == digest
+        with h5py.File(dst / rel, "r") as f, h5py.File(src / rel, "r") as g:
+            assert f["particles/position"].dtype == np.float32
+            assert f["particles/position"].shape == g["particles/position"].shape  # every frame
+    with pytest.raises(GranalyticsError, match="exists"):
+        bundle_sweep(src, dst, progress=False)
+    assert _main(["bundle-sweep", str(src), str(dst)]) == 2
+
+
+@pytest.mark.parametrize("name", sorted(__import__("granalytics.datasets", fromlist=["SWEEPS"]).SWEEPS))
+def test_bundled_sweep_matches_registry_and_its_spec(name):
+    import tomllib
+
+    import pandas as pd
+
+    from granalytics.datasets import DATASET_DIR, SWEEPS, sweep_path
+
+    folder = sweep_path(name)
+    entry = SWEEPS[name]
+    spec = tomllib.loads((DATASET_DIR / entry["spec"]).read_text())
+    table = pd.read_csv(folder / "manifest.csv")
+    assert (table.status == "done").all() and (table.preset == spec["preset"]).all()
+    expected = {(g, w) for g in spec["grid"]["gamma"] for w in spec["grid"]["omega"]}
+    assert set(zip(table.gamma, table.omega)) == expected
+    assert (table.revolutions == spec["revolutions"]).all()
