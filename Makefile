@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 BUILD := build
 
-.PHONY: test test-fast demo bench install clean datasets
+.PHONY: test test-fast demo bench install clean clean-runs datasets
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -46,7 +46,12 @@ bench: $(STAMP)
 	$(PY) benchmarks/sim_throughput.py
 
 ## clean: build outputs and numba's compiled-kernel caches (numba does not notice a change in a
-## function that a cached kernel calls from another module; clean after editing sim/ or kernels)
+## function that a cached kernel calls from another module; clean after editing sim/ or kernels).
+## Keeps the simulations under build/runs and build/sweeps (hours of work that `make datasets`
+## resumes from); `make clean-runs` deletes those too.
 clean:
-	rm -rf $(BUILD) .pytest_cache
-	find granalytics sim -name '*.nbi' -o -name '*.nbc' | xargs rm -f
+	rm -rf .pytest_cache $(filter-out $(BUILD)/runs $(BUILD)/sweeps,$(wildcard $(BUILD)/*))
+	find granalytics sim tests -name '*.nbi' -o -name '*.nbc' | xargs rm -f
+
+clean-runs: clean
+	rm -rf $(BUILD)/runs $(BUILD)/sweeps
