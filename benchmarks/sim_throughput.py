@@ -3,7 +3,7 @@
 Usage: python benchmarks/sim_throughput.py [--quick] [--no-yade] [--no-liggghts] [--no-scaling]
 
 1. Compile time of the kernels (fresh numba cache, in a child process) and cache-load time.
-2. The lab drum with 5 000 wet particles (films of 0.5 % V_p, Table 1 physics, migration on),
+2. The lab drum with its 3 000 wet particles (films of 0.5 % V_p, Table 1 physics, migration on),
    settled 0.1 s: particle-steps/s at 1 and 2 threads, live contacts and bridges per particle.
 3. CG speed-up at equal physics: lab-cg1/2/3 settled, then simulated seconds per wall second.
 4. The wet drum of ``benchmarks/yade_drum_throughput.py`` (2 435 particles, R_D = 0.04 m,
@@ -128,7 +128,7 @@ def main():
     ct = compile_time()
     print(f"\n1. kernels: compile {ct['compile']:.1f} s, load from cache {ct['cache load']:.1f} s")
 
-    lab = dataclasses.replace(_ORIGINALS["lab"], n_particles=5000, initial_film=0.005, settle_time=0.1 * q)
+    lab = dataclasses.replace(_ORIGINALS["lab"], initial_film=0.005, settle_time=0.1 * q)
     t0 = time.perf_counter()
     sim = Simulation(lab)
     settle_wall = time.perf_counter() - t0
