@@ -5,7 +5,14 @@ import math
 import numpy as np
 import pytest
 
-from granalytics import RunMeta, Snapshot
+from granalytics import RunMeta, Snapshot, configure_threading
+
+# numba's threading layer is fixed by the first parallel kernel a process runs. The simulator's
+# CLI and Simulation choose OpenMP (configure_threading); a test of granalytics' parallel kernels
+# that ran first would otherwise leave the default, TBB where libtbb is installed (e.g. with the
+# yade package), whose parallel regions cost ~0.5 ms each: the single-particle physics tests, with
+# four regions per step, then took minutes instead of seconds.
+configure_threading()
 
 GAMMA = 0.1095  # N/m
 R0 = 0.75e-3  # m
