@@ -169,6 +169,29 @@ def open_dataset(name: str):
     return open_run(dataset_path(name))
 
 
+def _run_recipe(commands, dry_run) -> None:
+    """Run a registry recipe from the repository root with this interpreter (``python`` and
+    ``granalytics`` become ``sys.executable [-m granalytics]``). A ``python -m sim run`` whose
+    output has a checkpoint gets ``--resume``; one whose output exists without a checkpoint
+    cannot be resumed and gets ``--overwrite`` (it is made again)."""
+    root = DATASET_DIR.parent
+    for command in commands:
+        argv = shlex.split(command)
+        if argv[0] == "python":
+            argv[0] = sys.executable
+        elif argv[0] == "granalytics":
+            argv = [sys.executable, "-m", "granalytics"] + argv[1:]
+        if argv[1:4] == ["-m", "sim", "run"]:
+            raw = argv[argv.index("--out") + 1]
+            if (root / f"{raw}.ckpt.npz").exists():
+                argv.append("--resume")
+            elif (root / raw).exists():
+                argv.append("--overwrite")
+        print("$", shlex.join(argv), flush=True)
+        if not dry_run:
+            subprocess.run(argv, cwd=root, check=True)
+
+
 def make_dataset(name: str, *, dry_run=False) -> str:
     """Regenerate a dataset from its recipe (minutes to hours: see its ``wall_time``), resuming
     an interrupted simulation from its checkpoint; returns the new file's sha256.
@@ -177,21 +200,7 @@ def make_dataset(name: str, *, dry_run=False) -> str:
     identical; the bytes (and so the sum) also depend on the HDF5 library version.
     """
     entry = DATASETS[name]
-    root = DATASET_DIR.parent
-    for command in entry["commands"]:
-        argv = shlex.split(command)
-        if argv[0] == "python":
-            argv[0] = sys.executable
-        elif argv[0] == "granalytics":
-            argv = [sys.executable, "-m", "granalytics"] + argv[1:]
-        raw = argv[argv.index("--out") + 1]
-        if argv[1:3] == ["-m", "sim"] and (root / f"{raw}.ckpt.npz").exists():
-            argv.append("--resume")
-        elif argv[1:3] == ["-m", "sim"] and (root / raw).exists():
-            argv.append("--overwrite")  # a raw run without its checkpoint cannot be resumed: make it again
-        print("$", shlex.join(argv), flush=True)
-        if not dry_run:
-            subprocess.run(argv, cwd=root, check=True)
+    _run_recipe(entry["commands"], dry_run)
     if dry_run:
         return ""
     digest = _sha256(DATASET_DIR / entry["file"])
@@ -290,13 +299,7 @@ def make_sweep(name: str, *, dry_run=False) -> str:
     """Regenerate a bundled sweep from its recipe: the sweep (finished points skipped,
     interrupted ones resumed) and then :func:`bundle_sweep`; returns the new manifest's sha256."""
     entry = SWEEPS[name]
-    root = DATASET_DIR.parent
-    for command in entry["commands"]:
-        argv = shlex.split(command)
-        argv[0] = sys.executable
-        print("$", shlex.join(argv), flush=True)
-        if not dry_run:
-            subprocess.run(argv, cwd=root, check=True)
+    _run_recipe(entry["commands"], dry_run)
     if dry_run:
         return ""
     digest = _sha256(DATASET_DIR / entry["dir"] / "manifest.csv")
