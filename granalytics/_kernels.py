@@ -17,12 +17,12 @@ def _angle_below(ax, ay, az, bx, by, bz, cos_a):
     """
     dot = ax * bx + ay * by + az * bz
     norms = (ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz)
-    if norms == 0.0:
-        return False
     cos2_norms = cos_a * cos_a * norms
+    # bitwise & and | instead of and/or: no data-dependent branch (the sign of cos_a is the same
+    # for every contact); benchmarks/identify.py measured the filter 1.3-1.7x faster this way
     if cos_a >= 0.0:
-        return dot > 0.0 and dot * dot > cos2_norms
-    return dot >= 0.0 or dot * dot < cos2_norms
+        return (norms != 0.0) & (dot > 0.0) & (dot * dot > cos2_norms)
+    return (norms != 0.0) & ((dot >= 0.0) | (dot * dot < cos2_norms))
 
 
 @njit(cache=True, inline="always")
@@ -44,12 +44,10 @@ def _keep_contact(k, ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_g
     j = cj[k]
     f_coh = f_cap[k] if all_count or gap[k] > 0.0 else 0.0
     f_norm = f_coh / (two_pi_gamma * _pair_radius(radius, i, j, mean_radius))
-    if not f_norm >= c_agg:
-        return False
-    if _angle_below(vel[i, 0], vel[i, 1], vel[i, 2], vel[j, 0], vel[j, 1], vel[j, 2], cos_a):
-        return True
-    return _angle_below(
-        omega[i, 0], omega[i, 1], omega[i, 2], omega[j, 0], omega[j, 1], omega[j, 2], cos_a
+    # both angles are always evaluated: cheaper than a mispredicted branch
+    return (f_norm >= c_agg) & (
+        _angle_below(vel[i, 0], vel[i, 1], vel[i, 2], vel[j, 0], vel[j, 1], vel[j, 2], cos_a)
+        | _angle_below(omega[i, 0], omega[i, 1], omega[i, 2], omega[j, 0], omega[j, 1], omega[j, 2], cos_a)
     )
 
 
@@ -116,6 +114,29 @@ def _union(parent, i, j):
 
 
 @njit(cache=True)
+def _rank_by_size(comp_size):
+    """Rank of each component when ordered by decreasing size, ties in index order (a stable
+    counting sort, O(G + largest size)); returns ``(rank, sizes in rank order)``."""
+    n_comp = comp_size.shape[0]
+    largest = 0
+    for c in range(n_comp):
+        largest = max(largest, comp_size[c])
+    start = np.zeros(largest + 2, dtype=np.int64)  # bucket b = largest − size: largest first
+    for c in range(n_comp):
+        start[largest - comp_size[c] + 1] += 1
+    for b in range(1, largest + 2):
+        start[b] += start[b - 1]
+    rank = np.empty(n_comp, dtype=np.int64)
+    sizes = np.empty(n_comp, dtype=np.int64)
+    for c in range(n_comp):
+        b = largest - comp_size[c]
+        rank[c] = start[b]
+        sizes[start[b]] = comp_size[c]
+        start[b] += 1
+    return rank, sizes
+
+
+@njit(cache=True)
 def canonical_labels(membership):
     """Deterministic granule labels from any component membership.
 
@@ -145,16 +166,13 @@ def canonical_labels(membership):
             comp_of[c] = n_comp
             comp_size[n_comp] = size[c]
             n_comp += 1
-    order = np.argsort(-comp_size[:n_comp], kind="mergesort")  # stable: ties keep index order
-    rank = np.empty(n_comp, dtype=np.int64)
-    for r in range(n_comp):
-        rank[order[r]] = r
+    rank, sizes = _rank_by_size(comp_size[:n_comp])
     labels = np.full(n, -1, dtype=np.int64)
     for i in range(n):
         c = comp_of[membership[i]]
         if c >= 0:
             labels[i] = rank[c]
-    return labels, comp_size[:n_comp][order]
+    return labels, sizes
 
 
 @njit(cache=True)
@@ -168,25 +186,12 @@ def union_find_membership(n, ei, ej):
     return parent
 
 
-@njit(cache=True, parallel=True)
-def gna_fused(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
-    """Filter, union-find and canonical labelling in one pass (the ``"fast"`` backend).
-
-    Returns
-    -------
-    labels, sizes : as :func:`canonical_labels`
-    keep : (M,) bool array
-        Contacts that passed both criteria.
-    """
-    n = radius.shape[0]
-    m = ci.shape[0]
-    keep = np.empty(m, dtype=np.bool_)
-    for k in prange(m):  # filter: independent per contact, parallel
-        keep[k] = _keep_contact(
-            k, ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a
-        )
+@njit(cache=True)
+def _merge_and_label(n, ci, cj, keep):
+    """Union-find over the kept contacts, in contact order, then the labels and sizes of
+    :func:`canonical_labels` in two passes over the particles."""
     parent = np.arange(n)
-    for k in range(m):  # merge: sequential, in contact order
+    for k in range(ci.shape[0]):
         if keep[k]:
             _union(parent, ci[k], cj[k])
     # _union keeps the smaller index as root and path halving only moves a node to a smaller
@@ -212,14 +217,30 @@ def gna_fused(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, m
                 size[i] = 0
         c = size[root]
         labels[i] = -c - 1 if c < 0 else -1
-    order = np.argsort(-comp_size[:n_comp], kind="mergesort")  # by size, ties by smallest member
-    rank = np.empty(n_comp, dtype=np.int64)
-    for r in range(n_comp):
-        rank[order[r]] = r
+    rank, sizes = _rank_by_size(comp_size[:n_comp])
     for i in range(n):
         if labels[i] >= 0:
             labels[i] = rank[labels[i]]
-    return labels, comp_size[:n_comp][order], keep
+    return labels, sizes
+
+
+@njit(cache=True)
+def gna_fused(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
+    """Filter (parallel over contacts), union-find and canonical labelling in one compiled call
+    (the ``"fast"`` backend).
+
+    The sequential merge lives in its own non-parallel kernel: inside a ``parallel=True``
+    function numba compiled it about twice slower.
+
+    Returns
+    -------
+    labels, sizes : as :func:`canonical_labels`
+    keep : (M,) bool array
+        Contacts that passed both criteria.
+    """
+    keep = gna_contact_mask(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a)
+    labels, sizes = _merge_and_label(radius.shape[0], ci, cj, keep)
+    return labels, sizes, keep
 
 
 @njit(cache=True)

@@ -388,6 +388,9 @@ def _coerce(name, value, spec, expected_len):
         if arr.dtype.kind not in "iuf" or arr.dtype == np.bool_:
             raise ValidationError(name, f"must have a real numeric dtype, got {arr.dtype}")
         arr = arr.astype(np.float64, copy=False)
+    # C order too: the kernels read these arrays many times per frame (a threshold sweep, a
+    # column view of an (M, 2) pair array), and strided reads cost them up to a third more
+    arr = np.ascontiguousarray(arr)
     if arr.ndim != 1 + len(trailing) or arr.shape[1:] != trailing:
         want = "(n," + ",".join(str(t) for t in trailing) + ")" if trailing else "(n,)"
         raise ValidationError(name, f"must have shape {want}, got {arr.shape}")

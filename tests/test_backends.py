@@ -55,3 +55,19 @@ def test_union_find_equals_networkx_components(edges):
     for component in nx.connected_components(graph):
         assert len({membership[i] for i in component}) == 1
     assert len(set(membership.tolist())) == nx.number_connected_components(graph)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, 24), min_size=1, max_size=25))
+def test_canonical_labels_number_granules_by_size_then_smallest_member(ids):
+    membership = np.array(ids, dtype=np.int64) % len(ids)
+    labels, sizes = _kernels.canonical_labels(membership)
+    groups = {}
+    for i, c in enumerate(membership.tolist()):
+        groups.setdefault(c, []).append(i)
+    granules = sorted((g for g in groups.values() if len(g) >= 2), key=lambda g: (-len(g), g[0]))
+    expected = np.full(len(ids), -1)
+    for rank, members in enumerate(granules):
+        expected[members] = rank
+    assert np.array_equal(labels, expected)
+    assert sizes.tolist() == [len(g) for g in granules]

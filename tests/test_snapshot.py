@@ -29,6 +29,13 @@ def test_valid_snapshot_is_coerced_to_canonical_dtypes(snap):
     assert s.n_particles == 5 and s.n_contacts == 3
 
 
+def test_column_views_are_stored_in_c_order(snap):
+    pairs = np.stack([snap.contact_i, snap.contact_j], axis=1)
+    s = rebuilt(snap, contact_i=pairs[:, 0], contact_j=pairs[:, 1], velocity=np.asfortranarray(snap.velocity))
+    assert s.contact_i.flags.c_contiguous and s.contact_j.flags.c_contiguous and s.velocity.flags.c_contiguous
+    assert np.array_equal(s.contact_j, snap.contact_j) and np.array_equal(s.velocity, snap.velocity)
+
+
 @pytest.mark.parametrize(
     "field, value, index, words",
     [
