@@ -13,7 +13,7 @@ count it prints, in ns per particle-step:
 - ``migration``: the liquid-migration pass (sequential);
 - ``gather+integrate``: force/torque gathering per particle and the leapfrog update;
 - ``in-kernel rest``: the step kernel's time not explained by the four (parallel-region starts,
-  spray, the skin check);
+  whose cost is printed first, spray, the skin check);
 - ``rebuild`` and ``python``: Verlet-list rebuilds and the Python between kernel calls, per step
   of a real run segment;
 - ``output``: one snapshot written to an HDF5 run file, amortised over the 0.05-revolution
@@ -43,7 +43,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 from sim_throughput import live_counts, yade_lattice
 
-from granalytics import RunWriter
+from granalytics import RunWriter, configure_threading
 from sim import _kernels
 from sim import run as sim_run
 from sim.drum import baffle_directions
@@ -92,6 +92,25 @@ def _repeat_migration(reps, film, pair_i, pair_j, v_b, v_max, alive, created, ru
 def _repeat_gather(reps, gx, gy, gz, kp, arrays):
     for _ in range(reps):
         _kernels._gather_integrate(gx, gy, gz, kp, arrays)
+
+
+@njit(parallel=True)
+def _tiny_region(a):
+    for i in numba.prange(a.shape[0]):
+        a[i] += 1.0
+
+
+@njit
+def _repeat_tiny_region(reps, a):
+    for _ in range(reps):
+        _tiny_region(a)
+
+
+def region_start_cost():
+    """Seconds per start of a parallel region with almost no work (one element per thread), at
+    the current thread count: the fixed cost each of a step's parallel loops pays."""
+    a = np.zeros(numba.get_num_threads())
+    return _best(lambda r: _repeat_tiny_region(r, a), 20000)
 
 
 def _best(fn, reps):
@@ -179,6 +198,7 @@ def main():
     parser.add_argument("--threads", default="1,2")
     parser.add_argument("--steps", type=int, default=2000, help="steps of the run segment (default 2000)")
     args = parser.parse_args()
+    configure_threading()  # before the first parallel kernel, as the simulator does
     sizes = [int(x) for x in args.sizes.split(",")]
     threads = [int(x) for x in args.threads.split(",")]
     print(f"numba {numba.__version__}, {numba.config.NUMBA_NUM_THREADS} cores; ns per particle-step")
@@ -186,6 +206,10 @@ def main():
             "output", "total")
     print(f"{'N':>7}{'thr':>4}{'int/p':>6}{'br/p':>6}{'rebuild every':>14}" + "".join(f"{c:>17}" for c in cols)
           + f"{'M p-steps/s':>12}")
+    for thr in threads:
+        numba.set_num_threads(thr)
+        print(f"# a parallel region's start costs {region_start_cost() * 1e6:.1f} µs at {thr} thread(s); "
+              "a step has four", flush=True)
     for size in sizes:
         t0 = time.perf_counter()
         sim, settle = drum_system(size)

@@ -3,6 +3,7 @@ lines and the simulator), never at import."""
 
 from __future__ import annotations
 
+import ctypes
 import os
 
 __all__ = ["configure_threading"]
@@ -23,12 +24,20 @@ def configure_threading() -> None:
       sleeping, and with the default spin count two processes sharing the cores slow each other
       down ~100x.
 
+    - freed memory stays in the process (glibc only: ``mallopt`` with no mmap-backed blocks and
+      no trimming): otherwise each neighbour-list rebuild's new slot arrays, above glibc's
+      32 MB limit for reusing freed blocks at 120 000 particles (~400 MB per rebuild), come
+      fresh from the kernel and every page faults on first touch. Allocating and writing
+      245 MB took 48 ms with fresh pages and 20 ms with reused ones on the development
+      machine. The price is that the process keeps its peak heap until it exits.
+
     Called by both command lines (``granalytics``, ``python -m sim``) and by
     :class:`sim.Simulation` (creating or running one); importing granalytics or sim changes no
     global state.
     """
     import numba
 
+    _keep_freed_memory()
     try:
         numba.threading_layer()
         return  # threads already launched: too late to change anything
@@ -36,3 +45,20 @@ def configure_threading() -> None:
         pass
     numba.config.THREADING_LAYER_PRIORITY = list(THREADING_LAYER_PRIORITY)
     os.environ.setdefault("GOMP_SPINCOUNT", GOMP_SPINCOUNT)
+
+
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_MAX = -4
+
+
+def _keep_freed_memory() -> None:
+    """glibc's malloc: serve every block from the heap and never return freed memory to the
+    OS (see :func:`configure_threading`); nothing on other C libraries."""
+    try:
+        if not os.confstr("CS_GNU_LIBC_VERSION").startswith("glibc"):
+            return
+        libc = ctypes.CDLL("libc.so.6")
+    except (ValueError, OSError, AttributeError):  # not glibc, or no confstr (Windows)
+        return
+    libc.mallopt(_M_MMAP_MAX, 0)
+    libc.mallopt(_M_TRIM_THRESHOLD, 2**31 - 1)

@@ -78,7 +78,14 @@ def _unravel(c, n_cells):
 @njit(cache=True, parallel=True)
 def _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, fill, start, pair_j, count):
     """For every particle i, the partners j > i within R_i + R_j + reach in the 27 cells around
-    it: counted into ``count[i]``, or (``fill``) written to ``pair_j[start[i]:]``."""
+    it: counted into ``count[i]``, or (``fill``) written to ``pair_j[start[i]:]`` in ascending
+    order.
+
+    ``cell_members`` must list each cell's particles in ascending index order (as the stable
+    :func:`counting_sort` does), so a cell is scanned from its largest index down to the first
+    j <= i, which skips the half of the candidates that belongs to the other particle of a pair
+    without testing each one.
+    """
     n = pos.shape[0]
     for i in prange(n):
         cx, cy, cz = _unravel(cell_of[i], n_cells)
@@ -87,10 +94,10 @@ def _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, f
             for ay in range(max(cy - 1, 0), min(cy + 2, n_cells[1])):
                 for az in range(max(cz - 1, 0), min(cz + 2, n_cells[2])):
                     c = (ax * n_cells[1] + ay) * n_cells[2] + az
-                    for q in range(cell_start[c], cell_start[c + 1]):
+                    for q in range(cell_start[c + 1] - 1, cell_start[c] - 1, -1):
                         j = cell_members[q]
                         if j <= i:
-                            continue
+                            break
                         dx = pos[j, 0] - pos[i, 0]
                         dy = pos[j, 1] - pos[i, 1]
                         dz = pos[j, 2] - pos[i, 2]
@@ -100,7 +107,15 @@ def _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, f
                                 pair_j[start[i] + c_n] = j
                             c_n += 1
         if fill:
-            pair_j[start[i]:start[i + 1]] = np.sort(pair_j[start[i]:start[i + 1]])
+            # insertion sort in place: a particle has a handful of partners, and np.sort would
+            # allocate a new array for every particle
+            for a in range(start[i] + 1, start[i + 1]):
+                v = pair_j[a]
+                b = a - 1
+                while b >= start[i] and pair_j[b] > v:
+                    pair_j[b + 1] = pair_j[b]
+                    b -= 1
+                pair_j[b + 1] = v
         else:
             count[i] = c_n
 
@@ -120,24 +135,73 @@ def fill_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, s
                np.zeros(1, dtype=np.int64))
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
+def new_slot_lists(order, n_walls, start, partners, radius, old_alive, old_vb, old_fs, old_nprev):
+    """Bodies and carried-over wall state of the slots after a rebuild, parallel over particles.
+
+    Particle i (new numbering; ``order[i]`` is its old row) owns wall slots i·W … i·W + W − 1
+    and pair slots N·W + start[i] … N·W + start[i+1] − 1 with partners ``partners[start[i]:]``.
+    A wall slot keeps its interaction state (alive, V_b, spring, previous normal) from the old
+    row; pair slots start dead (:func:`transfer_pair_state` then carries the live pairs over).
+
+    Returns
+    -------
+    pair_i, pair_j : (C,) int64
+        Bodies of every slot (a wall's body index is N + wall).
+    alive, v_b, fs, nprev : the slot state arrays.
+    r_min : (C,) float64
+        Smaller radius of the two bodies [m] (the particle's for a wall slot), for V_max.
+    """
+    n = order.shape[0]
+    n_wall_slots = n * n_walls
+    n_slots = n_wall_slots + partners.shape[0]
+    pair_i = np.empty(n_slots, dtype=np.int64)
+    pair_j = np.empty(n_slots, dtype=np.int64)
+    alive = np.zeros(n_slots, dtype=np.bool_)
+    v_b = np.zeros(n_slots)
+    fs = np.zeros((n_slots, 3))
+    nprev = np.zeros((n_slots, 3))
+    r_min = np.empty(n_slots)
+    for i in prange(n):
+        old_row = order[i] * n_walls
+        for w in range(n_walls):
+            k = i * n_walls + w
+            pair_i[k] = i
+            pair_j[k] = n + w
+            r_min[k] = radius[i]
+            alive[k] = old_alive[old_row + w]
+            v_b[k] = old_vb[old_row + w]
+            for d in range(3):
+                fs[k, d] = old_fs[old_row + w, d]
+                nprev[k, d] = old_nprev[old_row + w, d]
+        for q in range(start[i], start[i + 1]):
+            k = n_wall_slots + q
+            j = partners[q]
+            pair_i[k] = i
+            pair_j[k] = j
+            r_min[k] = min(radius[i], radius[j])
+    return pair_i, pair_j, alive, v_b, fs, nprev, r_min
+
+
+@njit(cache=True, parallel=True)
 def transfer_pair_state(old_key, old_alive, old_vb, old_fs, old_nprev, new_key, new_alive, new_vb, new_fs, new_nprev):
-    """Copy the state of every alive old pair to the same pair in the new (sorted) list.
+    """Copy the state of every alive old pair to the same pair in the new (sorted) list, in
+    parallel (pair keys are unique, so no two old slots write the same new one).
 
     Returns the number of alive old pairs missing from the new list (must be 0).
     """
     missing = 0
-    for k in range(old_key.shape[0]):
-        if not old_alive[k]:
-            continue
-        q = np.searchsorted(new_key, old_key[k])
-        if q >= new_key.shape[0] or new_key[q] != old_key[k]:
-            missing += 1
-            continue
-        new_alive[q] = True
-        new_vb[q] = old_vb[k]
-        new_fs[q] = old_fs[k]
-        new_nprev[q] = old_nprev[k]
+    for k in prange(old_key.shape[0]):
+        if old_alive[k]:
+            q = np.searchsorted(new_key, old_key[k])
+            if q >= new_key.shape[0] or new_key[q] != old_key[k]:
+                missing += 1
+            else:
+                new_alive[q] = True
+                new_vb[q] = old_vb[k]
+                for d in range(3):
+                    new_fs[q, d] = old_fs[k, d]
+                    new_nprev[q, d] = old_nprev[k, d]
     return missing
 
 

@@ -37,13 +37,21 @@ def _grid(params):
     return reach, cell, lo, n_cells
 
 
+def _zero_outputs(s):
+    """The per-step outputs and event flags of ``s`` slots, zero (as a dead slot has them)."""
+    out = {name: np.zeros(s) for name in ("ruptured", "f_normal", "f_cap", "gap")}
+    out.update({name: np.zeros((s, 3)) for name in ("force", "torque_i", "torque_j")})
+    out["created"] = np.zeros(s, dtype=np.bool_)
+    return out
+
+
 def empty_slots(n_particles, n_walls, n_pairs):
     """Slot arrays for N·W wall slots and ``n_pairs`` pair slots, all dead."""
     s = n_particles * n_walls + n_pairs
-    out = {name: np.zeros(s) for name in ("ruptured", "v_b", "v_max", "f_normal", "f_cap", "gap")}
-    out.update({name: np.zeros((s, 3)) for name in ("fs", "nprev", "force", "torque_i", "torque_j")})
+    out = _zero_outputs(s)
+    out.update({name: np.zeros(s) for name in ("v_b", "v_max")})
+    out.update({name: np.zeros((s, 3)) for name in ("fs", "nprev")})
     out["alive"] = np.zeros(s, dtype=np.bool_)
-    out["created"] = np.zeros(s, dtype=np.bool_)
     out["pair_i"] = np.empty(s, dtype=np.int64)
     out["pair_j"] = np.empty(s, dtype=np.int64)
     out["pair_i"][: n_particles * n_walls] = np.repeat(np.arange(n_particles), n_walls)
@@ -76,8 +84,6 @@ def rebuild(state: State, params, n_walls: int) -> State:
     state.film = np.concatenate([state.film[:n][order], state.film[n:]])
 
     n_wall_slots = n * n_walls
-    wall_rows = (order[:, None] * n_walls + np.arange(n_walls)).ravel()
-    old = {name: getattr(state, name) for name in ("alive", "v_b", "fs", "nprev")}
 
     # new pair list
     cell_of = _kernels.cell_index(state.pos, lo, cell, n_cells)
@@ -85,32 +91,27 @@ def rebuild(state: State, params, n_walls: int) -> State:
     count = _kernels.count_pairs(state.pos, state.radius, cell_of, cell_start, members, n_cells, reach)
     start = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(count, out=start[1:])
-    pair_j = np.empty(start[-1], dtype=np.int64)
-    _kernels.fill_pairs(state.pos, state.radius, cell_of, cell_start, members, n_cells, reach, start, pair_j)
-    pair_i = np.repeat(np.arange(n, dtype=np.int64), count)
-
-    slots = empty_slots(n, n_walls, pair_j.size)
-    slots["pair_i"][n_wall_slots:] = pair_i
-    slots["pair_j"][n_wall_slots:] = pair_j
-    for name in ("alive", "v_b", "fs", "nprev"):
-        slots[name][:n_wall_slots] = old[name][:n_wall_slots][wall_rows]
+    partners = np.empty(start[-1], dtype=np.int64)
+    _kernels.fill_pairs(state.pos, state.radius, cell_of, cell_start, members, n_cells, reach, start, partners)
+    pair_i, pair_j, alive, v_b, fs, nprev, r_min = _kernels.new_slot_lists(
+        order, n_walls, start, partners, state.radius, state.alive, state.v_b, state.fs, state.nprev)
 
     # carry live particle pairs over, by key i·N + j in the new numbering
     a = new_index[state.pair_i[n_wall_slots:]]
     b = new_index[state.pair_j[n_wall_slots:]]
     old_key = np.minimum(a, b) * n + np.maximum(a, b)
-    new_key = pair_i * n + pair_j
+    new_key = pair_i[n_wall_slots:] * n + pair_j[n_wall_slots:]
     missing = _kernels.transfer_pair_state(
-        old_key, old["alive"][n_wall_slots:], old["v_b"][n_wall_slots:], old["fs"][n_wall_slots:],
-        old["nprev"][n_wall_slots:], new_key, slots["alive"][n_wall_slots:], slots["v_b"][n_wall_slots:],
-        slots["fs"][n_wall_slots:], slots["nprev"][n_wall_slots:],
+        old_key, state.alive[n_wall_slots:], state.v_b[n_wall_slots:], state.fs[n_wall_slots:],
+        state.nprev[n_wall_slots:], new_key, alive[n_wall_slots:], v_b[n_wall_slots:], fs[n_wall_slots:],
+        nprev[n_wall_slots:],
     )
     if missing:
         raise RuntimeError(f"{missing} live interactions fell outside the Verlet list at step {state.step}; increase the skin")
 
-    r_min = np.minimum(state.radius[slots["pair_i"]], np.where(
-        slots["pair_j"] < n, state.radius[np.minimum(slots["pair_j"], n - 1)], np.inf))
-    slots["v_max"] = params.v_max_coef * r_min**3
+    slots = _zero_outputs(pair_i.size)
+    slots.update(pair_i=pair_i, pair_j=pair_j, alive=alive, v_b=v_b, fs=fs, nprev=nprev,
+                 v_max=params.v_max_coef * r_min**3)
     for name, value in slots.items():
         setattr(state, name, value)
     state.part_start, state.part_slots, state.body_start, state.body_slots = _kernels.build_csr(

@@ -2,6 +2,7 @@
 schedule, confinement, determinism across thread counts, resume = uninterrupted, output."""
 
 import dataclasses
+import os
 import math
 
 import numba
@@ -240,6 +241,30 @@ def test_the_simulator_sets_up_openmp_when_it_runs():
         "Simulation.from_particles(p, [[0, -0.02, 0.02], [0.0016, -0.02, 0.02]], [7.5e-4, 7.5e-4]).advance(2)\n"
         "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY[0], numba.threading_layer())\n")
     assert out.split()[:2] == ["3000", "omp"]
+
+
+@pytest.mark.skipif(not hasattr(os, "confstr") or not os.confstr("CS_GNU_LIBC_VERSION").startswith("glibc"),
+                    reason="the allocator set-up is glibc's")
+def test_the_set_up_serves_large_arrays_from_the_reusable_heap():
+    # glibc's mallinfo2().hblkhd: bytes held in mmap-backed blocks, which are unmapped on free
+    # and come back as fresh pages; after the set-up a 64 MB array is not one of them
+    out = _python(
+        "import ctypes, numpy as np\n"
+        "from granalytics import configure_threading\n"
+        "class Info(ctypes.Structure):\n"
+        "    _fields_ = [(f, ctypes.c_size_t) for f in ('arena ordblks smblks hblks hblkhd usmblks fsmblks '\n"
+        "                                                 'uordblks fordblks keepcost').split()]\n"
+        "libc = ctypes.CDLL('libc.so.6')\n"
+        "libc.mallinfo2.restype = Info\n"
+        "def mmapped_bytes_of_64_mb_array():\n"
+        "    h0 = libc.mallinfo2().hblkhd\n"
+        "    a = np.ones(8_000_000)\n"
+        "    return libc.mallinfo2().hblkhd - h0\n"
+        "before = mmapped_bytes_of_64_mb_array()\n"
+        "configure_threading()\n"
+        "print(before, mmapped_bytes_of_64_mb_array())\n")
+    before, after = map(int, out.split())
+    assert before >= 64_000_000 and after == 0
 
 
 # --- checkpoints: one atomic file, kills at any point, legacy two-file format ----------------------
