@@ -1,6 +1,7 @@
 """Simulator throughput: particle-steps per second, compile time, CG speed-up, and YADE.
 
 Usage: python benchmarks/sim_throughput.py [--quick] [--no-yade] [--no-liggghts] [--no-scaling]
+       [--sections 1,2,3,4,5] [--sizes 2435,20000,120000]
 
 1. Compile time of the kernels (fresh numba cache, in a child process) and cache-load time.
 2. The lab drum with its 3 000 wet particles (films of 0.5 % V_p, Table 1 physics, migration on),
@@ -120,11 +121,26 @@ def main():
     parser.add_argument("--no-yade", action="store_true")
     parser.add_argument("--no-liggghts", action="store_true")
     parser.add_argument("--no-scaling", action="store_true", help="skip section 5 (minutes at 120 000 particles)")
+    parser.add_argument("--sections", default="1,2,3,4,5", help="sections to run (default all: 1,2,3,4,5)")
+    parser.add_argument("--sizes", default=None, help="particle counts of section 5 (default 2435,20000,120000)")
     args = parser.parse_args()
+    sections = {int(x) for x in args.sections.split(",")}
+    if args.no_scaling:
+        sections.discard(5)
     q = 0.3 if args.quick else 1.0
     cores = numba.config.NUMBA_NUM_THREADS
     print(f"numba {numba.__version__}, threading layer priority {numba.config.THREADING_LAYER_PRIORITY}, {cores} cores")
+    if sections & {1, 2, 3}:
+        first_sections(q, cores)
+    if 4 in sections:
+        comparison(q, cores, with_yade=not args.no_yade and shutil.which("yade") is not None,
+                   with_liggghts=not args.no_liggghts and shutil.which("liggghts") is not None)
+    if 5 in sections:
+        scaling(q, None if args.sizes is None else [int(x) for x in args.sizes.split(",")])
 
+
+def first_sections(q, cores):
+    """Sections 1-3: compile time, the lab drum's rate, the CG speed-up."""
     ct = compile_time()
     print(f"\n1. kernels: compile {ct['compile']:.1f} s, load from cache {ct['cache load']:.1f} s")
 
@@ -153,11 +169,6 @@ def main():
         speed = steps * p.dt / wall
         base = base or speed
         print(f"{'lab-cg%d' % alpha:>8}{cg.state.n_particles:>11}{p.dt:>10.1e}{speed:>16.4f}{speed / base:>10.1f}")
-
-    comparison(q, cores, with_yade=not args.no_yade and shutil.which("yade") is not None,
-               with_liggghts=not args.no_liggghts and shutil.which("liggghts") is not None)
-    if not args.no_scaling:
-        scaling(q)
 
 
 def run_liggghts(procs, rd, length, settle, measure):
@@ -220,13 +231,16 @@ def comparison(q, cores, with_yade, with_liggghts):
               f"{top('ours') / top('YADE'):.2f}   (target >= 3)")
 
 
-def scaling(q):
+def scaling(q, sizes=None):
     """Section 5: particle-steps/s against N (the same drum, scaled) at 1 and 2 threads."""
     from profile_step import SIZES, drum_system
 
     print("\n5. scaling: the same wet drum scaled in R_D and L (benchmarks/profile_step.py), best of 3")
     print(f"{'particles':>10}{'int/p':>7}{'br/p':>7}{'1 thread':>12}{'2 threads':>12}{'speed-up':>10}")
-    for size in SIZES:
+    unknown = set(sizes or ()) - set(SIZES)
+    if unknown:
+        raise SystemExit(f"--sizes: no drum for {sorted(unknown)} particles; available: {', '.join(map(str, SIZES))}")
+    for size in sizes or SIZES:
         sim, _ = drum_system(size)
         n = sim.state.n_particles
         steps = max(100, int(3000 * q * 2435 / n))
