@@ -184,24 +184,36 @@ def new_slot_lists(order, n_walls, start, partners, radius, old_alive, old_vb, o
 
 
 @njit(cache=True, parallel=True)
-def transfer_pair_state(old_key, old_alive, old_vb, old_fs, old_nprev, new_key, new_alive, new_vb, new_fs, new_nprev):
+def transfer_pair_state(n_particles, old_first, old_second, old_alive, old_vb, old_fs, old_nprev, new_key, new_alive,
+                        new_vb, new_fs, new_nprev):
     """Copy the state of every alive old pair to the same pair in the new (sorted) list, in
     parallel (pair keys are unique, so no two old slots write the same new one).
+
+    ``old_first``, ``old_second``: the new indices of each old slot's bodies i and j; ``new_key``:
+    the sorted keys i·N + j (N = ``n_particles``) of the new pair slots. The new list
+    orders every pair with i < j, so a pair whose particles swapped order in the renumbering
+    changes orientation: its normal points the other way, and the spring, the tangential force
+    on the slot's first body, now acts on the other body. Both are negated for such a pair.
 
     Returns the number of alive old pairs missing from the new list (must be 0).
     """
     missing = 0
-    for k in prange(old_key.shape[0]):
+    for k in prange(old_first.shape[0]):
         if old_alive[k]:
-            q = np.searchsorted(new_key, old_key[k])
-            if q >= new_key.shape[0] or new_key[q] != old_key[k]:
+            a = old_first[k]
+            b = old_second[k]
+            flip = a > b
+            key = min(a, b) * n_particles + max(a, b)
+            q = np.searchsorted(new_key, key)
+            if q >= new_key.shape[0] or new_key[q] != key:
                 missing += 1
             else:
+                sign = -1.0 if flip else 1.0
                 new_alive[q] = True
                 new_vb[q] = old_vb[k]
                 for d in range(3):
-                    new_fs[q, d] = old_fs[k, d]
-                    new_nprev[q, d] = old_nprev[k, d]
+                    new_fs[q, d] = sign * old_fs[k, d]
+                    new_nprev[q, d] = sign * old_nprev[k, d]
     return missing
 
 

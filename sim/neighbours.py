@@ -96,15 +96,13 @@ def rebuild(state: State, params, n_walls: int) -> State:
     pair_i, pair_j, alive, v_b, fs, nprev, r_min = _kernels.new_slot_lists(
         order, n_walls, start, partners, state.radius, state.alive, state.v_b, state.fs, state.nprev)
 
-    # carry live particle pairs over, by key i·N + j in the new numbering
-    a = new_index[state.pair_i[n_wall_slots:]]
-    b = new_index[state.pair_j[n_wall_slots:]]
-    old_key = np.minimum(a, b) * n + np.maximum(a, b)
+    # carry live particle pairs over, by key i·N + j in the new numbering (re-oriented where
+    # the renumbering swapped the pair's order)
     new_key = pair_i[n_wall_slots:] * n + pair_j[n_wall_slots:]
+    old = slice(n_wall_slots, None)
     missing = _kernels.transfer_pair_state(
-        old_key, state.alive[n_wall_slots:], state.v_b[n_wall_slots:], state.fs[n_wall_slots:],
-        state.nprev[n_wall_slots:], new_key, alive[n_wall_slots:], v_b[n_wall_slots:], fs[n_wall_slots:],
-        nprev[n_wall_slots:],
+        n, new_index[state.pair_i[old]], new_index[state.pair_j[old]], state.alive[old], state.v_b[old],
+        state.fs[old], state.nprev[old], new_key, alive[old], v_b[old], fs[old], nprev[old],
     )
     if missing:
         raise RuntimeError(f"{missing} live interactions fell outside the Verlet list at step {state.step}; increase the skin")

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from sim.capillary import CAPILLARY_MODELS, capillary_force, rupture_distance
-from sim.neighbours import max_rupture_distance, pair_count_reference
-from sim.params import PRESETS, SimParams, cg_scale, preset
+from sim.neighbours import max_rupture_distance, pair_count_reference, rebuild
+from sim.params import PRESETS, SimParams, cg_scale, preset, preset_original
 from sim.run import Simulation
 
 R = 0.75e-3
@@ -118,6 +118,54 @@ def test_verlet_list_equals_brute_force_and_covers_bridge_range():
     # the reach covers the largest rupture distance of any bridge
     r_max = p.r_max
     assert max_rupture_distance(p) >= rupture_distance(0.03 * r_max**3, r_max, 0.0)
+
+
+def _interactions_by_id(s):
+    """Every live slot's state keyed by its bodies' ids (a wall by −1 − wall index), a pair's
+    vectors (spring = tangential force on the first body, previous normal from first to second)
+    oriented from the smaller id to the larger."""
+    n = s.n_particles
+    out = {}
+    for k in np.flatnonzero(s.alive):
+        i, j = s.pair_i[k], s.pair_j[k]
+        if j >= n:
+            key, sign = (int(s.ids[i]), -1 - int(j - n)), 1.0
+        else:
+            key, sign = tuple(sorted((int(s.ids[i]), int(s.ids[j])))), (1.0 if s.ids[i] < s.ids[j] else -1.0)
+        out[key] = (s.v_b[k], *(sign * s.fs[k]), *(sign * s.nprev[k]), s.v_max[k])
+    return out
+
+
+def test_rebuild_carries_every_interaction_state_to_its_pair_in_any_particle_order():
+    p = dataclasses.replace(preset("lab-cg3"), settle_time=0.01, spray_interval=0.005)
+    sim = Simulation(p, preset_original("lab-cg3")[0])
+    sim.advance(12000)  # wet, sprayed, turning: live contacts and bridges, with walls
+    s, nw = sim.state, sim.n_walls
+    n = s.n_particles
+    # scramble the particle rows (consistently), so that the rebuild has to move every row
+    perm = np.random.default_rng(0).permutation(n)
+    inverse = np.empty(n, dtype=np.int64)
+    inverse[perm] = np.arange(n)
+    for name in ("ids", "pos", "vel", "omega", "radius", "mass", "inertia", "x_ref"):
+        setattr(s, name, getattr(s, name)[perm])
+    s.film[:n] = s.film[:n][perm]
+    rows = (perm[:, None] * nw + np.arange(nw)).ravel()
+    for name in ("pair_i", "pair_j", "alive", "created", "ruptured", "v_b", "v_max", "fs", "nprev", "force",
+                 "torque_i", "torque_j", "f_normal", "f_cap", "gap"):
+        arr = getattr(s, name)
+        setattr(s, name, np.concatenate([arr[:n * nw][rows], arr[n * nw:]]))
+    s.pair_i = inverse[s.pair_i]
+    s.pair_j = np.where(s.pair_j < n, inverse[np.minimum(s.pair_j, n - 1)], s.pair_j)
+    before = _interactions_by_id(s)
+    flipped = (s.pair_j[n * nw:] < s.pair_i[n * nw:]) & s.alive[n * nw:] & (np.abs(s.fs[n * nw:]).sum(axis=1) > 0)
+    assert sum(k[1] < 0 for k in before) > 10 and sum(k[1] >= 0 for k in before) > 10 and flipped.sum() > 5
+    after_state = rebuild(s, p, nw)
+    assert _interactions_by_id(after_state) == before
+    assert (after_state.pair_i[n * nw:] < after_state.pair_j[n * nw:]).all()
+    assert not (after_state.force.any() or after_state.f_cap.any() or after_state.created.any())
+    r = after_state.radius
+    r_min = np.minimum(r[after_state.pair_i], np.where(after_state.pair_j < n, r[np.minimum(after_state.pair_j, n - 1)], np.inf))
+    assert np.array_equal(after_state.v_max, p.v_max_coef * r_min**3)
 
 
 def test_cg_scaling_follows_table_2():
