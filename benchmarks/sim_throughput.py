@@ -38,6 +38,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
+from granalytics import configure_threading  # noqa: E402
 from sim.params import SimParams, _ORIGINALS, cg_scale  # noqa: E402
 from sim.run import Simulation  # noqa: E402
 
@@ -129,6 +130,7 @@ def main():
         sections.discard(5)
     q = 0.3 if args.quick else 1.0
     cores = numba.config.NUMBA_NUM_THREADS
+    configure_threading()  # as the simulator does, before any parallel kernel
     print(f"numba {numba.__version__}, threading layer priority {numba.config.THREADING_LAYER_PRIORITY}, {cores} cores")
     if sections & {1, 2, 3}:
         first_sections(q, cores)

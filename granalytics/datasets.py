@@ -24,6 +24,10 @@ paper-cg3
     particles, 6 revolutions), seed 0. (paper-cg2, 15 000 particles, is not made yet: its recipe
     is ``_recipe("paper-cg2", 3, full_window="2:3")``.)
 
+Every dataset was made by a simulator version before the fix of a pair's spring orientation
+at rebuilds (docs/simulator.md, "Neighbour lists"); :func:`make_dataset` with the current
+simulator makes different trajectories, whose files will not match the registered sums.
+
 Sweeps
 ------
 gamma-omega-lab-cg3
