@@ -99,10 +99,10 @@ def rebuild(state: State, params, n_walls: int) -> State:
     # carry live particle pairs over, by key i·N + j in the new numbering (re-oriented where
     # the renumbering swapped the pair's order)
     new_key = pair_i[n_wall_slots:] * n + pair_j[n_wall_slots:]
-    old = slice(n_wall_slots, None)
+    pairs = slice(n_wall_slots, None)  # the pair slots, in the old arrays and in the new
     missing = _kernels.transfer_pair_state(
-        n, new_index[state.pair_i[old]], new_index[state.pair_j[old]], state.alive[old], state.v_b[old],
-        state.fs[old], state.nprev[old], new_key, alive[old], v_b[old], fs[old], nprev[old],
+        n, new_index[state.pair_i[pairs]], new_index[state.pair_j[pairs]], state.alive[pairs], state.v_b[pairs],
+        state.fs[pairs], state.nprev[pairs], new_key, alive[pairs], v_b[pairs], fs[pairs], nprev[pairs],
     )
     if missing:
         raise RuntimeError(f"{missing} live interactions fell outside the Verlet list at step {state.step}; increase the skin")
