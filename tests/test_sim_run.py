@@ -244,6 +244,22 @@ def test_the_simulator_sets_up_openmp_when_it_runs():
     assert out.split()[:2] == ["3000", "omp"]
 
 
+def test_threads_started_before_the_set_up_give_a_warning_naming_the_layer():
+    import subprocess
+    import sys
+
+    code = ("import warnings, numba\n"
+            "numba.set_num_threads(1)\n"  # launches numba's threads with its own layer choice
+            "from granalytics import configure_threading\n"
+            "with warnings.catch_warnings(record=True) as caught:\n"
+            "    warnings.simplefilter('always')\n"
+            "    configure_threading(); configure_threading()\n"
+            "print(len(caught), caught[0].message if caught else '')\n")
+    env = {**os.environ, "NUMBA_THREADING_LAYER": "workqueue"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout
+    assert out.startswith("1 ") and "'workqueue'" in out and "configure_threading() before" in out
+
+
 @pytest.mark.skipif(not hasattr(os, "confstr") or not os.confstr("CS_GNU_LIBC_VERSION").startswith("glibc"),
                     reason="the allocator set-up is glibc's")
 def test_the_set_up_serves_large_arrays_from_the_reusable_heap():
