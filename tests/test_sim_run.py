@@ -260,8 +260,17 @@ def test_threads_started_before_the_set_up_give_a_warning_naming_the_layer():
     assert out.startswith("1 ") and "'workqueue'" in out and "configure_threading() before" in out
 
 
-@pytest.mark.skipif(not hasattr(os, "confstr") or not os.confstr("CS_GNU_LIBC_VERSION").startswith("glibc"),
-                    reason="the allocator set-up is glibc's")
+def _has_mallinfo2():
+    """glibc 2.33 or later (the allocator set-up and ``mallinfo2`` are glibc's)."""
+    import ctypes
+
+    try:
+        return os.confstr("CS_GNU_LIBC_VERSION").startswith("glibc") and hasattr(ctypes.CDLL("libc.so.6"), "mallinfo2")
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+@pytest.mark.skipif(not _has_mallinfo2(), reason="needs glibc >= 2.33 (mallinfo2)")
 def test_the_set_up_serves_large_arrays_from_the_reusable_heap():
     # glibc's mallinfo2().hblkhd: bytes held in mmap-backed blocks, which are unmapped on free
     # and come back as fresh pages; after the set-up a 64 MB array is not one of them
