@@ -31,7 +31,7 @@ import numba
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from profile_step import run_segment  # noqa: E402
+from profile_step import run_segment, settle_and_turn  # noqa: E402
 from sim_throughput import live_counts  # noqa: E402
 
 from sim.params import preset  # noqa: E402
@@ -43,11 +43,8 @@ def compacted_paper_cg1(collapse_steps, relax_steps):
     then turned 500 steps."""
     p = preset("paper-cg1")
     sim = Simulation(dataclasses.replace(p, settle_time=p.dt))  # fill, one settling step, films on
-    sim.params = dataclasses.replace(p, gravity=tuple(10.0 * g for g in p.gravity))
-    sim._advance(collapse_steps, settling=True)
     sim.params = p
-    sim._advance(relax_steps, settling=True)
-    sim.advance(500)
+    settle_and_turn(sim, collapse_steps, relax_steps)
     return sim
 
 

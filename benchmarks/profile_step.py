@@ -65,13 +65,20 @@ def drum_system(size):
     p = SimParams(n_particles=len(pos), drum_radius=rd, drum_length=length, spray_radius=0.0,
                   initial_film=0.03, viscous=False)
     sim = Simulation.from_particles(p, pos, rad, film=p.initial_film * 4 / 3 * np.pi * rad**3)
-    if settle_10g:
-        sim.params = dataclasses.replace(p, gravity=tuple(10.0 * g for g in p.gravity))
-        sim._advance(settle_10g, settling=True)
-        sim.params = p
-    sim._advance(4000 if settle_10g else SETTLE_1G, settling=True)
-    sim.advance(500)
+    settle_and_turn(sim, settle_10g, 4000 if settle_10g else SETTLE_1G)
     return sim, (f"{settle_10g} steps at 10 g + 4000 at 1 g" if settle_10g else f"{SETTLE_1G} steps")
+
+
+def settle_and_turn(sim, steps_10g, steps_1g):
+    """Settle ``sim`` in the static drum, ``steps_10g`` steps under 10 g (to collapse a tall
+    lattice in minutes) then ``steps_1g`` at 1 g, then turn it for 500 steps."""
+    p = sim.params
+    if steps_10g:
+        sim.params = dataclasses.replace(p, gravity=tuple(10.0 * g for g in p.gravity))
+        sim._advance(steps_10g, settling=True)
+        sim.params = p
+    sim._advance(steps_1g, settling=True)
+    sim.advance(500)
 
 
 @njit

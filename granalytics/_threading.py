@@ -4,6 +4,7 @@ lines and the simulator), never at import."""
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import warnings
 
@@ -64,9 +65,10 @@ _M_TRIM_THRESHOLD = -1
 _M_MMAP_MAX = -4
 
 
+@functools.cache
 def _keep_freed_memory() -> None:
     """glibc's malloc: serve every block from the heap and never return freed memory to the
-    OS (see :func:`configure_threading`); nothing on other C libraries."""
+    OS (see :func:`configure_threading`); nothing on other C libraries. Once per process."""
     try:
         if not os.confstr("CS_GNU_LIBC_VERSION").startswith("glibc"):
             return

@@ -202,13 +202,12 @@ def transfer_pair_state(n_particles, old_first, old_second, old_alive, old_vb, o
         if old_alive[k]:
             a = old_first[k]
             b = old_second[k]
-            flip = a > b
             key = min(a, b) * n_particles + max(a, b)
             q = np.searchsorted(new_key, key)
             if q >= new_key.shape[0] or new_key[q] != key:
                 missing += 1
             else:
-                sign = -1.0 if flip else 1.0
+                sign = -1.0 if a > b else 1.0  # the pair's order flipped: re-orient it
                 new_alive[q] = True
                 new_vb[q] = old_vb[k]
                 for d in range(3):

@@ -11,6 +11,7 @@ from sim.capillary import CAPILLARY_MODELS, capillary_force, rupture_distance
 from sim.neighbours import max_rupture_distance, pair_count_reference, rebuild
 from sim.params import PRESETS, SimParams, cg_scale, preset, preset_original
 from sim.run import Simulation
+from sim.state import PARTICLE_FIELDS, SLOT_FIELDS
 
 R = 0.75e-3
 FREE = SimParams(n_particles=2, n_baffles=0, gravity=(0.0, 0.0, 0.0), drum_omega=0.0,
@@ -146,12 +147,11 @@ def test_rebuild_carries_every_interaction_state_to_its_pair_in_any_particle_ord
     perm = np.random.default_rng(0).permutation(n)
     inverse = np.empty(n, dtype=np.int64)
     inverse[perm] = np.arange(n)
-    for name in ("ids", "pos", "vel", "omega", "radius", "mass", "inertia", "x_ref"):
+    for name in PARTICLE_FIELDS:
         setattr(s, name, getattr(s, name)[perm])
     s.film[:n] = s.film[:n][perm]
     rows = (perm[:, None] * nw + np.arange(nw)).ravel()
-    for name in ("pair_i", "pair_j", "alive", "created", "ruptured", "v_b", "v_max", "fs", "nprev", "force",
-                 "torque_i", "torque_j", "f_normal", "f_cap", "gap"):
+    for name in SLOT_FIELDS:
         arr = getattr(s, name)
         setattr(s, name, np.concatenate([arr[:n * nw][rows], arr[n * nw:]]))
     s.pair_i = inverse[s.pair_i]

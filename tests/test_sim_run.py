@@ -211,13 +211,13 @@ def test_trajectory_is_bit_identical_to_the_reference(config):
 
 # --- global state ---------------------------------------------------------------------------------
 
-def _python(code):
-    """Run ``code`` in a fresh interpreter without GOMP_SPINCOUNT in its environment; its stdout."""
-    import os
+def _python(code, **env_extra):
+    """Run ``code`` in a fresh interpreter without GOMP_SPINCOUNT in its environment (plus
+    ``env_extra``); its stdout."""
     import subprocess
     import sys
 
-    env = {k: v for k, v in os.environ.items() if k != "GOMP_SPINCOUNT"}
+    env = {**{k: v for k, v in os.environ.items() if k != "GOMP_SPINCOUNT"}, **env_extra}
     return subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout
 
 
@@ -245,18 +245,13 @@ def test_the_simulator_sets_up_openmp_when_it_runs():
 
 
 def test_threads_started_before_the_set_up_give_a_warning_naming_the_layer():
-    import subprocess
-    import sys
-
-    code = ("import warnings, numba\n"
-            "numba.set_num_threads(1)\n"  # launches numba's threads with its own layer choice
-            "from granalytics import configure_threading\n"
-            "with warnings.catch_warnings(record=True) as caught:\n"
-            "    warnings.simplefilter('always')\n"
-            "    configure_threading(); configure_threading()\n"
-            "print(len(caught), caught[0].message if caught else '')\n")
-    env = {**os.environ, "NUMBA_THREADING_LAYER": "workqueue"}
-    out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout
+    out = _python("import warnings, numba\n"
+                  "numba.set_num_threads(1)\n"  # launches numba's threads with its own layer choice
+                  "from granalytics import configure_threading\n"
+                  "with warnings.catch_warnings(record=True) as caught:\n"
+                  "    warnings.simplefilter('always')\n"
+                  "    configure_threading(); configure_threading()\n"
+                  "print(len(caught), caught[0].message if caught else '')\n", NUMBA_THREADING_LAYER="workqueue")
     assert out.startswith("1 ") and "'workqueue'" in out and "configure_threading() before" in out
 
 
