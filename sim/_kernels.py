@@ -29,6 +29,7 @@ from .capillary import (
 from .contact import mechanical_force, rotate_spring
 from .drum import baffle_directions, wall_contact
 from .liquid import migrate_liquid, spray
+from .state import SLOT_FIELDS
 
 # ----------------------------------------------------------------------------- cell lists
 
@@ -135,116 +136,165 @@ def fill_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, s
                np.zeros(1, dtype=np.int64))
 
 
+#: The per-slot arrays of a state (:data:`sim.state.SLOT_FIELDS`), passed to the rebuild
+#: kernels by name.
+SlotArrays = namedtuple("SlotArrays", SLOT_FIELDS)
+
+
+@njit(cache=True)
+def first_outside(pos, lo, hi):
+    """Index of the first particle outside the box [lo, hi] (per axis), or −1."""
+    for i in range(pos.shape[0]):
+        for d in range(3):
+            if pos[i, d] < lo[d] or pos[i, d] > hi[d]:
+                return i
+    return -1
+
+
 @njit(cache=True, parallel=True)
-def new_slot_lists(order, n_walls, start, partners, radius, old_alive, old_vb, old_fs, old_nprev):
-    """Bodies and carried-over wall state of the slots after a rebuild, parallel over particles.
+def permute_rows(a, order):
+    """``a[order]`` for a 2-D array, in parallel over rows."""
+    out = np.empty((order.shape[0], a.shape[1]), dtype=a.dtype)
+    for i in prange(order.shape[0]):
+        for d in range(a.shape[1]):
+            out[i, d] = a[order[i], d]
+    return out
+
+
+@njit(cache=True, parallel=True)
+def new_slot_lists(order, n_walls, start, partners, radius_cubed, v_max_coef, old, new):
+    """Fill the slot arrays ``new`` after a rebuild, in parallel over particles.
 
     Particle i (new numbering; ``order[i]`` is its old row) owns wall slots i·W … i·W + W − 1
     and pair slots N·W + start[i] … N·W + start[i+1] − 1 with partners ``partners[start[i]:]``.
     A wall slot keeps its interaction state (alive, V_b, spring, previous normal) from the old
-    row; pair slots start dead (:func:`transfer_pair_state` then carries the live pairs over).
-
-    Returns
-    -------
-    pair_i, pair_j : (C,) int64
-        Bodies of every slot (a wall's body index is N + wall).
-    alive, v_b, fs, nprev : the slot state arrays.
-    r_min : (C,) float64
-        Smaller radius of the two bodies [m] (the particle's for a wall slot), for V_max.
+    row ``old``; pair slots start dead (:func:`transfer_pair_state` then carries the live pairs
+    over). Every slot gets its bodies (a wall's body index is N + wall), V_max = c·min(R_i, R_j)³
+    (c·R_i³ for a wall slot; ``radius_cubed`` holds R³ per particle [m³]) and zero outputs and
+    event flags.
     """
+    # the arrays are taken out of the tuples first: a parallel loop loses the writes made
+    # through a namedtuple's attribute (numba issue 5872)
+    pair_i, pair_j, alive, v_b, v_max, fs, nprev = new.pair_i, new.pair_j, new.alive, new.v_b, new.v_max, new.fs, new.nprev
+    created, ruptured, f_normal, f_cap, gap = new.created, new.ruptured, new.f_normal, new.f_cap, new.gap
+    force, torque_i, torque_j = new.force, new.torque_i, new.torque_j
+    old_alive, old_vb, old_fs, old_nprev = old.alive, old.v_b, old.fs, old.nprev
     n = order.shape[0]
     n_wall_slots = n * n_walls
-    n_slots = n_wall_slots + partners.shape[0]
-    pair_i = np.empty(n_slots, dtype=np.int64)
-    pair_j = np.empty(n_slots, dtype=np.int64)
-    alive = np.zeros(n_slots, dtype=np.bool_)
-    v_b = np.zeros(n_slots)
-    fs = np.zeros((n_slots, 3))
-    nprev = np.zeros((n_slots, 3))
-    r_min = np.empty(n_slots)
     for i in prange(n):
         old_row = order[i] * n_walls
         for w in range(n_walls):
             k = i * n_walls + w
             pair_i[k] = i
             pair_j[k] = n + w
-            r_min[k] = radius[i]
+            v_max[k] = v_max_coef * radius_cubed[i]
             alive[k] = old_alive[old_row + w]
             v_b[k] = old_vb[old_row + w]
             for d in range(3):
                 fs[k, d] = old_fs[old_row + w, d]
                 nprev[k, d] = old_nprev[old_row + w, d]
+            _clear_slot_outputs(k, created, ruptured, force, torque_i, torque_j, f_normal, f_cap, gap)
         for q in range(start[i], start[i + 1]):
             k = n_wall_slots + q
             j = partners[q]
             pair_i[k] = i
             pair_j[k] = j
-            r_min[k] = min(radius[i], radius[j])
-    return pair_i, pair_j, alive, v_b, fs, nprev, r_min
+            v_max[k] = v_max_coef * min(radius_cubed[i], radius_cubed[j])
+            alive[k] = False
+            v_b[k] = 0.0
+            for d in range(3):
+                fs[k, d] = 0.0
+                nprev[k, d] = 0.0
+            _clear_slot_outputs(k, created, ruptured, force, torque_i, torque_j, f_normal, f_cap, gap)
+
+
+@njit(cache=True, inline="always")
+def _clear_slot_outputs(k, created, ruptured, force, torque_i, torque_j, f_normal, f_cap, gap):
+    created[k] = False
+    ruptured[k] = 0.0
+    _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
 
 
 @njit(cache=True, parallel=True)
-def transfer_pair_state(n_particles, old_first, old_second, old_alive, old_vb, old_fs, old_nprev, new_key, new_alive,
-                        new_vb, new_fs, new_nprev):
-    """Copy the state of every alive old pair to the same pair in the new (sorted) list, in
-    parallel (pair keys are unique, so no two old slots write the same new one).
+def transfer_pair_state(new_index, n_wall_slots, start, partners, old, new):
+    """Copy the state of every alive old pair slot to the same pair in the new list, in
+    parallel (a pair is listed once, so no two old slots write the same new one).
 
-    ``old_first``, ``old_second``: the new indices of each old slot's bodies i and j; ``new_key``:
-    the sorted keys i·N + j (N = ``n_particles``) of the new pair slots. The new list
-    orders every pair with i < j, so a pair whose particles swapped order in the renumbering
-    changes orientation: its normal points the other way, and the spring, the tangential force
-    on the slot's first body, now acts on the other body. Both are negated for such a pair.
+    ``new_index[r]``: the new index of the particle in old row r. The new pair (i, j), i < j,
+    is found among particle i's partners ``partners[start[i]:start[i+1]]`` (ascending). The
+    new list orders every pair with i < j, so a pair whose particles swapped order in the
+    renumbering changes orientation: its normal points the other way, and the spring, the
+    tangential force on the slot's first body, now acts on the other body. Both are negated
+    for such a pair.
 
     Returns the number of alive old pairs missing from the new list (must be 0).
     """
+    old_i, old_j, old_alive, old_vb, old_fs, old_nprev = old.pair_i, old.pair_j, old.alive, old.v_b, old.fs, old.nprev
+    new_alive, new_vb, new_fs, new_nprev = new.alive, new.v_b, new.fs, new.nprev  # (see new_slot_lists)
     missing = 0
-    for k in prange(old_first.shape[0]):
+    for k in prange(n_wall_slots, old_i.shape[0]):
         if old_alive[k]:
-            a = old_first[k]
-            b = old_second[k]
-            key = min(a, b) * n_particles + max(a, b)
-            q = np.searchsorted(new_key, key)
-            if q >= new_key.shape[0] or new_key[q] != key:
+            a = new_index[old_i[k]]
+            b = new_index[old_j[k]]
+            first, second = min(a, b), max(a, b)
+            q = start[first] + np.searchsorted(partners[start[first]:start[first + 1]], second)
+            if q >= start[first + 1] or partners[q] != second:
                 missing += 1
             else:
                 sign = -1.0 if a > b else 1.0  # the pair's order flipped: re-orient it
-                new_alive[q] = True
-                new_vb[q] = old_vb[k]
+                slot = n_wall_slots + q
+                new_alive[slot] = True
+                new_vb[slot] = old_vb[k]
                 for d in range(3):
-                    new_fs[q, d] = sign * old_fs[k, d]
-                    new_nprev[q, d] = sign * old_nprev[k, d]
+                    new_fs[slot, d] = sign * old_fs[k, d]
+                    new_nprev[slot, d] = sign * old_nprev[k, d]
     return missing
 
 
-@njit(cache=True)
-def build_csr(n_particles, n_walls, pair_i, pair_j, first_pair_slot):
+@njit(cache=True, parallel=True)
+def build_csr(n_walls, start, partners):
     """Slot lists per particle (pair slots only, for force gathering) and per body (particles
-    then walls, all slots, for liquid migration), each in ascending slot order."""
-    n_bodies = n_particles + n_walls
-    n_slots = pair_i.shape[0]
-    part_start = np.zeros(n_particles + 1, dtype=np.int64)
-    body_start = np.zeros(n_bodies + 1, dtype=np.int64)
-    for k in range(n_slots):
-        body_start[pair_i[k] + 1] += 1
-        body_start[pair_j[k] + 1] += 1
-        if k >= first_pair_slot:
-            part_start[pair_i[k] + 1] += 1
-            part_start[pair_j[k] + 1] += 1
-    for b in range(n_bodies):
-        body_start[b + 1] += body_start[b]
-    for b in range(n_particles):
-        part_start[b + 1] += part_start[b]
-    body_fill = body_start[:-1].copy()
-    part_fill = part_start[:-1].copy()
+    then walls, all slots, for liquid migration), each in ascending slot order, for the slot
+    layout of :func:`new_slot_lists`.
+
+    In ascending slot order a particle b's pair slots are those where b is the second body
+    (their first body is smaller, so they lie in earlier particles' runs), then its own run
+    N·W + start[b] …; its body list puts its W wall slots b·W … first. Wall w's list is the
+    slots i·W + w of every particle i. Only the transposition (which particles list b as a
+    partner) is sequential.
+    """
+    n = start.shape[0] - 1
+    n_wall_slots = n * n_walls
+    as_second = np.zeros(n, dtype=np.int64)
+    for q in range(partners.shape[0]):
+        as_second[partners[q]] += 1
+    part_start = np.zeros(n + 1, dtype=np.int64)
+    for b in range(n):
+        part_start[b + 1] = part_start[b] + as_second[b] + start[b + 1] - start[b]
+    part_slots = np.empty(part_start[n], dtype=np.int64)
+    fill = part_start[:-1].copy()
+    for i in range(n):  # ascending i: each particle's "as second" slots come out ascending
+        for q in range(start[i], start[i + 1]):
+            j = partners[q]
+            part_slots[fill[j]] = n_wall_slots + q
+            fill[j] += 1
+    body_start = np.empty(n + n_walls + 1, dtype=np.int64)
+    for b in range(n + 1):
+        body_start[b] = part_start[b] + n_walls * b
+    for w in range(n_walls):
+        body_start[n + w + 1] = body_start[n + w] + n
     body_slots = np.empty(body_start[-1], dtype=np.int64)
-    part_slots = np.empty(part_start[-1], dtype=np.int64)
-    for k in range(n_slots):
-        for b in (pair_i[k], pair_j[k]):
-            body_slots[body_fill[b]] = k
-            body_fill[b] += 1
-            if k >= first_pair_slot:
-                part_slots[part_fill[b]] = k
-                part_fill[b] += 1
+    for b in prange(n):
+        own = part_start[b] + as_second[b]
+        for q in range(start[b], start[b + 1]):
+            part_slots[own + q - start[b]] = n_wall_slots + q
+        for w in range(n_walls):
+            body_slots[body_start[b] + w] = b * n_walls + w
+        for m in range(part_start[b], part_start[b + 1]):
+            body_slots[body_start[b] + n_walls + m - part_start[b]] = part_slots[m]
+    for w in prange(n_walls):
+        for i in range(n):
+            body_slots[body_start[n + w] + i] = i * n_walls + w
     return part_start, part_slots, body_start, body_slots
 
 

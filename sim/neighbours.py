@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _kernels
-from .state import PARTICLE_FIELDS, State
+from .state import PARTICLE_FIELDS, SLOT_FIELDS, State
 
 __all__ = ["max_rupture_distance", "rebuild", "empty_slots"]
 
@@ -37,21 +37,12 @@ def _grid(params):
     return reach, cell, lo, n_cells
 
 
-def _zero_outputs(s):
-    """The per-step outputs and event flags of ``s`` slots, zero (as a dead slot has them)."""
-    out = {name: np.zeros(s) for name in ("ruptured", "f_normal", "f_cap", "gap")}
-    out.update({name: np.zeros((s, 3)) for name in ("force", "torque_i", "torque_j")})
-    out["created"] = np.zeros(s, dtype=np.bool_)
-    return out
-
-
 def empty_slots(n_particles, n_walls, n_pairs):
-    """Slot arrays for N·W wall slots and ``n_pairs`` pair slots, all dead."""
+    """Slot arrays for N·W wall slots and ``n_pairs`` pair slots, all dead, with zero outputs."""
     s = n_particles * n_walls + n_pairs
-    out = _zero_outputs(s)
-    out.update({name: np.zeros(s) for name in ("v_b", "v_max")})
-    out.update({name: np.zeros((s, 3)) for name in ("fs", "nprev")})
-    out["alive"] = np.zeros(s, dtype=np.bool_)
+    out = {name: np.zeros(s) for name in ("ruptured", "v_b", "v_max", "f_normal", "f_cap", "gap")}
+    out.update({name: np.zeros((s, 3)) for name in ("fs", "nprev", "force", "torque_i", "torque_j")})
+    out.update(alive=np.zeros(s, dtype=np.bool_), created=np.zeros(s, dtype=np.bool_))
     out["pair_i"] = np.empty(s, dtype=np.int64)
     out["pair_j"] = np.empty(s, dtype=np.int64)
     out["pair_i"][: n_particles * n_walls] = np.repeat(np.arange(n_particles), n_walls)
@@ -59,8 +50,17 @@ def empty_slots(n_particles, n_walls, n_pairs):
     return out
 
 
+def _permuted(a, order):
+    """``a[order]`` (rows), computed in parallel."""
+    return _kernels.permute_rows(a.reshape(a.shape[0], -1), order).reshape((order.shape[0],) + a.shape[1:])
+
+
 def rebuild(state: State, params, n_walls: int) -> State:
     """Reorder particles by cell, rebuild the pair list, carry live interactions over.
+
+    Everything proportional to the number of particles or slots runs in compiled code, in
+    parallel except the counting sorts (the cell sort and the partner transposition in
+    :func:`sim._kernels.build_csr`).
 
     Raises
     ------
@@ -71,49 +71,39 @@ def rebuild(state: State, params, n_walls: int) -> State:
     n = state.n_particles
     reach, cell, lo, n_cells = _grid(params)
     hi = lo + np.array([2 * params.drum_radius, 2 * params.drum_radius, params.drum_length])
-    outside = np.flatnonzero(((state.pos < lo - params.r_max) | (state.pos > hi + params.r_max)).any(axis=1))
-    if outside.size:
-        i = outside[0]
+    i = _kernels.first_outside(state.pos, lo - params.r_max, hi + params.r_max)
+    if i >= 0:
         raise RuntimeError(f"particle id {state.ids[i]} left the drum at step {state.step}: position {state.pos[i].tolist()} m")
-    order, _ = _kernels.counting_sort(_kernels.cell_index(state.pos, lo, cell, n_cells), int(np.prod(n_cells)))
+    cell_of = _kernels.cell_index(state.pos, lo, cell, n_cells)
+    order, cell_start = _kernels.counting_sort(cell_of, int(np.prod(n_cells)))
     new_index = np.empty(n, dtype=np.int64)
     new_index[order] = np.arange(n)
 
     for name in PARTICLE_FIELDS:
-        setattr(state, name, np.ascontiguousarray(getattr(state, name)[order]))
-    state.film = np.concatenate([state.film[:n][order], state.film[n:]])
+        if name != "x_ref":  # reset to the new positions below
+            setattr(state, name, _permuted(getattr(state, name), order))
+    state.film = np.concatenate([_permuted(state.film[:n], order), state.film[n:]])
 
-    n_wall_slots = n * n_walls
-
-    # new pair list
-    cell_of = _kernels.cell_index(state.pos, lo, cell, n_cells)
-    members, cell_start = _kernels.counting_sort(cell_of, int(np.prod(n_cells)))
+    # new pair list; the particles are now in cell order, so each cell's members are a run
+    cell_of = _permuted(cell_of, order)
+    members = np.arange(n)
     count = _kernels.count_pairs(state.pos, state.radius, cell_of, cell_start, members, n_cells, reach)
     start = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(count, out=start[1:])
     partners = np.empty(start[-1], dtype=np.int64)
     _kernels.fill_pairs(state.pos, state.radius, cell_of, cell_start, members, n_cells, reach, start, partners)
-    pair_i, pair_j, alive, v_b, fs, nprev, r_min = _kernels.new_slot_lists(
-        order, n_walls, start, partners, state.radius, state.alive, state.v_b, state.fs, state.nprev)
 
-    # carry live particle pairs over, by key i·N + j in the new numbering (re-oriented where
-    # the renumbering swapped the pair's order)
-    new_key = pair_i[n_wall_slots:] * n + pair_j[n_wall_slots:]
-    pairs = slice(n_wall_slots, None)  # the pair slots, in the old arrays and in the new
-    missing = _kernels.transfer_pair_state(
-        n, new_index[state.pair_i[pairs]], new_index[state.pair_j[pairs]], state.alive[pairs], state.v_b[pairs],
-        state.fs[pairs], state.nprev[pairs], new_key, alive[pairs], v_b[pairs], fs[pairs], nprev[pairs],
-    )
+    old = _kernels.SlotArrays(*(getattr(state, name) for name in SLOT_FIELDS))
+    n_slots = n * n_walls + partners.size
+    new = _kernels.SlotArrays(*(np.empty((n_slots,) + a.shape[1:], dtype=a.dtype) for a in old))
+    _kernels.new_slot_lists(order, n_walls, start, partners, state.radius**3, params.v_max_coef, old, new)
+    # carry live particle pairs over (re-oriented where the renumbering swapped the pair's order)
+    missing = _kernels.transfer_pair_state(new_index, n * n_walls, start, partners, old, new)
     if missing:
         raise RuntimeError(f"{missing} live interactions fell outside the Verlet list at step {state.step}; increase the skin")
-
-    slots = _zero_outputs(pair_i.size)
-    slots.update(pair_i=pair_i, pair_j=pair_j, alive=alive, v_b=v_b, fs=fs, nprev=nprev,
-                 v_max=params.v_max_coef * r_min**3)
-    for name, value in slots.items():
+    for name, value in zip(SLOT_FIELDS, new):
         setattr(state, name, value)
-    state.part_start, state.part_slots, state.body_start, state.body_slots = _kernels.build_csr(
-        n, n_walls, state.pair_i, state.pair_j, n_wall_slots)
+    state.part_start, state.part_slots, state.body_start, state.body_slots = _kernels.build_csr(n_walls, start, partners)
     state.x_ref = state.pos.copy()
     return state
 

@@ -166,6 +166,14 @@ def test_rebuild_carries_every_interaction_state_to_its_pair_in_any_particle_ord
     r = after_state.radius
     r_min = np.minimum(r[after_state.pair_i], np.where(after_state.pair_j < n, r[np.minimum(after_state.pair_j, n - 1)], np.inf))
     assert np.array_equal(after_state.v_max, p.v_max_coef * r_min**3)
+    # the slot lists: per body (particles, then walls) every slot, per particle its pair slots
+    pi, pj = after_state.pair_i, after_state.pair_j
+    for b in range(n + nw):
+        mine = np.flatnonzero((pi == b) | (pj == b))
+        assert np.array_equal(after_state.body_slots[after_state.body_start[b]:after_state.body_start[b + 1]], mine)
+        if b < n:
+            assert np.array_equal(after_state.part_slots[after_state.part_start[b]:after_state.part_start[b + 1]],
+                                  mine[mine >= n * nw])
 
 
 def test_cg_scaling_follows_table_2():
