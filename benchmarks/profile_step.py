@@ -1,6 +1,6 @@
 """Where a simulator time step goes: per-component cost at several system sizes.
 
-Usage: python benchmarks/profile_step.py [--sizes 2435,20000,120000] [--threads 1,2] [--steps N]
+Usage: python benchmarks/profile_step.py [--sizes 2435,20000,120000] [--threads 1,2] [--steps N] [--beds DIR]
 
 The system is the wet drum of ``benchmarks/yade_drum_throughput.py`` (cubic lattice of spacing
 1.85 mm in the lower part of the drum, radii 0.75 mm ± 20 %, films of 3 % V_p, Table 1 physics,
@@ -56,10 +56,25 @@ SIZES = {2435: (0.04, 0.012, 0), 20000: (0.07, 0.028, 10000), 120000: (0.12, 0.0
 SETTLE_1G = 40000  # then this many settling steps at 1 g for the smallest drum, 4000 for the others
 
 
-def drum_system(size):
+def drum_system(size, beds=None):
     """The lattice drum of ``size`` particles, settled and turned for 500 steps. The large beds
     first collapse under 10 g (a 50-layer lattice takes ~60 ms of free fall to close its gaps at
-    1 g), then relax at 1 g; the smallest settles at 1 g as in the YADE comparison."""
+    1 g), then relax at 1 g; the smallest settles at 1 g as in the YADE comparison.
+
+    With ``beds`` (a folder), the settled bed is saved there as a checkpoint the first time and
+    restored afterwards (minutes saved per size; delete the folder after a physics change).
+    """
+    saved = os.path.join(beds, f"drum-{size}.npz") if beds else None
+    if saved and os.path.exists(saved):
+        return Simulation.from_checkpoint(saved)[0], f"(restored from {saved})"
+    sim, how = _settled_drum(size)
+    if saved:
+        os.makedirs(beds, exist_ok=True)
+        sim.save_checkpoint(saved)
+    return sim, how
+
+
+def _settled_drum(size):
     rd, length, settle_10g = SIZES[size]
     pos, rad = yade_lattice(rd, length)
     p = SimParams(n_particles=len(pos), drum_radius=rd, drum_length=length, spray_radius=0.0,
@@ -204,6 +219,7 @@ def main():
     parser.add_argument("--sizes", default="2435,20000,120000")
     parser.add_argument("--threads", default="1,2")
     parser.add_argument("--steps", type=int, default=2000, help="steps of the run segment (default 2000)")
+    parser.add_argument("--beds", metavar="DIR", help="save the settled beds here, and restore them on later runs")
     args = parser.parse_args()
     configure_threading()  # before the first parallel kernel, as the simulator does
     sizes = [int(x) for x in args.sizes.split(",")]
@@ -219,10 +235,10 @@ def main():
               "a step has four", flush=True)
     for size in sizes:
         t0 = time.perf_counter()
-        sim, settle = drum_system(size)
+        sim, settle = drum_system(size, args.beds)
         n = sim.state.n_particles
         ips, bps = live_counts(sim)
-        print(f"# N = {n}: lattice in R_d = {SIZES[size][0]} m, L = {SIZES[size][1]} m, settled {settle} steps, "
+        print(f"# N = {n}: lattice in R_d = {SIZES[size][0]} m, L = {SIZES[size][1]} m, settled: {settle}, "
               f"set up in {time.perf_counter() - t0:.0f} s", flush=True)
         frame_steps = max(1, round(0.05 * sim.params.revolution_period / sim.params.dt))
         for thr in threads:

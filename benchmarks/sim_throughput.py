@@ -1,7 +1,7 @@
 """Simulator throughput: particle-steps per second, compile time, CG speed-up, and YADE.
 
 Usage: python benchmarks/sim_throughput.py [--quick] [--no-yade] [--no-liggghts] [--no-scaling]
-       [--sections 1,2,3,4,5] [--sizes 2435,20000,120000]
+       [--sections 1,2,3,4,5] [--sizes 2435,20000,120000] [--beds DIR]
 
 1. Compile time of the kernels (fresh numba cache, in a child process) and cache-load time.
 2. The lab drum with its 3 000 wet particles (films of 0.5 % V_p, Table 1 physics, migration on),
@@ -124,6 +124,7 @@ def main():
     parser.add_argument("--no-scaling", action="store_true", help="skip section 5 (minutes at 120 000 particles)")
     parser.add_argument("--sections", default="1,2,3,4,5", help="sections to run (default all: 1,2,3,4,5)")
     parser.add_argument("--sizes", default=None, help="particle counts of section 5 (default 2435,20000,120000)")
+    parser.add_argument("--beds", metavar="DIR", help="section 5: save the settled beds here, and restore them on later runs")
     args = parser.parse_args()
     sections = {int(x) for x in args.sections.split(",")}
     if args.no_scaling:
@@ -138,7 +139,7 @@ def main():
         comparison(q, cores, with_yade=not args.no_yade and shutil.which("yade") is not None,
                    with_liggghts=not args.no_liggghts and shutil.which("liggghts") is not None)
     if 5 in sections:
-        scaling(q, None if args.sizes is None else [int(x) for x in args.sizes.split(",")])
+        scaling(q, None if args.sizes is None else [int(x) for x in args.sizes.split(",")], args.beds)
 
 
 def first_sections(q, cores):
@@ -233,7 +234,7 @@ def comparison(q, cores, with_yade, with_liggghts):
               f"{top('ours') / top('YADE'):.2f}   (target >= 3)")
 
 
-def scaling(q, sizes=None):
+def scaling(q, sizes=None, beds=None):
     """Section 5: particle-steps/s against N (the same drum, scaled) at 1 and 2 threads."""
     from profile_step import SIZES, drum_system
 
@@ -243,7 +244,7 @@ def scaling(q, sizes=None):
     if unknown:
         raise SystemExit(f"--sizes: no drum for {sorted(unknown)} particles; available: {', '.join(map(str, SIZES))}")
     for size in sizes or SIZES:
-        sim, _ = drum_system(size)
+        sim, _ = drum_system(size, beds)
         n = sim.state.n_particles
         steps = max(100, int(3000 * q * 2435 / n))
         r = {t: 0.0 for t in (1, 2)}
