@@ -35,9 +35,11 @@ demo: $(STAMP)
 		--window 2:3 --out $(BUILD)/demo-cg --overwrite
 
 ## datasets: regenerate every bundled dataset from its recipe (simulation, then subset; hours for the
-## CG1 and paper runs; an interrupted simulation resumes from its checkpoint). Never downloads.
+## CG1 and paper runs; an interrupted simulation resumes from its checkpoint), DATASET_JOBS at a time
+## (default 2). Never downloads.
+DATASET_JOBS ?= 2
 datasets: $(STAMP)
-	$(PY) -m granalytics.datasets make
+	$(PY) -m granalytics.datasets make --jobs $(DATASET_JOBS)
 
 ## bench: benchmark scripts (print tables)
 bench: $(STAMP)

@@ -321,6 +321,9 @@ def _main(argv=None) -> int:
     p = sub.add_parser("make", help="regenerate datasets from their recipes")
     p.add_argument("names", nargs="*", help="datasets (default: all)")
     p.add_argument("--dry-run", action="store_true", help="print the commands only")
+    p.add_argument("--jobs", "-j", type=int, default=1,
+                   help="recipes run at the same time (default 1; each simulation uses one thread, the sweep its "
+                        "own workers)")
     b = sub.add_parser("bundle-sweep", help="copy a sweep folder's finished points as float32 for bundling")
     b.add_argument("src", help="sweep folder written by python -m sim sweep")
     b.add_argument("dst", help="folder to write")
@@ -345,12 +348,27 @@ def _main(argv=None) -> int:
         print(f"python -m granalytics.datasets: error: unknown dataset {unknown[0]!r}; available: "
               f"{', '.join(known)}", file=sys.stderr)
         return 2
-    for name in args.names or list(known):
-        if name in SWEEPS:
-            make_sweep(name, dry_run=args.dry_run)
-        else:
-            make_dataset(name, dry_run=args.dry_run)
-    return 0
+    if args.jobs < 1:
+        print(f"python -m granalytics.datasets: error: --jobs must be at least 1, got {args.jobs}", file=sys.stderr)
+        return 2
+
+    def make(name):
+        return (make_sweep if name in SWEEPS else make_dataset)(name, dry_run=args.dry_run)
+
+    names = args.names or list(known)
+    if args.jobs == 1:
+        for name in names:
+            make(name)
+        return 0
+    # the recipes' processes run side by side; a failed one does not stop the others
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        futures = {name: pool.submit(make, name) for name in names}
+    failed = {name: f.exception() for name, f in futures.items() if f.exception() is not None}
+    for name, exc in failed.items():
+        print(f"python -m granalytics.datasets: error: {name}: {exc}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

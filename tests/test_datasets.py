@@ -112,3 +112,22 @@ def test_bundled_sweep_matches_registry_and_its_spec(name):
     expected = {(g, w) for g in spec["grid"]["gamma"] for w in spec["grid"]["omega"]}
     assert set(zip(table.gamma, table.omega)) == expected
     assert (table.revolutions == spec["revolutions"]).all()
+
+
+def test_make_runs_recipes_side_by_side_and_reports_each_failure(monkeypatch, capsys):
+    import granalytics.datasets as ds
+
+    ran = []
+    monkeypatch.setattr(ds, "make_dataset", lambda name, dry_run: ran.append(name) or "")
+
+    def failing_sweep(name, dry_run):
+        raise RuntimeError("recipe exited with status 1")
+
+    monkeypatch.setattr(ds, "make_sweep", failing_sweep)
+    names = sorted(DATASETS)
+    assert _main(["make", "--jobs", "2", *names]) == 0
+    assert sorted(ran) == names
+    sweep = sorted(ds.SWEEPS)[0]
+    assert _main(["make", "-j", "2", names[0], sweep]) == 1
+    assert f"{sweep}: recipe exited with status 1" in capsys.readouterr().err
+    assert _main(["make", "--jobs", "0"]) == 2
