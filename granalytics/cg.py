@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -195,6 +196,7 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
                 "n_particles_original": meta.n_particles_original, "revolutions_last": float(revs[-1]),
                 "wall_time_s": float(provenance.get("wall_time_s", math.nan)),
                 "wall_time_per_simulated_s": float(provenance.get("wall_time_per_simulated_s", math.nan)),
+                "physics_version": provenance.get("physics_version"),
             })
         finally:
             if run is not item:
@@ -208,6 +210,11 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         dists.append(dist)
         steady[label] = table
         sizes[label] = pooled
+    versions = {i["run"]: i["physics_version"] for i in infos if i["physics_version"] is not None}
+    if len(set(versions.values())) > 1:
+        warnings.warn("compare_cg: the runs were made by different simulator physics versions ("
+                      + ", ".join(f"{run}: {v}" for run, v in versions.items())
+                      + "); their differences mix coarse-graining with the change of physics", stacklevel=2)
     info = pd.DataFrame(infos)
     reference = info.loc[info["alpha"].idxmin(), "run"]
     ref = steady[reference]

@@ -12,6 +12,7 @@ import json
 import math
 import os
 import time as _time
+import warnings
 
 import numpy as np
 
@@ -24,10 +25,16 @@ from .neighbours import empty_slots, rebuild
 from .params import SimParams
 from .state import State
 
-__all__ = ["Simulation", "configure_threading"]
+__all__ = ["Simulation", "configure_threading", "PHYSICS_VERSION"]
 
 #: version of the one-file checkpoint (the JSON information inside the .npz under _INFO_KEY)
 CHECKPOINT_FORMAT = 2
+
+#: The simulator's physics version, raised by every change that alters trajectories on purpose
+#: (recorded in checkpoints and in the runs' provenance; a run is never resumed across versions;
+#: docs/simulator.md, "Physics versions"). 1: up to 2026-11-30; 2: a pair's friction spring and
+#: previous normal re-oriented when a rebuild swaps the pair's particles.
+PHYSICS_VERSION = 2
 _INFO_KEY = "checkpoint_info"
 
 
@@ -180,7 +187,7 @@ class Simulation:
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L"},
-            provenance={"code": "sim", "version": __version__},
+            provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION},
         )
 
     def snapshot(self, meta: RunMeta | None = None) -> Snapshot:
@@ -220,8 +227,8 @@ class Simulation:
         beside it (the two-file format of earlier versions) is removed afterwards.
         """
         path = os.fspath(path)
-        info = {"format": CHECKPOINT_FORMAT, "params": self.params.to_dict(), "original": self.original.to_dict(),
-                "liquid_initial": self.liquid_initial, **(extra or {})}
+        info = {"format": CHECKPOINT_FORMAT, "physics_version": PHYSICS_VERSION, "params": self.params.to_dict(),
+                "original": self.original.to_dict(), "liquid_initial": self.liquid_initial, **(extra or {})}
         arrays = self.state.to_arrays()
         arrays[_INFO_KEY] = np.array(json.dumps(info))
         tmp = f"{path}.tmp"
@@ -386,6 +393,7 @@ class Simulation:
             import numba
 
             writer.update_provenance(
+                physics_version=PHYSICS_VERSION,
                 wall_time_s=wall_before + _time.perf_counter() - wall0, simulated_time_s=self.time,
                 wall_time_per_simulated_s=(wall_before + _time.perf_counter() - wall0) / max(self.time, 1e-300),
                 threads=numba.get_num_threads(), cpu_count=os.cpu_count())
@@ -408,6 +416,7 @@ class Simulation:
         except KeyError as exc:
             raise ValueError(f"{out}.ckpt.npz: not a run checkpoint (no {exc.args[0]!r})") from None
         sim._resume_wall_s = float(info.get("wall_s", 0.0))
+        sim._resume_physics_version = info.get("physics_version")  # None: written before versions were recorded
         return sim
 
     def check_resume(self, out, frame_every, n_frames) -> None:
@@ -447,6 +456,18 @@ class Simulation:
             file_original = SimParams.from_dict(meta.sim_config["original"])
         except (KeyError, TypeError, ValueError):
             raise ValueError(f"{out}: not a run of this simulator (no simulation parameters in its metadata)") from None
+        for where, version in ((ckpt, getattr(self, "_resume_physics_version", PHYSICS_VERSION)),
+                               (out, meta.provenance.get("physics_version"))):
+            if version is not None and version != PHYSICS_VERSION:
+                raise ValueError(
+                    f"{where}: made by the simulator's physics version {version}, this simulator has version "
+                    f"{PHYSICS_VERSION} (docs/simulator.md, 'Physics versions'); resuming would join two force laws "
+                    "in one trajectory: finish the run with the version that started it, or start it again with "
+                    "--overwrite")
+        if getattr(self, "_resume_physics_version", PHYSICS_VERSION) is None:
+            warnings.warn(f"{ckpt}: records no physics version (written before 2026-11-30); resuming it assumes it "
+                          f"was made by physics version {PHYSICS_VERSION} (docs/simulator.md, 'Physics versions')",
+                          stacklevel=3)
         if file_params != self.params or file_original != self.original:
             changed = sorted(k for k, v in self.params.to_dict().items() if file_params.to_dict().get(k) != v)
             changed += sorted(f"original {k}" for k, v in self.original.to_dict().items()

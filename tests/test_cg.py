@@ -129,3 +129,20 @@ def test_subset_keeps_the_window_and_every_nth_frame_as_float32(tmp_path, cg_run
     assert main(["subset", str(src), "--out", str(src), "--overwrite", "--quiet"]) == 2  # its own input
     with pytest.raises(ga.ValidationError, match="increasing"):
         subset_run(src, tmp_path / "bad.h5", [3, 1])
+
+
+def test_runs_of_different_simulator_physics_versions_are_flagged(tmp_path, cg_runs):
+    def versioned(name, version):
+        path = write_run(tmp_path / name, 300, 3.0, revolutions=3.0, seed=4)
+        with RunWriter.continue_from(path, 31) as writer:
+            writer.update_provenance(physics_version=version)
+        return path
+
+    old, new = versioned("old.h5", 1), versioned("new.h5", 2)
+    with pytest.warns(UserWarning, match="different simulator physics versions.*old: 1, new: 2"):
+        compare_cg([old, new], labels=["old", "new"], window=(2, 3))
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # one version (or none recorded): no warning
+        compare_cg([new, versioned("same.h5", 2), cg_runs[0]], labels=["a", "b", "c"], window=(2, 3))

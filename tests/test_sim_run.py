@@ -488,3 +488,37 @@ def test_a_run_ends_at_the_requested_revolutions(tmp_path):
     with ga.open_run(tmp_path / "r.h5") as run:
         assert len(run) == 5
         assert abs(run.steps[-1] - 0.006 * steps_per_rev) <= 2.5  # the requested end, to the rounding of the interval
+
+
+def test_resume_refuses_a_checkpoint_of_another_physics_version(tmp_path):
+    import json
+
+    from sim.run import PHYSICS_VERSION
+
+    out = tmp_path / "a.h5"
+    Simulation(RESUME_PARAMS, ORIGINAL).run(out, REVS / 3, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False)
+    with ga.open_run(out) as run:
+        assert run.meta.provenance["physics_version"] == PHYSICS_VERSION
+    ckpt = f"{out}.ckpt.npz"
+    with np.load(ckpt) as data:
+        arrays = {name: data[name] for name in data.files}
+    info = json.loads(str(arrays["checkpoint_info"]))
+    assert info["physics_version"] == PHYSICS_VERSION
+
+    def rewrite(version):
+        changed = dict(info)
+        if version is None:
+            del changed["physics_version"]
+        else:
+            changed["physics_version"] = version
+        np.savez(ckpt, **{**arrays, "checkpoint_info": np.array(json.dumps(changed))})
+
+    rewrite(PHYSICS_VERSION - 1)
+    before = out.read_bytes()
+    with pytest.raises(ValueError, match=f"physics version {PHYSICS_VERSION - 1}.*--overwrite"):
+        Simulation.resume(out).run(out, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+    assert out.read_bytes() == before
+    rewrite(None)  # written before versions were recorded: resumed, with a warning
+    with pytest.warns(UserWarning, match="records no physics version"):
+        Simulation.resume(out).run(out, REVS / 3 + REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2,
+                                   progress=False, resume=True)
