@@ -465,7 +465,7 @@ class Simulation:
                     "in one trajectory: finish the run with the version that started it, or start it again with "
                     "--overwrite")
         if getattr(self, "_resume_physics_version", PHYSICS_VERSION) is None:
-            warnings.warn(f"{ckpt}: records no physics version (written before 2026-11-30); resuming it assumes it "
+            warnings.warn(f"{ckpt}: records no physics version (its simulator predates them); resuming it assumes it "
                           f"was made by physics version {PHYSICS_VERSION} (docs/simulator.md, 'Physics versions')",
                           stacklevel=3)
         if file_params != self.params or file_original != self.original:
