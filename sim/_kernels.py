@@ -77,13 +77,13 @@ def _unravel(c, n_cells):
 
 
 @njit(cache=True, parallel=True)
-def _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, fill, start, pair_j, count):
+def _pair_pass(pos, radius, cell_of, cell_start, n_cells, reach, fill, start, pair_j, count):
     """For every particle i, the partners j > i within R_i + R_j + reach in the 27 cells around
     it: counted into ``count[i]``, or (``fill``) written to ``pair_j[start[i]:]`` in ascending
     order.
 
-    ``cell_members`` must list each cell's particles in ascending index order (as the stable
-    :func:`counting_sort` does), so a cell is scanned from its largest index down to the first
+    The particles must be sorted by cell (cell c holds particles ``cell_start[c]`` …
+    ``cell_start[c+1] − 1``), so a cell is scanned from its largest index down to the first
     j <= i, which skips the half of the candidates that belongs to the other particle of a pair
     without testing each one.
     """
@@ -95,8 +95,7 @@ def _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, f
             for ay in range(max(cy - 1, 0), min(cy + 2, n_cells[1])):
                 for az in range(max(cz - 1, 0), min(cz + 2, n_cells[2])):
                     c = (ax * n_cells[1] + ay) * n_cells[2] + az
-                    for q in range(cell_start[c + 1] - 1, cell_start[c] - 1, -1):
-                        j = cell_members[q]
+                    for j in range(cell_start[c + 1] - 1, cell_start[c] - 1, -1):
                         if j <= i:
                             break
                         dx = pos[j, 0] - pos[i, 0]
@@ -121,18 +120,19 @@ def _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, f
             count[i] = c_n
 
 
-def count_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach):
-    """Number of partners j > i within R_i + R_j + reach of every particle i."""
+def count_pairs(pos, radius, cell_of, cell_start, n_cells, reach):
+    """Number of partners j > i within R_i + R_j + reach of every particle i (particles sorted by
+    cell, see :func:`_pair_pass`)."""
     count = np.zeros(pos.shape[0], dtype=np.int64)
-    _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, False,
+    _pair_pass(pos, radius, cell_of, cell_start, n_cells, reach, False,
                np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), count)
     return count
 
 
-def fill_pairs(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, start, pair_j):
+def fill_pairs(pos, radius, cell_of, cell_start, n_cells, reach, start, pair_j):
     """Write the partners counted by :func:`count_pairs` into ``pair_j[start[i]:start[i+1]]``,
     sorted ascending per particle (so the pair keys i·N + j are globally sorted)."""
-    _pair_pass(pos, radius, cell_of, cell_start, cell_members, n_cells, reach, True, start, pair_j,
+    _pair_pass(pos, radius, cell_of, cell_start, n_cells, reach, True, start, pair_j,
                np.zeros(1, dtype=np.int64))
 
 

@@ -84,14 +84,13 @@ def rebuild(state: State, params, n_walls: int) -> State:
             setattr(state, name, _permuted(getattr(state, name), order))
     state.film = np.concatenate([_permuted(state.film[:n], order), state.film[n:]])
 
-    # new pair list; the particles are now in cell order, so each cell's members are a run
+    # new pair list; the particles are now in cell order, so each cell's particles are a run
     cell_of = _permuted(cell_of, order)
-    members = np.arange(n)
-    count = _kernels.count_pairs(state.pos, state.radius, cell_of, cell_start, members, n_cells, reach)
+    count = _kernels.count_pairs(state.pos, state.radius, cell_of, cell_start, n_cells, reach)
     start = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(count, out=start[1:])
     partners = np.empty(start[-1], dtype=np.int64)
-    _kernels.fill_pairs(state.pos, state.radius, cell_of, cell_start, members, n_cells, reach, start, partners)
+    _kernels.fill_pairs(state.pos, state.radius, cell_of, cell_start, n_cells, reach, start, partners)
 
     old = _kernels.SlotArrays(*(getattr(state, name) for name in SLOT_FIELDS))
     n_slots = n * n_walls + partners.size
