@@ -10,7 +10,13 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-__all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original"]
+__all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHYSICS_VERSION"]
+
+#: The simulator's physics version, raised by every change that alters trajectories on purpose
+#: (recorded in checkpoints, in the runs' provenance and in sweep manifests; a run is never
+#: resumed across versions; docs/simulator.md, "Physics versions"). 1: up to 2026-11-30; 2: a
+#: pair's friction spring and previous normal re-oriented when a rebuild swaps the pair's particles.
+PHYSICS_VERSION = 2
 
 CAPILLARY_MODEL_NAMES = ("willett_numeric", "willett_analytic", "rabinovich", "lambert")
 #: Δt must resolve the contact of the smallest particles with at least this many steps

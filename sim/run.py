@@ -22,19 +22,13 @@ from . import _kernels
 from .capillary import pair_capillary_force
 from .drum import n_walls
 from .neighbours import empty_slots, rebuild
-from .params import SimParams
+from .params import PHYSICS_VERSION, SimParams
 from .state import State
 
 __all__ = ["Simulation", "configure_threading", "PHYSICS_VERSION"]
 
 #: version of the one-file checkpoint (the JSON information inside the .npz under _INFO_KEY)
 CHECKPOINT_FORMAT = 2
-
-#: The simulator's physics version, raised by every change that alters trajectories on purpose
-#: (recorded in checkpoints and in the runs' provenance; a run is never resumed across versions;
-#: docs/simulator.md, "Physics versions"). 1: up to 2026-11-30; 2: a pair's friction spring and
-#: previous normal re-oriented when a rebuild swaps the pair's particles.
-PHYSICS_VERSION = 2
 _INFO_KEY = "checkpoint_info"
 
 

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 from granalytics.errors import ParameterError
 
-from .params import PRESETS, SimParams, cg_scale, preset_original
+from .params import PHYSICS_VERSION, PRESETS, SimParams, cg_scale, preset_original
 
 __all__ = [
     "SweepSpec", "SweepPoint", "PointTask", "load_spec", "parse_spec", "point_name", "run_point", "run_sweep",
@@ -59,9 +59,11 @@ _NOT_FIELDS = {"alpha", "surface_tension", "drum_omega", "n_particles", "seed", 
 _TOP_LEVEL = {"preset", "revolutions", "frame_every_rev", "checkpoint_every", "threads", "grid"}
 
 #: manifest columns (after ``point``, ``status`` and the parameters)
-MANIFEST_COLUMNS = ("preset", "revolutions", "frame_every_rev", "wall_time_s", "resumed", "file", "sha256",
-                    "error", "finished_utc")
-_SETTINGS = ("preset", "revolutions", "frame_every_rev")
+MANIFEST_COLUMNS = ("preset", "revolutions", "frame_every_rev", "physics_version", "wall_time_s", "resumed", "file",
+                    "sha256", "error", "finished_utc")
+#: what every point of a folder shares (the simulator's physics version included: a finished
+#: point of another version is not reused)
+_SETTINGS = ("preset", "revolutions", "frame_every_rev", "physics_version")
 _SIM_FIELDS = {f.name: f for f in dataclasses.fields(SimParams)}
 
 
@@ -422,16 +424,18 @@ def run_sweep(spec_path, out_dir, workers=None, scheduler=None, progress=True, p
         raise ParameterError(f"{out_dir}: exists and is not a folder")
     runner = point_runner if point_runner is not None else run_point
     rows = _load_rows(out_dir)
-    settings = {"preset": spec.preset, "revolutions": spec.revolutions, "frame_every_rev": spec.frame_every_rev}
+    settings = {"preset": spec.preset, "revolutions": spec.revolutions, "frame_every_rev": spec.frame_every_rev,
+                "physics_version": PHYSICS_VERSION}
     todo = []
     for point in spec.points:
         row = rows.get(point.name)
         if row is not None:
             for key in _SETTINGS:
                 if row.get(key) is not None and not _same(row[key], settings[key]):
+                    now = "this simulator has" if key == "physics_version" else "the spec has"
                     raise ParameterError(
                         f"{os.path.join(out_dir, 'manifest.csv')}: point {point.name} was run with {key}="
-                        f"{row[key]!r}, the spec has {settings[key]!r}; use another --out folder")
+                        f"{row[key]!r}, {now} {settings[key]!r}; use another --out folder")
         if not _is_complete(out_dir, row):
             todo.append(point)
     os.makedirs(os.path.join(out_dir, "points"), exist_ok=True)

@@ -314,3 +314,19 @@ def test_a_point_whose_worker_is_killed_resumes_from_its_checkpoint_bit_identica
         for fa, fb in zip(a, b):
             for field in FIELDS:
                 assert np.array_equal(getattr(fa, field), getattr(fb, field)), field
+
+
+def test_points_of_another_simulator_physics_version_are_not_reused(tmp_path, scheduler):
+    import pandas as pd
+
+    from sim.params import PHYSICS_VERSION
+
+    spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
+    out = tmp_path / "sweep"
+    table = run_sweep(spec, out, scheduler=scheduler, progress=False, point_runner=fake_runner)
+    assert (table["physics_version"] == PHYSICS_VERSION).all()
+    manifest = pd.read_csv(out / "manifest.csv")
+    manifest["physics_version"] = PHYSICS_VERSION - 1
+    manifest.to_csv(out / "manifest.csv", index=False)
+    with pytest.raises(ParameterError, match=f"physics_version={PHYSICS_VERSION - 1}, this simulator has"):
+        run_sweep(spec, out, scheduler=scheduler, progress=False, point_runner=fake_runner)
