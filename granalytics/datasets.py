@@ -43,6 +43,7 @@ import hashlib
 import shlex
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 from .errors import GranalyticsError
@@ -173,7 +174,15 @@ def open_dataset(name: str):
     return open_run(dataset_path(name))
 
 
-def _run_recipe(commands, dry_run) -> None:
+_PRINT_LOCK = threading.Lock()  # recipes may run side by side (make --jobs): one line at a time
+
+
+def _say(label, text) -> None:
+    with _PRINT_LOCK:
+        print(f"[{label}] {text}", flush=True)
+
+
+def _run_recipe(commands, dry_run, label) -> None:
     """Run a registry recipe from the repository root with this interpreter (``python`` and
     ``granalytics`` become ``sys.executable [-m granalytics]``). A ``python -m sim run`` whose
     output has a checkpoint gets ``--resume``; one whose output exists without a checkpoint
@@ -191,7 +200,7 @@ def _run_recipe(commands, dry_run) -> None:
                 argv.append("--resume")
             elif (root / raw).exists():
                 argv.append("--overwrite")
-        print("$", shlex.join(argv), flush=True)
+        _say(label, f"$ {shlex.join(argv)}")
         if not dry_run:
             subprocess.run(argv, cwd=root, check=True)
 
@@ -204,11 +213,11 @@ def make_dataset(name: str, *, dry_run=False) -> str:
     identical; the bytes (and so the sum) also depend on the HDF5 library version.
     """
     entry = DATASETS[name]
-    _run_recipe(entry["commands"], dry_run)
+    _run_recipe(entry["commands"], dry_run, name)
     if dry_run:
         return ""
     digest = _sha256(DATASET_DIR / entry["file"])
-    print(f"{name}: sha256 {digest}")
+    _say(name, f"sha256 {digest}")
     return digest
 
 
@@ -303,11 +312,11 @@ def make_sweep(name: str, *, dry_run=False) -> str:
     """Regenerate a bundled sweep from its recipe: the sweep (finished points skipped,
     interrupted ones resumed) and then :func:`bundle_sweep`; returns the new manifest's sha256."""
     entry = SWEEPS[name]
-    _run_recipe(entry["commands"], dry_run)
+    _run_recipe(entry["commands"], dry_run, name)
     if dry_run:
         return ""
     digest = _sha256(DATASET_DIR / entry["dir"] / "manifest.csv")
-    print(f"{name}: manifest sha256 {digest}")
+    _say(name, f"manifest sha256 {digest}")
     return digest
 
 
