@@ -21,12 +21,14 @@ lab-cg1, lab-cg2, lab-cg3
     lab-cg2 and lab-cg3 six.
 paper-cg3
     The paper's drum (R_d = 0.1 m, L = 0.045 m, 120 000 original particles) at CG3 (4 444
-    particles, 6 revolutions), seed 0. (paper-cg2, 15 000 particles, is not made yet: its recipe
-    is ``_recipe("paper-cg2", 3, full_window="2:3")``.)
+    particles, 6 revolutions), seed 0.
+paper-cg2
+    The paper's drum at CG2 (15 000 particles, 3 revolutions), seed 0.
 
-Every dataset was made by a simulator version before the fix of a pair's spring orientation
-at rebuilds (docs/simulator.md, "Neighbour lists"); :func:`make_dataset` with the current
-simulator makes different trajectories, whose files will not match the registered sums.
+Every dataset but paper-cg2 was made by a simulator version before the fix of a pair's spring
+orientation at rebuilds (physics version 1; docs/simulator.md, "Neighbour lists" and "Physics
+versions"); :func:`make_dataset` with the current simulator makes different trajectories, whose
+files will not match the registered sums. paper-cg2 is of physics version 2.
 
 Sweeps
 ------
@@ -109,6 +111,18 @@ DATASETS = {
                      "versions give bit-identical trajectories; sharing the cores with a sweep and tests until 2.6)",
         "description": "the paper's drum, CG3: 4 444 particles of 4.5 mm standing for 120 000 of 1.5 mm, "
                        "6 revolutions; every frame in [3, 6], every fourth before (76 of 121 frames)",
+    },
+    "paper-cg2": {
+        "file": "paper-cg2.h5",
+        "sha256": "a2591d14b1e1271fb6a4f4c80ced558da25b7e7b717875c9be7b5167b681a0dc",
+        "commands": _recipe("paper-cg2", 3, full_window="2:3"),
+        "code_version": "748c4b9d16800050fb2549880f43c831199bef4b",
+        "wall_time": "2 h 57 min after settling, on 2 threads (bit-identical to 1), over three sittings with --resume: "
+                     "d6bd90b to about 0.5 revolution, cc50d4e to 0.95, 748c4b9 to 3 (the versions give "
+                     "bit-identical trajectories; paused during benchmarks, sharing the cores with tests)",
+        "description": "the paper's drum, CG2: 15 000 particles of 3 mm standing for 120 000 of 1.5 mm, "
+                       "3 revolutions; every frame in [2, 3], every fourth before (31 of 61 frames); "
+                       "physics version 2 (made after the spring fix)",
     },
 }
 
