@@ -386,10 +386,10 @@ class Simulation:
                                     f"{rate / 1e6:.2f}M particle-steps/s")
             import numba
 
+            wall = wall_before + _time.perf_counter() - wall0
             writer.update_provenance(
-                physics_version=PHYSICS_VERSION,
-                wall_time_s=wall_before + _time.perf_counter() - wall0, simulated_time_s=self.time,
-                wall_time_per_simulated_s=(wall_before + _time.perf_counter() - wall0) / max(self.time, 1e-300),
+                physics_version=PHYSICS_VERSION, wall_time_s=wall, simulated_time_s=self.time,
+                wall_time_per_simulated_s=wall / max(self.time, 1e-300),
                 threads=numba.get_num_threads(), cpu_count=os.cpu_count())
         bar.close()
         return out
@@ -450,15 +450,15 @@ class Simulation:
             file_original = SimParams.from_dict(meta.sim_config["original"])
         except (KeyError, TypeError, ValueError):
             raise ValueError(f"{out}: not a run of this simulator (no simulation parameters in its metadata)") from None
-        for where, version in ((ckpt, getattr(self, "_resume_physics_version", PHYSICS_VERSION)),
-                               (out, meta.provenance.get("physics_version"))):
+        ckpt_version = getattr(self, "_resume_physics_version", PHYSICS_VERSION)
+        for where, version in ((ckpt, ckpt_version), (out, meta.provenance.get("physics_version"))):
             if version is not None and version != PHYSICS_VERSION:
                 raise ValueError(
                     f"{where}: made by the simulator's physics version {version}, this simulator has version "
                     f"{PHYSICS_VERSION} (docs/simulator.md, 'Physics versions'); resuming would join two force laws "
                     "in one trajectory: finish the run with the version that started it, or start it again with "
                     "--overwrite")
-        if getattr(self, "_resume_physics_version", PHYSICS_VERSION) is None:
+        if ckpt_version is None:
             warnings.warn(f"{ckpt}: records no physics version (its simulator predates them); resuming it assumes it "
                           f"was made by physics version {PHYSICS_VERSION} (docs/simulator.md, 'Physics versions')",
                           stacklevel=3)
