@@ -5,7 +5,8 @@ Usage: python docs/results_tables.py [--figures DIR]
 Every number in docs/results.md comes from this script: steady-state yield, ⟨V_g⟩/V_p and N_g/N
 of every bundled run under both cohesion conventions (GNA, C_agg = 0.6, A_agg = 20°), the CG
 comparisons (deviation from the finest run, Kolmogorov–Smirnov distance of the size
-distributions) and the measured speed-ups, and the γ × Ω study of every bundled sweep (steady
+distributions) and the measured speed-ups, the granule kinetics of the lab runs (tracked events
+per particle per revolution), and the γ × Ω study of every bundled sweep (steady
 state per point, the growth-law fit beside the paper's β and γ₁, the surrogate's leave-one-out
 error). With ``--figures DIR`` it also writes the CG figures (the paper's Figs 3–6) of the lab
 and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR.
@@ -74,6 +75,25 @@ def cg_tables(figures=None):
                   f"{row.paper_speedup:.1f}× |")
 
 
+KINETICS_RUNS, KINETICS_WINDOW = ["lab-cg1", "lab-cg2", "lab-cg3"], (2, 3)
+
+
+def kinetics_table():
+    """Tracked granule events of the lab runs (acting cohesion), per particle per revolution."""
+    kinds = ("birth", "death", "coalescence", "breakage")
+    revolutions = KINETICS_WINDOW[1] - KINETICS_WINDOW[0]
+    print(f"\n**granule kinetics** (window {KINETICS_WINDOW[0]}–{KINETICS_WINDOW[1]} revolutions; events per "
+          f"particle per revolution, event counts in brackets)\n")
+    print("| run | particles | " + " | ".join(f"{k}s" for k in kinds) + " |")
+    print("| --- | --- | " + " | ".join("---" for _ in kinds) + " |")
+    for name in KINETICS_RUNS:
+        with ga.open_run(dataset_path(name)) as run:
+            counts = ga.track_run(run, window=KINETICS_WINDOW, c_agg=C_AGG, a_agg_deg=A_AGG).event_counts()
+            n = run.meta.n_particles
+        cells = " | ".join(f"{counts[k] / revolutions / n:.3g} ({counts[k]})" for k in kinds)
+        print(f"| {name} | {n} | {cells} |")
+
+
 SWEEP_WINDOW = (3, 6)
 
 
@@ -128,6 +148,7 @@ def main():
         os.makedirs(args.figures, exist_ok=True)
     steady_table()
     cg_tables(args.figures)
+    kinetics_table()
     sweep_tables(args.figures)
 
 

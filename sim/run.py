@@ -11,6 +11,7 @@ import dataclasses
 import json
 import math
 import os
+import sys
 import time as _time
 import warnings
 
@@ -339,6 +340,9 @@ class Simulation:
         frame interval, frame count, time and step of the checkpoint's frame) and refuses with
         ``ValueError``, changing nothing on disk, when they do not.
 
+        Resuming a run that finished (every requested frame written and its wall time recorded)
+        changes nothing: the run file is left as it is, so that a recipe can be rerun safely.
+
         An existing ``out`` is replaced only with ``overwrite=True`` (``FileExistsError``
         otherwise); a new run removes a checkpoint of ``out`` left by an earlier run.
         """
@@ -358,6 +362,10 @@ class Simulation:
             if not hasattr(self, "_resume_frame"):
                 raise ValueError("resume=True needs a simulation restored with Simulation.resume(out)")
             self.check_resume(out, frame_every, n_frames)
+            if self._run_is_finished(out, n_frames):
+                print(f"{out}: finished already ({n_frames} frames and the run's wall time written); "
+                      "nothing to resume, the file is left as it is", file=sys.stderr)
+                return out
             writer = RunWriter.continue_from(out, self._resume_frame)
         else:
             if os.path.exists(out) and not overwrite:
@@ -393,6 +401,17 @@ class Simulation:
                 threads=numba.get_num_threads(), cpu_count=os.cpu_count())
         bar.close()
         return out
+
+    @staticmethod
+    def _run_is_finished(out, n_frames) -> bool:
+        """Whether run file ``out`` holds at least ``n_frames`` frames and the wall time that
+        :meth:`run` writes when it finishes (a run stopped before its end has no wall time, or
+        fewer frames: a finished run resumed for more revolutions and killed keeps the old
+        wall time but not the frames)."""
+        from granalytics import open_run
+
+        with open_run(out, validate=False) as run:
+            return len(run) >= n_frames and "wall_time_s" in run.meta.provenance
 
     @classmethod
     def resume(cls, out) -> "Simulation":

@@ -522,3 +522,25 @@ def test_resume_refuses_a_checkpoint_of_another_physics_version(tmp_path):
     with pytest.warns(UserWarning, match="records no physics version"):
         Simulation.resume(out).run(out, REVS / 3 + REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2,
                                    progress=False, resume=True)
+
+
+def test_resuming_a_finished_run_leaves_its_file_as_it_is(tmp_path, capsys):
+    params = dataclasses.replace(SMALL, settle_time=0.01)
+    frame_every = 400
+    revs = 4 * frame_every * params.dt / params.revolution_period  # 4 frames after the first
+    out = tmp_path / "run.h5"
+    Simulation(params, ORIGINAL).run(out, revs, frame_every=frame_every, checkpoint_every=2, progress=False)
+    before = out.read_bytes()
+    # the last checkpoint is after frame 4 of 5: a resume would otherwise simulate the last one again
+    sim = Simulation.resume(out)
+    assert sim._resume_frame == 4
+    step = sim.state.step
+    sim.run(out, revs, frame_every=frame_every, checkpoint_every=2, progress=False, resume=True)
+    assert out.read_bytes() == before
+    assert "finished already" in capsys.readouterr().err
+    assert sim.state.step == step  # nothing simulated
+    # asking for more revolutions does resume
+    Simulation.resume(out).run(out, revs * 6 / 4, frame_every=frame_every, checkpoint_every=2, progress=False,
+                               resume=True)
+    with ga.open_run(out) as run:
+        assert len(run) == 7
