@@ -70,7 +70,8 @@ def build_parser():
                    help="output interval [revolutions] (default 0.05)")
     p.add_argument("--checkpoint-every", type=int, default=20, help="checkpoint every N >= 1 frames (default 20)")
     p.add_argument("--resume", action="store_true",
-                   help="continue the run in --out from its checkpoint (same options as when it started)")
+                   help="continue the run in --out from its checkpoint (same options as when it started; a "
+                        "finished run is left as it is)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     sub.add_parser("presets", help="list the presets")
     from .sweep import add_sweep_parser
