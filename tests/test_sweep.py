@@ -11,6 +11,8 @@ import math
 import os
 import signal
 import textwrap
+import subprocess
+import sys
 import threading
 import time
 
@@ -330,3 +332,34 @@ def test_points_of_another_simulator_physics_version_are_not_reused(tmp_path, sc
     manifest.to_csv(out / "manifest.csv", index=False)
     with pytest.raises(ParameterError, match=f"physics_version={PHYSICS_VERSION - 1}, this simulator has"):
         run_sweep(spec, out, scheduler=scheduler, progress=False, point_runner=fake_runner)
+
+
+def test_a_point_runs_on_openmp_threads_in_a_fresh_worker(tmp_path):
+    # numba fixes its threading layer when its threads start; a worker process that started them
+    # before configure_threading ran would simulate on TBB, many times slower for small systems
+    probe = f"""
+import warnings
+import numba
+import sim.run
+from sim.sweep import PointTask, run_point
+
+warnings.simplefilter("error", RuntimeWarning)
+
+class Started(Exception):
+    pass
+
+class Probe:
+    def __init__(self, *args, **kwargs):
+        raise Started(numba.threading_layer())
+
+sim.run.Simulation = Probe
+task = PointTask(name="p", point={{}}, overrides={{}}, preset="lab-cg3", revolutions=0.1, frame_every_rev=0.05,
+                 checkpoint_every=2, threads=1, out={str(tmp_path / 'p.h5')!r})
+try:
+    run_point(task)
+except Started as started:
+    print("layer", started.args[0])
+"""
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["layer", "omp"]
