@@ -25,10 +25,9 @@ paper-cg3
 paper-cg2
     The paper's drum at CG2 (15 000 particles, 3 revolutions), seed 0.
 
-Every dataset but paper-cg2 was made by a simulator version before the fix of a pair's spring
-orientation at rebuilds (physics version 1; docs/simulator.md, "Neighbour lists" and "Physics
-versions"); :func:`make_dataset` with the current simulator makes different trajectories, whose
-files will not match the registered sums. paper-cg2 is of physics version 2.
+Every dataset is of physics version 2 (the simulator after the fix of a pair's spring orientation
+at neighbour-list rebuilds; docs/simulator.md, "Physics versions"), recorded in each run's
+provenance; the γ × Ω sweep too.
 
 Sweeps
 ------
@@ -67,48 +66,44 @@ def _recipe(preset, revolutions, full_window=None):
     return [sim, subset]
 
 
-_LAB_CODE = "85aa70e85a0494805a84ffec09690de064b05e85"  # git commit whose simulator made the lab runs
-
 #: name -> file, sha256, the commands that made it (from the repository root, in order), the
 #: code version (git commit) and simulator wall time, description
 DATASETS = {
     "lab-cg1": {
         "file": "lab-cg1.h5",
-        "sha256": "5203b924e3a15766ffff2bfc125ba9a83fc9455893d76c279c49154ec45be0fd",
+        "sha256": "acc389975038e9468e2c3d7704b7ed0e884c8d4dbd13501b82b70f842ea2e1dc",
         "commands": _recipe("lab-cg1", 3, full_window="2:3"),
-        "code_version": _LAB_CODE,
-        "wall_time": "1 h 43 min 41 s (1 thread to 0.35 revolution, then resumed on 2 threads, which is "
-                     "bit-identical; sharing the 2 cores with other runs and tests throughout)",
-        "description": "lab drum, CG1: the 3 000 original particles of 1.5 mm, to 2.95 revolutions (the simulator "
-                       "of that version stopped one frame short of 3); every frame in [2, 3], every fourth before "
-                       "(30 of 60 frames)",
+        "code_version": "c86d1342190c90b7504bf7c43f6aba54db843e1a",
+        "wall_time": "52 min 2 s (1 thread, beside another run on the other core; 33c7df0 to 0.35 revolution, "
+                     "then c86d134 with --resume, which give bit-identical trajectories)",
+        "description": "lab drum, CG1: the 3 000 original particles of 1.5 mm, 3 revolutions; every frame in [2, 3], "
+                       "every fourth before (31 of 61 frames)",
     },
     "lab-cg2": {
         "file": "lab-cg2.h5",
-        "sha256": "d5a0064dfdcbbe4d7d8d224b60bb9c7144868e3f85652ab84664611f467ae5ce",
+        "sha256": "f28809cf4c74404323d3f28d0ff840b90ae2d4b06f9b834e7be07eec77b38a57",
         "commands": _recipe("lab-cg2", 6),
-        "code_version": _LAB_CODE,
-        "wall_time": "47 min 11 s (1 thread, sharing the 2 cores with two other runs and tests)",
-        "description": "lab drum, CG2: 375 particles of 3 mm standing for 3 000 of 1.5 mm, to 5.95 revolutions "
-                       "(the simulator of that version stopped one frame short of 6), every frame (120 frames)",
+        "code_version": "c86d1342190c90b7504bf7c43f6aba54db843e1a",
+        "wall_time": "5 min 40 s (1 thread, beside the lab-cg1 run on the other core)",
+        "description": "lab drum, CG2: 375 particles of 3 mm standing for 3 000 of 1.5 mm, 6 revolutions, every "
+                       "frame (0.05 revolution, 121 frames)",
     },
     "lab-cg3": {
         "file": "lab-cg3.h5",
-        "sha256": "56d25fc98249fea05d27afda6918a5a1b2cc5f9a5f0b56dd1da9d9ebca6cfd73",
+        "sha256": "be6cb66800fc9236fd36b7fa2b10d7a82fd36585f28f51bda7d375976eba435f",
         "commands": _recipe("lab-cg3", 6),
-        "code_version": _LAB_CODE,
-        "wall_time": "3 min 41 s (1 thread; the other core busy)",
+        "code_version": "748c4b9d16800050fb2549880f43c831199bef4b",
+        "wall_time": "3 min 9 s (1 thread, beside the paper-cg2 run on 2 threads)",
         "description": "lab drum, CG3: 111 particles of 4.5 mm standing for 3 000 of 1.5 mm, 6 revolutions, "
                        "every frame (0.05 revolution, 121 frames)",
     },
     "paper-cg3": {
         "file": "paper-cg3.h5",
-        "sha256": "1fdf7d5f70fbb773601f0b68772bde474dd5bd5f7a5042eb4254b48635494086",
+        "sha256": "d4c225ff395aac15383520ee1f30110ccdda82a0e3aca7d8e727e06e8941ae9a",
         "commands": _recipe("paper-cg3", 6, full_window="3:6"),
-        "code_version": "aacf6e4c186d441268138a537fd9e5d65d85016e",
-        "wall_time": "1 h 29 min 5 s after settling (68715a0 on 1 thread to 0.3 revolution, b6fe26c on 1 thread to "
-                     "2.6, aacf6e4 on 2 threads to 6, each resumed from the checkpoint with --resume; the three "
-                     "versions give bit-identical trajectories; sharing the cores with a sweep and tests until 2.6)",
+        "code_version": "c86d1342190c90b7504bf7c43f6aba54db843e1a",
+        "wall_time": "1 h 1 min 58 s (1 thread, beside other runs on the other core; 33c7df0 to 0.65 revolution, "
+                     "then c86d134 with --resume, which give bit-identical trajectories)",
         "description": "the paper's drum, CG3: 4 444 particles of 4.5 mm standing for 120 000 of 1.5 mm, "
                        "6 revolutions; every frame in [3, 6], every fourth before (76 of 121 frames)",
     },
@@ -122,8 +117,7 @@ DATASETS = {
                      "(the versions give bit-identical trajectories; the time includes pauses for benchmarks and "
                      "cores shared with tests)",
         "description": "the paper's drum, CG2: 15 000 particles of 3 mm standing for 120 000 of 1.5 mm, "
-                       "3 revolutions; every frame in [2, 3], every fourth before (31 of 61 frames); "
-                       "physics version 2 (made after the spring fix)",
+                       "3 revolutions; every frame in [2, 3], every fourth before (31 of 61 frames)",
     },
 }
 
@@ -133,7 +127,7 @@ DATASETS = {
 SWEEPS = {
     "gamma-omega-lab-cg3": {
         "dir": "sweeps/gamma-omega-lab-cg3",
-        "manifest_sha256": "6bf7e18c9cec271610bfeeb91f2e0e7f1605bab37a472b64a6fc0c2997addc96",
+        "manifest_sha256": "509b9c5a9b15f86bc6910ef3d2778aef87c4a343e58039dc84dcd7ea782d89f3",
         "spec": "sweeps/gamma-omega-lab-cg3.toml",
         "commands": [
             "python -m sim sweep datasets/sweeps/gamma-omega-lab-cg3.toml --out build/sweeps/gamma-omega-lab-cg3 "
@@ -141,10 +135,9 @@ SWEEPS = {
             "python -m granalytics.datasets bundle-sweep build/sweeps/gamma-omega-lab-cg3 "
             "datasets/sweeps/gamma-omega-lab-cg3 --overwrite",
         ],
-        "code_version": "b6fe26ca0852387cd1d468b226ba8998be1d22d2",
-        "wall_time": "57 min on 1 worker (points 35 s to 8 min, sum 56 min), sharing the 2 cores with the paper-cg3 "
-                     "run and other work; the first two points were made by 68715a0 before the sweep was restarted "
-                     "with b6fe26c (bit-identical trajectories)",
+        "code_version": "45abfd1df9e3f72e543969e86bef509989750190",
+        "wall_time": "21 min 11 s on 2 workers (points 56 s to 3 min 18 s, sum 42 min), the first 15 minutes beside "
+                     "the paper-cg3 run",
         "description": "lab drum at CG3 (111 particles), γ = 0.01, 0.03, 0.06, 0.1095, 0.2, 0.3, 0.444 N/m (original "
                        "system) × Ω = 1.5, 2, 3 rad/s, 6 revolutions, every frame (0.05 revolution) as float32",
     },

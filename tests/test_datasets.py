@@ -5,6 +5,7 @@ import pytest
 
 from granalytics import GranalyticsError
 from granalytics.datasets import DATASETS, _main, dataset_path, make_dataset, open_dataset
+from sim.params import PHYSICS_VERSION
 
 
 def _option(command, name):
@@ -22,9 +23,8 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
         assert meta.sim_config["params"]["alpha"] == meta.alpha
         assert f"--preset {name}" in sim_command and meta.provenance["code"] == "sim"
         revolutions = float(_option(sim_command, "--revolutions"))
-        # the simulator before the frame-grid fix stopped one 0.05-revolution frame short when the
-        # revolutions were not a whole number of frame intervals in steps; the registry says so
-        assert revolutions - 0.05 - 1e-3 < run.revolutions[-1] < revolutions + 1e-3
+        assert run.revolutions[-1] == pytest.approx(revolutions, abs=1e-3)  # the whole run, last frame included
+        assert meta.provenance["physics_version"] == PHYSICS_VERSION  # every dataset of today's force laws
         assert meta.provenance["wall_time_s"] > 0  # the simulator's wall time, for CG speed-ups
         kept = meta.provenance["subset_of"]["frames_kept"]
         assert len(run) == len(kept)
