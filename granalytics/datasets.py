@@ -74,8 +74,9 @@ DATASETS = {
         "sha256": "acc389975038e9468e2c3d7704b7ed0e884c8d4dbd13501b82b70f842ea2e1dc",
         "commands": _recipe("lab-cg1", 3, full_window="2:3"),
         "code_version": "c86d1342190c90b7504bf7c43f6aba54db843e1a",
-        "wall_time": "52 min 2 s (1 thread, beside another run on the other core; 33c7df0 to 0.35 revolution, "
-                     "then c86d134 with --resume, which give bit-identical trajectories)",
+        "wall_time": "52 min 2 s (1 thread, beside another run on the other core; started "
+                     "with dbb051f or its parent 33c7df0 (registry text apart, the same code), resumed at "
+                     "0.35 revolution by c86d134: the same simulator)",
         "description": "lab drum, CG1: the 3 000 original particles of 1.5 mm, 3 revolutions; every frame in [2, 3], "
                        "every fourth before (31 of 61 frames)",
     },
@@ -102,8 +103,9 @@ DATASETS = {
         "sha256": "d4c225ff395aac15383520ee1f30110ccdda82a0e3aca7d8e727e06e8941ae9a",
         "commands": _recipe("paper-cg3", 6, full_window="3:6"),
         "code_version": "c86d1342190c90b7504bf7c43f6aba54db843e1a",
-        "wall_time": "1 h 1 min 58 s (1 thread, beside other runs on the other core; 33c7df0 to 0.65 revolution, "
-                     "then c86d134 with --resume, which give bit-identical trajectories)",
+        "wall_time": "1 h 1 min 58 s (1 thread, beside other runs on the other core; started "
+                     "with dbb051f or its parent 33c7df0 (registry text apart, the same code), resumed at "
+                     "0.65 revolution by c86d134: the same simulator)",
         "description": "the paper's drum, CG3: 4 444 particles of 4.5 mm standing for 120 000 of 1.5 mm, "
                        "6 revolutions; every frame in [3, 6], every fourth before (76 of 121 frames)",
     },
