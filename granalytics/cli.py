@@ -334,7 +334,7 @@ def format_cg_table(comparison) -> str:
 
 
 def cmd_subset(args):
-    from .io import subset_run
+    from .io import subset_run, thinned_frames
 
     if args.every < 1:
         raise ParameterError(f"--every must be >= 1, got {args.every}")
@@ -343,15 +343,11 @@ def cmd_subset(args):
     if os.path.exists(args.out) and not args.overwrite:
         raise ParameterError(f"{args.out}: file exists (pass --overwrite to replace it)")
     with open_run(args.run) as run:
-        index = np.arange(len(run))
-        keep = index % args.every == 0
-        if args.full_window is not None:
-            revs = run.revolutions
-            keep |= (revs >= args.full_window[0]) & (revs <= args.full_window[1])
-        frames = index[keep]
+        n_frames = len(run)
+        frames = thinned_frames(run.revolutions, args.every, args.full_window)
     subset_run(args.run, args.out, frames, float_dtype="float32" if args.float32 else "float64",
                overwrite=args.overwrite, progress=not args.quiet)
-    print(f"wrote {args.out}: {len(frames)} of {len(index)} frames"
+    print(f"wrote {args.out}: {len(frames)} of {n_frames} frames"
           + (", float32" if args.float32 else "") + f", {os.path.getsize(args.out) / 1e6:.1f} MB")
     return 0
 

@@ -231,11 +231,16 @@ def make_dataset(name: str, *, dry_run=False) -> str:
     return digest
 
 
-def bundle_sweep(src, dst, *, overwrite=False, progress=True) -> Path:
+def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_window=None) -> Path:
     """Copy the finished points of sweep folder ``src`` (``python -m sim sweep``) into ``dst``
-    for bundling: every frame of every point as float32 (:func:`granalytics.io.subset_run`), and
+    for bundling: the frames of every point as float32 (:func:`granalytics.io.subset_run`), and
     the manifest with the finished rows only, ``sha256`` the bundled file's sum and
     ``source_sha256`` the simulator's file's. Points not finished are left out (and named).
+
+    Every frame is kept by default; ``every`` and ``full_window`` (revolutions (r0, r1)) thin the
+    points as ``granalytics subset --every N --full-window R0:R1`` does
+    (:func:`granalytics.io.thinned_frames`): every frame inside the window, one in ``every``
+    outside it.
 
     Raises
     ------
@@ -246,7 +251,7 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True) -> Path:
     import tempfile
 
 
-    from .io import open_run, subset_run
+    from .io import open_run, subset_run, thinned_frames
     from .study import read_manifest
 
     src, dst = Path(src), Path(dst)
@@ -271,8 +276,8 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True) -> Path:
             iterator = tqdm(done.file, desc="bundle-sweep", unit="point")
         for rel in iterator:
             with open_run(src / rel) as run:
-                n_frames = len(run)
-            subset_run(src / rel, tmp / rel, range(n_frames), float_dtype="float32")
+                frames = thinned_frames(run.revolutions, every, full_window)
+            subset_run(src / rel, tmp / rel, frames, float_dtype="float32")
             sums.append(_sha256(tmp / rel))
         done["source_sha256"] = done["sha256"]
         done["sha256"] = sums
@@ -333,6 +338,8 @@ def make_sweep(name: str, *, dry_run=False) -> str:
 def _main(argv=None) -> int:
     import argparse
 
+    from .cli import _interval
+
     parser = argparse.ArgumentParser(prog="python -m granalytics.datasets",
                                      description="List or regenerate the bundled datasets.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -347,6 +354,9 @@ def _main(argv=None) -> int:
     b.add_argument("src", help="sweep folder written by python -m sim sweep")
     b.add_argument("dst", help="folder to write")
     b.add_argument("--overwrite", action="store_true", help="replace dst if it exists")
+    b.add_argument("--every", type=int, default=1, help="keep one frame in N outside --full-window (default 1: all)")
+    b.add_argument("--full-window", type=_interval, default=None, metavar="R0:R1",
+                   help="revolutions in which every frame is kept (with --every)")
     args = parser.parse_args(argv)
     if args.command == "list":
         for name, entry in {**DATASETS, **SWEEPS}.items():
@@ -356,7 +366,8 @@ def _main(argv=None) -> int:
         return 0
     if args.command == "bundle-sweep":
         try:
-            print(bundle_sweep(args.src, args.dst, overwrite=args.overwrite))
+            print(bundle_sweep(args.src, args.dst, overwrite=args.overwrite, every=args.every,
+                               full_window=args.full_window))
         except GranalyticsError as exc:
             print(f"python -m granalytics.datasets bundle-sweep: error: {exc}", file=sys.stderr)
             return 2

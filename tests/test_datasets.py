@@ -3,6 +3,7 @@ import shlex
 import numpy as np
 import pytest
 
+import granalytics as ga
 from granalytics import GranalyticsError
 from granalytics.datasets import DATASETS, _main, dataset_path, make_dataset, open_dataset
 from sim.params import PHYSICS_VERSION
@@ -94,6 +95,29 @@ def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_
     with pytest.raises(GranalyticsError, match="exists"):
         bundle_sweep(src, dst, progress=False)
     assert _main(["bundle-sweep", str(src), str(dst)]) == 2
+    # thinned: every frame in the window, every second one before it (as granalytics subset)
+    rel = table.file[0]
+    with ga.open_run(src / rel) as run:
+        revs = run.revolutions
+    window = (float(revs[-3]), float(revs[-1]))
+    expected = [k for k in range(len(revs)) if k % 2 == 0 or window[0] <= revs[k] <= window[1]]
+    assert len(expected) < len(revs)
+    thin = tmp_path / "thin"
+    assert _main(["bundle-sweep", str(src), str(thin), "--every", "2", "--full-window", f"{window[0]!r}:{window[1]!r}"]) == 0
+    with ga.open_run(thin / rel) as run:
+        assert run.meta.provenance["subset_of"]["frames_kept"] == expected
+    assert _main(["bundle-sweep", str(src), str(tmp_path / "bad"), "--every", "0"]) == 2
+
+
+def test_thinned_frames_keeps_the_window_and_every_nth_frame():
+    revs = np.arange(13) * 0.25
+    assert list(ga.io.thinned_frames(revs)) == list(range(13))
+    assert list(ga.io.thinned_frames(revs, 4)) == [0, 4, 8, 12]
+    assert list(ga.io.thinned_frames(revs, 4, (1.5, 2.0))) == [0, 4, 6, 7, 8, 12]
+    with pytest.raises(GranalyticsError, match="every"):
+        ga.io.thinned_frames(revs, 0)
+    with pytest.raises(GranalyticsError, match="full_window"):
+        ga.io.thinned_frames(revs, 2, (2.0, 1.0))
 
 
 @pytest.mark.parametrize("name", sorted(__import__("granalytics.datasets", fromlist=["SWEEPS"]).SWEEPS))

@@ -1132,6 +1132,37 @@ def open_run(path, *, validate=True) -> Run:
     return Run(path, validate=validate)
 
 
+def thinned_frames(revolutions, every=1, full_window=None) -> np.ndarray:
+    """Indices of the frames to keep when thinning a run: every ``every``-th frame (the first
+    included), and every frame whose time in revolutions lies in ``full_window`` = (r0, r1).
+
+    Parameters
+    ----------
+    revolutions : array of float
+        The run's frame times in drum revolutions (:attr:`Run.revolutions`).
+    every : int
+        Keep one frame in ``every`` outside the window (>= 1; 1 keeps all).
+    full_window : (float, float), optional
+        Revolutions [r0, r1] in which every frame is kept.
+
+    Raises
+    ------
+    ValidationError
+        ``every`` below 1 or ``full_window`` not two increasing numbers.
+    """
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise ValidationError("every", f"must be an integer >= 1, got {every!r}")
+    revs = np.asarray(revolutions, dtype=float)
+    index = np.arange(revs.size)
+    keep = index % every == 0
+    if full_window is not None:
+        r0, r1 = full_window
+        if not r0 <= r1:
+            raise ValidationError("full_window", f"must be (r0, r1) with r0 <= r1, got {full_window!r}")
+        keep |= (revs >= r0) & (revs <= r1)
+    return index[keep]
+
+
 def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, progress=False) -> str:
     """Copy some frames of a run into a new run file, optionally stored as float32.
 
