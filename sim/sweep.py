@@ -269,8 +269,12 @@ def run_point(task: PointTask) -> dict:
     """The real point runner: simulate the point with :mod:`sim` and write ``task.out``.
 
     Resumes from ``task.out + '.ckpt.npz'`` when the checkpoint exists (bit-identical to an
-    uninterrupted run). Returns ``{"resumed": bool}``.
+    uninterrupted run). Returns ``{"resumed": bool, "wall_time_s": float}``, the latter the
+    simulator's wall time for the whole point (summed over the attempts of a resumed point), as
+    recorded in the run file's provenance.
     """
+    from granalytics import open_run
+
     import numba
 
     from granalytics import configure_threading
@@ -292,7 +296,9 @@ def run_point(task: PointTask) -> dict:
     # the sweep owns its points folder: a point file without a checkpoint is an earlier failed start
     sim.run(task.out, task.revolutions, frame_every=frame_every, checkpoint_every=task.checkpoint_every,
             progress=False, resume=resumed, overwrite=not resumed)
-    return {"resumed": resumed}
+    with open_run(task.out, validate=False) as run:
+        wall_time_s = float(run.meta.provenance["wall_time_s"])
+    return {"resumed": resumed, "wall_time_s": wall_time_s}
 
 
 def _one_line(exc) -> str:
@@ -310,13 +316,17 @@ def _sha256(path) -> str:
 
 
 def _execute(runner, task: PointTask) -> dict:
-    """Run one point on a worker; never raises for a failing point (the error is returned)."""
+    """Run one point on a worker; never raises for a failing point (the error is returned).
+
+    ``wall_time_s`` is the runner's own figure when it reports one (the simulator's, over all
+    attempts of the point), else this attempt's."""
     t0 = time.perf_counter()
     try:
         info = runner(task) or {}
         if not os.path.isfile(task.out):
             raise RuntimeError(f"the point runner wrote no run file {task.out}")
-        return {"status": "done", "wall_time_s": time.perf_counter() - t0, "sha256": _sha256(task.out),
+        wall_time_s = float(info.get("wall_time_s", time.perf_counter() - t0))
+        return {"status": "done", "wall_time_s": wall_time_s, "sha256": _sha256(task.out),
                 "error": "", "resumed": bool(info.get("resumed", False))}
     except Exception as exc:  # reported in the manifest; the sweep goes on
         return {"status": "failed", "wall_time_s": time.perf_counter() - t0, "sha256": "", "error": _one_line(exc),

@@ -197,6 +197,16 @@ def test_sweep_writes_every_point_and_skips_finished_ones(tmp_path, scheduler):
     assert len(table) == 8 and (table["status"] == "done").all()
 
 
+def test_the_manifest_takes_the_point_runners_wall_time_when_it_reports_one(tmp_path, scheduler):
+    def reporting_runner(task):
+        fake_runner(task)
+        return {"resumed": True, "wall_time_s": 1234.5}  # e.g. the simulator's, over earlier attempts
+
+    spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
+    table = run_sweep(spec, tmp_path / "sweep", scheduler=scheduler, progress=False, point_runner=reporting_runner)
+    assert (table["wall_time_s"] == 1234.5).all() and table["resumed"].all()
+
+
 def test_a_failing_point_is_recorded_and_the_others_finish(tmp_path, scheduler):
     spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
     out = tmp_path / "sweep"
@@ -275,6 +285,7 @@ def test_two_real_points_on_a_two_worker_local_cluster(two_point_sweep):
             assert meta.alpha == 3.0 and meta.n_particles == 40 and meta.n_particles_original == 1080
             assert meta.sim_config["original"]["surface_tension"] == row.gamma
             assert meta.surface_tension == pytest.approx(3 * row.gamma)
+            assert row.wall_time_s == meta.provenance["wall_time_s"]  # the simulator's own figure
     assert os.path.exists(out / "points" / "gamma=0.1_particles=1080_settle_time=0.02.h5.ckpt.npz")
 
 
