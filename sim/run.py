@@ -361,8 +361,7 @@ class Simulation:
         if resume:
             if not hasattr(self, "_resume_frame"):
                 raise ValueError("resume=True needs a simulation restored with Simulation.resume(out)")
-            self.check_resume(out, frame_every, n_frames)
-            if self._run_is_finished(out, n_frames):
+            if self.check_resume(out, frame_every, n_frames):
                 print(f"{out}: finished already ({n_frames} frames and the run's wall time written); "
                       "nothing to resume, the file is left as it is", file=sys.stderr)
                 return out
@@ -402,17 +401,6 @@ class Simulation:
         bar.close()
         return out
 
-    @staticmethod
-    def _run_is_finished(out, n_frames) -> bool:
-        """Whether run file ``out`` holds at least ``n_frames`` frames and the wall time that
-        :meth:`run` writes when it finishes (a run stopped before its end has no wall time, or
-        fewer frames: a finished run resumed for more revolutions and killed keeps the old
-        wall time but not the frames)."""
-        from granalytics import open_run
-
-        with open_run(out, validate=False) as run:
-            return len(run) >= n_frames and "wall_time_s" in run.meta.provenance
-
     @classmethod
     def resume(cls, out) -> "Simulation":
         """The simulation of run ``out`` restored from its checkpoint, ready for ``run(..., resume=True)``.
@@ -432,13 +420,21 @@ class Simulation:
         sim._resume_physics_version = info.get("physics_version")  # None: written before versions were recorded
         return sim
 
-    def check_resume(self, out, frame_every, n_frames) -> None:
+    def check_resume(self, out, frame_every, n_frames) -> bool:
         """Check that run file ``out`` and this simulation's checkpoint belong together before a
         resume changes anything: same parameters (preset, overrides, seed: the whole
         :class:`SimParams` and its original), same frame interval, the checkpoint's frame
         within the requested run, the run file holding at least the checkpoint's frame count on
         the same grid of steps, and its frame ``frames − 1`` at exactly the checkpoint's time and
         step.
+
+        Returns
+        -------
+        bool
+            Whether the run finished already: the file holds at least ``n_frames`` frames and
+            the wall time that :meth:`run` writes at its end (a run stopped before its end has no
+            wall time, or fewer frames: a finished run resumed for more revolutions and killed
+            keeps the old wall time but not the frames).
 
         Raises
         ------
@@ -494,6 +490,7 @@ class Simulation:
         if steps[frames - 1] != s.step or times[frames - 1] != self.time:
             raise ValueError(f"{out}: frame {frames - 1} (the checkpoint's last) is at step {steps[frames - 1]}, "
                              f"t = {times[frames - 1]!r} s, the checkpoint {ckpt} at step {s.step}, t = {self.time!r} s")
+        return len(steps) >= n_frames and "wall_time_s" in meta.provenance
 
 
 def _fsync_directory(directory) -> None:

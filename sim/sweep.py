@@ -273,11 +273,9 @@ def run_point(task: PointTask) -> dict:
     simulator's wall time for the whole point (summed over the attempts of a resumed point), as
     recorded in the run file's provenance.
     """
-    from granalytics import open_run
-
     import numba
 
-    from granalytics import configure_threading
+    from granalytics import configure_threading, open_run
 
     from .run import Simulation
 
