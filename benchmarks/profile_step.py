@@ -9,8 +9,9 @@ particle count, settled in a static drum, then turned for 500 steps. For each si
 count it prints, in ns per particle-step:
 
 - ``wall slots`` and ``pair slots``: the force pass over the N·W particle–wall slots and over the
-  Verlet pair slots (``_kernels._slot_forces`` called alone, minus the cost of an empty call);
-- ``migration``: the liquid-migration pass (sequential);
+  Verlet pair slots (``_kernels._slot_forces`` called alone on each range);
+- ``migration``: the liquid-migration pass (sequential, over the blocks in which the force passes
+  counted events);
 - ``gather+integrate``: force/torque gathering per particle and the leapfrog update;
 - ``in-kernel rest``: the step kernel's time not explained by the four (parallel-region starts,
   whose cost is printed first, spray, the skin check);
@@ -47,7 +48,7 @@ from granalytics import RunWriter, configure_threading
 from sim import _kernels
 from sim import run as sim_run
 from sim.drum import baffle_directions
-from sim.liquid import migrate_liquid
+from sim.liquid import migrate_events
 from sim.params import SimParams
 from sim.run import Simulation
 
@@ -97,17 +98,21 @@ def settle_and_turn(sim, steps_10g, steps_1g):
 
 
 @njit
-def _repeat_slot_forces(reps, lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
+def _repeat_slot_forces(reps, block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, arrays):
     for _ in range(reps):
-        _kernels._slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays)
+        _kernels._slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, arrays)
 
 
 @njit
 def _repeat_migration(reps, film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
-                      body_key):
+                      body_key, block_events, n_walls):
+    n = film.shape[0] - n_walls
+    range_lo = np.empty(block_events.shape[0], dtype=np.int64)
+    range_hi = np.empty(block_events.shape[0], dtype=np.int64)
     for _ in range(reps):
-        migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
-                       body_key)
+        m = _kernels.event_ranges(block_events, n, n_walls, pair_i.shape[0], range_lo, range_hi)
+        migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
+                       body_key, range_lo[:m], range_hi[:m])
 
 
 @njit
@@ -156,17 +161,19 @@ def component_costs(sim, reps):
     arrays = _kernels.kernel_arrays(s, body_key)
     baffle_dir = np.empty((max(p.n_baffles, 1), 2))
     baffle_directions(p.n_baffles, 0.3, baffle_dir)
-    nws, ns = n * sim.n_walls, s.pair_i.shape[0]
-    # migration sees the flags of one real force pass (its events are those of one step)
-    _kernels._slot_forces(0, ns, nws, baffle_dir, p.drum_omega, kp, arrays)
+    n_wb, n_pb = _kernels.event_blocks(n, sim.n_walls, s.pair_i.shape[0])
+    blocks = np.zeros(n_wb + n_pb, dtype=np.int64)
+    _kernels.count_block_events(s.created, s.ruptured, n, sim.n_walls, blocks)
+    # migration sees the flags and event counts of one real force pass (its events are those of one step)
+    _kernels._slot_forces(0, n_wb + n_pb, baffle_dir, p.drum_omega, blocks, kp, arrays)
     flags = s.created.copy(), s.ruptured.copy()
     mig = (s.film.copy(), s.pair_i, s.pair_j, s.v_b.copy(), s.v_max, s.alive.copy(), flags[0], flags[1],
-           s.body_start, s.body_slots, p.v_min, body_key)
-    out = {"wall slots": _best(lambda r: _repeat_slot_forces(r, 0, nws, nws, baffle_dir, p.drum_omega, kp, arrays), reps),
-           "pair slots": _best(lambda r: _repeat_slot_forces(r, nws, ns, nws, baffle_dir, p.drum_omega, kp, arrays), reps),
+           s.body_start, s.body_slots, p.v_min, body_key, blocks.copy(), sim.n_walls)
+    out = {"wall slots": _best(lambda r: _repeat_slot_forces(r, 0, n_wb, baffle_dir, p.drum_omega, blocks, kp, arrays), reps),
+           "pair slots": _best(lambda r: _repeat_slot_forces(r, n_wb, n_wb + n_pb, baffle_dir, p.drum_omega, blocks, kp,
+                                                             arrays), reps),
            "migration": _best(lambda r: _repeat_migration(r, *mig), reps)}
-    g = p.gravity
-    out["gather+integrate"] = _best(lambda r: _repeat_gather(r, g[0], g[1], g[2], kp, arrays), reps)
+    out["gather+integrate"] = _best(lambda r: _repeat_gather(r, kp.gx, kp.gy, kp.gz, kp, arrays), reps)
     return out
 
 

@@ -28,7 +28,7 @@ from .capillary import (
 )
 from .contact import mechanical_force, rotate_spring
 from .drum import baffle_directions, wall_contact
-from .liquid import migrate_liquid, spray
+from .liquid import migrate_events, spray
 from .state import SLOT_FIELDS
 
 # ----------------------------------------------------------------------------- cell lists
@@ -305,7 +305,7 @@ def build_csr(n_walls, start, partners):
 KernelParams = namedtuple("KernelParams", [
     "dt",  # time step [s]
     "n_walls", "drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega",
-    "gravity",  # (gx, gy, gz) [m/s²]
+    "gx", "gy", "gz",  # gravity [m/s²] (three scalars: a parallel loop cannot take a tuple inside a named tuple)
     "k_n", "k_t", "c_n", "c_t", "mu",  # contact law (docs/physics.md, "Contact law")
     "gamma", "eta", "theta", "model", "viscous", "capillary_in_contact",  # "Liquid bridges", "Capillary models"
     "v_min",  # "Liquid migration"
@@ -333,7 +333,7 @@ def kernel_params(params, n_walls: int) -> KernelParams:
     return KernelParams(
         dt=float(p.dt), n_walls=int(n_walls), drum_radius=float(p.drum_radius), drum_length=float(p.drum_length),
         n_baffles=int(p.n_baffles), baffle_height=float(p.baffle_height), drum_omega=float(p.drum_omega),
-        gravity=tuple(float(g) for g in p.gravity),
+        gx=float(p.gravity[0]), gy=float(p.gravity[1]), gz=float(p.gravity[2]),
         k_n=float(p.k_n), k_t=float(p.k_t), c_n=float(p.c_n), c_t=float(p.c_t), mu=float(p.friction),
         gamma=float(p.surface_tension), eta=float(p.viscosity), theta=float(p.contact_angle),
         model=int(CAPILLARY_MODELS[p.capillary_model]), viscous=bool(p.viscous),
@@ -375,7 +375,8 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     ``kp`` is a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays` (modified in place);
     ``n_sprays`` is the number of sprays done before ``step0``.
 
-    Per step: slot forces (parallel over slots) → liquid migration (sequential) → gather and
+    Per step: wall and pair slot forces (parallel over blocks of slots) → liquid migration
+    (sequential, over the blocks in which the force passes counted events) → gather and
     integrate (parallel over particles) → spray when t crosses the next spray time. Stops early,
     before a step, when a particle has moved more than half the Verlet skin since the last
     rebuild (the caller then rebuilds the lists and calls again). With ``settling`` the drum is at rest (Ω = 0, angle 0) and nothing is sprayed.
@@ -405,7 +406,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     dt = kp.dt
     n_walls = kp.n_walls
     n_baffles = kp.n_baffles
-    gx, gy, gz = kp.gravity
+    gx, gy, gz = kp.gx, kp.gy, kp.gz
     v_min = kp.v_min
     spray_interval = kp.spray_interval
     spray_dose = kp.spray_dose
@@ -413,7 +414,6 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     half_skin = kp.half_skin
 
     n = pos.shape[0]
-    n_wall_slots = n * n_walls
     n_slots = pair_i.shape[0]
     omega_drum = 0.0 if settling else kp.drum_omega
     sprayed = 0.0
@@ -429,14 +429,23 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
         dz = pos[i, 2] - x_ref[i, 2]
         if dx * dx + dy * dy + dz * dz > half_skin * half_skin:
             n_far += 1
+    # the force passes count each block's events (creations, ruptures) and reset the flags the
+    # previous step left only in blocks that had some; the counts of that step, which may lie
+    # before this call, are taken from the flags once here
+    n_wall_blocks, n_pair_blocks = event_blocks(n, n_walls, n_slots)
+    block_events = np.empty(n_wall_blocks + n_pair_blocks, dtype=np.int64)
+    count_block_events(created, ruptured, n, n_walls, block_events)
+    range_lo = np.empty(block_events.shape[0], dtype=np.int64)
+    range_hi = np.empty(block_events.shape[0], dtype=np.int64)
     for it in range(n_steps):
         if n_far > 0:
             break
         baffle_directions(n_baffles, omega_drum * (step0 + it) * dt, baffle_dir)
-        # slot forces: wall slots, then pair slots, each range split evenly over the threads
-        for lo, hi in ((0, n_wall_slots), (n_wall_slots, n_slots)):
-            _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays)
-        migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min, body_key)
+        _slot_forces(0, n_wall_blocks, baffle_dir, omega_drum, block_events, kp, arrays)  # wall slots
+        _slot_forces(n_wall_blocks, n_wall_blocks + n_pair_blocks, baffle_dir, omega_drum, block_events, kp, arrays)
+        m = event_ranges(block_events, n, n_walls, n_slots, range_lo, range_hi)
+        migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
+                       body_key, range_lo[:m], range_hi[:m])
         n_far = _gather_integrate(gx, gy, gz, kp, arrays)
         done += 1
         if not settling and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
@@ -520,14 +529,92 @@ def _gather_integrate(gx, gy, gz, kp, arrays):
     return n_far
 
 
+#: particles per block of the wall pass, slots per block of the pair pass: the units in which
+#: the force passes count the step's events for liquid migration (:func:`event_blocks`)
+WALL_BLOCK = 32
+PAIR_BLOCK = 256
+
+
+@njit(cache=True)
+def event_blocks(n_particles, n_walls, n_slots):
+    """``(n_wall_blocks, n_pair_blocks)``: how many blocks the wall pass (``WALL_BLOCK``
+    particles, i.e. their W wall slots each) and the pair pass (``PAIR_BLOCK`` pair slots) cut
+    their slots into. Block b < n_wall_blocks covers wall slots b·WALL_BLOCK·W …; block
+    n_wall_blocks + b covers pair slots N·W + b·PAIR_BLOCK …"""
+    n_wall_blocks = (n_particles + WALL_BLOCK - 1) // WALL_BLOCK
+    n_pair_blocks = (n_slots - n_particles * n_walls + PAIR_BLOCK - 1) // PAIR_BLOCK
+    return n_wall_blocks, n_pair_blocks
+
+
+@njit(cache=True, inline="always")
+def _block_slots(blk, n_wall_blocks, n_particles, n_walls, n_slots):
+    """Slot range [lo, hi) of event block ``blk`` (:func:`event_blocks`)."""
+    if blk < n_wall_blocks:
+        return blk * WALL_BLOCK * n_walls, min((blk + 1) * WALL_BLOCK, n_particles) * n_walls
+    lo = n_particles * n_walls + (blk - n_wall_blocks) * PAIR_BLOCK
+    return lo, min(lo + PAIR_BLOCK, n_slots)
+
+
 @njit(cache=True, parallel=True)
-def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
-    """Interaction state, force and torques of slots lo … hi−1 (docs/physics.md, "Contact law"
-    and "Liquid bridges"); ``kp`` a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays`.
+def count_block_events(created, ruptured, n_particles, n_walls, block_events):
+    """Write into ``block_events`` the number of slots of each event block (:func:`event_blocks`)
+    whose created or ruptured flag is set: what the force passes need to know about flags left
+    by a step before the current kernel call."""
+    n_slots = created.shape[0]
+    n_wall_blocks = event_blocks(n_particles, n_walls, n_slots)[0]
+    for blk in prange(block_events.shape[0]):
+        lo, hi = _block_slots(blk, n_wall_blocks, n_particles, n_walls, n_slots)
+        e = 0
+        for k in range(lo, hi):
+            if created[k] or ruptured[k] != 0.0:
+                e += 1
+        block_events[blk] = e
+
+
+@njit(cache=True)
+def event_ranges(block_events, n_particles, n_walls, n_slots, range_lo, range_hi):
+    """Slot ranges of the event blocks with a nonzero count, ascending, into ``range_lo[:m]`` and
+    ``range_hi[:m]`` (each of length ≥ the number of blocks); returns m."""
+    n_wall_blocks = event_blocks(n_particles, n_walls, n_slots)[0]
+    m = 0
+    for blk in range(block_events.shape[0]):
+        if block_events[blk] != 0:
+            range_lo[m], range_hi[m] = _block_slots(blk, n_wall_blocks, n_particles, n_walls, n_slots)
+            m += 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def _clear_event_flags(lo, hi, created, ruptured):
+    """Reset the created/ruptured flags of slots lo … hi−1, writing only where one is set."""
+    for k in range(lo, hi):
+        if created[k]:
+            created[k] = False
+        if ruptured[k] != 0.0:
+            ruptured[k] = 0.0
+
+
+@njit(cache=True, parallel=True)
+def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, arrays):
+    """Interaction state, force and torques of the slots of event blocks block_lo … block_hi−1
+    (:func:`event_blocks`: wall blocks of ``WALL_BLOCK`` particles' W wall slots, then pair
+    blocks of ``PAIR_BLOCK`` slots), in parallel over blocks (docs/physics.md, "Contact law" and
+    "Liquid bridges"); ``kp`` a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays`. The
+    step calls it for the wall blocks, then for the pair blocks, so that each thread gets an equal
+    share of the expensive pair slots.
+
+    ``block_events[b]`` holds on entry the number of created/ruptured flags that the previous
+    step set in block b (they are reset first, only in blocks where it is nonzero) and on return
+    the number this step set (creations, and ruptures of wet bridges): liquid migration visits
+    only the blocks with events, and no pass reads every slot's flags.
 
     The body is written out in the loop: a numba call per slot with this many array arguments
-    costs ~10x the work itself. Wall slots and pair slots are passed as separate ranges so that
-    each thread gets an equal share of the expensive pair slots.
+    costs ~10x the work itself. A particle's wall geometry is read once for its W walls (its wall
+    slots are consecutive), and a dead wall slot is skipped before any geometry when the particle
+    surely cannot touch the wall: the cylinder and end-plate overlaps that
+    :func:`sim.drum.wall_contact` computes are negative (the same expressions, bit for bit), or,
+    for the baffles, the particle lies inside the circle of their inner edges with a margin of
+    1e-9 of it (then its distance to any baffle exceeds its radius).
 
     Invariant: the outputs (force, torques, f_normal, f_cap, gap) of a dead slot are zero. A
     slot is born dead with zero outputs (:func:`sim.neighbours.empty_slots`) and dies only by
@@ -554,6 +641,7 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
     gap = arrays.gap
     bridge_table = arrays.bridge_table
     dt = kp.dt
+    n_walls = kp.n_walls
     drum_radius = kp.drum_radius
     drum_length = kp.drum_length
     n_baffles = kp.n_baffles
@@ -570,114 +658,147 @@ def _slot_forces(lo, hi, n_wall_slots, baffle_dir, omega_drum, kp, arrays):
     viscous = kp.viscous
     capillary_in_contact = kp.capillary_in_contact
     n_particles = pos.shape[0]
+    n_slots = pair_i.shape[0]
+    n_wall_blocks = event_blocks(n_particles, n_walls, n_slots)[0]
     inner_radius = drum_radius * (1.0 - baffle_height)
-    for k in prange(lo, hi):
-        # flags of the previous step: reset only where set (a read is cheaper than a write)
-        if created[k]:
-            created[k] = False
-        if ruptured[k] != 0.0:
-            ruptured[k] = 0.0
-        i = pair_i[k]
-        ri = radius[i]
-        # contact point velocity of i is v_i + ω_i × (R_i n); of j, v_j + ω_j × (−R_j n)
-        if k < n_wall_slots:
-            if not alive[k] and _wall_surely_apart(pair_j[k] - n_particles, pos[i, 0], pos[i, 1], pos[i, 2], ri,
-                                                   drum_radius, drum_length, n_baffles, inner_radius):
-                continue  # stays dead, outputs zero
-            ok, nx, ny, nz, u, wvx, wvy = wall_contact(
-                pair_j[k] - n_particles, pos[i, 0], pos[i, 1], pos[i, 2], ri, drum_radius, drum_length,
-                n_baffles, baffle_height, omega_drum, baffle_dir)
-            if not ok:
-                u = -1.0
-            rj = math.inf
+    for blk in prange(block_lo, block_hi):
+        lo, hi = _block_slots(blk, n_wall_blocks, n_particles, n_walls, n_slots)
+        if block_events[blk] != 0:
+            _clear_event_flags(lo, hi, created, ruptured)
+        events = 0
+        walls = blk < n_wall_blocks
+        # wall blocks: slot k = i·W + w, walked particle by particle
+        i = lo // n_walls - 1
+        w = n_walls - 1
+        px = py = pz = ri = 0.0
+        cylinder_apart = baffles_apart = low_apart = high_apart = False
+        for k in range(lo, hi):
+            if walls:
+                w += 1
+                if w == n_walls:
+                    w = 0
+                    i += 1
+                    px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
+                    ri = radius[i]
+                    r2 = px * px + py * py
+                    reach = ri + 1e-9 * inner_radius
+                    cylinder_apart = math.sqrt(r2) + ri - drum_radius < 0.0
+                    baffles_apart = r2 < (inner_radius - reach) * (inner_radius - reach) and inner_radius > reach
+                    low_apart = ri - pz < 0.0
+                    high_apart = ri - (drum_length - pz) < 0.0
+                if not alive[k]:
+                    if w == 0:
+                        apart = cylinder_apart
+                    elif w <= n_baffles:
+                        apart = baffles_apart
+                    elif w == n_baffles + 1:
+                        apart = low_apart
+                    else:
+                        apart = high_apart
+                    if apart:
+                        continue  # stays dead, outputs zero
+                ok, nx, ny, nz, u, wvx, wvy = wall_contact(
+                    w, px, py, pz, ri, drum_radius, drum_length, n_baffles, baffle_height, omega_drum, baffle_dir)
+                if not ok:
+                    u = -1.0
+                rj = math.inf
+                vjx, vjy, vjz = wvx, wvy, 0.0
+                ojx, ojy, ojz = 0.0, 0.0, omega_drum
+            else:
+                i = pair_i[k]
+                j = pair_j[k]
+                ri = radius[i]
+                rj = radius[j]
+                dx = pos[j, 0] - pos[i, 0]
+                dy = pos[j, 1] - pos[i, 1]
+                dz = pos[j, 2] - pos[i, 2]
+                d2 = dx * dx + dy * dy + dz * dz
+                if not alive[k] and d2 > (ri + rj) * (ri + rj) * (1.0 + 1e-9):
+                    continue  # clearly apart (no square root needed): stays dead, outputs zero
+                dist = math.sqrt(d2)
+                u = ri + rj - dist
+                if u < 0.0 and not alive[k]:
+                    continue
+                if dist == 0.0:
+                    dist = 1e-300
+                nx, ny, nz = dx / dist, dy / dist, dz / dist
+                # contact point velocity of j: v_j + ω_j × (−R_j n)
+                ojx, ojy, ojz = omega_p[j, 0], omega_p[j, 1], omega_p[j, 2]
+                vjx = vel[j, 0] - (ojy * nz - ojz * ny) * rj
+                vjy = vel[j, 1] - (ojz * nx - ojx * nz) * rj
+                vjz = vel[j, 2] - (ojx * ny - ojy * nx) * rj
             r_eff = effective_radius(ri, rj)
-            vjx, vjy, vjz = wvx, wvy, 0.0
-            ojx, ojy, ojz = 0.0, 0.0, omega_drum
-        else:
-            j = pair_j[k]
-            rj = radius[j]
-            dx = pos[j, 0] - pos[i, 0]
-            dy = pos[j, 1] - pos[i, 1]
-            dz = pos[j, 2] - pos[i, 2]
-            d2 = dx * dx + dy * dy + dz * dz
-            if not alive[k] and d2 > (ri + rj) * (ri + rj) * (1.0 + 1e-9):
-                continue  # clearly apart (no square root needed): stays dead, outputs zero
-            dist = math.sqrt(d2)
-            u = ri + rj - dist
-            if u < 0.0 and not alive[k]:
+            if not alive[k]:
+                if u < 0.0:
+                    continue  # a dead slot's outputs are all zero already (see the docstring)
+                alive[k] = True
+                created[k] = True
+                events += 1
+                fs[k, 0] = 0.0
+                fs[k, 1] = 0.0
+                fs[k, 2] = 0.0
+                nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
+            elif _bridge_ruptured(-u, model, v_b[k], r_eff, gamma, theta, bridge_table, k):
+                alive[k] = False
+                ruptured[k] = v_b[k]
+                if v_b[k] != 0.0:
+                    events += 1  # (a dry pair that parts leaves no flag and moves no liquid)
+                v_b[k] = 0.0
+                fs[k, 0] = 0.0
+                fs[k, 1] = 0.0
+                fs[k, 2] = 0.0
+                _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
                 continue
-            if dist == 0.0:
-                dist = 1e-300
-            nx, ny, nz = dx / dist, dy / dist, dz / dist
-            r_eff = effective_radius(ri, rj)
-            ojx, ojy, ojz = omega_p[j, 0], omega_p[j, 1], omega_p[j, 2]
-            vjx = vel[j, 0] - (ojy * nz - ojz * ny) * rj
-            vjy = vel[j, 1] - (ojz * nx - ojx * nz) * rj
-            vjz = vel[j, 2] - (ojx * ny - ojy * nx) * rj
-        if not alive[k]:
-            if u < 0.0:
-                continue  # a dead slot's outputs are all zero already (see the docstring)
-            alive[k] = True
-            created[k] = True
-            fs[k, 0] = 0.0
-            fs[k, 1] = 0.0
-            fs[k, 2] = 0.0
-            nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-        elif _bridge_ruptured(-u, model, v_b[k], r_eff, gamma, theta, bridge_table, k):
-            alive[k] = False
-            ruptured[k] = v_b[k]
-            v_b[k] = 0.0
-            fs[k, 0] = 0.0
-            fs[k, 1] = 0.0
-            fs[k, 2] = 0.0
-            _clear_output(k, force, torque_i, torque_j, f_normal, f_cap, gap)
-            continue
-        oix, oiy, oiz = omega_p[i, 0], omega_p[i, 1], omega_p[i, 2]
-        vrx = vel[i, 0] + (oiy * nz - oiz * ny) * ri - vjx
-        vry = vel[i, 1] + (oiz * nx - oix * nz) * ri - vjy
-        vrz = vel[i, 2] + (oix * ny - oiy * nx) * ri - vjz
-        if u >= 0.0:  # mechanical contact
-            twist = 0.5 * dt * (nx * (oix + ojx) + ny * (oiy + ojy) + nz * (oiz + ojz))
-            sx, sy, sz = rotate_spring(fs[k, 0], fs[k, 1], fs[k, 2], nprev[k, 0], nprev[k, 1], nprev[k, 2], nx, ny, nz, twist)
-            f_n, sx, sy, sz, tx, ty, tz = mechanical_force(u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t, c_n, c_t, mu, dt)
-            fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
-            nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
-            f_contact = bridge_table[k, 2] if v_b[k] > 0.0 else 0.0  # bridge_force at contact
-            f_pull = f_contact if capillary_in_contact else 0.0
-            fn_net = f_n - f_pull  # along −n on i (repulsive when positive)
-            force[k, 0] = -fn_net * nx + tx
-            force[k, 1] = -fn_net * ny + ty
-            force[k, 2] = -fn_net * nz + tz
-            # T_i = (R_i n) × F_t ; T_j = (−R_j n) × (−F_t) = R_j n × F_t
-            cx = ny * tz - nz * ty
-            cy = nz * tx - nx * tz
-            cz = nx * ty - ny * tx
-            torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = ri * cx, ri * cy, ri * cz
-            if k >= n_wall_slots:
-                torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = rj * cx, rj * cy, rj * cz
-            f_normal[k] = fn_net
-            f_cap[k] = f_contact
-        else:  # separated, bridge active (0 < s < s_crit)
-            s = -u
-            f_c = 0.0
-            if v_b[k] > 0.0:
-                f_c = bridge_force_from_constants(model, s, v_b[k], r_eff, gamma, theta, bridge_table, k)
-            f_v = 0.0
-            if viscous:
-                f_v = viscous_force(eta, ri, rj, vrx * nx + vry * ny + vrz * nz, s, v_b[k])
-            pull = f_c - f_v  # along +n on i
-            force[k, 0] = pull * nx
-            force[k, 1] = pull * ny
-            force[k, 2] = pull * nz
-            torque_i[k, 0] = 0.0
-            torque_i[k, 1] = 0.0
-            torque_i[k, 2] = 0.0
-            torque_j[k, 0] = 0.0
-            torque_j[k, 1] = 0.0
-            torque_j[k, 2] = 0.0
-            f_normal[k] = -pull
-            f_cap[k] = f_c
-        gap[k] = -u
+            # contact point velocity of i: v_i + ω_i × (R_i n)
+            oix, oiy, oiz = omega_p[i, 0], omega_p[i, 1], omega_p[i, 2]
+            vrx = vel[i, 0] + (oiy * nz - oiz * ny) * ri - vjx
+            vry = vel[i, 1] + (oiz * nx - oix * nz) * ri - vjy
+            vrz = vel[i, 2] + (oix * ny - oiy * nx) * ri - vjz
+            if u >= 0.0:  # mechanical contact
+                twist = 0.5 * dt * (nx * (oix + ojx) + ny * (oiy + ojy) + nz * (oiz + ojz))
+                sx, sy, sz = rotate_spring(fs[k, 0], fs[k, 1], fs[k, 2], nprev[k, 0], nprev[k, 1], nprev[k, 2],
+                                           nx, ny, nz, twist)
+                f_n, sx, sy, sz, tx, ty, tz = mechanical_force(u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t,
+                                                               c_n, c_t, mu, dt)
+                fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
+                nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
+                f_contact = bridge_table[k, 2] if v_b[k] > 0.0 else 0.0  # bridge_force at contact
+                f_pull = f_contact if capillary_in_contact else 0.0
+                fn_net = f_n - f_pull  # along −n on i (repulsive when positive)
+                force[k, 0] = -fn_net * nx + tx
+                force[k, 1] = -fn_net * ny + ty
+                force[k, 2] = -fn_net * nz + tz
+                # T_i = (R_i n) × F_t ; T_j = (−R_j n) × (−F_t) = R_j n × F_t
+                cx = ny * tz - nz * ty
+                cy = nz * tx - nx * tz
+                cz = nx * ty - ny * tx
+                torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = ri * cx, ri * cy, ri * cz
+                if not walls:
+                    torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = rj * cx, rj * cy, rj * cz
+                f_normal[k] = fn_net
+                f_cap[k] = f_contact
+            else:  # separated, bridge active (0 < s < s_crit)
+                s = -u
+                f_c = 0.0
+                if v_b[k] > 0.0:
+                    f_c = bridge_force_from_constants(model, s, v_b[k], r_eff, gamma, theta, bridge_table, k)
+                f_v = 0.0
+                if viscous:
+                    f_v = viscous_force(eta, ri, rj, vrx * nx + vry * ny + vrz * nz, s, v_b[k])
+                pull = f_c - f_v  # along +n on i
+                force[k, 0] = pull * nx
+                force[k, 1] = pull * ny
+                force[k, 2] = pull * nz
+                torque_i[k, 0] = 0.0
+                torque_i[k, 1] = 0.0
+                torque_i[k, 2] = 0.0
+                torque_j[k, 0] = 0.0
+                torque_j[k, 1] = 0.0
+                torque_j[k, 2] = 0.0
+                f_normal[k] = -pull
+                f_cap[k] = f_c
+            gap[k] = -u
+        block_events[blk] = events
 
 
 @njit(cache=True, inline="always")
@@ -690,22 +811,6 @@ def _bridge_ruptured(gap, model, v_b, r_eff, gamma, theta, bridge_table, k):
     if bridge_table[k, 0] != v_b:
         bridge_constants(model, v_b, r_eff, gamma, theta, bridge_table, k)
     return gap > 0.0 and gap >= bridge_table[k, 1]
-
-
-@njit(cache=True, inline="always")
-def _wall_surely_apart(w, px, py, pz, radius, drum_radius, drum_length, n_baffles, inner_radius):
-    """True when a particle cannot touch wall ``w`` (so a dead slot stays dead): the same overlap
-    :func:`sim.drum.wall_contact` computes is negative (cylinder, end plates, bit for bit), or,
-    for a baffle, the particle lies inside the circle of the baffles' inner edges with a margin
-    of 1e-9 of it (then its distance to any baffle exceeds its radius). False means "compute"."""
-    if w == 0:
-        return math.sqrt(px * px + py * py) + radius - drum_radius < 0.0
-    if w <= n_baffles:
-        reach = radius + 1e-9 * inner_radius
-        return px * px + py * py < (inner_radius - reach) * (inner_radius - reach) and inner_radius > reach
-    if w == n_baffles + 1:
-        return radius - pz < 0.0
-    return radius - (drum_length - pz) < 0.0
 
 
 @njit(cache=True)

@@ -6,8 +6,8 @@ Bodies are the particles 0 … N−1 followed by the walls N … N+W−1; every 
 (a wall's starts at 0 and only ever holds what ruptured wall bridges return to it). Interactions
 live in slots k = 0 … C−1 joining bodies ``pair_i[k] < pair_j[k]``. All volumes are in [m³].
 
-Everything that moves liquid is sequential with a fixed order (only the counting of events is
-parallel), so results are bit-reproducible for any thread count. No volume is
+Everything that moves liquid is sequential with a fixed order, so results are bit-reproducible
+for any thread count. No volume is
 created or destroyed: Σ film + Σ V_b (live slots) after :func:`migrate_liquid` equals the same
 sum before it plus the volume returned by this step's ruptures, up to floating-point rounding.
 """
@@ -17,11 +17,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-__all__ = ["migrate_liquid", "spray", "total_liquid"]
-
-_BLOCK = 256  # slots per block of the event scan
+__all__ = ["migrate_liquid", "migrate_events", "spray", "total_liquid"]
 
 
 @njit(cache=True)
@@ -43,40 +41,6 @@ def _count_in_sorted(a, x):
         else:
             hi = mid
     return lo - first
-
-
-@njit(cache=True, parallel=True)
-def _count_events(created, ruptured_volume):
-    """The counting pass of :func:`migrate_liquid`, parallel over blocks of ``_BLOCK`` slots:
-    which blocks hold a rupture or creation, and how many of each (integer counts, so the
-    result does not depend on the thread count). Full blocks use a fixed-length inner loop so
-    that it vectorises."""
-    n_slots = created.shape[0]
-    n_full = n_slots // _BLOCK
-    n_blocks = (n_slots + _BLOCK - 1) // _BLOCK
-    block_events = np.zeros(n_blocks, dtype=np.bool_)
-    n_rup = 0
-    n_new = 0
-    for blk in prange(n_blocks):
-        lo = blk * _BLOCK
-        r = 0
-        c = 0
-        if blk < n_full:
-            for t in range(_BLOCK):
-                if ruptured_volume[lo + t] > 0.0:
-                    r += 1
-                if created[lo + t]:
-                    c += 1
-        else:
-            for k in range(lo, n_slots):
-                if ruptured_volume[k] > 0.0:
-                    r += 1
-                if created[k]:
-                    c += 1
-        block_events[blk] = r + c > 0
-        n_rup += r
-        n_new += c
-    return block_events, n_rup, n_new
 
 
 @njit(cache=True)
@@ -129,15 +93,33 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
 
     Notes
     -----
-    Cost: one counting pass over the C slots, then a second pass over only the blocks of 256
-    slots that hold a rupture or creation, plus the slot lists of the marked bodies. Scratch:
-    one bool array of C/256 entries, and arrays sized by this step's ruptures and creations.
+    This scans all C slots for the events; the simulator's step calls :func:`migrate_events`
+    with the few blocks of slots in which its force passes counted events instead.
     """
-    n_slots = pair_i.shape[0]
-    block_events, n_rup, n_new = _count_events(created, ruptured_volume)
+    every_slot = np.array([0, pair_i.shape[0]], dtype=np.int64)
+    migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_volume, body_start, body_slots,
+                   v_min, body_key, every_slot[:1], every_slot[1:])
+
+
+@njit(cache=True)
+def migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_volume, body_start, body_slots,
+                   v_min, body_key, range_lo, range_hi):
+    """:func:`migrate_liquid` given where the step's events are: every created or ruptured slot
+    lies in one of the slot ranges [range_lo[r], range_hi[r]), which are disjoint and ascending
+    (they may hold slots without events). Other arguments as :func:`migrate_liquid`.
+
+    Scratch: arrays sized by this step's ruptures and creations.
+    """
+    n_rup = 0
+    n_new = 0
+    for r in range(range_lo.shape[0]):
+        for k in range(range_lo[r], range_hi[r]):
+            if ruptured_volume[k] > 0.0:
+                n_rup += 1
+            if created[k]:
+                n_new += 1
     if n_rup == 0 and n_new == 0:
         return
-    n_blocks = block_events.shape[0]
 
     # ---- step 1: ruptures return V_b/2 to each body; collect the slots and marked bodies
     marked = np.empty(2 * n_rup, dtype=np.int64)
@@ -145,10 +127,8 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
     new_ends = np.empty(2 * n_new, dtype=np.int64)
     q = 0
     p = 0
-    for blk in range(n_blocks):
-        if not block_events[blk]:
-            continue
-        for k in range(blk * _BLOCK, min((blk + 1) * _BLOCK, n_slots)):
+    for r in range(range_lo.shape[0]):
+        for k in range(range_lo[r], range_hi[r]):
             vr = ruptured_volume[k]
             if vr > 0.0:
                 i = pair_i[k]

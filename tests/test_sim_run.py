@@ -138,6 +138,52 @@ def test_trajectory_does_not_depend_on_how_steps_are_split_into_calls(settled):
 
 # --- kernel seams: parameters by name, trajectory unchanged --------------------------------------
 
+def test_the_force_passes_count_every_blocks_events_and_reset_only_the_last_steps_flags(settled):
+    # liquid migration visits only the blocks in which the force passes counted a creation or a
+    # rupture, so a count that misses one would lose liquid silently
+    import copy
+
+    from sim import _kernels
+    from sim.drum import baffle_directions
+    from sim.liquid import migrate_events
+
+    s, p = copy.deepcopy(settled.state), settled.params
+    n, n_walls, n_slots = s.n_particles, settled.n_walls, s.pair_i.shape[0]
+    kp = _kernels.kernel_params(p, n_walls)
+    body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(n_walls)])
+    arrays = _kernels.kernel_arrays(s, body_key)
+    n_wb, n_pb = _kernels.event_blocks(n, n_walls, n_slots)
+    bounds = [min(b * _kernels.WALL_BLOCK, n) * n_walls for b in range(n_wb + 1)]
+    bounds += [n * n_walls + b * _kernels.PAIR_BLOCK for b in range(1, n_pb)] + [n_slots]
+    blocks = np.zeros(n_wb + n_pb, dtype=np.int64)
+    _kernels.count_block_events(s.created, s.ruptured, n, n_walls, blocks)
+    baffle_dir = np.empty((p.n_baffles, 2))
+    events_seen = 0
+    for step in range(300):
+        # drive the system hard (a fast drum) so that contacts form and bridges break every step
+        baffle_directions(p.n_baffles, 0.01 * step, baffle_dir)
+        was_alive = s.alive.copy()
+        _kernels._slot_forces(0, n_wb, baffle_dir, 20.0, blocks, kp, arrays)
+        _kernels._slot_forces(n_wb, n_wb + n_pb, baffle_dir, 20.0, blocks, kp, arrays)
+        flagged = s.created | (s.ruptured != 0.0)
+        # the flags left are exactly this step's events (the previous step's were reset) ...
+        assert np.array_equal(s.created, s.alive & ~was_alive)
+        assert np.array_equal(s.ruptured != 0.0, (was_alive & ~s.alive) & (s.ruptured != 0.0))
+        assert not (s.ruptured != 0.0)[s.alive | ~was_alive].any()
+        # ... and each block's count is the number of flagged slots in it
+        expected = np.add.reduceat(flagged.astype(np.int64), bounds[:-1])
+        assert np.array_equal(blocks, expected)
+        events_seen += int(blocks.sum())
+        lo = np.empty(blocks.size, dtype=np.int64)
+        hi = np.empty(blocks.size, dtype=np.int64)
+        m = _kernels.event_ranges(blocks, n, n_walls, n_slots, lo, hi)
+        assert sum(flagged[a:b].sum() for a, b in zip(lo[:m], hi[:m])) == flagged.sum()
+        migrate_events(s.film, s.pair_i, s.pair_j, s.v_b, s.v_max, s.alive, s.created, s.ruptured, s.body_start,
+                       s.body_slots, p.v_min, body_key, lo[:m], hi[:m])
+        _kernels._gather_integrate(kp.gx, kp.gy, kp.gz, kp, arrays)
+    assert events_seen > 100
+
+
 def test_kernel_parameters_are_passed_by_name_from_simparams():
     import inspect
 
@@ -152,7 +198,7 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
                             capillary_model="lambert", viscous=False, capillary_in_contact=True)
     kp = _kernels.kernel_params(p, 7)
     by_name = {"dt": p.dt, "n_walls": 7, "drum_radius": p.drum_radius, "drum_length": p.drum_length,
-               "n_baffles": p.n_baffles, "baffle_height": 0.14, "drum_omega": 2.5, "gravity": (0.1, -9.7, 0.2),
+               "n_baffles": p.n_baffles, "baffle_height": 0.14, "drum_omega": 2.5, "gx": 0.1, "gy": -9.7, "gz": 0.2,
                "k_n": 101.0, "k_t": 102.0, "c_n": 0.0103, "c_t": 0.0104, "mu": 0.45, "gamma": 0.31,
                "eta": 0.0027, "theta": 0.21, "model": CAPILLARY_MODELS["lambert"], "viscous": False,
                "capillary_in_contact": True, "v_min": 1e-15, "spray_interval": 0.011, "spray_dose": 0.012,
@@ -173,9 +219,15 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
 # only for an intentional change of the physics, and say so in the commit. History: made by
 # 24f5f85; regenerated when a rebuild started to re-orient the spring and previous normal of a
 # pair whose particles swap order (docs/simulator.md, "Neighbour lists").
+# The same code gives different last bits on different CPUs (glibc picks its exp/log/pow
+# variants by CPU features), so each digest is listed with the machine it was made on; any
+# change of the trajectory gives a digest in neither list. The znver4 digests were made by
+# 7582aee, the commit the first digests were checked against, on an AMD EPYC (Zen 4) machine.
 REFERENCE_DIGESTS = {
-    "default": "d01d032d2e7598da6b291c6dcdc864faf02914a3928adc90aa2a667d710f7277",
-    "variant": "527aaeb082f78aefd59989d45439ce90ff4688375548551ae22a966e8015a690",
+    "default": {"d01d032d2e7598da6b291c6dcdc864faf02914a3928adc90aa2a667d710f7277": "first dev machine",
+                "b1e6ba2172890764f171bcc7c9bbbb743cc2580f4cf4f907880d4785c6e44eaf": "znver4"},
+    "variant": {"527aaeb082f78aefd59989d45439ce90ff4688375548551ae22a966e8015a690": "first dev machine",
+                "bcfa6acd8383734887a98781a7aa54e0634cc2f1f6f01eb3f037bd635f91a9c0": "znver4"},
 }
 REFERENCE_PLATFORM = ("0.68.1", "x86_64", ("glibc", "2.36"))  # numba, machine, libc of the digests
 
@@ -206,7 +258,8 @@ def test_trajectory_is_bit_identical_to_the_reference(config):
     sim = Simulation(params, ORIGINAL)
     sim.advance(2500)
     assert sim.state.n_sprays == 2
-    assert _state_digest(sim.state) == REFERENCE_DIGESTS[config]
+    digest = _state_digest(sim.state)
+    assert digest in REFERENCE_DIGESTS[config], f"{digest} is none of the reference digests {REFERENCE_DIGESTS[config]}"
 
 
 # --- global state ---------------------------------------------------------------------------------
