@@ -186,50 +186,13 @@ def union_find_membership(n, ei, ej):
     return parent
 
 
-#: contacts per block of the fused filter: each block lists its kept contacts in its own part of
-#: one index array, so the filter stays parallel and the merge loops over kept contacts only
-_FILTER_BLOCK = 4096
-
-
-@njit(cache=True, parallel=True)
-def _keep_and_list(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
-    """:func:`gna_contact_mask`, plus the kept contacts in ascending order, block by block:
-    block b (contacts b·B … (b+1)·B − 1, B = ``_FILTER_BLOCK``) lists its kept contacts in
-    ``kept[b·B : b·B + count[b]]``. Each list is written without a branch (the index is always
-    stored, the fill position advances by the test's outcome): in a frame the kept and the
-    rejected contacts are mixed in no order, and a loop that branched on the test would
-    mispredict (the merge over a list of kept contacts measured 0.7 ms on the 300 000-contact
-    frame of ``benchmarks/identify.py``, against 2.3 ms for a loop over all contacts testing
-    ``keep``)."""
-    m = ci.shape[0]
-    n_blocks = (m + _FILTER_BLOCK - 1) // _FILTER_BLOCK
-    keep = np.empty(m, dtype=np.bool_)
-    kept = np.empty(m, dtype=np.int32)  # (a frame's contact count is far below 2³¹)
-    count = np.empty(n_blocks, dtype=np.int64)
-    for b in prange(n_blocks):
-        lo = b * _FILTER_BLOCK
-        fill = lo
-        for k in range(lo, min(lo + _FILTER_BLOCK, m)):
-            passes = _keep_contact(
-                k, ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a
-            )
-            keep[k] = passes
-            kept[fill] = np.int32(k)
-            fill += np.int64(passes)
-        count[b] = fill - lo
-    return keep, kept, count
-
-
 @njit(cache=True)
-def _merge_and_label(n, ci, cj, kept, count):
-    """Union-find over the kept contacts (``kept``/``count`` of :func:`_keep_and_list`), in
-    contact order, then the labels and sizes of :func:`canonical_labels` in two passes over the
-    particles. The parent array is int32 (half the cache footprint of the finds' random reads)."""
-    parent = np.arange(n, dtype=np.int32)
-    for b in range(count.shape[0]):
-        lo = b * _FILTER_BLOCK
-        for q in range(lo, lo + count[b]):
-            k = kept[q]
+def _merge_and_label(n, ci, cj, keep):
+    """Union-find over the kept contacts, in contact order, then the labels and sizes of
+    :func:`canonical_labels` in two passes over the particles."""
+    parent = np.arange(n)
+    for k in range(ci.shape[0]):
+        if keep[k]:
             _union(parent, ci[k], cj[k])
     # _union keeps the smaller index as root and path halving only moves a node to a smaller
     # ancestor, so parent[i] <= i: in index order every parent is already resolved to its root
@@ -263,8 +226,8 @@ def _merge_and_label(n, ci, cj, kept, count):
 
 @njit(cache=True)
 def gna_fused(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a):
-    """Filter (parallel over blocks of contacts), union-find over the kept contacts and canonical
-    labelling in one compiled call (the ``"fast"`` backend).
+    """Filter (parallel over contacts), union-find and canonical labelling in one compiled call
+    (the ``"fast"`` backend).
 
     The sequential merge lives in its own non-parallel kernel: inside a ``parallel=True``
     function numba compiled it about twice slower.
@@ -275,9 +238,8 @@ def gna_fused(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, m
     keep : (M,) bool array
         Contacts that passed both criteria.
     """
-    keep, kept, count = _keep_and_list(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius,
-                                       c_agg, cos_a)
-    labels, sizes = _merge_and_label(radius.shape[0], ci, cj, kept, count)
+    keep = gna_contact_mask(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a)
+    labels, sizes = _merge_and_label(radius.shape[0], ci, cj, keep)
     return labels, sizes, keep
 
 

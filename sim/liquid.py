@@ -7,9 +7,9 @@ Bodies are the particles 0 … N−1 followed by the walls N … N+W−1; every 
 live in slots k = 0 … C−1 joining bodies ``pair_i[k] < pair_j[k]``. All volumes are in [m³].
 
 Everything that moves liquid is sequential with a fixed order, so results are bit-reproducible
-for any thread count. No volume is
-created or destroyed: Σ film + Σ V_b (live slots) after :func:`migrate_liquid` equals the same
-sum before it plus the volume returned by this step's ruptures, up to floating-point rounding.
+for any thread count. No volume is created or destroyed: Σ film + Σ V_b (live slots) after
+:func:`migrate_liquid` equals the same sum before it plus the volume returned by this step's
+ruptures, up to floating-point rounding.
 """
 
 from __future__ import annotations
