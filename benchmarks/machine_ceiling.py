@@ -25,6 +25,7 @@ limits it.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -54,13 +55,8 @@ def _throughput_fp(n, seed):
         a[c] = seed + c
     for _ in range(n):
         for c in range(8):
-            a[c] = math_sqrt(a[c] + 1.0) / 1.0000001 + 0.5
+            a[c] = math.sqrt(a[c] + 1.0) / 1.0000001 + 0.5
     return a.sum()
-
-
-@njit(cache=True, inline="always")
-def math_sqrt(x):
-    return np.sqrt(x)
 
 
 @njit(cache=True)
