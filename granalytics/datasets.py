@@ -143,6 +143,22 @@ SWEEPS = {
         "description": "lab drum at CG3 (111 particles), γ = 0.01, 0.03, 0.06, 0.1095, 0.2, 0.3, 0.444 N/m (original "
                        "system) × Ω = 1.5, 2, 3 rad/s, 6 revolutions, every frame (0.05 revolution) as float32",
     },
+    "gamma-omega-lab-cg2": {
+        "dir": "sweeps/gamma-omega-lab-cg2",
+        "manifest_sha256": "225a865d6ea222de8ab0f7a6a70437d3bb840719932f1c19a6e0319f3b69e667",
+        "spec": "sweeps/gamma-omega-lab-cg2.toml",
+        "commands": [
+            "python -m sim sweep datasets/sweeps/gamma-omega-lab-cg2.toml --out build/sweeps/gamma-omega-lab-cg2 "
+            "--workers 2",
+            "python -m granalytics.datasets bundle-sweep build/sweeps/gamma-omega-lab-cg2 "
+            "datasets/sweeps/gamma-omega-lab-cg2 --every 3 --overwrite",
+        ],
+        "code_version": "8c8cca641fbda3cc35cfe82d8f0badb9d715c42c",
+        "wall_time": "42 min 9 s on 2 workers (points 2 min 28 s to 5 min 27 s, sum 82 min), the machine otherwise "
+                     "idle",
+        "description": "lab drum at CG2 (375 particles), the same γ × Ω grid as gamma-omega-lab-cg3, 6 revolutions, "
+                       "every third frame (0.15 revolution) as float32",
+    },
 }
 
 
