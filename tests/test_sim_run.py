@@ -219,8 +219,9 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
 # only for an intentional change of the physics, and say so in the commit. History: made by
 # 24f5f85; regenerated when a rebuild started to re-orient the spring and previous normal of a
 # pair whose particles swap order (docs/simulator.md, "Neighbour lists").
-# The same code gives different last bits on different CPUs (glibc picks its exp/log/pow
-# variants by CPU features), so each digest is listed with the machine it was made on; any
+# The same code gives different last bits on different CPUs (probably the libm variants that
+# glibc picks by CPU features, or the code numba generates for the host CPU), so each digest is
+# listed with the machine it was made on; any
 # change of the trajectory gives a digest in neither list. The znver4 digests were made by
 # 7582aee, the commit the first digests were checked against, on an AMD EPYC (Zen 4) machine.
 REFERENCE_DIGESTS = {
