@@ -21,6 +21,8 @@ import os
 import subprocess
 import sys
 
+# the child times as sim_throughput.rate() does, written out: importing sim_throughput would put
+# this tree in front of the measured tree's PYTHONPATH (it inserts its own root into sys.path)
 CHILD = """
 import json, sys, time
 import numba

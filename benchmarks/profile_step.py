@@ -116,9 +116,9 @@ def _repeat_migration(reps, film, pair_i, pair_j, v_b, v_max, alive, created, ru
 
 
 @njit
-def _repeat_gather(reps, gx, gy, gz, kp, arrays):
+def _repeat_gather(reps, kp, arrays):
     for _ in range(reps):
-        _kernels._gather_integrate(gx, gy, gz, kp, arrays)
+        _kernels._gather_integrate(kp, arrays)
 
 
 @njit(parallel=True)
@@ -173,7 +173,7 @@ def component_costs(sim, reps):
            "pair slots": _best(lambda r: _repeat_slot_forces(r, n_wb, n_wb + n_pb, baffle_dir, p.drum_omega, blocks, kp,
                                                              arrays), reps),
            "migration": _best(lambda r: _repeat_migration(r, *mig), reps)}
-    out["gather+integrate"] = _best(lambda r: _repeat_gather(r, kp.gx, kp.gy, kp.gz, kp, arrays), reps)
+    out["gather+integrate"] = _best(lambda r: _repeat_gather(r, kp, arrays), reps)
     return out
 
 

@@ -406,7 +406,6 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     dt = kp.dt
     n_walls = kp.n_walls
     n_baffles = kp.n_baffles
-    gx, gy, gz = kp.gx, kp.gy, kp.gz
     v_min = kp.v_min
     spray_interval = kp.spray_interval
     spray_dose = kp.spray_dose
@@ -446,7 +445,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
         m = event_ranges(block_events, n, n_walls, n_slots, range_lo, range_hi)
         migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
                        body_key, range_lo[:m], range_hi[:m])
-        n_far = _gather_integrate(gx, gy, gz, kp, arrays)
+        n_far = _gather_integrate(kp, arrays)
         done += 1
         if not settling and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
             sprayed += spray(film, pos, radius, n, spray_radius, spray_dose)
@@ -455,10 +454,11 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
 
 
 @njit(cache=True, parallel=True)
-def _gather_integrate(gx, gy, gz, kp, arrays):
+def _gather_integrate(kp, arrays):
     """Sum each particle's wall and pair slot forces and torques (in slot order) plus gravity,
     then one leapfrog update of velocity, angular velocity and position. Returns the number of
     particles now more than half the Verlet skin from their position at the last rebuild."""
+    gx, gy, gz = kp.gx, kp.gy, kp.gz
     pos = arrays.pos
     vel = arrays.vel
     omega_p = arrays.omega

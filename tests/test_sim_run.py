@@ -180,7 +180,7 @@ def test_the_force_passes_count_every_blocks_events_and_reset_only_the_last_step
         assert sum(flagged[a:b].sum() for a, b in zip(lo[:m], hi[:m])) == flagged.sum()
         migrate_events(s.film, s.pair_i, s.pair_j, s.v_b, s.v_max, s.alive, s.created, s.ruptured, s.body_start,
                        s.body_slots, p.v_min, body_key, lo[:m], hi[:m])
-        _kernels._gather_integrate(kp.gx, kp.gy, kp.gz, kp, arrays)
+        _kernels._gather_integrate(kp, arrays)
     assert events_seen > 100
 
 
