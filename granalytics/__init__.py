@@ -3,7 +3,8 @@
 Public API (SI units throughout; angles in degrees only where a name says ``_deg``):
 
 - data model: :class:`Snapshot`, :class:`RunMeta`
-- run files: :class:`RunWriter`, :func:`open_run`, :class:`Run`
+- run files: :class:`RunWriter`, :func:`open_run`, :class:`Run`; :class:`WriterLock` (the lock
+  file a writer holds on its output)
 - identification: :func:`identify` with methods ``"gna"`` (:class:`GraphNetworkAnalysis`),
   ``"dbscan"`` (:class:`DBSCANIdentifier`), ``"sieve"`` (:class:`VirtualSieve`), ``"community"``
   (:class:`CommunityDetection`), all returning :class:`IdentificationResult`
@@ -39,7 +40,7 @@ from .identify import (
     VirtualSieve,
     identify,
 )
-from .io import Run, RunSlice, RunWriter, open_run, subset_run
+from .io import Run, RunSlice, RunWriter, WriterLock, open_run, subset_run
 from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
 from .stats import frame_stats, granule_table, run_stats, size_distribution, steady_state
@@ -49,7 +50,7 @@ from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_ra
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
-    "RunWriter", "open_run", "Run", "RunSlice", "subset_run",
+    "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection",
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",

@@ -17,9 +17,7 @@ import math
 import os
 import sys
 
-from .params import PRESETS, cg_scale, preset_original
-
-MIN_PARTICLES = 2  # fewest particles a run may have after coarse-graining
+from .params import MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original
 
 
 class _Parser(argparse.ArgumentParser):
@@ -39,8 +37,8 @@ def _check_options(args) -> None:
         ("--checkpoint-every", args.checkpoint_every, args.checkpoint_every >= 1, "a whole number of frames >= 1"),
         ("--omega", args.omega, args.omega is None or (finite(args.omega) and args.omega != 0),
          "a finite non-zero number (a run is measured in drum revolutions)"),
-        ("--gamma", args.gamma, args.gamma is None or finite(args.gamma), "a finite number"),
-        ("--alpha", args.alpha, args.alpha is None or finite(args.alpha), "a finite number >= 1"),
+        ("--gamma", args.gamma, args.gamma is None or (finite(args.gamma) and args.gamma > 0), "a finite number > 0"),
+        ("--alpha", args.alpha, args.alpha is None or (finite(args.alpha) and args.alpha >= 1), "a finite number >= 1"),
         ("--particles", args.particles, args.particles is None or args.particles >= 1, "a whole number >= 1"),
         ("--seed", args.seed, args.seed is None or args.seed >= 0, "a whole number >= 0"),
     ]
@@ -85,29 +83,9 @@ def _params(args):
     changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles}
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha
-    params = original if alpha == 1 else cg_scale(original, alpha)
-    scaled = round(original.n_particles / alpha**3)
-    if scaled < MIN_PARTICLES:
-        given = f"--particles {original.n_particles}" if args.particles is not None else f"{original.n_particles} original particles"
-        raise ValueError(f"{given} gives {scaled} particles after coarse-graining by α = {alpha:g} "
-                         f"({original.n_particles}/α³ = {original.n_particles / alpha**3:.3g}, rounded); "
-                         f"at least {MIN_PARTICLES} are needed")
-    return original, params
-
-
-def _frame_every(args, params):
-    """Steps per frame for --frame-every-rev, after checking that --revolutions is a whole
-    number of frame intervals (so that the last frame is at the requested end)."""
-    ratio = args.revolutions / args.frame_every_rev
-    n = round(ratio)
-    if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
-        raise ValueError(f"--revolutions {args.revolutions:g} is not a whole number of --frame-every-rev "
-                         f"{args.frame_every_rev:g} intervals ({ratio:.6g}); the last frame would miss the requested end")
-    steps = args.frame_every_rev * params.revolution_period / params.dt
-    if steps < 1:
-        raise ValueError(f"--frame-every-rev {args.frame_every_rev:g} is shorter than one time step "
-                         f"(Δt = {params.dt:g} s, {params.revolution_period / params.dt:.6g} steps per revolution)")
-    return int(round(steps))
+    check_cg_particle_count(original.n_particles, alpha,
+                            f"--particles {args.particles}" if args.particles is not None else None)
+    return original, (original if alpha == 1 else cg_scale(original, alpha))
 
 
 def _run(args) -> int:
@@ -127,7 +105,9 @@ def _run(args) -> int:
         if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
             raise ValueError(f"--threads must be in [1, {numba.config.NUMBA_NUM_THREADS}], got {args.threads}")
         numba.set_num_threads(args.threads)
-    frame_every = _frame_every(args, params)
+    frame_every = frame_interval_steps(args.revolutions, args.frame_every_rev, params,
+                                       names=("--revolutions", "--frame-every-rev"))
+    _check_output_folder(out)
     from .run import Simulation
 
     if args.resume:
@@ -138,16 +118,38 @@ def _run(args) -> int:
             changed = sorted(k for k, v in params.to_dict().items() if sim.params.to_dict().get(k) != v)
             raise ValueError(f"{ckpt}: checkpoint was made with other parameters ({', '.join(changed) or 'original system'}); "
                              f"give the options the run started with")
-    else:
-        sim = Simulation(params, original)
     try:
+        if not args.resume:
+            sim = Simulation(params, original, progress=not args.quiet)
         sim.run(out, args.revolutions, frame_every=frame_every, checkpoint_every=args.checkpoint_every,
                 progress=not args.quiet, resume=args.resume, overwrite=args.overwrite)
     except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
-        print(f"sim: error: {_one_line(exc)} (the last checkpoint is {ckpt})", file=sys.stderr)
+        print(f"sim: error: {_one_line(exc)}; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 1
-    print(f"wrote {out}")
+    except KeyboardInterrupt:
+        print(f"sim: interrupted; {_what_is_left(out, ckpt)}", file=sys.stderr)
+        return 130
+    print(f"{out}: {sim.state.step // frame_every + 1} frames, t = {sim.time:.4g} s "
+          f"({sim.time / params.revolution_period:.3g} revolutions)")
     return 0
+
+
+def _what_is_left(out, ckpt) -> str:
+    """What a run stopped early leaves on disk, and how to go on from it."""
+    if os.path.exists(ckpt) and os.path.exists(out):
+        return f"--resume continues {out} from its last checkpoint {ckpt}"
+    if os.path.exists(out):
+        return f"{out} holds the frames written so far but no checkpoint yet: start again with --overwrite"
+    return f"nothing was written to {out}"
+
+
+def _check_output_folder(out) -> None:
+    """Refuse an --out whose folder is missing or read-only now, not after the settling."""
+    folder = os.path.dirname(os.path.abspath(out))
+    if not os.path.isdir(folder):
+        raise ValueError(f"{out}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"{out}: the folder {folder} is not writable")
 
 
 def _one_line(exc) -> str:

@@ -10,7 +10,8 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-__all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHYSICS_VERSION"]
+__all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHYSICS_VERSION", "MIN_PARTICLES",
+           "check_cg_particle_count", "frame_interval_steps"]
 
 #: The simulator's physics version, raised by every change that alters trajectories on purpose
 #: (recorded in checkpoints, in the runs' provenance and in sweep manifests; a run is never
@@ -207,6 +208,61 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
         dt=params.dt * alpha if scale_dt else params.dt,
         skin=params.skin * alpha,
     )
+
+
+#: fewest particles a run may have after coarse-graining
+MIN_PARTICLES = 2
+
+
+def check_cg_particle_count(n_original: int, alpha: float, what: str | None = None) -> int:
+    """The particle count round(N/α³) of the system coarse-grained from ``n_original`` particles
+    (``what``: how the messages call that count, default "N original particles").
+
+    Raises
+    ------
+    ValueError
+        Fewer than :data:`MIN_PARTICLES` after coarse-graining (:func:`cg_scale` itself keeps at
+        least one particle and would run a meaningless system).
+    """
+    per_particle = n_original / (alpha * alpha * alpha)  # not alpha**3: that raises for a huge alpha
+    scaled = round(per_particle)
+    if scaled < MIN_PARTICLES:
+        raise ValueError(f"{what or f'{n_original} original particles'}: {scaled} particles after coarse-graining by "
+                         f"α = {alpha:g} ({n_original}/α³ = {per_particle:.3g}, rounded); at least {MIN_PARTICLES} "
+                         "are needed")
+    return scaled
+
+
+def frame_interval_steps(revolutions: float, frame_every_rev: float, params: SimParams,
+                         names=("revolutions", "frame_every_rev")) -> int:
+    """Time steps per output frame for a frame every ``frame_every_rev`` drum revolutions of
+    the (possibly coarse-grained) system ``params``, after checking the run's frame plan.
+
+    ``revolutions`` must be a whole number of frame intervals (so that the last frame is at
+    the requested end) and a frame interval at least one time step; ``names`` are how the two
+    quantities are called in the messages (the command line's options, a sweep spec's keys).
+
+    Raises
+    ------
+    ValueError
+        The run would need more than 2**62 time steps, or either check fails.
+    """
+    rev_name, every_name = names
+    per_revolution = params.revolution_period / params.dt
+    if not revolutions * per_revolution < 2.0**62:
+        raise ValueError(f"{rev_name} {revolutions:g} needs {revolutions * per_revolution:.3g} time steps, more than "
+                         f"can be counted (Δt = {params.dt:g} s; one revolution at Ω = {params.drum_omega:g} rad/s "
+                         f"is {per_revolution:.3g} steps)")
+    ratio = revolutions / frame_every_rev
+    n = round(ratio)
+    if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
+        raise ValueError(f"{rev_name} {revolutions:g} is not a whole number of {every_name} {frame_every_rev:g} "
+                         f"intervals ({ratio:.6g}); the last frame would miss the requested end")
+    steps = frame_every_rev * per_revolution
+    if steps < 1:
+        raise ValueError(f"{every_name} {frame_every_rev:g} is shorter than one time step "
+                         f"(Δt = {params.dt:g} s, {per_revolution:.6g} steps per revolution)")
+    return int(round(steps))
 
 
 def _lab(n_particles):

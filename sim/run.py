@@ -46,9 +46,13 @@ class Simulation:
         metadata); defaults to ``params`` when ``params.alpha == 1``.
     state : State, optional
         Start from this state (e.g. a checkpoint) instead of filling the drum.
+    progress : bool, default False
+        A progress bar over the settling of a new filling (``settle_time``: minutes to hours
+        for the large presets).
     """
 
-    def __init__(self, params: SimParams, original: SimParams | None = None, state: State | None = None):
+    def __init__(self, params: SimParams, original: SimParams | None = None, state: State | None = None, *,
+                 progress: bool = False):
         configure_threading()
         self.params = params
         if original is None:
@@ -57,7 +61,7 @@ class Simulation:
             original = params
         self.original = original
         self.n_walls = n_walls(params.n_baffles)
-        self.state = state if state is not None else self._fill()
+        self.state = state if state is not None else self._fill(progress)
 
     # ------------------------------------------------------------------ set-up
     @classmethod
@@ -101,7 +105,7 @@ class Simulation:
             **empty_slots(n, self.n_walls, 0),
         )
 
-    def _fill(self) -> State:
+    def _fill(self, progress=False) -> State:
         """Insert particles without overlaps on a cubic lattice (spacing = largest diameter +
         2 %), lowest sites first, inside the drum and clear of the baffles; radii uniform in
         [1 − d_spread, 1 + d_spread]·r_mean from the seeded generator. Then settle."""
@@ -130,14 +134,22 @@ class Simulation:
         n = p.n_particles
         radius = p.r_mean * rng.uniform(1 - p.d_spread, 1 + p.d_spread, n)
         self.state = rebuild(self._new_state(sites, radius), p, self.n_walls)
-        self._advance(int(round(p.settle_time / p.dt)), settling=True)
+        from tqdm.auto import tqdm
+
+        settle_steps = int(round(p.settle_time / p.dt))
+        with tqdm(total=settle_steps, unit="step", unit_scale=True, disable=not progress,
+                  desc=f"settling {n} particles α={p.alpha:g}") as bar:
+            self._advance(settle_steps, settling=True, on_steps=bar.update)
         self.state.step = 0
         self.state.film[:n] = p.initial_film * 4 / 3 * math.pi * self.state.radius**3
         self.liquid_initial = self.state.total_liquid()
         return self.state
 
     # ------------------------------------------------------------------ stepping
-    def _advance(self, n_steps: int, settling: bool = False) -> None:
+    def _advance(self, n_steps: int, settling: bool = False, on_steps=None) -> None:
+        """Advance ``n_steps`` steps, rebuilding the lists whenever the kernel stops for it;
+        ``on_steps(k)`` is called after each kernel call with the steps it did (e.g. a progress
+        bar's update)."""
         p, s = self.params, self.state
         kp = _kernels.kernel_params(p, self.n_walls)
         remaining = n_steps
@@ -147,6 +159,8 @@ class Simulation:
             done, s.n_sprays, sprayed = _kernels.advance(
                 remaining, step, settling, s.n_sprays, kp, _kernels.kernel_arrays(s, body_key, self._bridge_table()))
             s.sprayed_total += sprayed
+            if on_steps is not None:
+                on_steps(done)
             remaining -= done
             step += done
             if not settling:

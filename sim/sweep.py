@@ -42,8 +42,10 @@ import uuid
 from dataclasses import dataclass, field
 
 from granalytics.errors import ParameterError
+from granalytics.io import WriterLock
 
-from .params import PHYSICS_VERSION, PRESETS, SimParams, cg_scale, preset_original
+from .params import (PHYSICS_VERSION, PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps,
+                     preset_original)
 
 __all__ = [
     "SweepSpec", "SweepPoint", "PointTask", "load_spec", "parse_spec", "point_name", "run_point", "run_sweep",
@@ -116,10 +118,12 @@ class PointTask:
 
 
 def _build_params(preset, overrides):
+    """(original, params) of a point, refusing the particle counts ``python -m sim run`` refuses."""
     original, alpha = preset_original(preset)
     changes = {k: v for k, v in overrides.items() if k != "alpha"}
     original = dataclasses.replace(original, **changes)
     alpha = float(overrides.get("alpha", alpha))
+    check_cg_particle_count(original.n_particles, alpha)
     return original, (original if alpha == 1 else cg_scale(original, alpha))
 
 
@@ -238,6 +242,7 @@ def parse_spec(spec: dict, path="<spec>") -> SweepSpec:
         overrides = {GRID_ALIASES.get(k, k): v for k, v in grid_values.items()}
         try:
             original, params = _build_params(preset, overrides)
+            frame_interval_steps(revolutions, frame_every_rev, params)  # the frame plan of `sim run`
         except ValueError as exc:
             raise ParameterError(f"{where}: point {name}: {exc}") from None
         resolved = {"gamma": original.surface_tension, "omega": original.drum_omega, "alpha": params.alpha,
@@ -261,6 +266,8 @@ def load_spec(path) -> SweepSpec:
         raise ParameterError(f"{path}: cannot read the sweep spec ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(f"{path}: not valid TOML ({' '.join(str(exc).split())})") from None
+    except UnicodeDecodeError as exc:
+        raise ParameterError(f"{path}: not UTF-8 text, as TOML must be (byte {exc.start}: {exc.reason})") from None
     return parse_spec(spec, path)
 
 
@@ -282,7 +289,7 @@ def run_point(task: PointTask) -> dict:
     configure_threading()  # before numba starts its threads: OpenMP, not TBB (tens of times slower here)
     numba.set_num_threads(max(1, min(task.threads, numba.config.NUMBA_NUM_THREADS)))
     original, params = task.sim_params()
-    frame_every = max(1, int(round(task.frame_every_rev * params.revolution_period / params.dt)))
+    frame_every = frame_interval_steps(task.revolutions, task.frame_every_rev, params)
     ckpt = f"{task.out}.ckpt.npz"
     resumed = os.path.exists(ckpt) and os.path.exists(task.out)
     if resumed:
@@ -424,6 +431,8 @@ def run_sweep(spec_path, out_dir, workers=None, scheduler=None, progress=True, p
     ParameterError
         A bad spec, folder, worker count or scheduler (before any point runs), or a folder whose
         manifest ran these points with another preset, revolutions or frame interval.
+    RunLockedError
+        Another sweep is running into the same folder (it holds ``DIR/manifest.csv.lock``).
     """
     spec = load_spec(spec_path)
     if workers is not None and scheduler is not None:
@@ -434,27 +443,30 @@ def run_sweep(spec_path, out_dir, workers=None, scheduler=None, progress=True, p
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise ParameterError(f"{out_dir}: exists and is not a folder")
     runner = point_runner if point_runner is not None else run_point
-    rows = _load_rows(out_dir)
-    settings = {"preset": spec.preset, "revolutions": spec.revolutions, "frame_every_rev": spec.frame_every_rev,
-                "physics_version": PHYSICS_VERSION}
-    todo = []
-    for point in spec.points:
-        row = rows.get(point.name)
-        if row is not None:
-            for key in _SETTINGS:
-                if row.get(key) is not None and not _same(row[key], settings[key]):
-                    now = "this simulator has" if key == "physics_version" else "the spec has"
-                    raise ParameterError(
-                        f"{os.path.join(out_dir, 'manifest.csv')}: point {point.name} was run with {key}="
-                        f"{row[key]!r}, {now} {settings[key]!r}; use another --out folder")
-        if not _is_complete(out_dir, row):
-            todo.append(point)
     os.makedirs(os.path.join(out_dir, "points"), exist_ok=True)
-    if todo:
-        _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler, progress)
-    elif not os.path.exists(os.path.join(out_dir, "manifest.csv")):
-        _write_manifest(out_dir, rows)
-    return read_manifest(out_dir)
+    # one sweep at a time per folder: a second one would run the same points and overwrite the
+    # manifest (the lock file of its manifest, taken over when its holder was killed)
+    with WriterLock(os.path.join(out_dir, "manifest.csv")):
+        rows = _load_rows(out_dir)
+        settings = {"preset": spec.preset, "revolutions": spec.revolutions, "frame_every_rev": spec.frame_every_rev,
+                    "physics_version": PHYSICS_VERSION}
+        todo = []
+        for point in spec.points:
+            row = rows.get(point.name)
+            if row is not None:
+                for key in _SETTINGS:
+                    if row.get(key) is not None and not _same(row[key], settings[key]):
+                        now = "this simulator has" if key == "physics_version" else "the spec has"
+                        raise ParameterError(
+                            f"{os.path.join(out_dir, 'manifest.csv')}: point {point.name} was run with {key}="
+                            f"{row[key]!r}, {now} {settings[key]!r}; use another --out folder")
+            if not _is_complete(out_dir, row):
+                todo.append(point)
+        if todo:
+            _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler, progress)
+        elif not os.path.exists(os.path.join(out_dir, "manifest.csv")):
+            _write_manifest(out_dir, rows)
+        return read_manifest(out_dir)
 
 
 def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler, progress):
@@ -477,7 +489,6 @@ def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler,
         tasks[point.name] = PointTask(point.name, dict(point.resolved), overrides, spec.preset, spec.revolutions,
                                       spec.frame_every_rev, spec.checkpoint_every, spec.threads,
                                       os.path.join(out_dir, rel))
-    _write_manifest(out_dir, rows)
     cluster = None
     try:
         if scheduler is not None:
@@ -491,6 +502,7 @@ def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler,
                                    silence_logs=logging.ERROR)
             client = Client(cluster)
         try:
+            _write_manifest(out_dir, rows)  # the points as running, once there is a cluster to run them
             token = uuid.uuid4().hex[:8]
             futures = {client.submit(_execute, runner, task, key=f"sweep-{token}-{name}", pure=False, retries=0): name
                        for name, task in tasks.items()}
@@ -561,8 +573,8 @@ def main(argv=None) -> int:
     args = _configure(parser).parse_args(argv)
     try:
         return args.func(args)
-    except ValueError as exc:  # ParameterError included
-        print(f"sim: error: {exc}", file=sys.stderr)
+    except (ValueError, OSError) as exc:  # ParameterError and RunLockedError included
+        print(f"sim: error: {' '.join(str(exc).split()) or type(exc).__name__}", file=sys.stderr)
         return 2
 
 

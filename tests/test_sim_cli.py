@@ -7,7 +7,7 @@ from sim.params import PRESETS
 @pytest.mark.parametrize(
     "args, words",
     [
-        (["--gamma", "-1"], "surface_tension"),
+        (["--gamma", "-1"], "--gamma"),
         (["--alpha", "0.5"], "alpha"),
         (["--threads", "99"], "--threads"),
         (["--revolutions", "0"], "--revolutions"),
@@ -76,6 +76,7 @@ import numpy as np  # noqa: E402
 
 import granalytics as ga  # noqa: E402
 import sim.cli  # noqa: E402
+import sim.run  # noqa: E402
 
 from conftest import former_lab_original  # noqa: E402
 
@@ -125,6 +126,9 @@ def refused(result, *words):
     (["--frame-every-rev", "inf"], ["--frame-every-rev"]),
     (["--revolutions", "0.006", "--frame-every-rev", "0.0025"], ["--revolutions", "--frame-every-rev", "whole number"]),
     (["--alpha", "inf"], ["alpha"]),
+    (["--alpha", "1e300"], ["0 particles after coarse-graining", "at least 2"]),
+    (["--omega", "1e-300"], ["--revolutions", "time steps", "1e-300 rad/s"]),
+    (["--revolutions", "1e308"], ["--revolutions", "time steps"]),
 ])
 def test_bad_option_values_are_refused_in_one_line_before_anything_is_written(cli, tmp_path, args, words):
     refused(cli("r.h5", *args), *words)
@@ -193,3 +197,44 @@ def test_resume_refuses_a_checkpoint_that_is_not_the_run_files_and_changes_nothi
             for name in ("time", "step", "position", "velocity", "angular_velocity", "film_volume", "contact_i",
                          "contact_j", "f_cap", "f_normal", "gap", "bridge_volume"):
                 assert np.array_equal(getattr(fa, name), getattr(fb, name)), name
+
+
+def test_an_out_in_a_missing_folder_is_refused_before_the_settling(cli, tmp_path, monkeypatch):
+    def no_settling(*args, **kwargs):
+        raise AssertionError("settled before checking --out")
+
+    monkeypatch.setattr(sim.run.Simulation, "_fill", no_settling)
+    refused(cli("missing/r.h5"), "missing", "does not exist")
+    assert files(tmp_path) == {}
+
+
+def test_the_settling_shows_a_progress_bar_and_the_end_says_what_was_written(cli, tmp_path, capsys):
+    code = main(["run", "--out", str(tmp_path / "r.h5"), *[a for a in BASE if a != "--quiet"]])
+    captured = capsys.readouterr()
+    assert code == 0
+    assert "settling" in captured.err and "frame" in captured.err
+    assert f"{tmp_path / 'r.h5'}: 5 frames" in captured.out and "0.004 revolutions" in captured.out
+    # resuming the finished run writes nothing and does not claim it did
+    assert main(["run", "--out", str(tmp_path / "r.h5"), *BASE, "--resume"]) == 0
+    captured = capsys.readouterr()
+    assert "finished already" in captured.err and "wrote" not in captured.out
+
+
+def test_an_interrupted_run_says_how_to_go_on(cli, tmp_path, monkeypatch):
+    calls = {"n": 0}
+    advance = sim.run.Simulation.advance
+
+    def interrupt_after_three_frames(self, n_steps):
+        calls["n"] += 1
+        if calls["n"] > 3:
+            raise KeyboardInterrupt
+        advance(self, n_steps)
+
+    monkeypatch.setattr(sim.run.Simulation, "advance", interrupt_after_three_frames)
+    code, err = cli("r.h5")
+    assert code == 130 and len(err) == 1
+    assert "interrupted" in err[0] and "--resume continues" in err[0] and "r.h5.ckpt.npz" in err[0]
+    monkeypatch.setattr(sim.run.Simulation, "advance", advance)
+    assert cli("r.h5", "--resume")[0] == 0
+    with ga.open_run(tmp_path / "r.h5") as run:
+        assert len(run) == 5

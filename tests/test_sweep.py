@@ -127,6 +127,10 @@ def test_other_simparams_fields_can_be_swept():
     ('revolutions = -1\n[grid]\ngamma = [0.1]', "revolutions must be"),
     ('preset = "lab-cg9"\nrevolutions = 1\n[grid]\ngamma = [0.1]', "unknown preset"),
     ('revolutions = 1\n[grid\ngamma = [0.1]', "not valid TOML"),
+    # the frame plan and particle count of `python -m sim run`, checked before anything runs
+    ('revolutions = 0.33\n[grid]\ngamma = [0.1]', "not a whole number of frame_every_rev"),
+    ('revolutions = 0.1\nframe_every_rev = 1e-9\n[grid]\ngamma = [0.1]', "shorter than one time step"),
+    ('revolutions = 1\n[grid]\nparticles = [10]', "at least 2 are needed"),
 ])
 def test_bad_specs_raise_one_line(tmp_path, body, words):
     spec = write_spec(tmp_path / "spec.toml", body)
@@ -134,6 +138,14 @@ def test_bad_specs_raise_one_line(tmp_path, body, words):
         load_spec(spec)
     message = str(err.value)
     assert words in message and "\n" not in message and str(spec) in message
+
+
+def test_a_spec_that_is_not_utf8_is_refused_naming_the_file(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_bytes(b"revolutions = 1\n# caf\xe9\n[grid]\ngamma = [0.1]\n")
+    with pytest.raises(ParameterError, match="not UTF-8") as err:
+        load_spec(spec)
+    assert str(spec) in str(err.value)
 
 
 def test_bad_spec_on_the_command_line_is_one_line_and_exit_2(tmp_path, capsys):
@@ -147,6 +159,10 @@ def test_bad_spec_on_the_command_line_is_one_line_and_exit_2(tmp_path, capsys):
     assert "--workers" in capsys.readouterr().err
     assert main([str(tmp_path / "missing.toml"), "--out", str(tmp_path / "out")]) == 2
     assert "cannot read" in capsys.readouterr().err
+    # an --out below a file: the file system's refusal, in one line too
+    assert main([str(good), "--out", str(good / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("sim: error:") and "Not a directory" in err[0]
 
 
 def test_sweep_subcommand_registers_with_argparse():
@@ -374,3 +390,33 @@ except Started as started:
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["layer", "omp"]
+
+
+def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path, scheduler, capsys):
+    from granalytics.errors import RunLockedError
+    from granalytics.io import WriterLock
+
+    spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
+    out = tmp_path / "out"
+    out.mkdir()
+    with WriterLock(str(out / "manifest.csv")):  # the lock a running sweep holds
+        with pytest.raises(RunLockedError, match="manifest.csv.lock"):
+            run_sweep(spec, out, scheduler=scheduler, progress=False, point_runner=fake_runner)
+        assert main([str(spec), "--out", str(out), "--quiet"]) == 2
+        assert "another writer holds the lock file" in capsys.readouterr().err
+    assert calls(out) == [] and not (out / "manifest.csv").exists()
+    table = run_sweep(spec, out, scheduler=scheduler, progress=False, point_runner=fake_runner)  # released
+    assert (table["status"] == "done").all() and not (out / "manifest.csv.lock").exists()
+
+
+def test_an_unreachable_scheduler_leaves_no_manifest_of_running_points(tmp_path, monkeypatch):
+    import distributed
+
+    def unreachable(*args, **kwargs):
+        raise OSError("Timed out trying to connect")
+
+    monkeypatch.setattr(distributed, "Client", unreachable)
+    spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
+    with pytest.raises(ParameterError, match="cannot connect to the dask scheduler"):
+        run_sweep(spec, tmp_path / "out", scheduler="tcp://127.0.0.1:1", progress=False, point_runner=fake_runner)
+    assert not (tmp_path / "out" / "manifest.csv").exists()

@@ -31,7 +31,7 @@ from .. import __version__
 from ..errors import GranalyticsError, RunFileError, RunLockedError, ValidationError
 from ..snapshot import CONTACT_FIELDS, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
 
-__all__ = ["RunWriter", "open_run", "Run", "RunSlice", "subset_run", "FORMAT_NAME", "FORMAT_VERSION"]
+__all__ = ["RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock", "FORMAT_NAME", "FORMAT_VERSION"]
 
 FORMAT_NAME = "granalytics-run"
 FORMAT_VERSION = 1
@@ -73,16 +73,33 @@ def _one_line(exc) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-class _WriterLock:
-    """Exclusive lock of a run file: the file ``target + ".lock"``, created with O_EXCL and
-    holding the owner's pid and host as one JSON line."""
+class WriterLock:
+    """Exclusive lock of an output: the file ``target + ".lock"``, created with O_EXCL and
+    holding the owner's pid and host as one JSON line.
+
+    :class:`RunWriter` holds one on its run file while it is open; anything else that writes
+    (e.g. a sweep folder's manifest) can hold one the same way, as a context manager::
+
+        with WriterLock("study/manifest.csv"):
+            ...
+
+    A lock file whose owner is no longer running on this host (a killed writer) is taken over
+    with a warning; any other existing lock raises
+    :class:`~granalytics.errors.RunLockedError`, naming the lock file and its owner.
+    """
 
     def __init__(self, target):
         self.target = target
         self.path = target + _LOCK_SUFFIX
         self._record = None
 
-    def acquire(self) -> "_WriterLock":
+    def __enter__(self) -> "WriterLock":
+        return self.acquire()
+
+    def __exit__(self, *exc_info) -> None:
+        self.release()
+
+    def acquire(self) -> "WriterLock":
         record = json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
                              "since": _time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n"
         for _attempt in range(5):
@@ -273,7 +290,7 @@ class RunWriter(_HDF5Handle):
             if compression == "gzip":
                 self._filter["compression_opts"] = int(compression_level)
         # the lock exists before the file is created or truncated, and until close() is done
-        lock = _lock if _lock is not None else _WriterLock(self.path).acquire()
+        lock = _lock if _lock is not None else WriterLock(self.path).acquire()
         try:
             if os.path.exists(self.path) and not overwrite:
                 raise RunFileError(f"{self.path}: file exists (pass overwrite=True to replace it)")
@@ -337,7 +354,7 @@ class RunWriter(_HDF5Handle):
             raise ValidationError("overwrite", "continue_from always replaces the file it continues")
         if not os.path.exists(path):
             raise RunFileError(f"{path}: no such file: nothing to continue")
-        lock = _WriterLock(path).acquire()
+        lock = WriterLock(path).acquire()
         tmp = path + ".continue.tmp"
         writer = None
         try:
