@@ -22,13 +22,13 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :class:`GrowthFit`, :func:`fit_surrogate`, :class:`Surrogate` (sweeps run with
   ``granalytics sweep`` / ``python -m sim sweep``)
 - errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
-  :class:`ParameterError`
+  :class:`RunLockedError`, :class:`ParameterError`
 """
 
 __version__ = "0.1.0"
 
 from ._threading import configure_threading
-from .errors import GranalyticsError, ParameterError, RunFileError, ValidationError
+from .errors import GranalyticsError, ParameterError, RunFileError, RunLockedError, ValidationError
 from .cg import CGComparison, compare_cg
 from .cohesion import COHESION_CONVENTIONS, cohesive_force
 from .compare import compare_methods
@@ -58,5 +58,5 @@ __all__ = [
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",
     "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
-    "GranalyticsError", "ValidationError", "RunFileError", "ParameterError", "configure_threading",
+    "GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError", "configure_threading",
 ]

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ._atomic import write_atomically
+from ._windows import window_mask
 from .cohesion import DEFAULT_COHESION, check_cohesion
 from .errors import ParameterError
 from .io import open_run
@@ -96,12 +98,13 @@ class CGComparison:
 
         return cg_figures(self)
 
-    def save(self, out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
-        """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` and the four figures
-        (one file per format) into ``out_dir``; existing files are refused unless ``overwrite``.
-        Returns the written paths."""
-        import matplotlib.pyplot as plt
-
+    @staticmethod
+    def check_outputs(out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
+        """The paths :meth:`save` writes into ``out_dir``; refuses (``ParameterError``) when
+        some exist and not ``overwrite``, or when ``out_dir`` is a file. For checking before the
+        comparison is computed."""
+        if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+            raise ParameterError(f"{out_dir}: exists and is not a folder")
         names = ["cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv"]
         names += [f"{fig}.{ext}" for fig in ("fig3_mean_volume", "fig4_granule_number", "fig5_size_distribution",
                                               "fig6_yield") for ext in formats]
@@ -110,15 +113,24 @@ class CGComparison:
         if existing and not overwrite:
             raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace "
                                  f"{len(existing)} existing output file(s))")
+        return paths
+
+    def save(self, out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
+        """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` and the four figures
+        (one file per format) into ``out_dir``; existing files are refused unless ``overwrite``.
+        Returns the written paths."""
+        import matplotlib.pyplot as plt
+
+        paths = self.check_outputs(out_dir, overwrite=overwrite, formats=formats)
         try:
             os.makedirs(out_dir, exist_ok=True)
             for table, path in zip((self.table, self.timeseries, self.distributions), paths):
-                _write_atomic(path, lambda tmp, t=table: t.to_csv(tmp, index=False))
+                write_atomically(path, lambda tmp, t=table: t.to_csv(tmp, index=False))
             written = paths[:3]
             for name, fig in self.figures().items():
                 for ext in formats:
                     path = os.path.join(out_dir, f"{name}.{ext}")
-                    _write_atomic(path, lambda tmp, f=fig, e=ext: f.savefig(tmp, dpi=150, format=e))
+                    write_atomically(path, lambda tmp, f=fig, e=ext: f.savefig(tmp, dpi=150, format=e))
                     written.append(path)
                 plt.close(fig)
         except OSError as exc:
@@ -129,12 +141,6 @@ class CGComparison:
 def _paper_speedup(alpha) -> float:
     """The paper's speed-up of CG factor α over CG1 (1 for α = 1, NaN where it reports none)."""
     return 1.0 if alpha == 1 else PAPER_SPEEDUP.get(float(alpha), math.nan)
-
-
-def _write_atomic(path, write):
-    tmp = f"{path}.tmp"
-    write(tmp)
-    os.replace(tmp, path)
 
 
 def _alpha_label(alpha, n_particles):
@@ -186,14 +192,15 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
             if len(run) == 0:
                 raise ParameterError(f"{run.path}: the run has no frames")
             ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
-            table = steady_state(ts, window=(lo, hi))
+            table = steady_state(ts, window=(lo, hi), source=os.fspath(run.path))
             revs = ts["revolutions"].to_numpy()
-            inside = (revs >= lo) & (revs <= hi)
+            inside = window_mask(revs, lo, hi)
             pooled = np.concatenate([s for s, keep in zip(frame_sizes, inside) if keep] or [np.zeros(0, np.int64)])
             provenance = meta.provenance
             infos.append({
                 "run": label, "path": os.fspath(run.path), "alpha": meta.alpha, "n_particles": meta.n_particles,
-                "n_particles_original": meta.n_particles_original, "revolutions_last": float(revs[-1]),
+                "n_particles_original": meta.n_particles_original, "mean_radius_original": meta.mean_radius_original,
+                "revolutions_last": float(revs[-1]),
                 "wall_time_s": float(provenance.get("wall_time_s", math.nan)),
                 "wall_time_per_simulated_s": float(provenance.get("wall_time_per_simulated_s", math.nan)),
                 "physics_version": provenance.get("physics_version"),
@@ -210,6 +217,12 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         dists.append(dist)
         steady[label] = table
         sizes[label] = pooled
+    for key, what in (("n_particles_original", "original particle counts"), ("mean_radius_original", "original mean radii")):
+        values = [i[key] for i in infos]
+        if max(values) > 1.01 * min(values):
+            warnings.warn(f"compare_cg: the runs are not coarse-grained from one system: their {what} differ ("
+                          + ", ".join(f"{i['run']}: {i[key]:.4g}" for i in infos)
+                          + "); their differences are not those of coarse-graining", stacklevel=2)
     versions = {i["run"]: i["physics_version"] for i in infos if i["physics_version"] is not None}
     if len(set(versions.values())) > 1:
         warnings.warn("compare_cg: the runs were made by different simulator physics versions ("

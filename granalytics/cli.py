@@ -7,14 +7,18 @@ status 2, never as a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import sys
+import warnings
 
 import numpy as np
 
 from . import __version__
+from ._atomic import write_atomically
+from ._windows import window_mask
 from .cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
 from .errors import GranalyticsError, ParameterError
 from .identify import BACKENDS, make_identifier
@@ -116,7 +120,7 @@ def cmd_info(args):
         info = run.info()
         meta = run.meta.to_dict()
     if args.json:
-        print(json.dumps({"file": info, "meta": meta}, indent=2, default=str))
+        print(json.dumps(_json_safe({"file": info, "meta": meta}), indent=2, default=str))
         return 0
     width = max(len(k) for k in list(info) + list(meta))
     print("file")
@@ -132,11 +136,23 @@ def cmd_info(args):
     return 0
 
 
+def _json_safe(value):
+    """``value`` with NaN and infinities as None: JSON has no such numbers (``json.dumps``
+    would write the invalid tokens NaN and Infinity)."""
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
 def cmd_identify(args):
     import h5py
 
     identifier = _identifier(args)
-    _check_new_file(args.out, args.overwrite)
+    _check_outputs(args, others=(args.out,))
     tmp = f"{args.out}.tmp"  # renamed into place only when every frame is written
     with open_run(args.run) as run:
         frames = _frames(run, args)
@@ -193,12 +209,12 @@ def cmd_stats(args):
             c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
             cohesion=args.cohesion,
         )
+    steady = steady_state(ts, window=window, by=by, source=args.run)  # refuses a bad window before any output
+    in_window = window_mask(ts[by], *window)
+    dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
     if args.out:
         _write_table(ts, args.out)
         print(f"wrote time series ({len(ts)} frames) to {args.out}")
-    steady = steady_state(ts, window=window, by=by)
-    in_window = (ts[by] >= window[0]) & (ts[by] <= window[1])
-    dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
     if args.sizes_out:
         _write_table(dist, args.sizes_out)
         print(f"wrote size distribution to {args.sizes_out}")
@@ -298,7 +314,7 @@ def cmd_compare(args):
 def cmd_compare_cg(args):
     import inspect
 
-    from .cg import compare_cg
+    from .cg import CGComparison, compare_cg
     from .identify import METHODS
 
     labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
@@ -306,6 +322,7 @@ def cmd_compare_cg(args):
     params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg)) if k in accepted}
     for param, value in args.set or []:
         params[param] = value
+    CGComparison.check_outputs(args.out, overwrite=args.overwrite)  # before minutes of analysis
     comparison = compare_cg(args.runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
                             progress=not args.quiet, **params)
     written = comparison.save(args.out, overwrite=args.overwrite)
@@ -344,7 +361,9 @@ def cmd_subset(args):
         raise ParameterError(f"{args.out}: file exists (pass --overwrite to replace it)")
     with open_run(args.run) as run:
         n_frames = len(run)
-        frames = thinned_frames(run.revolutions, args.every, args.full_window)
+        # revolutions only where a window of them is asked for (a static run has none)
+        frames = thinned_frames(run.times if args.full_window is None else run.revolutions, args.every,
+                                args.full_window)
     subset_run(args.run, args.out, frames, float_dtype="float32" if args.float32 else "float64",
                overwrite=args.overwrite, progress=not args.quiet)
     print(f"wrote {args.out}: {len(frames)} of {n_frames} frames"
@@ -372,16 +391,17 @@ def cmd_export_vtk(args):
 def cmd_convert(args):
     from tqdm.auto import tqdm
 
-    from .io import RunWriter
+    from .io import RunWriter, replacing_run
     from .io.lammps import DumpMapping, read_liggghts
 
+    _check_new_file(args.out, args.overwrite)  # before reading the dumps
     if args.source == "yade":
         from .io.yade import read_yade_csv
 
         snapshots, meta = read_yade_csv(args.particles, args.contacts, args.mapping)
     else:
         snapshots, meta = read_liggghts(args.particles, args.contacts, DumpMapping.from_toml(args.mapping), dt=args.dt_s)
-    with RunWriter(args.out, meta, overwrite=args.overwrite) as writer:
+    with replacing_run(args.out, args.overwrite) as tmp, RunWriter(tmp, meta, overwrite=True) as writer:
         for snapshot in tqdm(snapshots, disable=args.quiet, unit="frame", desc="convert"):
             writer.append(snapshot)
     print(f"wrote {args.out}: {len(snapshots)} frames of {meta.n_particles} particles")
@@ -389,8 +409,9 @@ def cmd_convert(args):
 
 
 def _save(fig, path):
+    ext = os.path.splitext(path)[1].lstrip(".").lower() or "png"
     try:
-        fig.savefig(path, dpi=120)
+        write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=ext))
     except (OSError, ValueError) as exc:
         raise GranalyticsError(f"{path}: cannot write plot ({exc})") from None
     print(f"wrote plot to {path}")
@@ -429,9 +450,9 @@ def _check_outputs(args, tables=(), others=()):
 def _write_table(table, path):
     try:
         if _table_format(path) == "csv":
-            table.to_csv(path, index=False)
+            write_atomically(path, lambda tmp: table.to_csv(tmp, index=False))
         else:
-            table.to_parquet(path, index=False)
+            write_atomically(path, lambda tmp: table.to_parquet(tmp, index=False))
     except OSError as exc:
         raise GranalyticsError(f"{path}: cannot write ({exc})") from None
 
@@ -596,11 +617,25 @@ def main(argv=None):
     from . import configure_threading
 
     configure_threading()
-    try:
-        return args.func(args)
-    except (GranalyticsError, OSError, ValueError, OverflowError) as exc:  # bad input or environment: one line
-        print(f"granalytics: error: {exc}", file=sys.stderr)
-        return 2
+    with warnings_as_lines("granalytics"):
+        try:
+            return args.func(args)
+        except (GranalyticsError, OSError, ValueError, OverflowError) as exc:  # bad input or environment: one line
+            print(f"granalytics: error: {exc}", file=sys.stderr)
+            return 2
+
+
+@contextlib.contextmanager
+def warnings_as_lines(prog):
+    """Inside: every warning is printed as one line ``PROG: warning: message`` on stderr (each
+    message once), instead of Python's file, line and source."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        warnings.showwarning = show
+        yield
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from . import _kernels
+from ._windows import window_mask
 from .cohesion import DEFAULT_COHESION, check_cohesion
 from .errors import ParameterError
 from .contacts import check_angle, co_moving, contact_strength
@@ -120,8 +121,7 @@ def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
     """
     if window is not None:
         lo, hi = window
-        revs = table["revolutions"]
-        table = table[(revs >= lo) & (revs <= hi)]
+        table = table[window_mask(table["revolutions"], lo, hi)]
         if table.empty:
             raise ParameterError(f"no frame in the window [{lo:g}, {hi:g}] revolutions")
     keys = ["cohesion", "a_agg_deg", "c_agg"] if "cohesion" in table else ["a_agg_deg", "c_agg"]

@@ -100,12 +100,15 @@ class RunMeta:
     provenance: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        def positive(name):
+        def number(name):
             value = getattr(self, name)
             try:
-                value = float(value)
+                return float(value)
             except (TypeError, ValueError):
                 raise ValidationError(name, f"must be a number, got {value!r}") from None
+
+        def positive(name):
+            value = number(name)
             if not math.isfinite(value) or value <= 0:
                 raise ValidationError(name, f"must be finite and > 0, got {value!r}")
             return value
@@ -114,16 +117,19 @@ class RunMeta:
         self.density = positive("density")
         self.mean_radius = positive("mean_radius")
         self.alpha = positive("alpha")
-        self.drum_omega = float(self.drum_omega)
+        self.drum_omega = number("drum_omega")
         if not math.isfinite(self.drum_omega):
             raise ValidationError("drum_omega", f"must be finite, got {self.drum_omega!r}")
-        self.contact_angle = float(self.contact_angle)
+        self.contact_angle = number("contact_angle")
         if not 0.0 <= self.contact_angle < math.pi / 2:
             raise ValidationError(
                 "contact_angle", f"must be in [0, π/2) rad, got {self.contact_angle!r}"
             )
         self.n_particles = _positive_int("n_particles", self.n_particles)
-        gravity = tuple(float(g) for g in self.gravity)
+        try:
+            gravity = tuple(float(g) for g in self.gravity)
+        except (TypeError, ValueError):
+            raise ValidationError("gravity", f"must be 3 finite numbers, got {self.gravity!r}") from None
         if len(gravity) != 3 or not all(math.isfinite(g) for g in gravity):
             raise ValidationError("gravity", f"must be 3 finite numbers, got {self.gravity!r}")
         self.gravity = gravity

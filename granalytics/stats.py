@@ -8,11 +8,13 @@ different CG factors α are directly comparable.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from ._windows import window_mask, window_tolerance
 from .errors import ParameterError
 from .granules import granule_table
 from .identify import make_identifier
@@ -120,7 +122,7 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, **par
 
 
 def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS, *,
-                 by="revolutions", n_blocks=None) -> pd.DataFrame:
+                 by="revolutions", n_blocks=None, source=None) -> pd.DataFrame:
     """Steady-state averages over a window of revolutions (default) or of time.
 
     Parameters
@@ -128,7 +130,10 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     timeseries : DataFrame
         Output of :func:`run_stats` (needs the ``by`` column).
     window : (float, float), default (3, 6)
-        Closed interval, in revolutions, or in seconds with ``by="time_s"``.
+        Closed interval, in revolutions, or in seconds with ``by="time_s"``; a frame within 1 %
+        of the frame spacing of an edge counts as inside (frames lie on whole time steps, so the
+        frame of revolution 6 may be stamped 5.9999). A window that the run does not cover, or
+        that holds a single frame, gives a warning.
     columns : sequence of str
         Metrics to average.
     by : {"revolutions", "time_s"}, default "revolutions"
@@ -137,6 +142,8 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
         Blocks for the standard error. Default: one per revolution when the window spans three
         revolutions or more, else 4 equal blocks (for a one-revolution window, one baffle passage
         of the four-baffle drum each); 5 equal blocks for ``by="time_s"``.
+    source : str, optional
+        What the time series is of (e.g. the run file), named in errors and warnings.
 
     Returns
     -------
@@ -153,15 +160,18 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
         raise ParameterError(f"by must be 'revolutions' or 'time_s', got {by!r}")
     unit = "revolutions" if by == "revolutions" else "s"
     axis = timeseries[by].to_numpy(dtype=float)
+    where = f"{source}: " if source else ""
     if np.isnan(axis).all():
-        raise ParameterError("the run has no drum rotation (Ω = 0): revolution windows are undefined; "
-                             "use a time window (--window-time T0:T1 in seconds)")
-    inside = timeseries[(axis >= lo) & (axis <= hi)]
+        raise ParameterError(f"{where}the run has no drum rotation (Ω = 0): revolution windows are undefined; "
+                             "use a time window (by='time_s'; `granalytics stats --window-time T0:T1` in seconds)")
+    tol = window_tolerance(axis)
+    inside = timeseries[window_mask(axis, lo, hi, tol)]
+    covered = f"[{np.nanmin(axis):.3g}, {np.nanmax(axis):.3g}]"
     if inside.empty:
-        raise ParameterError(
-            f"no frame in the window [{lo:g}, {hi:g}] {unit}; the run covers "
-            f"[{np.nanmin(axis):.3g}, {np.nanmax(axis):.3g}]"
-        )
+        raise ParameterError(f"{where}no frame in the window [{lo:g}, {hi:g}] {unit}; the run covers {covered}")
+    if len(inside) < 2 or hi > np.nanmax(axis) + tol or lo < np.nanmin(axis) - tol:
+        warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} is not covered by the run ({covered}): its "
+                      f"steady state comes from {len(inside)} frame{'s' if len(inside) > 1 else ''}", stacklevel=2)
     if by == "revolutions" and n_blocks is None and math.ceil(hi - lo) >= 3:
         n_blocks, width = math.ceil(hi - lo), 1.0  # one block per revolution
     else:
@@ -172,8 +182,9 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
             raise ParameterError(f"n_blocks must be >= 1, got {n_blocks}")
         width = (hi - lo) / n_blocks
     # blocks from the window start; the closing edge joins the last block
-    position = (inside[by].to_numpy() - lo) / width if width > 0 else np.zeros(len(inside))
-    block = np.minimum(np.floor(position), n_blocks - 1).astype(int)
+    # (with the window's tolerance: a frame stamped just before a block edge belongs after it)
+    position = (inside[by].to_numpy() - lo + tol) / width if width > 0 else np.zeros(len(inside))
+    block = np.clip(np.floor(position), 0, n_blocks - 1).astype(int)
     out = {}
     for col in columns:
         values = inside[col].to_numpy(dtype=float)

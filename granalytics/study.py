@@ -140,7 +140,7 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
             for conv in conventions:
                 kwargs = dict(params) if conv is None else {**params, "cohesion": conv}
                 ts = run_stats(frames, method, **kwargs)
-                steady = steady_state(ts, window=(lo, hi), columns=STUDY_METRICS)
+                steady = steady_state(ts, window=(lo, hi), columns=STUDY_METRICS, source=path)
                 row = {"point": record["point"], **{c: record[c] for c in param_cols}}
                 row.update({"gamma": gamma, "omega": omega, "alpha": float(meta.alpha),
                             "gamma_run": float(meta.surface_tension), "n_particles": int(meta.n_particles),

@@ -33,7 +33,8 @@ def write_run(path, n_particles, alpha, final_fraction=0.55, wall_per_sim_s=None
 @pytest.fixture(scope="module")
 def cg_runs(tmp_path_factory):
     d = tmp_path_factory.mktemp("cg")
-    return [write_run(d / "cg1.h5", 2700, 1.0, wall_per_sim_s=40.0, seed=1),
+    # one system: 8 100 original particles, 300 at CG3
+    return [write_run(d / "cg1.h5", 8100, 1.0, wall_per_sim_s=40.0, seed=1),
             write_run(d / "cg3.h5", 300, 3.0, wall_per_sim_s=2.0, seed=2),
             write_run(d / "low.h5", 300, 3.0, final_fraction=0.3, wall_per_sim_s=2.0, seed=3)]
 
@@ -64,7 +65,7 @@ def test_equal_granulation_agrees_and_a_different_one_is_flagged(cg_runs):
 def test_runs_without_wall_time_have_no_speedup_and_default_labels(tmp_path, cg_runs):
     plain = write_run(tmp_path / "plain.h5", 300, 3.0)
     comparison = compare_cg([cg_runs[0], plain], window=(2, 4), cohesion="bridge")
-    assert list(comparison.table["run"]) == ["CG1 (2700 particles)", "CG3 (300 particles)"]
+    assert list(comparison.table["run"]) == ["CG1 (8100 particles)", "CG3 (300 particles)"]
     assert math.isnan(comparison.table["speedup"].iloc[1])
     assert (comparison.table["cohesion"] == "bridge").all() and "cohesion=bridge" in comparison.description
 
@@ -75,7 +76,7 @@ def test_bad_requests_are_refused(cg_runs):
     with pytest.raises(ParameterError, match="labels"):
         compare_cg(cg_runs[:2], labels=["a"])
     with pytest.raises(ParameterError, match="labelled"):
-        compare_cg(cg_runs[:2], labels=["a", "a"])
+        compare_cg(cg_runs[:2], labels=["a", "a"], window=(2, 4))
     with pytest.raises(ParameterError, match="no frame in the window"):
         compare_cg(cg_runs[:2], window=(7, 8))
 
@@ -146,3 +147,9 @@ def test_runs_of_different_simulator_physics_versions_are_flagged(tmp_path, cg_r
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # one version (or none recorded): no warning
         compare_cg([new, versioned("same.h5", 2), cg_runs[0]], labels=["a", "b", "c"], window=(2, 3))
+
+
+def test_runs_of_different_systems_are_flagged(tmp_path, cg_runs):
+    other = write_run(tmp_path / "other.h5", 100, 3.0, seed=5)  # 2 700 original particles, not 8 100
+    with pytest.warns(UserWarning, match="not coarse-grained from one system.*original particle counts.*8100.*2700"):
+        compare_cg([cg_runs[0], other], labels=["cg1", "other"], window=(2, 4))

@@ -142,3 +142,92 @@ def test_compare_methods_table_and_plot(run_file, tmp_path, capsys):
     assert png.stat().st_size > 10_000
     assert main(["compare-methods", run_file, "--methods", "gna,dbscan", "--set", "sieve.connect=gna", "--quiet"]) == 2
     assert "not among --methods" in capsys.readouterr().err
+
+
+def test_identify_refuses_its_input_run_as_output(run_file, tmp_path, capsys):
+    import hashlib
+    import shutil
+
+    mine = tmp_path / "mine.h5"
+    shutil.copyfile(run_file, mine)
+    before = hashlib.sha256(mine.read_bytes()).hexdigest()
+    assert main(["identify", str(mine), "--out", str(mine), "--overwrite", "--quiet"]) == 2
+    assert "the input run" in capsys.readouterr().err
+    assert hashlib.sha256(mine.read_bytes()).hexdigest() == before
+
+
+def test_stats_with_a_window_outside_the_run_writes_nothing(run_file, tmp_path, capsys):
+    out = tmp_path / "w.csv"
+    assert main(["stats", run_file, "--window", "70:90", "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "no frame in the window" in err and run_file in err
+    assert not out.exists()
+
+
+def test_a_window_past_the_end_of_the_run_is_one_warning_line(run_file, capsys):
+    with open_run(run_file) as run:
+        last = run.revolutions[-1]
+    assert main(["stats", run_file, "--window", f"{last - 0.5:g}:{last + 5:g}", "--quiet"]) == 0
+    warning = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert len(warning) == 1 and warning[0].startswith(f"granalytics: warning: {run_file}: the window")
+
+
+def test_compare_cg_refuses_existing_outputs_before_analysing(run_file, tmp_path, monkeypatch, capsys):
+    import granalytics.cg
+
+    out = tmp_path / "cg"
+    out.mkdir()
+    (out / "cg_table.csv").write_text("precious")
+
+    def no_analysis(*args, **kwargs):
+        raise AssertionError("analysed before refusing the outputs")
+
+    monkeypatch.setattr(granalytics.cg, "compare_cg", no_analysis)
+    assert main(["compare-cg", run_file, run_file, "--out", str(out), "--quiet"]) == 2
+    assert "cg_table.csv: exists" in capsys.readouterr().err
+    assert (out / "cg_table.csv").read_text() == "precious"
+
+
+def test_an_output_is_replaced_only_when_complete(tmp_path):
+    from granalytics._atomic import write_atomically
+
+    path = tmp_path / "table.csv"
+    path.write_text("old, complete")
+
+    def fails_half_way(tmp):
+        with open(tmp, "w") as f:
+            f.write("new, cut")
+        raise OSError("No space left on device")
+
+    with pytest.raises(OSError, match="No space"):
+        write_atomically(path, fails_half_way)
+    assert path.read_text() == "old, complete" and [p.name for p in tmp_path.iterdir()] == ["table.csv"]
+    write_atomically(path, lambda tmp: open(tmp, "w").write("new"))
+    assert path.read_text() == "new"
+
+
+def test_subset_every_works_on_a_run_whose_drum_does_not_turn(tmp_path, capsys):
+    from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+    from granalytics import RunWriter
+
+    meta = synthetic_meta(50, drum_omega=0.0)
+    src = tmp_path / "static.h5"
+    with RunWriter(src, meta) as writer:
+        for k in range(5):
+            writer.append(synthetic_snapshot(50, time=0.1 * k, step=k, seed=k, meta=meta))
+    out = tmp_path / "thin.h5"
+    assert main(["subset", str(src), "--out", str(out), "--every", "2", "--quiet"]) == 0
+    with open_run(out) as run:
+        assert list(run.times) == pytest.approx([0.0, 0.2, 0.4])
+
+
+def test_info_json_is_valid_json_for_an_empty_run(tmp_path, capsys):
+    from granalytics.synthetic import synthetic_meta
+    from granalytics import RunWriter
+
+    empty = tmp_path / "empty.h5"
+    with RunWriter(empty, synthetic_meta(50)):
+        pass
+    assert main(["info", str(empty), "--json"]) == 0
+    text = capsys.readouterr().out
+    json.loads(text, parse_constant=lambda name: pytest.fail(f"invalid JSON constant {name}"))

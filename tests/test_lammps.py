@@ -288,3 +288,72 @@ def test_dump_with_zero_atoms_is_refused_naming_the_file(tmp_path, frames):
     with pytest.raises(GranalyticsError, match="no particles") as err:
         read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
     assert str(pf[0]) in str(err.value)
+
+
+def _mapping_file(tmp_path):
+    toml = tmp_path / "map.toml"
+    toml.write_text("\n".join(f'{k} = {v!r}' if isinstance(v, str) else f"{k} = {v}" for k, v in MAPPING.items()).replace("'", '"'))
+    return toml
+
+
+def test_a_failing_convert_leaves_the_existing_output_as_it_was(tmp_path, frames, capsys, monkeypatch):
+    import hashlib
+
+    from granalytics.cli import main
+    from granalytics.io import RunWriter
+
+    pf, cf = write_dumps(tmp_path, frames, per_step=True)
+    out = tmp_path / "run.h5"
+    argv = ["convert", *map(str, pf), "--contacts", *map(str, cf), "--mapping", str(_mapping_file(tmp_path)),
+            "--dt-s", str(DT), "--out", str(out), "--quiet"]
+    assert main(argv) == 0
+    before = hashlib.sha256(out.read_bytes()).hexdigest()
+    append, calls = RunWriter.append, []
+
+    def disk_full_at_the_third_frame(self, snapshot):
+        calls.append(snapshot.step)
+        if len(calls) == 3:
+            raise OSError("No space left on device")
+        append(self, snapshot)
+
+    monkeypatch.setattr(RunWriter, "append", disk_full_at_the_third_frame)
+    assert main(argv + ["--overwrite"]) == 2
+    assert "No space left" in capsys.readouterr().err
+    assert hashlib.sha256(out.read_bytes()).hexdigest() == before
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("run.h5")) == ["run.h5"]
+
+
+def test_a_timestep_with_another_particle_count_is_refused_naming_its_dump(tmp_path, frames):
+    fewer = synthetic_snapshot(299, time=200 * DT, step=200, seed=2, meta=frames[0].meta)
+    pf, cf = write_dumps(tmp_path, [*frames[:2], fewer], per_step=True)
+    with pytest.raises(DumpFormatError, match=rf"{pf[-1]}, line \d+: timestep 200 has 299 particles, the first timestep 300"):
+        read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
+
+
+def test_contact_timesteps_without_particles_are_reported(tmp_path, frames, capsys):
+    from granalytics.cli import main
+
+    pf, cf = write_dumps(tmp_path, frames, per_step=True)
+    argv = ["convert", *map(str, pf[:2]), "--contacts", *map(str, cf), "--mapping", str(_mapping_file(tmp_path)),
+            "--dt-s", str(DT), "--out", str(tmp_path / "run.h5"), "--quiet"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"granalytics: warning: 1 contact timestep(s) without a particle timestep are not converted "
+                   f"(200; from {cf[0]}, {cf[1]}, {cf[2]})"]
+
+
+@pytest.mark.parametrize("line, words", [
+    ("drum_omega = [1, 2]", "drum_omega"),
+    ('drum_omega = "fast"', "drum_omega"),
+    ('contact_angle = "20deg"', "contact_angle"),
+    ('contact_f_normal = ["c_f[1]", "c_f[2]"]', "contact_f_normal"),
+])
+def test_a_mapping_value_of_the_wrong_kind_names_the_file_and_the_key(tmp_path, line, words):
+    key = line.split(" = ")[0]
+    body = [f'{k} = {v!r}'.replace("'", '"') if isinstance(v, str) else f"{k} = {v}" for k, v in MAPPING.items()
+            if k != key]
+    toml = tmp_path / "map.toml"
+    toml.write_text("\n".join(body + [line]) + "\n")
+    with pytest.raises(ga.ValidationError) as err:
+        DumpMapping.from_toml(toml)
+    assert words in str(err.value) and str(toml) in str(err.value)

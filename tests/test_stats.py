@@ -121,8 +121,38 @@ def test_steady_state_window_mean_std_and_block_sem():
 
 def test_steady_state_skips_nan_frames_and_counts_them():
     ts = pd.DataFrame({"revolutions": [3.0, 3.5, 4.0, 4.5], "mean_volume_norm": [2.0, np.nan, 4.0, 6.0]})
-    row = ga.steady_state(ts, columns=["mean_volume_norm"]).loc["mean_volume_norm"]
+    row = ga.steady_state(ts, window=(3, 4.5), columns=["mean_volume_norm"]).loc["mean_volume_norm"]
     assert row["mean"] == 4.0 and row.n_frames == 3
+
+
+def test_frames_a_rounding_away_from_a_window_edge_are_inside_it():
+    # a frame every 0.05 revolution rounded to whole steps: stamped slightly early, as in a run of
+    # another time step; the same window must take the same frames and blocks as on the exact grid
+    exact = np.round(np.arange(0, 121) * 0.05, 10)
+    early = exact * (1 - 2e-5)  # revolution 6 stamped 5.99988
+    for revs in (exact, early):
+        ts = pd.DataFrame({"revolutions": revs, "yield_fraction": np.floor(exact)})  # value = its revolution
+        row = ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"]).loc["yield_fraction"]
+        assert row.n_frames == 61 and row.n_blocks == 3
+        # block means 3, 4 and (20 × 5 + 6)/21: the frame of revolution 4 opens the second block
+        blocks = np.array([3.0, 4.0, (20 * 5 + 6) / 21])
+        assert row["sem"] == pytest.approx(blocks.std(ddof=1) / math.sqrt(3))
+    # a frame a tenth of the spacing outside is outside
+    ts = pd.DataFrame({"revolutions": exact + 0.005, "yield_fraction": 1.0})
+    assert ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"]).loc["yield_fraction"].n_frames == 60
+
+
+def test_a_window_the_run_does_not_cover_warns_naming_the_run():
+    ts = pd.DataFrame({"revolutions": np.arange(0, 61) * 0.05, "yield_fraction": 0.5})  # 3 revolutions
+    with pytest.warns(UserWarning, match=r"cg1\.h5: the window \[3, 6\] revolutions is not covered.*1 frame$"):
+        ga.steady_state(ts, columns=["yield_fraction"], source="cg1.h5")
+    with pytest.raises(ParameterError, match=r"^cg1\.h5: no frame in the window \[4, 5\]"):
+        ga.steady_state(ts, window=(4, 5), columns=["yield_fraction"], source="cg1.h5")
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ga.steady_state(ts, window=(1, 3), columns=["yield_fraction"])  # covered: no warning
 
 
 def test_size_distribution_log_bins():

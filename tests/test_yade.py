@@ -65,3 +65,15 @@ def test_yade_csv_cut_inside_its_last_line_is_refused(tmp_path, gz, which):
         read_yade_csv(particles, contacts, DATA / "meta.toml")
     msg = str(err.value)
     assert msg.startswith(f"{path}, line {cut.count(chr(10)) + 1}: ") and "cut short" in msg
+
+
+def test_unused_contact_files_are_reported_and_a_bad_step_names_the_file(tmp_path):
+    with pytest.warns(UserWarning, match=r"1 contact timestep\(s\) without a particle timestep are not converted \(16000"):
+        snapshots, _ = read_yade_csv(PARTICLES[:1], CONTACTS, DATA / "meta.toml")
+    assert [s.step for s in snapshots] == [12000]
+    text = gzip.open(PARTICLES[-1], "rt").read().splitlines()
+    bad = tmp_path / "p.csv"
+    bad.write_text("\n".join([text[0].replace("step=16000", "step=16k")] + text[1:]) + "\n")
+    assert "step=16k" in bad.read_text()
+    with pytest.raises(GranalyticsError, match=r"p.csv, line 1: .*step a whole number.*'16k'"):
+        read_yade_csv([bad], CONTACTS[-1:], DATA / "meta.toml")

@@ -14,6 +14,7 @@ step order, particle count) before any frame is read.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import json
 import math
@@ -28,10 +29,11 @@ import h5py
 import numpy as np
 
 from .. import __version__
+from .._windows import window_mask
 from ..errors import GranalyticsError, RunFileError, RunLockedError, ValidationError
 from ..snapshot import CONTACT_FIELDS, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
 
-__all__ = ["RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock", "FORMAT_NAME", "FORMAT_VERSION"]
+__all__ = ["RunWriter", "open_run", "Run", "RunSlice", "subset_run", "replacing_run", "WriterLock", "FORMAT_NAME", "FORMAT_VERSION"]
 
 FORMAT_NAME = "granalytics-run"
 FORMAT_VERSION = 1
@@ -716,7 +718,8 @@ class _FrameSequence(Sequence):
         return self._run._count[self._indices]
 
     def select(self, *, time=None, revolutions=None) -> "RunSlice":
-        """Frames whose time [s] or revolution count lies in a closed interval.
+        """Frames whose time [s] or revolution count lies in a closed interval (a frame within
+        1 % of the frame spacing of an edge counts as inside: frames lie on whole time steps).
 
         Parameters
         ----------
@@ -731,8 +734,7 @@ class _FrameSequence(Sequence):
         values = self.times if time is not None else self.revolutions
         if not lo <= hi:
             raise ValidationError("select", f"empty interval [{lo}, {hi}]")
-        keep = (values >= lo) & (values <= hi)
-        return RunSlice(self._run, self._indices[keep])
+        return RunSlice(self._run, self._indices[window_mask(values, lo, hi)])
 
     def nearest(self, *, time=None, revolutions=None) -> Snapshot:
         """The frame closest to a time [s] or a revolution count."""
@@ -1156,7 +1158,9 @@ def thinned_frames(revolutions, every=1, full_window=None) -> np.ndarray:
     Parameters
     ----------
     revolutions : array of float
-        The run's frame times in drum revolutions (:attr:`Run.revolutions`).
+        The run's frame times in drum revolutions (:attr:`Run.revolutions`); only their number
+        matters without ``full_window`` (any per-frame array will do, e.g. the times of a run
+        whose drum does not turn).
     every : int
         Keep one frame in ``every`` outside the window (>= 1; 1 keeps all).
     full_window : (float, float), optional
@@ -1176,8 +1180,35 @@ def thinned_frames(revolutions, every=1, full_window=None) -> np.ndarray:
         r0, r1 = full_window
         if not r0 <= r1:
             raise ValidationError("full_window", f"must be (r0, r1) with r0 <= r1, got {full_window!r}")
-        keep |= (revs >= r0) & (revs <= r1)
+        keep |= (revs >= r0) & (revs <= r1)  # exact, as when the bundled datasets were thinned
     return index[keep]
+
+
+@contextlib.contextmanager
+def replacing_run(dst, overwrite=False):
+    """Write a whole new run for ``dst`` into a temporary file beside it and rename it over
+    ``dst`` only when the block inside succeeds; on any error (a bad input frame, a full disk,
+    an interrupt) the temporary file is removed and an existing ``dst`` is left as it was. The
+    lock of ``dst`` is held throughout. Yields the path to give :class:`RunWriter`.
+
+    Raises
+    ------
+    RunFileError
+        ``dst`` exists and not ``overwrite``; :class:`~granalytics.errors.RunLockedError` if
+        another writer holds its lock.
+    """
+    dst = os.fspath(dst)
+    with WriterLock(dst):
+        if os.path.exists(dst) and not overwrite:
+            raise RunFileError(f"{dst}: file exists (pass overwrite=True, or --overwrite, to replace it)")
+        tmp = f"{dst}.partial"
+        try:
+            yield tmp
+            os.replace(tmp, dst)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
 
 
 def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, progress=False) -> str:
@@ -1190,7 +1221,8 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
     Parameters
     ----------
     src, dst : path
-        Source run and file to write (refused if it exists, unless ``overwrite``).
+        Source run and file to write (refused if it exists, unless ``overwrite``; written
+        atomically, see :func:`replacing_run`).
     frames : sequence of int
         Frame indices of ``src`` to keep, increasing.
     float_dtype : {"float64", "float32"}
@@ -1211,7 +1243,7 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
         meta.provenance = {**meta.provenance, "subset_of": {
             "file": os.path.basename(os.fspath(src)), "frames_in_source": len(run),
             "frames_kept": frames.tolist(), "float_dtype": float_dtype}}
-        with RunWriter(dst, meta, overwrite=overwrite, float_dtype=float_dtype) as writer:
+        with replacing_run(dst, overwrite) as tmp, RunWriter(tmp, meta, overwrite=True, float_dtype=float_dtype) as writer:
             for k in tqdm(frames, disable=not progress, unit="frame", desc="subset"):
                 writer.append(run[int(k)])
     return os.fspath(dst)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import gzip
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -91,6 +92,14 @@ class DumpMapping:
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self):
+        for name in ("surface_tension", "density", "drum_omega", "contact_angle", "alpha"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValidationError(name, f"must be a number in SI units, got {value!r}")
+        for name in ("contact_f_cap", "contact_f_normal"):
+            value = getattr(self, name)
+            if isinstance(value, (list, tuple)) and (len(value) != 3 or not all(isinstance(c, str) for c in value)):
+                raise ValidationError(name, f"must be one column name or a list of 3 (a vector), got {value!r}")
         if self.units != "si":
             raise ValidationError("units", f"only LAMMPS 'units si' dumps are read, got {self.units!r}")
         if (self.contact_gap is None) == (self.contact_overlap is None):
@@ -114,6 +123,8 @@ class DumpMapping:
             return cls(**data)
         except TypeError as exc:
             raise ValidationError("mapping", f"{path}: {exc}") from None
+        except ValidationError as exc:
+            raise exc.located(path) from None
 
 
 def _open_text(path):
@@ -348,10 +359,14 @@ def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
         ccols, cdata, cline, cpath = contacts[step]
         cont = _contacts(ccols, cdata, cpath, cline, mapping, id_to_row, part["position"])
         n0 = n0 or len(part["ids"])
+        if len(part["ids"]) != n0:
+            raise DumpFormatError(f"{path}, line {line}: timestep {step} has {len(part['ids'])} particles, the first "
+                                  f"timestep {n0}; a run keeps its particles")
         try:
             snapshots.append(Snapshot(time=step * dt, step=step, **part, **cont))
         except ValidationError as exc:
             raise exc.located(f"{path} / {cpath} (timestep {step})") from None
+    warn_unused_contact_steps(contacts, particles, contact_files)
     meta = RunMeta(
         surface_tension=mapping.surface_tension, density=mapping.density, drum_omega=mapping.drum_omega,
         n_particles=n0, mean_radius=float(snapshots[0].radius.mean()), alpha=mapping.alpha,
@@ -365,3 +380,13 @@ def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
     for s in snapshots:
         s.meta = meta
     return snapshots, meta
+
+
+def warn_unused_contact_steps(contact_steps, particle_steps, contact_files) -> None:
+    """Warn about contact timesteps that no particle timestep uses (they are not converted)."""
+    unused = sorted(set(contact_steps) - set(particle_steps))
+    if unused:
+        shown = ", ".join(map(str, unused[:5])) + (", ..." if len(unused) > 5 else "")
+        warnings.warn(f"{len(unused)} contact timestep(s) without a particle timestep are not converted "
+                      f"({shown}; from {', '.join(map(str, contact_files[:3]))}"
+                      f"{', ...' if len(contact_files) > 3 else ''})", stacklevel=3)

@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..errors import GranalyticsError, ValidationError
 from ..snapshot import RunMeta, Snapshot
-from .lammps import DumpFormatError, load_toml, read_complete_lines
+from .lammps import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps
 
 __all__ = ["read_yade_csv", "PARTICLE_COLUMNS", "CONTACT_COLUMNS"]
 
@@ -44,7 +44,11 @@ def _read(path, columns):
     if bad.any():
         r, c = np.argwhere(bad)[0]
         raise DumpFormatError(f"{path}, line {r + 3}: non-finite or missing value in column {columns[c]!r}")
-    return float(info["time_s"]), int(info["step"]), table
+    try:
+        return float(info["time_s"]), int(info["step"]), table
+    except ValueError:
+        raise DumpFormatError(f"{path}, line 1: time_s must be a number and step a whole number, found "
+                              f"time_s={info['time_s']!r} step={info['step']!r}") from None
 
 
 def read_yade_csv(particle_files, contact_files, meta_toml):
@@ -67,6 +71,7 @@ def read_yade_csv(particle_files, contact_files, meta_toml):
         frames[step] = (time, table, path)
     if not frames:
         raise DumpFormatError("no particle files given")
+    warn_unused_contact_steps(contacts, frames, list(contact_files))
     snapshots = []
     for step in sorted(frames):
         time, p, path = frames[step]

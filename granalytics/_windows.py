@@ -1,0 +1,36 @@
+"""Which frames lie in a closed window of revolutions or seconds (private; one rule for every
+analysis).
+
+A simulator writes a frame every whole number of time steps, so the frame meant for revolution 6
+carries the time of the nearest step: 5.9999 revolutions in one run, 6.00001 in a run of another
+time step (the frame interval rounded to whole steps, accumulated over the run). Compared
+exactly, the same window [3, 6] would then take 60 frames from one run and 61 from the other.
+A frame counts as inside when it lies within ``WINDOW_TOLERANCE`` of the run's median frame
+spacing of an edge, far less than a frame interval and far more than the rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask"]
+
+#: fraction of the median frame spacing by which a frame may lie outside a window's edge
+WINDOW_TOLERANCE = 0.01
+
+
+def window_tolerance(values) -> float:
+    """``WINDOW_TOLERANCE`` × the median spacing of the distinct finite ``values`` (0 for fewer
+    than two), in the unit of ``values``."""
+    values = np.asarray(values, dtype=float)
+    distinct = np.unique(values[np.isfinite(values)])
+    return float(WINDOW_TOLERANCE * np.median(np.diff(distinct))) if distinct.size > 1 else 0.0
+
+
+def window_mask(values, lo, hi, tolerance=None) -> np.ndarray:
+    """Boolean mask of ``values`` (frame times or revolutions) inside the closed window
+    [lo, hi], each edge widened by ``tolerance`` (default :func:`window_tolerance`); NaN is
+    never inside."""
+    values = np.asarray(values, dtype=float)
+    tol = window_tolerance(values) if tolerance is None else tolerance
+    return (values >= lo - tol) & (values <= hi + tol)
