@@ -7,7 +7,9 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   file a writer holds on its output)
 - identification: :func:`identify` with methods ``"gna"`` (:class:`GraphNetworkAnalysis`),
   ``"dbscan"`` (:class:`DBSCANIdentifier`), ``"sieve"`` (:class:`VirtualSieve`), ``"community"``
-  (:class:`CommunityDetection`), all returning :class:`IdentificationResult`
+  (:class:`CommunityDetection`), ``"custom"`` (:class:`CustomEdges`, a user edge criterion), all
+  returning :class:`IdentificationResult`; the kept contact graph as tables, NetworkX or igraph
+  graphs: :mod:`granalytics.edges`
 - statistics: :func:`granule_table`, :func:`frame_stats`, :func:`run_stats`,
   :func:`steady_state`, :func:`size_distribution`
 - threshold sensitivity and method comparison: :func:`sensitivity`, :func:`sensitivity_summary`,
@@ -40,6 +42,8 @@ from .identify import (
     VirtualSieve,
     identify,
 )
+from . import edges  # the kept contact graph as tables, NetworkX and igraph graphs: granalytics.edges.*
+from .identify import CustomEdges
 from .io import Run, RunSlice, RunWriter, WriterLock, open_run, subset_run
 from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
@@ -52,7 +56,7 @@ __all__ = [
     "Snapshot", "RunMeta",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
-    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection",
+    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "edges",
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",

@@ -20,10 +20,10 @@ from . import __version__
 from ._atomic import write_atomically
 from ._windows import window_mask
 from .cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
-from .errors import GranalyticsError, ParameterError
+from .errors import GranalyticsError, ParameterError, ValidationError
 from .identify import BACKENDS, make_identifier
 from .io import open_run
-from .stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
+from .stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
 
 
 def _interval(text):
@@ -153,23 +153,22 @@ def cmd_identify(args):
 
     identifier = _identifier(args)
     _check_outputs(args, others=(args.out,))
-    tmp = f"{args.out}.tmp"  # renamed into place only when every frame is written
     with open_run(args.run) as run:
         frames = _frames(run, args)
         n_frames, n = len(frames), run.n_particles
-        try:
-            out = h5py.File(tmp, "w")
-        except OSError as exc:
-            raise GranalyticsError(f"{args.out}: cannot create labels file ({exc})") from None
-        try:
-            _write_labels(out, args, frames, identifier, n_frames, n)
-            counts = out["n_granules"][:]
-        except BaseException:
-            out.close()
-            os.unlink(tmp)
-            raise
-        out.close()
-    os.replace(tmp, args.out)
+        counts = []
+
+        def write(tmp):  # renamed into place only when every frame is written
+            try:
+                out = h5py.File(tmp, "w")
+            except OSError as exc:
+                raise GranalyticsError(f"{args.out}: cannot create labels file ({exc})") from None
+            with out:
+                _write_labels(out, args, frames, identifier, n_frames, n)
+                counts.append(out["n_granules"][:])
+
+        write_atomically(args.out, write)
+    counts = counts[0]
     print(f"wrote {args.out}: labels of {n} particles in {n_frames} frames "
           f"(granules per frame: min {counts.min()}, mean {counts.mean():.1f}, max {counts.max()})")
     return 0
@@ -204,12 +203,18 @@ def cmd_stats(args):
     by, window = ("time_s", args.window_time) if args.window_time is not None else ("revolutions", args.window)
     with open_run(args.run) as run:
         frames = _frames(run, args)
+        # the window is checked on the frame times before the analysis (its warnings come with the table)
+        try:
+            axis = frames.times if by == "time_s" else frames.revolutions
+        except ValidationError:  # no drum rotation: check_window says so
+            axis = np.full(len(frames), np.nan)
+        check_window(axis, window, by=by, source=args.run, warn=False)
         ts, sizes = run_stats(
             frames, "gna", progress=_progress(args), return_sizes=True,
             c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
             cohesion=args.cohesion,
         )
-    steady = steady_state(ts, window=window, by=by, source=args.run)  # refuses a bad window before any output
+    steady = steady_state(ts, window=window, by=by, source=args.run)
     in_window = window_mask(ts[by], *window)
     dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
     if args.out:
@@ -627,13 +632,12 @@ def main(argv=None):
 
 @contextlib.contextmanager
 def warnings_as_lines(prog):
-    """Inside: every warning is printed as one line ``PROG: warning: message`` on stderr (each
-    message once), instead of Python's file, line and source."""
+    """Inside: every warning that Python's filters let through is printed as one line
+    ``PROG: warning: message`` on stderr, instead of Python's file, line and source."""
     def show(message, category, filename, lineno, file=None, line=None):
         print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
 
     with warnings.catch_warnings():
-        warnings.simplefilter("default")
         warnings.showwarning = show
         yield
 

@@ -35,6 +35,18 @@ _STEADY_COLUMNS = ("n_granules_norm", "mean_volume_norm", "yield_fraction", "mea
 def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFrame:
     """Granulation metrics of one frame (one-row DataFrame).
 
+    Parameters
+    ----------
+    snapshot : Snapshot
+        The frame (its metadata gives γ, Ω and the run's particle count).
+    result : IdentificationResult
+        The granules identified in ``snapshot`` (any method).
+
+    Returns
+    -------
+    DataFrame
+        One row with the columns below.
+
     Columns
     -------
     time_s, step, revolutions
@@ -121,6 +133,50 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, **par
     return (table, sizes) if return_sizes else table
 
 
+def check_window(axis, window, *, by="revolutions", source=None, warn=True):
+    """The frames of a steady-state window: ``(mask, tolerance)`` over the frame times ``axis``
+    (revolutions, or seconds with ``by="time_s"``), with the edge tolerance of
+    :func:`granalytics._windows.window_tolerance`.
+
+    Raises
+    ------
+    ParameterError
+        An empty window, no frames or no finite values on the axis (a revolution axis of a run
+        without drum rotation), or no frame in the window; errors name ``source``.
+
+    Warns
+    -----
+    UserWarning
+        With ``warn``: the run does not reach an edge of the window, or the window holds a
+        single frame.
+    """
+    lo, hi = (float(w) for w in window)
+    unit = "revolutions" if by == "revolutions" else "s"
+    where = f"{source}: " if source else ""
+    if not lo <= hi:
+        raise ParameterError(f"{where}window [{lo:g}, {hi:g}] {unit} is empty")
+    axis = np.asarray(axis, dtype=float)
+    if not np.isfinite(axis).any():
+        if axis.size and by == "revolutions":
+            raise ParameterError(f"{where}the run has no drum rotation (Ω = 0): revolution windows are undefined; "
+                                 "use a time window (by='time_s'; `granalytics stats --window-time T0:T1` in seconds)")
+        raise ParameterError(f"{where}no frames with a finite {by} to take a window of")
+    tol = window_tolerance(axis)
+    mask = window_mask(axis, lo, hi, tol)
+    first, last = np.nanmin(axis), np.nanmax(axis)
+    covered = f"the run covers [{first:.3g}, {last:.3g}]"
+    n = int(mask.sum())
+    if n == 0:
+        raise ParameterError(f"{where}no frame in the window [{lo:g}, {hi:g}] {unit}; {covered}")
+    if warn and (hi > last + tol or lo < first - tol):
+        warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} is not covered by the run ({covered}): its "
+                      f"steady state comes from {n} frame{'s' if n > 1 else ''}", stacklevel=3)
+    elif warn and n == 1:
+        warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} holds a single frame: its steady state has "
+                      "no spread", stacklevel=3)
+    return mask, tol
+
+
 def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS, *,
                  by="revolutions", n_blocks=None, source=None) -> pd.DataFrame:
     """Steady-state averages over a window of revolutions (default) or of time.
@@ -130,8 +186,8 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     timeseries : DataFrame
         Output of :func:`run_stats` (needs the ``by`` column).
     window : (float, float), default (3, 6)
-        Closed interval, in revolutions, or in seconds with ``by="time_s"``; a frame within 1 %
-        of the frame spacing of an edge counts as inside (frames lie on whole time steps, so the
+        Closed interval, in revolutions, or in seconds with ``by="time_s"``; a frame within a
+        tenth of the smallest frame spacing of an edge counts as inside (frames lie on whole time steps, so the
         frame of revolution 6 may be stamped 5.9999). A window that the run does not cover, or
         that holds a single frame, gives a warning.
     columns : sequence of str
@@ -153,25 +209,12 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     two blocks),
     ``n_frames`` (frames in the window with a finite value), ``n_blocks``.
     """
-    lo, hi = (float(w) for w in window)
-    if not lo <= hi:
-        raise ParameterError(f"window [{lo}, {hi}] is empty")
     if by not in ("revolutions", "time_s"):
         raise ParameterError(f"by must be 'revolutions' or 'time_s', got {by!r}")
-    unit = "revolutions" if by == "revolutions" else "s"
+    lo, hi = (float(w) for w in window)
     axis = timeseries[by].to_numpy(dtype=float)
-    where = f"{source}: " if source else ""
-    if np.isnan(axis).all():
-        raise ParameterError(f"{where}the run has no drum rotation (Ω = 0): revolution windows are undefined; "
-                             "use a time window (by='time_s'; `granalytics stats --window-time T0:T1` in seconds)")
-    tol = window_tolerance(axis)
-    inside = timeseries[window_mask(axis, lo, hi, tol)]
-    covered = f"[{np.nanmin(axis):.3g}, {np.nanmax(axis):.3g}]"
-    if inside.empty:
-        raise ParameterError(f"{where}no frame in the window [{lo:g}, {hi:g}] {unit}; the run covers {covered}")
-    if len(inside) < 2 or hi > np.nanmax(axis) + tol or lo < np.nanmin(axis) - tol:
-        warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} is not covered by the run ({covered}): its "
-                      f"steady state comes from {len(inside)} frame{'s' if len(inside) > 1 else ''}", stacklevel=2)
+    mask, tol = check_window(axis, (lo, hi), by=by, source=source)
+    inside = timeseries[mask]
     if by == "revolutions" and n_blocks is None and math.ceil(hi - lo) >= 3:
         n_blocks, width = math.ceil(hi - lo), 1.0  # one block per revolution
     else:

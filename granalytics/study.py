@@ -234,6 +234,8 @@ class GrowthFit:
                 f"{'weighted by 1/sem²' if self.weighted else 'unweighted'})")
 
     def to_dict(self) -> dict:
+        """The fit as flat scalars (β and γ₁ [N/m] with their interval bounds and standard
+        errors, and the fit's settings), e.g. for a row of a table or JSON."""
         return {"beta": self.beta, "beta_ci_low": self.beta_ci[0], "beta_ci_high": self.beta_ci[1],
                 "gamma_1": self.gamma_1, "gamma_1_ci_low": self.gamma_1_ci[0], "gamma_1_ci_high": self.gamma_1_ci[1],
                 "beta_se": self.beta_se, "gamma_1_se": self.gamma_1_se, "confidence": self.confidence,
@@ -686,7 +688,9 @@ def add_study_parser(subparsers):
     p.add_argument("sweep", help="sweep folder (manifest.csv and points/)")
     p.add_argument("--window", type=_interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
                    help="steady-state window in revolutions (default 3:6)")
-    p.add_argument("--method", choices=sorted(METHODS), default="gna", help="identification method (default gna)")
+    p.add_argument("--method", choices=sorted(m for m in METHODS if m != "custom"), default="gna",
+                   help="identification method (default gna; a custom criterion needs the Python API, "
+                        "study_table(..., method='custom', criterion=...))")
     p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
     p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
     p.add_argument("--cohesion", choices=("acting", "bridge", "both"), default="both",

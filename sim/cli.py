@@ -118,9 +118,16 @@ def _run(args) -> int:
             changed = sorted(k for k, v in params.to_dict().items() if sim.params.to_dict().get(k) != v)
             raise ValueError(f"{ckpt}: checkpoint was made with other parameters ({', '.join(changed) or 'original system'}); "
                              f"give the options the run started with")
-    try:
-        if not args.resume:
+    else:
+        try:
             sim = Simulation(params, original, progress=not args.quiet)
+        except RuntimeError as exc:  # e.g. a particle left the drum while settling
+            print(f"sim: error: {_one_line(exc)} (while settling; nothing was written)", file=sys.stderr)
+            return 1
+        except KeyboardInterrupt:
+            print("sim: interrupted while settling; nothing was written", file=sys.stderr)
+            return 130
+    try:
         sim.run(out, args.revolutions, frame_every=frame_every, checkpoint_every=args.checkpoint_every,
                 progress=not args.quiet, resume=args.resume, overwrite=args.overwrite)
     except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
@@ -166,8 +173,11 @@ def main(argv=None):
             print(f"{name:<11} {p.n_particles:>7} particles  α={p.alpha:g}  R_d={p.drum_radius:.4f} m  "
                   f"L={p.drum_length:.4f} m  Δt={p.dt:.1e} s  r_s={p.spray_radius:.4f} m")
         return 0
-    try:
-        return args.func(args) if args.command == "sweep" else _run(args)
-    except (ValueError, OSError, OverflowError) as exc:
-        print(f"sim: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
+    from granalytics.cli import warnings_as_lines
+
+    with warnings_as_lines("sim"):  # e.g. a stale lock taken over: one line, not Python's four
+        try:
+            return args.func(args) if args.command == "sweep" else _run(args)
+        except (ValueError, OSError, OverflowError) as exc:
+            print(f"sim: error: {_one_line(exc)}", file=sys.stderr)
+            return 2

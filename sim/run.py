@@ -274,7 +274,7 @@ class Simulation:
         if not os.path.exists(path):
             raise ValueError(f"{path}: no checkpoint to resume from")
         try:
-            with np.load(path, allow_pickle=False) as data:
+            with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:  # closed also when not a zip
                 arrays = {name: data[name] for name in data.files}
             legacy = _INFO_KEY not in arrays
             if legacy:

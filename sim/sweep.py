@@ -42,6 +42,7 @@ import uuid
 from dataclasses import dataclass, field
 
 from granalytics.errors import ParameterError
+from granalytics._atomic import write_atomically
 from granalytics.io import WriterLock
 
 from .params import (PHYSICS_VERSION, PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps,
@@ -378,10 +379,7 @@ def _write_manifest(out_dir, rows):
     params = [k for k in _NAMED if k in params] + sorted(k for k in params if k not in _NAMED)
     columns = ["point", "status", *params, *MANIFEST_COLUMNS]
     table = pd.DataFrame(list(rows.values()), columns=columns)
-    path = os.path.join(out_dir, "manifest.csv")
-    tmp = f"{path}.{os.getpid()}.tmp"
-    table.to_csv(tmp, index=False)
-    os.replace(tmp, path)
+    write_atomically(os.path.join(out_dir, "manifest.csv"), lambda tmp: table.to_csv(tmp, index=False))
 
 
 def _is_complete(out_dir, row) -> bool:
@@ -554,8 +552,14 @@ def add_sweep_parser(subparsers):
 
 def cmd_sweep(args) -> int:
     """Run the ``sweep`` subcommand. Bad input raises :class:`ParameterError` (a ``ValueError``;
-    the caller prints it as one line, exit 2). Returns 0, or 1 when a point failed."""
-    table = run_sweep(args.spec, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    the caller prints it as one line, exit 2). Returns 0, 1 when a point failed, 130 when
+    interrupted (Ctrl-C)."""
+    try:
+        table = run_sweep(args.spec, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"sim: interrupted; the same command continues the sweep in {args.out} (finished points are "
+              "skipped, the others resume from their checkpoints)", file=sys.stderr)
+        return 130
     spec = load_spec(args.spec)
     mine = table[table["point"].isin([p.name for p in spec.points])]
     done = int((mine["status"] == "done").sum())
@@ -571,11 +575,14 @@ def main(argv=None) -> int:
     """``python -m sim.sweep SPEC.toml --out DIR ...`` (the same as ``python -m sim sweep``)."""
     parser = argparse.ArgumentParser(prog="python -m sim.sweep", description="Run a parameter sweep on dask.")
     args = _configure(parser).parse_args(argv)
-    try:
-        return args.func(args)
-    except (ValueError, OSError) as exc:  # ParameterError and RunLockedError included
-        print(f"sim: error: {' '.join(str(exc).split()) or type(exc).__name__}", file=sys.stderr)
-        return 2
+    from granalytics.cli import warnings_as_lines
+
+    with warnings_as_lines("sim"):  # as python -m sim does
+        try:
+            return args.func(args)
+        except (ValueError, OSError, OverflowError) as exc:  # ParameterError and RunLockedError included
+            print(f"sim: error: {' '.join(str(exc).split()) or type(exc).__name__}", file=sys.stderr)
+            return 2
 
 
 if __name__ == "__main__":

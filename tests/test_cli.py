@@ -231,3 +231,34 @@ def test_info_json_is_valid_json_for_an_empty_run(tmp_path, capsys):
     assert main(["info", str(empty), "--json"]) == 0
     text = capsys.readouterr().out
     json.loads(text, parse_constant=lambda name: pytest.fail(f"invalid JSON constant {name}"))
+
+
+def test_compare_methods_refuses_text_for_a_numeric_setting_in_one_line(run_file, capsys):
+    assert main(["compare-methods", run_file, "--methods", "gna,dbscan", "--set", "dbscan.eps_diameters=abc",
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["granalytics: error: method 'dbscan': eps_diameters must be a number, got 'abc'"]
+
+
+def test_the_edges_module_and_the_custom_method_come_with_the_package():
+    import granalytics as ga
+
+    assert callable(ga.edges.to_networkx) and ga.CustomEdges.method == "custom"
+    assert issubclass(ga.RunLockedError, ga.RunFileError)
+
+
+def test_stats_refuses_a_window_before_the_analysis(run_file, tmp_path, monkeypatch, capsys):
+    import granalytics.cli
+
+    def no_analysis(*args, **kwargs):
+        raise AssertionError("analysed before checking the window")
+
+    monkeypatch.setattr(granalytics.cli, "run_stats", no_analysis)
+    assert main(["stats", run_file, "--window", "70:90", "--out", str(tmp_path / "w.csv"), "--quiet"]) == 2
+    assert "no frame in the window [70, 90]" in capsys.readouterr().err
+
+
+def test_numeric_checks_let_none_through():
+    from granalytics.identify import make_identifier
+
+    assert make_identifier("community", seed=None).seed is None

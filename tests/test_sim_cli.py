@@ -238,3 +238,16 @@ def test_an_interrupted_run_says_how_to_go_on(cli, tmp_path, monkeypatch):
     assert cli("r.h5", "--resume")[0] == 0
     with ga.open_run(tmp_path / "r.h5") as run:
         assert len(run) == 5
+
+
+def test_an_interruption_while_settling_does_not_describe_an_earlier_run(cli, tmp_path, monkeypatch):
+    assert cli("r.h5")[0] == 0  # an earlier run and its checkpoint
+    before = files(tmp_path)
+
+    def interrupted(self, progress=False):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sim.run.Simulation, "_fill", interrupted)
+    code, err = cli("r.h5", "--overwrite")
+    assert code == 130 and err == ["sim: interrupted while settling; nothing was written"]
+    assert files(tmp_path) == before

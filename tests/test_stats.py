@@ -137,8 +137,8 @@ def test_frames_a_rounding_away_from_a_window_edge_are_inside_it():
         # block means 3, 4 and (20 × 5 + 6)/21: the frame of revolution 4 opens the second block
         blocks = np.array([3.0, 4.0, (20 * 5 + 6) / 21])
         assert row["sem"] == pytest.approx(blocks.std(ddof=1) / math.sqrt(3))
-    # a frame a tenth of the spacing outside is outside
-    ts = pd.DataFrame({"revolutions": exact + 0.005, "yield_fraction": 1.0})
+    # a frame a fifth of the spacing outside is outside
+    ts = pd.DataFrame({"revolutions": exact + 0.01, "yield_fraction": 1.0})
     assert ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"]).loc["yield_fraction"].n_frames == 60
 
 
@@ -169,3 +169,17 @@ def test_size_distribution_log_bins():
     assert ratios.max() < 10 ** (1 / 5) * 1.5  # about five bins per decade
     with pytest.raises(ParameterError):
         ga.size_distribution([np.array([1, 2])])
+
+
+def test_a_window_tolerance_never_takes_in_a_neighbouring_frame():
+    # a run thinned to one frame in 20 outside a dense window: the tolerance follows the dense
+    # spacing, so the window [6.0, 6.05] takes its two frames and not 5.95 or 6.1
+    revs = np.concatenate([np.arange(0, 5.9, 1.0), np.round(np.arange(5.9, 6.2001, 0.05), 10), [7.0, 8.0]])
+    ts = pd.DataFrame({"revolutions": revs, "yield_fraction": revs})
+    row = ga.steady_state(ts, window=(6.0, 6.05), columns=["yield_fraction"]).loc["yield_fraction"]
+    assert row.n_frames == 2 and row["mean"] == pytest.approx(6.025)
+    with pytest.warns(UserWarning, match="holds a single frame"):
+        ga.steady_state(ts, window=(6.01, 6.06), columns=["yield_fraction"])
+    with pytest.raises(ParameterError, match="no frames with a finite time_s"):
+        ga.steady_state(pd.DataFrame({"time_s": [np.nan, np.nan], "yield_fraction": [1.0, 2.0]}), window=(0, 1),
+                        by="time_s", columns=["yield_fraction"])

@@ -420,3 +420,16 @@ def test_an_unreachable_scheduler_leaves_no_manifest_of_running_points(tmp_path,
     with pytest.raises(ParameterError, match="cannot connect to the dask scheduler"):
         run_sweep(spec, tmp_path / "out", scheduler="tcp://127.0.0.1:1", progress=False, point_runner=fake_runner)
     assert not (tmp_path / "out" / "manifest.csv").exists()
+
+
+def test_an_interrupted_sweep_says_how_to_go_on(tmp_path, monkeypatch, capsys):
+    import sim.sweep
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sim.sweep, "run_sweep", interrupted)
+    spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
+    assert main([str(spec), "--out", str(tmp_path / "out"), "--quiet"]) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "interrupted" in err[0] and "the same command continues" in err[0]

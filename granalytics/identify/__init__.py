@@ -6,6 +6,10 @@ returning an :class:`IdentificationResult`; :func:`identify` is the functional s
 
 from __future__ import annotations
 
+import inspect
+
+import numpy as np
+
 from ..errors import ParameterError
 from .common import Identifier
 from .community import CommunityDetection
@@ -36,6 +40,13 @@ def make_identifier(method="gna", **params):
         cls = METHODS[method]
     except KeyError:
         raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}") from None
+    defaults = {name: p.default for name, p in inspect.signature(cls).parameters.items()}
+    for name, value in params.items():  # a number where the method's default is one (e.g. text from --set)
+        default = defaults.get(name)
+        numeric = isinstance(default, (int, float)) and not isinstance(default, bool)
+        if numeric and value is not None and (isinstance(value, bool)
+                                               or not isinstance(value, (int, float, np.integer, np.floating))):
+            raise ParameterError(f"method {method!r}: {name} must be a number, got {value!r}")
     try:
         return cls(**params)
     except TypeError as exc:

@@ -91,8 +91,8 @@ class WriterLock:
     """
 
     def __init__(self, target):
-        self.target = target
-        self.path = target + _LOCK_SUFFIX
+        self.target = os.fspath(target)
+        self.path = self.target + _LOCK_SUFFIX
         self._record = None
 
     def __enter__(self) -> "WriterLock":
@@ -719,7 +719,8 @@ class _FrameSequence(Sequence):
 
     def select(self, *, time=None, revolutions=None) -> "RunSlice":
         """Frames whose time [s] or revolution count lies in a closed interval (a frame within
-        1 % of the frame spacing of an edge counts as inside: frames lie on whole time steps).
+        a tenth of the smallest frame spacing of an edge counts as inside: frames lie on whole time
+        steps).
 
         Parameters
         ----------
