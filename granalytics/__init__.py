@@ -42,6 +42,7 @@ from .identify import (
     VirtualSieve,
     identify,
 )
+from . import datasets  # the bundled runs and sweeps: granalytics.datasets.open_dataset(...), sweep_path(...)
 from . import edges  # the kept contact graph as tables, NetworkX and igraph graphs: granalytics.edges.*
 from .identify import CustomEdges
 from .io import Run, RunSlice, RunWriter, WriterLock, open_run, subset_run
@@ -56,7 +57,7 @@ __all__ = [
     "Snapshot", "RunMeta",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
-    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "edges",
+    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "edges", "datasets",
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",

@@ -37,14 +37,18 @@ def _interval(text):
     return lo, hi
 
 
+#: most values a START:STOP:NUM grid may have (a sensitivity table has frames × C × A rows)
+_MAX_GRID = 10_000
+
+
 def _grid(text):
     """Parse ``START:STOP:NUM`` (NUM evenly spaced values, both ends included) or ``A,B,C``."""
     try:
         if ":" in text:
             start, stop, num = text.split(":")
             num = int(num)
-            if num < 1:
-                raise ValueError
+            if not 1 <= num <= _MAX_GRID:
+                raise argparse.ArgumentTypeError(f"NUM must be in [1, {_MAX_GRID}], got {num} in {text!r}")
             values = np.linspace(float(start), float(stop), num)
         else:
             values = np.array([float(x) for x in text.split(",") if x.strip()])
@@ -199,7 +203,7 @@ def _write_labels(out, args, frames, identifier, n_frames, n):
 def cmd_stats(args):
     import pandas as pd
 
-    _check_outputs(args, tables=(args.out, args.sizes_out), others=(args.plot,))
+    _check_outputs(args, tables=(args.out, args.sizes_out), plots=(args.plot,))
     by, window = ("time_s", args.window_time) if args.window_time is not None else ("revolutions", args.window)
     with open_run(args.run) as run:
         frames = _frames(run, args)
@@ -249,18 +253,19 @@ def _table_format(path):
 def cmd_sensitivity(args):
     from .sensitivity import sensitivity, sensitivity_summary
 
-    _check_outputs(args, tables=(args.out, args.frames_out), others=(args.plot,))
+    _check_outputs(args, tables=(args.out, args.frames_out), plots=(args.plot,))
     if (args.c_agg < 0).any():
         raise ParameterError(f"--c-agg values must be >= 0, got min {args.c_agg.min():g}")
     bad = [a for a in args.a_agg_deg if not 0 < a <= 180]
     if bad:
         raise ParameterError(f"--a-agg-deg values must be in (0, 180] degrees, got {bad[0]:g}")
     with open_run(args.run) as run:
-        frames = run.select(revolutions=args.window)
-        if not len(frames):
+        try:
             revs = run.revolutions
-            raise ParameterError(f"{args.run}: no frame in the window [{args.window[0]:g}, {args.window[1]:g}] revolutions; "
-                                 f"the run covers [{revs.min():.3g}, {revs.max():.3g}]" if len(revs) else f"{args.run}: the run has no frames")
+        except ValidationError:  # no drum rotation: check_window says so
+            revs = np.full(len(run), np.nan)
+        check_window(revs, args.window, source=args.run)  # refuses an empty window, warns for an uncovered one
+        frames = run.select(revolutions=args.window)
         table = sensitivity(frames, args.c_agg, args.a_agg_deg, radius=args.radius, cohesion=args.cohesion,
                             jobs=args.jobs, progress=not args.quiet)
     summary = sensitivity_summary(table)
@@ -286,7 +291,7 @@ def cmd_sensitivity(args):
 def cmd_compare(args):
     from .compare import compare_methods
 
-    _check_outputs(args, tables=(args.out, args.stats_out), others=(args.plot,))
+    _check_outputs(args, tables=(args.out, args.stats_out), plots=(args.plot,))
     methods = {name: (name, {}) for name in args.methods}
     for method, param, value in args.set or []:
         if method not in methods:
@@ -386,6 +391,15 @@ def cmd_export_vtk(args):
         raise ParameterError(f"{pvd_path}: exists (pass --overwrite to replace the export in {args.out})")
     with open_run(args.run) as run:
         frames = _frames(run, args)
+        ids = frames.frame_indices if hasattr(frames, "frame_indices") else range(len(frames))
+        existing = [p for p in (os.path.join(args.out, f"frame_{int(k):05d}.vtu") for k in ids) if os.path.exists(p)]
+        if existing and not args.overwrite:
+            raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace {len(existing)} frame file(s) "
+                                 f"in {args.out})")
+        try:  # before the export, not after its first frame
+            os.makedirs(args.out, exist_ok=True)
+        except OSError as exc:
+            raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
         pvd = export_vtk(frames, args.out, "gna", progress=not args.quiet, c_agg=args.c_agg,
                          a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
                          cohesion=args.cohesion)
@@ -422,12 +436,28 @@ def _save(fig, path):
     print(f"wrote plot to {path}")
 
 
+#: figure formats the command lines write (matplotlib's Agg canvas)
+_PLOT_FORMATS = ("png", "pdf", "svg", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp")
+
+
 def _check_new_file(path, overwrite):
-    """Refuse to replace an existing file unless ``--overwrite``; refuse a folder always."""
+    """Before any work: refuse to replace an existing file unless ``--overwrite``, a folder
+    always, and a file whose folder does not exist or is not writable."""
     if os.path.isdir(path):
         raise ParameterError(f"{path}: is a folder, expected a file name")
     if os.path.exists(path) and not overwrite:
         raise ParameterError(f"{path}: file exists (pass --overwrite to replace it)")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ParameterError(f"{path}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ParameterError(f"{path}: the folder {folder} is not writable")
+
+
+def _check_plot_path(path):
+    ext = os.path.splitext(path)[1].lstrip(".").lower()
+    if ext not in _PLOT_FORMATS:
+        raise ParameterError(f"{path}: unknown figure format {ext!r} (use one of {', '.join(_PLOT_FORMATS)})")
 
 
 def _check_table_paths(*paths):
@@ -437,10 +467,11 @@ def _check_table_paths(*paths):
             _table_format(path)
 
 
-def _check_outputs(args, tables=(), others=()):
-    """Before any work: output tables have a known format, no two outputs are the same file, none
-    is the input run, and none exists unless ``--overwrite``."""
-    paths = [p for p in (*tables, *others) if p]
+def _check_outputs(args, tables=(), others=(), plots=()):
+    """Before any work: output tables and figures have a known format, no two outputs are the
+    same file, none is the input run, none exists unless ``--overwrite``, and each one's folder
+    exists and is writable."""
+    paths = [p for p in (*tables, *others, *plots) if p]
     seen = {os.path.abspath(args.run): "the input run"}
     for path in paths:
         key = os.path.abspath(path)
@@ -448,6 +479,9 @@ def _check_outputs(args, tables=(), others=()):
             raise ParameterError(f"{path}: the same file is given twice ({seen[key]} and an output)")
         seen[key] = path
     _check_table_paths(*tables)
+    for path in plots:
+        if path:
+            _check_plot_path(path)
     for path in paths:
         _check_new_file(path, args.overwrite)
 

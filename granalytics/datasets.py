@@ -41,6 +41,7 @@ gamma-omega-lab-cg3
 from __future__ import annotations
 
 import hashlib
+import os
 import shlex
 import subprocess
 import sys
@@ -208,11 +209,12 @@ def _say(label, text) -> None:
         print(f"[{label}] {text}", flush=True)
 
 
-def _run_recipe(commands, dry_run, label) -> None:
+def _run_recipe(commands, dry_run, label, progress=False) -> None:
     """Run a registry recipe from the repository root with this interpreter (``python`` and
     ``granalytics`` become ``sys.executable [-m granalytics]``). A ``python -m sim run`` whose
     output has a checkpoint gets ``--resume``; one whose output exists without a checkpoint
-    cannot be resumed and gets ``--overwrite`` (it is made again)."""
+    cannot be resumed and gets ``--overwrite`` (it is made again). With ``progress`` (one recipe
+    at a time) the simulations show their progress bars (the recipes' ``--quiet`` is dropped)."""
     root = DATASET_DIR.parent
     for command in commands:
         argv = shlex.split(command)
@@ -221,6 +223,8 @@ def _run_recipe(commands, dry_run, label) -> None:
         elif argv[0] == "granalytics":
             argv = [sys.executable, "-m", "granalytics"] + argv[1:]
         if argv[1:4] == ["-m", "sim", "run"]:
+            if progress:
+                argv = [a for a in argv if a != "--quiet"]
             raw = argv[argv.index("--out") + 1]
             if (root / f"{raw}.ckpt.npz").exists():
                 argv.append("--resume")
@@ -231,7 +235,7 @@ def _run_recipe(commands, dry_run, label) -> None:
             subprocess.run(argv, cwd=root, check=True)
 
 
-def make_dataset(name: str, *, dry_run=False) -> str:
+def make_dataset(name: str, *, dry_run=False, progress=False) -> str:
     """Regenerate a dataset from its recipe (minutes to hours: see its ``wall_time``), resuming
     an interrupted simulation from its checkpoint; returns the new file's sha256.
 
@@ -239,7 +243,7 @@ def make_dataset(name: str, *, dry_run=False) -> str:
     identical; the bytes (and so the sum) also depend on the HDF5 library version.
     """
     entry = DATASETS[name]
-    _run_recipe(entry["commands"], dry_run, name)
+    _run_recipe(entry["commands"], dry_run, name, progress)
     if dry_run:
         return ""
     digest = _sha256(DATASET_DIR / entry["file"])
@@ -271,6 +275,8 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     from .study import read_manifest
 
     src, dst = Path(src), Path(dst)
+    if dst.exists() and not dst.is_dir():
+        raise GranalyticsError(f"{dst}: exists and is not a folder")
     if dst.exists() and not overwrite:
         raise GranalyticsError(f"{dst}: exists (pass overwrite=True, or --overwrite, to replace it)")
     table = read_manifest(src)
@@ -298,6 +304,9 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
         done["source_sha256"] = done["sha256"]
         done["sha256"] = sums
         done.to_csv(tmp / "manifest.csv", index=False)
+        umask = os.umask(0)
+        os.umask(umask)
+        tmp.chmod(0o777 & ~umask)  # mkdtemp made it private; the bundle is a normal folder
         if dst.exists():
             shutil.rmtree(dst)
         tmp.rename(dst)
@@ -339,11 +348,11 @@ def sweep_path(name: str) -> Path:
     return folder
 
 
-def make_sweep(name: str, *, dry_run=False) -> str:
+def make_sweep(name: str, *, dry_run=False, progress=False) -> str:
     """Regenerate a bundled sweep from its recipe: the sweep (finished points skipped,
     interrupted ones resumed) and then :func:`bundle_sweep`; returns the new manifest's sha256."""
     entry = SWEEPS[name]
-    _run_recipe(entry["commands"], dry_run, name)
+    _run_recipe(entry["commands"], dry_run, name, progress)
     if dry_run:
         return ""
     digest = _sha256(DATASET_DIR / entry["dir"] / "manifest.csv")
@@ -384,7 +393,7 @@ def _main(argv=None) -> int:
         try:
             print(bundle_sweep(args.src, args.dst, overwrite=args.overwrite, every=args.every,
                                full_window=args.full_window))
-        except GranalyticsError as exc:
+        except (GranalyticsError, OSError) as exc:
             print(f"python -m granalytics.datasets bundle-sweep: error: {exc}", file=sys.stderr)
             return 2
         return 0
@@ -398,15 +407,12 @@ def _main(argv=None) -> int:
         print(f"python -m granalytics.datasets: error: --jobs must be at least 1, got {args.jobs}", file=sys.stderr)
         return 2
 
-    def make(name):
-        return (make_sweep if name in SWEEPS else make_dataset)(name, dry_run=args.dry_run)
+    def make(name):  # progress bars only when one recipe runs at a time (side by side they would interleave)
+        return (make_sweep if name in SWEEPS else make_dataset)(name, dry_run=args.dry_run, progress=args.jobs == 1)
 
     names = args.names or list(known)
-    if args.jobs == 1:
-        for name in names:
-            make(name)
-        return 0
-    # the recipes' processes run side by side; a failed one does not stop the others
+    # the recipes' processes run side by side (or one after the other); a failed one does not stop
+    # the others, and each failure is one line
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:

@@ -81,7 +81,7 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
     c = np.array([check_c_agg(v) for v in values], dtype=float)
     if c.size == 0:
         raise ParameterError(f"c_agg must be a non-empty list of numbers >= 0, got {c_agg!r}")
-    a_list = [check_angle(a) for a in np.atleast_1d(a_agg_deg)]
+    a_list = sorted({check_angle(a) for a in np.atleast_1d(a_agg_deg)})  # each angle once, as each C_agg
     if not a_list:
         raise ParameterError("a_agg_deg must not be empty")
     check_cohesion(cohesion)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import inspect
 import math
 import os
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -128,6 +129,9 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     param_cols = [c for c in manifest.columns if c not in ("point", *_BOOKKEEPING)]
     rows = []
     for record in tqdm(done.to_dict("records"), disable=not progress, unit="point", desc="study"):
+        if not isinstance(record.get("file"), str) or not record["file"]:
+            raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: point {record['point']} is "
+                                 f"done but its file field is empty ({record.get('file')!r})")
         path = os.path.join(os.fspath(sweep_dir), record["file"])
         with open_run(path) as run:
             meta = run.meta
@@ -455,6 +459,13 @@ class Surrogate:
             raise ParameterError(f"prediction inputs must be numbers ({exc})") from None
         if not np.isfinite(values).all():
             raise ParameterError("prediction inputs must be finite numbers")
+        trained = self.data[self.inputs].to_numpy(dtype=float)
+        low, high = trained.min(axis=0), trained.max(axis=0)
+        outside = [f"{name} = {v:g} (trained on [{lo:g}, {hi:g}])" for row in values
+                   for name, v, lo, hi in zip(self.inputs, row, low, high) if not lo <= v <= hi]
+        if outside:
+            warnings.warn("surrogate: extrapolating outside the sweep, where a Gaussian process returns to its "
+                          "mean: " + "; ".join(outside), stacklevel=2)
         out = pd.DataFrame(values, columns=self.inputs)
         x = (values - self._mean) / self._scale
         for name in self.outputs:
@@ -711,7 +722,7 @@ def add_study_parser(subparsers):
 
 def cmd_study(args) -> int:
     """Run the ``study`` subcommand; bad input raises :class:`ParameterError` (one line, exit 2)."""
-    from .cli import _check_new_file, _save, _table_format, _write_table
+    from .cli import _check_new_file, _check_plot_path, _save, _table_format, _write_table
     from .identify import METHODS
 
     inputs = ["gamma", "omega"]
@@ -721,10 +732,15 @@ def cmd_study(args) -> int:
         raise ParameterError(f"{args.out}: the same file is given for --out and --plot")
     if args.out:
         _table_format(args.out)
-    for path in outputs:
-        _check_new_file(path, args.overwrite)
+    if args.plot:
+        _check_plot_path(args.plot)
     if not os.path.isdir(args.sweep):
         raise ParameterError(f"{args.sweep}: not a folder")
+    sweep = os.path.abspath(args.sweep)
+    for path in outputs:
+        if os.path.commonpath([sweep, os.path.abspath(path)]) == sweep:
+            raise ParameterError(f"{path}: inside the sweep folder {args.sweep} (its manifest and points are the input)")
+        _check_new_file(path, args.overwrite)
     conventions = ["acting", "bridge"] if args.cohesion == "both" else [args.cohesion]
     accepted = inspect.signature(METHODS[args.method]).parameters
     params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg)) if k in accepted}
@@ -734,6 +750,11 @@ def cmd_study(args) -> int:
     shown_params = ", ".join(f"{k}={v:g}" for k, v in params.items())
     print(f"study of {args.sweep}: {table['point'].nunique()} finished points of {len(manifest)} in the manifest; "
           f"window [{args.window[0]:g}, {args.window[1]:g}] rev, {args.method} ({shown_params})")
+    left = manifest[manifest["status"] != "done"]
+    for row in left.itertuples():
+        error = getattr(row, "error", "")
+        error = error if isinstance(error, str) else ""  # an empty cell reads as NaN
+        print(f"  left out: {row.point} ({row.status}{': ' + error if error else ''})")
     columns = ["point", "gamma", "omega", "alpha", "cohesion"]
     cells = table[[c for c in columns if c in table]].copy()
     for metric, fmt in (("yield_fraction", ".3f"), ("mean_volume_norm", ".3g"), ("n_granules_norm", ".4f")):
@@ -749,6 +770,12 @@ def cmd_study(args) -> int:
         try:
             fits[conv] = _fit_from_table(table, conv, model=args.model)
             print(f"growth fit ({label}): {fits[conv].summary()}")
+            fit, swept = fits[conv], table["gamma"]
+            if fit.model == "hinge" and not swept.min() <= fit.gamma_1 <= swept.max():
+                print(f"  note: the onset γ₁ = {fit.gamma_1:.3g} N/m lies outside the swept γ "
+                      f"[{swept.min():g}, {swept.max():g}] N/m: the data show no onset")
+            if fit.beta_ci[0] <= 0 <= fit.beta_ci[1]:
+                print("  note: β's interval includes 0: no significant growth with γ")
         except ParameterError as exc:
             print(f"growth fit ({label}): not possible: {exc}")
         try:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import gc
 import math
 import os
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from itertools import combinations
@@ -28,6 +29,7 @@ from itertools import combinations
 import numpy as np
 import pandas as pd
 
+from ._windows import window_tolerance
 from .errors import ParameterError
 
 __all__ = [
@@ -517,8 +519,11 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
         width = (t[-1] - t[0]) / 10 if bin_width is None else float(bin_width)
     if not (math.isfinite(width) and width > 0):
         raise ParameterError(f"bin_width must be positive, got {bin_width!r}")
-    start = math.floor(x[0] / width) * width
-    n_bins = max(1, math.ceil((x[-1] - start) / width - 1e-9))
+    # bin edges with the windows' tolerance: a first frame stamped 2.9999 revolutions opens the bin
+    # [3, 4), not an empty [2, 3) (frames lie on whole time steps; granalytics._windows)
+    tol = window_tolerance(x)
+    start = math.floor((x[0] + tol) / width) * width
+    n_bins = max(1, math.ceil((x[-1] - tol - start) / width - 1e-9))
     edges = start + width * np.arange(n_bins + 1)
     mid = (x[:-1] + x[1:]) / 2
     step_bin = np.clip(np.floor((mid - start) / width).astype(np.int64), 0, n_bins - 1)
@@ -856,6 +861,10 @@ def cmd_track(args):
     accepted = inspect.signature(METHODS[args.method]).parameters
     params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg), ("cohesion", args.cohesion))
               if k in accepted}
+    try:  # before the analysis, not after it
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
     with open_run(args.run) as run:
         omega = run.meta.drum_omega
         frames = run if args.window is None else run.select(revolutions=args.window)
@@ -864,10 +873,14 @@ def cmd_track(args):
                                  f"(the run has {len(run)})")
         tracks = track_run(frames, args.method, progress=not args.quiet, min_fragment=args.min_fragment, **params)
     period = 2 * math.pi / abs(omega) if omega else None
+    steps = np.diff(tracks.times_s)
+    if steps.size and steps.max() > 1.5 * steps.min():
+        warnings.warn(f"{args.run}: the frames are {steps.min():.3g}–{steps.max():.3g} s apart (a run thinned outside a "
+                      "window?): events between frames further apart go uncounted, so rates of bins with other "
+                      "frame spacings are not comparable; use --window on the evenly spaced part", stacklevel=2)
     rates = event_rates(tracks, period)
     kernel = coalescence_kernel(tracks)
     breakage = breakage_rate(tracks)
-    os.makedirs(args.out, exist_ok=True)
     _write_table(tracks.events, paths["events.csv"])
     _write_table(tracks.tracks, paths["tracks.csv"])
     _write_table(rates, paths["rates.csv"])

@@ -244,6 +244,7 @@ def test_the_edges_module_and_the_custom_method_come_with_the_package():
     import granalytics as ga
 
     assert callable(ga.edges.to_networkx) and ga.CustomEdges.method == "custom"
+    assert callable(ga.datasets.open_dataset)  # as datasets/README.md uses it after `import granalytics`
     assert issubclass(ga.RunLockedError, ga.RunFileError)
 
 
@@ -262,3 +263,46 @@ def test_numeric_checks_let_none_through():
     from granalytics.identify import make_identifier
 
     assert make_identifier("community", seed=None).seed is None
+
+
+def test_outputs_in_missing_folders_or_unknown_figure_formats_are_refused_before_the_work(run_file, tmp_path,
+                                                                                            monkeypatch, capsys):
+    def no_work(*args, **kwargs):
+        raise AssertionError("worked before checking the outputs")
+
+    monkeypatch.setattr(sys.modules["granalytics.sensitivity"], "sensitivity", no_work)  # the module, not the function
+    frames_out = tmp_path / "f.csv"
+    base = ["sensitivity", run_file, "--window", "1:3", "--frames-out", str(frames_out), "--quiet"]
+    assert main(base + ["--out", str(tmp_path / "nodir" / "s.csv")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(base + ["--plot", str(tmp_path / "s.pdff")]) == 2
+    assert "unknown figure format 'pdff'" in capsys.readouterr().err
+    assert not frames_out.exists()
+
+
+def test_export_vtk_refuses_existing_frame_files_without_overwrite(run_file, tmp_path, capsys):
+    out = tmp_path / "vtk"
+    out.mkdir()
+    mine = out / "frame_00002.vtu"
+    mine.write_text("a user's file")
+    assert main(["export-vtk", run_file, "--out", str(out), "--quiet"]) == 2
+    assert "frame_00002.vtu: exists" in capsys.readouterr().err
+    assert mine.read_text() == "a user's file"
+
+
+def test_tracking_reports_uneven_frame_spacing_and_bins_from_the_window(tmp_path, capsys):
+    from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+    from granalytics import RunWriter
+
+    meta = synthetic_meta(60)
+    period = 2 * np.pi / meta.drum_omega
+    times = [0.0, 0.2, 0.4, 0.6, 0.8, 0.85, 0.9, 0.95, 0.99995]  # thinned before 0.8 rev; the last stamped early
+    src = tmp_path / "thinned.h5"
+    with RunWriter(src, meta) as writer:
+        for k, rev in enumerate(times):
+            writer.append(synthetic_snapshot(60, time=rev * period, step=k, seed=k, meta=meta))
+    assert main(["track", str(src), "--out", str(tmp_path / "t"), "--quiet"]) == 0
+    assert "frames are" in capsys.readouterr().err
+    assert main(["track", str(src), "--out", str(tmp_path / "w"), "--window", "0.8:1", "--quiet"]) == 0
+    rates = pd.read_csv(tmp_path / "w" / "rates.csv")
+    assert sorted(rates["bin"].unique()) == [0] and rates["observed_s"].gt(0).all()

@@ -107,6 +107,18 @@ def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_
     with ga.open_run(thin / rel) as run:
         assert run.meta.provenance["subset_of"]["frames_kept"] == expected
     assert _main(["bundle-sweep", str(src), str(tmp_path / "bad"), "--every", "0"]) == 2
+    # the bundle is a normal folder (mkdtemp made it private), and a file as the target is one line
+    import os
+    import stat
+
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(os.stat(dst).st_mode) == 0o777 & ~umask
+    target = tmp_path / "a_file"
+    target.write_text("x")
+    capsys.readouterr()
+    assert _main(["bundle-sweep", str(src), str(target), "--overwrite"]) == 2
+    assert "exists and is not a folder" in capsys.readouterr().err and target.read_text() == "x"
 
 
 def test_thinned_frames_keeps_the_window_and_every_nth_frame():
@@ -142,9 +154,9 @@ def test_make_runs_recipes_side_by_side_and_reports_each_failure(monkeypatch, ca
     import granalytics.datasets as ds
 
     ran = []
-    monkeypatch.setattr(ds, "make_dataset", lambda name, dry_run: ran.append(name) or "")
+    monkeypatch.setattr(ds, "make_dataset", lambda name, dry_run, progress=False: ran.append(name) or "")
 
-    def failing_sweep(name, dry_run):
+    def failing_sweep(name, dry_run, progress=False):
         raise RuntimeError("recipe exited with status 1")
 
     monkeypatch.setattr(ds, "make_sweep", failing_sweep)
@@ -154,4 +166,8 @@ def test_make_runs_recipes_side_by_side_and_reports_each_failure(monkeypatch, ca
     sweep = sorted(ds.SWEEPS)[0]
     assert _main(["make", "-j", "2", names[0], sweep]) == 1
     assert f"{sweep}: recipe exited with status 1" in capsys.readouterr().err
+    # one recipe at a time too: a failure is one line and the others still run
+    ran.clear()
+    assert _main(["make", sweep, names[0]]) == 1
+    assert ran == [names[0]] and f"{sweep}: recipe exited with status 1" in capsys.readouterr().err
     assert _main(["make", "--jobs", "0"]) == 2

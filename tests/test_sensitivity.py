@@ -63,3 +63,12 @@ def test_bad_grids_are_rejected(frames, kw, words):
     args = {"c_agg": [0.5], "a_agg_deg": [20], **kw}
     with pytest.raises(ParameterError, match=words):
         ga.sensitivity(frames, **args)
+
+
+def test_a_repeated_angle_is_swept_once():
+    from granalytics.synthetic import synthetic_snapshot
+
+    frame = synthetic_snapshot(300, seed=4)
+    once = ga.sensitivity([frame], [0.5], [20.0])
+    twice = ga.sensitivity([frame], [0.5], [20.0, 20.0])
+    assert len(twice) == len(once) == 1

@@ -308,3 +308,11 @@ def test_study_command_on_a_folder_without_manifest_is_one_line(tmp_path, capsys
     assert len(err) == 1 and "no sweep manifest" in err[0]
     assert study_cli([str(tmp_path / "nope"), "--quiet"]) == 2
     assert "not a folder" in capsys.readouterr().err
+
+
+def test_study_names_left_out_points_warns_on_extrapolation_and_keeps_the_sweep_folder(sweep_dir, capsys):
+    with pytest.warns(UserWarning, match=r"extrapolating outside the sweep.*gamma = 5 \(trained on"):
+        assert study_cli([str(sweep_dir), "--cohesion", "acting", "--predict", "gamma=5,omega=3", "--quiet"]) == 0
+    assert "left out: " in capsys.readouterr().out
+    assert study_cli([str(sweep_dir), "--out", str(sweep_dir / "manifest.csv"), "--overwrite", "--quiet"]) == 2
+    assert "inside the sweep folder" in capsys.readouterr().err
