@@ -382,24 +382,25 @@ def cmd_subset(args):
 
 
 def cmd_export_vtk(args):
+    from .io import WriterLock
     from .io.vtk import export_vtk
 
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise ParameterError(f"{args.out}: exists and is not a folder")
+    try:  # before the export, not after its first frame
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
     pvd_path = os.path.join(args.out, "run.pvd")
-    if os.path.exists(pvd_path) and not args.overwrite:
-        raise ParameterError(f"{pvd_path}: exists (pass --overwrite to replace the export in {args.out})")
-    with open_run(args.run) as run:
+    with WriterLock(pvd_path), open_run(args.run) as run:  # one export at a time into the folder
+        if os.path.exists(pvd_path) and not args.overwrite:
+            raise ParameterError(f"{pvd_path}: exists (pass --overwrite to replace the export in {args.out})")
         frames = _frames(run, args)
         ids = frames.frame_indices if hasattr(frames, "frame_indices") else range(len(frames))
         existing = [p for p in (os.path.join(args.out, f"frame_{int(k):05d}.vtu") for k in ids) if os.path.exists(p)]
         if existing and not args.overwrite:
             raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace {len(existing)} frame file(s) "
                                  f"in {args.out})")
-        try:  # before the export, not after its first frame
-            os.makedirs(args.out, exist_ok=True)
-        except OSError as exc:
-            raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
         pvd = export_vtk(frames, args.out, "gna", progress=not args.quiet, c_agg=args.c_agg,
                          a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
                          cohesion=args.cohesion)

@@ -270,49 +270,49 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     import shutil
     import tempfile
 
-
-    from .io import open_run, subset_run, thinned_frames
+    from .io import WriterLock, open_run, subset_run, thinned_frames
     from .study import read_manifest
 
     src, dst = Path(src), Path(dst)
-    if dst.exists() and not dst.is_dir():
-        raise GranalyticsError(f"{dst}: exists and is not a folder")
-    if dst.exists() and not overwrite:
-        raise GranalyticsError(f"{dst}: exists (pass overwrite=True, or --overwrite, to replace it)")
-    table = read_manifest(src)
-    done = table[table.status == "done"].copy()
-    if done.empty:
-        raise GranalyticsError(f"{src}/manifest.csv: no finished point to bundle")
-    left = table.point[table.status != "done"].tolist()
-    if left:
-        print(f"bundle-sweep: {len(left)} unfinished points left out: {', '.join(left)}", file=sys.stderr)
     dst.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{dst.name}.", dir=dst.parent))  # built aside, then swapped in
-    try:
-        (tmp / "points").mkdir()
-        sums = []
-        iterator = done.file
-        if progress:
-            from tqdm.auto import tqdm
+    with WriterLock(dst):  # DST.lock beside it: one bundling at a time, dst checked under the lock
+        if dst.exists() and not dst.is_dir():
+            raise GranalyticsError(f"{dst}: exists and is not a folder")
+        if dst.exists() and not overwrite:
+            raise GranalyticsError(f"{dst}: exists (pass overwrite=True, or --overwrite, to replace it)")
+        table = read_manifest(src)
+        done = table[table.status == "done"].copy()
+        if done.empty:
+            raise GranalyticsError(f"{src}/manifest.csv: no finished point to bundle")
+        left = table.point[table.status != "done"].tolist()
+        if left:
+            print(f"bundle-sweep: {len(left)} unfinished points left out: {', '.join(left)}", file=sys.stderr)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{dst.name}.", dir=dst.parent))  # built aside, then swapped in
+        try:
+            (tmp / "points").mkdir()
+            sums = []
+            iterator = done.file
+            if progress:
+                from tqdm.auto import tqdm
 
-            iterator = tqdm(done.file, desc="bundle-sweep", unit="point")
-        for rel in iterator:
-            with open_run(src / rel) as run:
-                frames = thinned_frames(run.revolutions, every, full_window)
-            subset_run(src / rel, tmp / rel, frames, float_dtype="float32")
-            sums.append(_sha256(tmp / rel))
-        done["source_sha256"] = done["sha256"]
-        done["sha256"] = sums
-        done.to_csv(tmp / "manifest.csv", index=False)
-        umask = os.umask(0)
-        os.umask(umask)
-        tmp.chmod(0o777 & ~umask)  # mkdtemp made it private; the bundle is a normal folder
-        if dst.exists():
-            shutil.rmtree(dst)
-        tmp.rename(dst)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+                iterator = tqdm(done.file, desc="bundle-sweep", unit="point")
+            for rel in iterator:
+                with open_run(src / rel) as run:
+                    frames = thinned_frames(run.revolutions, every, full_window)
+                subset_run(src / rel, tmp / rel, frames, float_dtype="float32")
+                sums.append(_sha256(tmp / rel))
+            done["source_sha256"] = done["sha256"]
+            done["sha256"] = sums
+            done.to_csv(tmp / "manifest.csv", index=False)
+            umask = os.umask(0)
+            os.umask(umask)
+            tmp.chmod(0o777 & ~umask)  # mkdtemp made it private; the bundle is a normal folder
+            if dst.exists():
+                shutil.rmtree(dst)
+            tmp.rename(dst)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
     return dst
 
 

@@ -848,52 +848,54 @@ def cmd_track(args):
 
     from .cli import _save, _write_table
     from .identify import METHODS
-    from .io import open_run
+    from .io import WriterLock, open_run
 
     if args.min_fragment < 1:
         raise ParameterError(f"--min-fragment must be >= 1, got {args.min_fragment}")
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise ParameterError(f"{args.out}: exists and is not a folder")
-    paths = {name: os.path.join(args.out, name) for name in _OUTPUTS}
-    existing = [p for p in paths.values() if os.path.exists(p)]
-    if existing and not args.overwrite:
-        raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
-    accepted = inspect.signature(METHODS[args.method]).parameters
-    params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg), ("cohesion", args.cohesion))
-              if k in accepted}
     try:  # before the analysis, not after it
         os.makedirs(args.out, exist_ok=True)
     except OSError as exc:
         raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
-    with open_run(args.run) as run:
-        omega = run.meta.drum_omega
-        frames = run if args.window is None else run.select(revolutions=args.window)
-        if len(frames) < 2:
-            raise ParameterError(f"{args.run}: tracking needs at least two frames, the selection has {len(frames)} "
-                                 f"(the run has {len(run)})")
-        tracks = track_run(frames, args.method, progress=not args.quiet, min_fragment=args.min_fragment, **params)
-    period = 2 * math.pi / abs(omega) if omega else None
-    steps = np.diff(tracks.times_s)
-    if steps.size and steps.max() > 1.5 * steps.min():
-        warnings.warn(f"{args.run}: the frames are {steps.min():.3g}–{steps.max():.3g} s apart (a run thinned outside a "
-                      "window?): events between frames further apart go uncounted, so rates of bins with other "
-                      "frame spacings are not comparable; use --window on the evenly spaced part", stacklevel=2)
-    rates = event_rates(tracks, period)
-    kernel = coalescence_kernel(tracks)
-    breakage = breakage_rate(tracks)
-    _write_table(tracks.events, paths["events.csv"])
-    _write_table(tracks.tracks, paths["tracks.csv"])
-    _write_table(rates, paths["rates.csv"])
-    _write_table(kernel, paths["kernel.csv"])
-    _write_table(breakage, paths["breakage.csv"])
-    setting = ", ".join(f"{k}={v}" for k, v in params.items())
-    fig = tracking_figure(tracks, rates, kernel, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
-                                                       f"min_fragment={args.min_fragment}")
-    try:
-        _save(fig, paths["tracking.png"])
-    finally:
-        plt.close(fig)
-    counts = tracks.event_counts()
-    print(f"wrote {len(_OUTPUTS)} files to {args.out}: {tracks.n_tracks} tracks over {tracks.n_frames} frames; "
-          + ", ".join(f"{kind} {counts[kind]}" for kind in KINDS))
-    return 0
+    # one writer at a time into the folder (OUT/tracking.lock), the outputs checked under the lock
+    with WriterLock(os.path.join(args.out, "tracking")):
+        paths = {name: os.path.join(args.out, name) for name in _OUTPUTS}
+        existing = [p for p in paths.values() if os.path.exists(p)]
+        if existing and not args.overwrite:
+            raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
+        accepted = inspect.signature(METHODS[args.method]).parameters
+        params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg), ("cohesion", args.cohesion))
+                  if k in accepted}
+        with open_run(args.run) as run:
+            omega = run.meta.drum_omega
+            frames = run if args.window is None else run.select(revolutions=args.window)
+            if len(frames) < 2:
+                raise ParameterError(f"{args.run}: tracking needs at least two frames, the selection has {len(frames)} "
+                                     f"(the run has {len(run)})")
+            tracks = track_run(frames, args.method, progress=not args.quiet, min_fragment=args.min_fragment, **params)
+        period = 2 * math.pi / abs(omega) if omega else None
+        steps = np.diff(tracks.times_s)
+        if steps.size and steps.max() > 1.5 * steps.min():
+            warnings.warn(f"{args.run}: the frames are {steps.min():.3g}–{steps.max():.3g} s apart (a run thinned outside a "
+                          "window?): events between frames further apart go uncounted, so rates of bins with other "
+                          "frame spacings are not comparable; use --window on the evenly spaced part", stacklevel=2)
+        rates = event_rates(tracks, period)
+        kernel = coalescence_kernel(tracks)
+        breakage = breakage_rate(tracks)
+        _write_table(tracks.events, paths["events.csv"])
+        _write_table(tracks.tracks, paths["tracks.csv"])
+        _write_table(rates, paths["rates.csv"])
+        _write_table(kernel, paths["kernel.csv"])
+        _write_table(breakage, paths["breakage.csv"])
+        setting = ", ".join(f"{k}={v}" for k, v in params.items())
+        fig = tracking_figure(tracks, rates, kernel, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
+                                                           f"min_fragment={args.min_fragment}")
+        try:
+            _save(fig, paths["tracking.png"])
+        finally:
+            plt.close(fig)
+        counts = tracks.event_counts()
+        print(f"wrote {len(_OUTPUTS)} files to {args.out}: {tracks.n_tracks} tracks over {tracks.n_frames} frames; "
+              + ", ".join(f"{kind} {counts[kind]}" for kind in KINDS))
+        return 0

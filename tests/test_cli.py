@@ -306,3 +306,19 @@ def test_tracking_reports_uneven_frame_spacing_and_bins_from_the_window(tmp_path
     assert main(["track", str(src), "--out", str(tmp_path / "w"), "--window", "0.8:1", "--quiet"]) == 0
     rates = pd.read_csv(tmp_path / "w" / "rates.csv")
     assert sorted(rates["bin"].unique()) == [0] and rates["observed_s"].gt(0).all()
+
+
+@pytest.mark.parametrize("command, lock", [
+    (["track", "--window", "1:2"], "tracking.lock"),
+    (["export-vtk", "--window-rev", "1:2"], "run.pvd.lock"),
+])
+def test_a_second_writer_into_an_output_folder_is_refused(run_file, tmp_path, capsys, command, lock):
+    from granalytics.io import WriterLock
+
+    out = tmp_path / "out"
+    out.mkdir()
+    with WriterLock(str(out / lock.removesuffix(".lock"))):  # what a running command holds
+        assert main([command[0], run_file, "--out", str(out), *command[1:], "--quiet"]) == 2
+        assert "another writer holds the lock file" in capsys.readouterr().err
+    assert main([command[0], run_file, "--out", str(out), *command[1:], "--quiet"]) == 0
+    assert not (out / lock).exists()

@@ -119,6 +119,14 @@ def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_
     capsys.readouterr()
     assert _main(["bundle-sweep", str(src), str(target), "--overwrite"]) == 2
     assert "exists and is not a folder" in capsys.readouterr().err and target.read_text() == "x"
+    # one bundling at a time into a target (DST.lock beside it)
+    from granalytics.errors import RunLockedError
+    from granalytics.io import WriterLock
+
+    with WriterLock(tmp_path / "busy"):
+        with pytest.raises(RunLockedError, match="busy.lock"):
+            bundle_sweep(src, tmp_path / "busy", progress=False)
+    assert not (tmp_path / "busy").exists()
 
 
 def test_thinned_frames_keeps_the_window_and_every_nth_frame():
