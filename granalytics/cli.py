@@ -17,8 +17,7 @@ import warnings
 import numpy as np
 
 from . import __version__
-from ._atomic import write_atomically
-from ._windows import window_mask
+from ._atomic import check_output_folder, write_atomically
 from .cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
 from .errors import GranalyticsError, ParameterError, ValidationError
 from .identify import BACKENDS, make_identifier
@@ -115,6 +114,15 @@ def _frames(run, args):
     return frames
 
 
+def _window_axis(frames, by="revolutions"):
+    """The frames' times [s] or revolutions for :func:`~granalytics.stats.check_window`; NaN
+    revolutions for a run whose drum does not turn (which check_window then reports)."""
+    try:
+        return frames.times if by == "time_s" else frames.revolutions
+    except ValidationError:
+        return np.full(len(frames), np.nan)
+
+
 def _progress(args):
     return not args.quiet
 
@@ -160,7 +168,6 @@ def cmd_identify(args):
     with open_run(args.run) as run:
         frames = _frames(run, args)
         n_frames, n = len(frames), run.n_particles
-        counts = []
 
         def write(tmp):  # renamed into place only when every frame is written
             try:
@@ -169,10 +176,9 @@ def cmd_identify(args):
                 raise GranalyticsError(f"{args.out}: cannot create labels file ({exc})") from None
             with out:
                 _write_labels(out, args, frames, identifier, n_frames, n)
-                counts.append(out["n_granules"][:])
+                return out["n_granules"][:]
 
-        write_atomically(args.out, write)
-    counts = counts[0]
+        counts = write_atomically(args.out, write)
     print(f"wrote {args.out}: labels of {n} particles in {n_frames} frames "
           f"(granules per frame: min {counts.min()}, mean {counts.mean():.1f}, max {counts.max()})")
     return 0
@@ -208,18 +214,13 @@ def cmd_stats(args):
     with open_run(args.run) as run:
         frames = _frames(run, args)
         # the window is checked on the frame times before the analysis (its warnings come with the table)
-        try:
-            axis = frames.times if by == "time_s" else frames.revolutions
-        except ValidationError:  # no drum rotation: check_window says so
-            axis = np.full(len(frames), np.nan)
-        check_window(axis, window, by=by, source=args.run, warn=False)
+        in_window, _ = check_window(_window_axis(frames, by), window, by=by, source=args.run, warn=False)
         ts, sizes = run_stats(
             frames, "gna", progress=_progress(args), return_sizes=True,
             c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
             cohesion=args.cohesion,
         )
     steady = steady_state(ts, window=window, by=by, source=args.run)
-    in_window = window_mask(ts[by], *window)
     dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
     if args.out:
         _write_table(ts, args.out)
@@ -260,11 +261,7 @@ def cmd_sensitivity(args):
     if bad:
         raise ParameterError(f"--a-agg-deg values must be in (0, 180] degrees, got {bad[0]:g}")
     with open_run(args.run) as run:
-        try:
-            revs = run.revolutions
-        except ValidationError:  # no drum rotation: check_window says so
-            revs = np.full(len(run), np.nan)
-        check_window(revs, args.window, source=args.run)  # refuses an empty window, warns for an uncovered one
+        check_window(_window_axis(run), args.window, source=args.run)  # refuses an empty window, warns for an uncovered one
         frames = run.select(revolutions=args.window)
         table = sensitivity(frames, args.c_agg, args.a_agg_deg, radius=args.radius, cohesion=args.cohesion,
                             jobs=args.jobs, progress=not args.quiet)
@@ -437,10 +434,6 @@ def _save(fig, path):
     print(f"wrote plot to {path}")
 
 
-#: figure formats the command lines write (matplotlib's Agg canvas)
-_PLOT_FORMATS = ("png", "pdf", "svg", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp")
-
-
 def _check_new_file(path, overwrite):
     """Before any work: refuse to replace an existing file unless ``--overwrite``, a folder
     always, and a file whose folder does not exist or is not writable."""
@@ -448,17 +441,17 @@ def _check_new_file(path, overwrite):
         raise ParameterError(f"{path}: is a folder, expected a file name")
     if os.path.exists(path) and not overwrite:
         raise ParameterError(f"{path}: file exists (pass --overwrite to replace it)")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise ParameterError(f"{path}: the folder {folder} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise ParameterError(f"{path}: the folder {folder} is not writable")
+    check_output_folder(path)
 
 
 def _check_plot_path(path):
+    """Refuse a figure file whose extension matplotlib's Agg canvas cannot write."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    formats = sorted(FigureCanvasAgg.get_supported_filetypes())
     ext = os.path.splitext(path)[1].lstrip(".").lower()
-    if ext not in _PLOT_FORMATS:
-        raise ParameterError(f"{path}: unknown figure format {ext!r} (use one of {', '.join(_PLOT_FORMATS)})")
+    if ext not in formats:
+        raise ParameterError(f"{path}: unknown figure format {ext!r} (use one of {', '.join(formats)})")
 
 
 def _check_table_paths(*paths):
@@ -473,7 +466,7 @@ def _check_outputs(args, tables=(), others=(), plots=()):
     same file, none is the input run, none exists unless ``--overwrite``, and each one's folder
     exists and is writable."""
     paths = [p for p in (*tables, *others, *plots) if p]
-    seen = {os.path.abspath(args.run): "the input run"}
+    seen = {os.path.abspath(args.run): "the input run"} if getattr(args, "run", None) else {}
     for path in paths:
         key = os.path.abspath(path)
         if key in seen:

@@ -722,25 +722,18 @@ def add_study_parser(subparsers):
 
 def cmd_study(args) -> int:
     """Run the ``study`` subcommand; bad input raises :class:`ParameterError` (one line, exit 2)."""
-    from .cli import _check_new_file, _check_plot_path, _save, _table_format, _write_table
+    from .cli import _check_outputs, _save, _write_table
     from .identify import METHODS
 
     inputs = ["gamma", "omega"]
     predictions = [parse_predict(text, inputs) for text in (args.predict or [])]
-    outputs = [p for p in (args.out, args.plot) if p]
-    if args.out and args.plot and os.path.abspath(args.out) == os.path.abspath(args.plot):
-        raise ParameterError(f"{args.out}: the same file is given for --out and --plot")
-    if args.out:
-        _table_format(args.out)
-    if args.plot:
-        _check_plot_path(args.plot)
     if not os.path.isdir(args.sweep):
         raise ParameterError(f"{args.sweep}: not a folder")
     sweep = os.path.abspath(args.sweep)
-    for path in outputs:
-        if os.path.commonpath([sweep, os.path.abspath(path)]) == sweep:
+    for path in (args.out, args.plot):
+        if path and os.path.commonpath([sweep, os.path.abspath(path)]) == sweep:
             raise ParameterError(f"{path}: inside the sweep folder {args.sweep} (its manifest and points are the input)")
-        _check_new_file(path, args.overwrite)
+    _check_outputs(args, tables=(args.out,), plots=(args.plot,))
     conventions = ["acting", "bridge"] if args.cohesion == "both" else [args.cohesion]
     accepted = inspect.signature(METHODS[args.method]).parameters
     params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg)) if k in accepted}

@@ -496,6 +496,12 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
         Bin width in revolutions (with a period; default 1) or in seconds (without; default a
         tenth of the tracked time span).
 
+    Warns
+    -----
+    UserWarning
+        When the frame intervals differ by more than 1.5× (rates of bins with other spacings
+        are not comparable: events between frames further apart go uncounted).
+
     Returns
     -------
     DataFrame
@@ -507,6 +513,10 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
         with no tracked time.
     """
     t, dt = _steps(tracks)
+    if dt.max() > 1.5 * dt.min():
+        warnings.warn(f"the tracked frames are {dt.min():.3g}–{dt.max():.3g} s apart (a run thinned outside a "
+                      "window?): events between frames further apart go uncounted, so rates of bins with other "
+                      "frame spacings are not comparable; track the evenly spaced part (--window)", stacklevel=2)
     if revolution_period_s is not None:
         period = float(revolution_period_s)
         if not (math.isfinite(period) and period > 0):
@@ -875,11 +885,6 @@ def cmd_track(args):
                                      f"(the run has {len(run)})")
             tracks = track_run(frames, args.method, progress=not args.quiet, min_fragment=args.min_fragment, **params)
         period = 2 * math.pi / abs(omega) if omega else None
-        steps = np.diff(tracks.times_s)
-        if steps.size and steps.max() > 1.5 * steps.min():
-            warnings.warn(f"{args.run}: the frames are {steps.min():.3g}–{steps.max():.3g} s apart (a run thinned outside a "
-                          "window?): events between frames further apart go uncounted, so rates of bins with other "
-                          "frame spacings are not comparable; use --window on the evenly spaced part", stacklevel=2)
         rates = event_rates(tracks, period)
         kernel = coalescence_kernel(tracks)
         breakage = breakage_rate(tracks)

@@ -107,7 +107,9 @@ def _run(args) -> int:
         numba.set_num_threads(args.threads)
     frame_every = frame_interval_steps(args.revolutions, args.frame_every_rev, params,
                                        names=("--revolutions", "--frame-every-rev"))
-    _check_output_folder(out)
+    from granalytics._atomic import check_output_folder
+
+    check_output_folder(out)  # a missing or read-only folder now, not after the settling
     from .run import Simulation
 
     if args.resume:
@@ -150,15 +152,6 @@ def _what_is_left(out, ckpt) -> str:
     return f"nothing was written to {out}"
 
 
-def _check_output_folder(out) -> None:
-    """Refuse an --out whose folder is missing or read-only now, not after the settling."""
-    folder = os.path.dirname(os.path.abspath(out))
-    if not os.path.isdir(folder):
-        raise ValueError(f"{out}: the folder {folder} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise ValueError(f"{out}: the folder {folder} is not writable")
-
-
 def _one_line(exc) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
@@ -173,11 +166,18 @@ def main(argv=None):
             print(f"{name:<11} {p.n_particles:>7} particles  α={p.alpha:g}  R_d={p.drum_radius:.4f} m  "
                   f"L={p.drum_length:.4f} m  Δt={p.dt:.1e} s  r_s={p.spray_radius:.4f} m")
         return 0
+    return reporting_errors(lambda: args.func(args) if args.command == "sweep" else _run(args))
+
+
+def reporting_errors(command) -> int:
+    """``command()``'s exit status, with bad input or environment (``ValueError``, ``OSError``,
+    ``OverflowError``) as one line ``sim: error: ...`` and exit status 2, and warnings as one
+    line each (e.g. a stale lock taken over); shared by ``python -m sim`` and ``python -m sim.sweep``."""
     from granalytics.cli import warnings_as_lines
 
-    with warnings_as_lines("sim"):  # e.g. a stale lock taken over: one line, not Python's four
+    with warnings_as_lines("sim"):
         try:
-            return args.func(args) if args.command == "sweep" else _run(args)
+            return command()
         except (ValueError, OSError, OverflowError) as exc:
             print(f"sim: error: {_one_line(exc)}", file=sys.stderr)
             return 2

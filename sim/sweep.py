@@ -575,14 +575,9 @@ def main(argv=None) -> int:
     """``python -m sim.sweep SPEC.toml --out DIR ...`` (the same as ``python -m sim sweep``)."""
     parser = argparse.ArgumentParser(prog="python -m sim.sweep", description="Run a parameter sweep on dask.")
     args = _configure(parser).parse_args(argv)
-    from granalytics.cli import warnings_as_lines
+    from .cli import reporting_errors
 
-    with warnings_as_lines("sim"):  # as python -m sim does
-        try:
-            return args.func(args)
-        except (ValueError, OSError, OverflowError) as exc:  # ParameterError and RunLockedError included
-            print(f"sim: error: {' '.join(str(exc).split()) or type(exc).__name__}", file=sys.stderr)
-            return 2
+    return reporting_errors(lambda: args.func(args))  # as python -m sim sweep
 
 
 if __name__ == "__main__":

@@ -29,6 +29,7 @@ import h5py
 import numpy as np
 
 from .. import __version__
+from .._atomic import replaced_atomically
 from .._windows import window_mask
 from ..errors import GranalyticsError, RunFileError, RunLockedError, ValidationError
 from ..snapshot import CONTACT_FIELDS, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
@@ -1202,14 +1203,8 @@ def replacing_run(dst, overwrite=False):
     with WriterLock(dst):
         if os.path.exists(dst) and not overwrite:
             raise RunFileError(f"{dst}: file exists (pass overwrite=True, or --overwrite, to replace it)")
-        tmp = f"{dst}.partial"
-        try:
+        with replaced_atomically(dst, f"{dst}.partial") as tmp:
             yield tmp
-            os.replace(tmp, dst)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
 
 
 def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, progress=False) -> str:
