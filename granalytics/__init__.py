@@ -2,7 +2,7 @@
 
 Public API (SI units throughout; angles in degrees only where a name says ``_deg``):
 
-- data model: :class:`Snapshot`, :class:`RunMeta`
+- data model: :class:`Snapshot`, :class:`RunMeta`; is a bed three-dimensional: :func:`bed_structure`
 - run files: :class:`RunWriter`, :func:`open_run`, :class:`Run`; :class:`WriterLock` (the lock
   file a writer holds on its output)
 - identification: :func:`identify` with methods ``"gna"`` (:class:`GraphNetworkAnalysis`),
@@ -48,6 +48,7 @@ from .identify import CustomEdges
 from .io import Run, RunSlice, RunWriter, WriterLock, open_run, subset_run
 from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
+from .bed import PLANAR_FRACTION, BedStructure, bed_structure
 from .stats import frame_stats, granule_table, run_stats, size_distribution, steady_state
 from .study import GrowthFit, Surrogate, fit_granule_growth, fit_surrogate, study_table
 from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates, track_granules, track_run
@@ -55,6 +56,7 @@ from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_ra
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
+    "bed_structure", "BedStructure", "PLANAR_FRACTION",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "edges", "datasets",

@@ -16,8 +16,10 @@ __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHY
 #: The simulator's physics version, raised by every change that alters trajectories on purpose
 #: (recorded in checkpoints, in the runs' provenance and in sweep manifests; a run is never
 #: resumed across versions; docs/simulator.md, "Physics versions"). 1: up to 2026-11-30; 2: a
-#: pair's friction spring and previous normal re-oriented when a rebuild swaps the pair's particles.
-PHYSICS_VERSION = 2
+#: pair's friction spring and previous normal re-oriented when a rebuild swaps the pair's particles;
+#: 3 (2026-12-02): a 3-D initial packing (jittered bcc lattice, sim.packing) instead of a simple
+#: cubic lattice that kept every run a stack of planar monolayers, and the settled-bed check.
+PHYSICS_VERSION = 3
 
 CAPILLARY_MODEL_NAMES = ("willett_numeric", "willett_analytic", "rabinovich", "lambert")
 #: Δt must resolve the contact of the smallest particles with at least this many steps

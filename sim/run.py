@@ -23,6 +23,7 @@ from . import _kernels
 from .capillary import pair_capillary_force
 from .drum import n_walls
 from .neighbours import empty_slots, rebuild
+from .packing import check_settled_bed, insertion_positions, settled_bed_report
 from .params import PHYSICS_VERSION, SimParams
 from .state import State
 
@@ -106,33 +107,16 @@ class Simulation:
         )
 
     def _fill(self, progress=False) -> State:
-        """Insert particles without overlaps on a cubic lattice (spacing = largest diameter +
-        2 %), lowest sites first, inside the drum and clear of the baffles; radii uniform in
-        [1 − d_spread, 1 + d_spread]·r_mean from the seeded generator. Then settle."""
+        """Insert particles without overlaps at jittered sites of a bcc lattice, lowest sites
+        first, inside the drum and clear of the baffles (:func:`sim.packing.insertion_positions`);
+        radii uniform in [1 − d_spread, 1 + d_spread]·r_mean from the seeded generator. Then
+        settle, and refuse a planar or degenerate settled bed (:func:`sim.packing.check_settled_bed`);
+        the settled bed's structure is kept in ``settled_bed`` and the run metadata."""
         p = self.params
         rng = np.random.default_rng(p.seed)
-        spacing = 2 * p.r_max * 1.02
-        margin = p.r_max * 1.05
-        axis = np.arange(-p.drum_radius + margin, p.drum_radius - margin + 1e-12, spacing)
-        axis_z = np.arange(margin, p.drum_length - margin + 1e-12, spacing)
-        gx, gy, gz = np.meshgrid(axis, axis, axis_z, indexing="ij")
-        sites = np.column_stack([gx.ravel(), gy.ravel(), gz.ravel()])
-        keep = np.hypot(sites[:, 0], sites[:, 1]) < p.drum_radius - margin
-        inner = p.drum_radius * (1 - p.baffle_height)
-        for b in range(p.n_baffles):
-            phi = 2 * math.pi * b / p.n_baffles
-            along = sites[:, 0] * math.cos(phi) + sites[:, 1] * math.sin(phi)
-            across = -sites[:, 0] * math.sin(phi) + sites[:, 1] * math.cos(phi)
-            near = (along > inner - margin) & (np.abs(across) < margin)
-            keep &= ~near
-        sites = sites[keep]
-        if len(sites) < p.n_particles:
-            raise ValueError(
-                f"the drum (R_d = {p.drum_radius} m, L = {p.drum_length} m) holds only {len(sites)} "
-                f"insertion sites for {p.n_particles} particles")
-        sites = sites[np.lexsort((sites[:, 0], sites[:, 2], sites[:, 1]))[: p.n_particles]]
         n = p.n_particles
         radius = p.r_mean * rng.uniform(1 - p.d_spread, 1 + p.d_spread, n)
+        sites = insertion_positions(p, radius, rng)
         self.state = rebuild(self._new_state(sites, radius), p, self.n_walls)
         from tqdm.auto import tqdm
 
@@ -141,6 +125,8 @@ class Simulation:
                   desc=f"settling {n} particles α={p.alpha:g}") as bar:
             self._advance(settle_steps, settling=True, on_steps=bar.update)
         self.state.step = 0
+        self.settled_bed = settled_bed_report(p, self.snapshot())
+        check_settled_bed(self.settled_bed)
         self.state.film[:n] = p.initial_film * 4 / 3 * math.pi * self.state.radius**3
         self.liquid_initial = self.state.total_liquid()
         return self.state
@@ -196,7 +182,8 @@ class Simulation:
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L"},
-            provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION},
+            provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION,
+                        **({"settled_bed": self.settled_bed} if getattr(self, "settled_bed", None) else {})},
         )
 
     def snapshot(self, meta: RunMeta | None = None) -> Snapshot:
