@@ -2,8 +2,8 @@
 
 Usage: python benchmarks/profile_step.py [--sizes 2435,20000,120000] [--threads 1,2] [--steps N] [--beds DIR]
 
-The system is the wet drum of ``benchmarks/yade_drum_throughput.py`` (cubic lattice of spacing
-1.85 mm in the lower part of the drum, radii 0.75 mm ± 20 %, films of 3 % V_p, Table 1 physics,
+The system is the wet drum of ``benchmarks/yade_drum_throughput.py`` (a 3-D lattice of spacing
+1.85 mm in the lower part of the drum, every other row nested into the one below, random offsets, radii 0.75 mm ± 20 %, films of 3 % V_p, Table 1 physics,
 no viscous force, Δt = 3e-6 s, 2 rad/s), scaled in drum radius and length to the requested
 particle count, settled in a static drum, then turned for 500 steps. For each size and thread
 count it prints, in ns per particle-step:
@@ -42,7 +42,7 @@ from numba import njit
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from sim_throughput import live_counts, yade_lattice
+from sim_throughput import live_counts, drum_lattice
 
 from granalytics import RunWriter, configure_threading
 from sim import _kernels
@@ -77,7 +77,7 @@ def drum_system(size, beds=None):
 
 def _settled_drum(size):
     rd, length, settle_10g = SIZES[size]
-    pos, rad = yade_lattice(rd, length)
+    pos, rad = drum_lattice(rd, length)
     p = SimParams(n_particles=len(pos), drum_radius=rd, drum_length=length, spray_radius=0.0,
                   initial_film=0.03, viscous=False)
     sim = Simulation.from_particles(p, pos, rad, film=p.initial_film * 4 / 3 * np.pi * rad**3)

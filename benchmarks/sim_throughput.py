@@ -7,8 +7,8 @@ Usage: python benchmarks/sim_throughput.py [--quick] [--no-yade] [--no-liggghts]
 2. The lab drum with its 3 000 wet particles (films of 0.5 % V_p, Table 1 physics, migration on),
    settled 0.1 s: particle-steps/s at 1 and 2 threads, live contacts and bridges per particle.
 3. CG speed-up at equal physics: lab-cg1/2/3 settled, then simulated seconds per wall second.
-4. The wet drum of ``benchmarks/yade_drum_throughput.py`` (2 435 particles, R_D = 0.04 m,
-   L = 0.012 m, the same lattice filling and radii in every code, Δt = 3e-6 s): this simulator
+4. The wet drum of ``benchmarks/yade_drum_throughput.py`` (2 199 particles, R_D = 0.04 m,
+   L = 0.012 m, the same 3-D lattice filling and radii in every code, Δt = 3e-6 s): this simulator
    without the viscous force (as YADE's ViscElCapMat) and with it (as LIGGGHTS' easo law),
    LIGGGHTS 3.8 (``benchmarks/liggghts_drum/run_bench.sh``, MPI processes) if ``liggghts`` is
    on the PATH, YADE if ``yade`` is (both with OpenMP's default spinning and with the short spin
@@ -81,24 +81,35 @@ def compile_time():
     return out
 
 
-def yade_lattice(rd, length):
-    """The particle set of benchmarks/yade_drum_throughput.py (same loop, same random stream)."""
+def drum_lattice(rd, length):
+    """The particle set of benchmarks/yade_drum_throughput.py and liggghts_drum/make_drum.py (same loop,
+    same random stream): positions (N, 3) [m] and radii (N,) [m]."""
+    # A 3-D lattice (the same sites, radii and offsets as benchmarks/sim_throughput.py::drum_lattice
+    # and liggghts_drum/make_drum.py): rows of spacing a, every other row (along y, against gravity)
+    # shifted by a/2 in x and z so that it nests into the row below as the bed settles, and every
+    # sphere moved by a random offset in x, y and z within the ball of radius a/2 - r around its site.
     random.seed(1)
     a = 1.85e-3
-    pos, rad = [], []
-    x = -rd + a
-    while x < rd - a:
-        y = -rd + a
-        while y < -0.2 * rd:
-            z = a
+    atoms = []
+    y = -rd + a
+    row = 0
+    while y < -0.2 * rd:
+        shift = 0.5 * a * (row % 2)
+        x = -rd + a + shift
+        while x < rd - a:
+            z = a + shift
             while z < length - a:
                 if math.hypot(x, y) < rd - 1.2 * a:
-                    pos.append((x, y, z))
-                    rad.append(0.75e-3 * random.uniform(0.8, 1.2))
+                    r = 0.75e-3 * random.uniform(0.8, 1.2)
+                    d = [random.gauss(0, 1) for _ in range(3)]
+                    s = (0.5 * a - r) * random.random() ** (1 / 3) / math.sqrt(sum(c * c for c in d))
+                    atoms.append((x + s * d[0], y + s * d[1], z + s * d[2], r))
                 z += a
-            y += a
-        x += a
-    return np.array(pos), np.array(rad)
+            x += a
+        y += a
+        row += 1
+    atoms = np.array(atoms)
+    return atoms[:, :3], atoms[:, 3]
 
 
 def run_yade(threads, rd, length, settle, measure, spincount):
@@ -185,10 +196,10 @@ def run_liggghts(procs, rd, length, settle, measure):
 
 
 def comparison(q, cores, with_yade, with_liggghts):
-    """Section 4: the 2 435-particle drum in every code, alternating runs, best of 3."""
+    """Section 4: the 2 199-particle drum in every code, alternating runs, best of 3."""
     rd, length = 0.04, 0.012
     settle, measure = int(40000 * q), int(3000 * q)
-    pos, rad = yade_lattice(rd, length)
+    pos, rad = drum_lattice(rd, length)
     print(f"\n4. the wet drum of benchmarks/yade_drum_throughput.py (R_D = {rd} m, L = {length} m, {len(pos)} "
           f"particles, Δt = 3e-6 s, {settle} settling + {measure} measured steps), alternating runs, best of 3")
     if not (with_yade or with_liggghts):

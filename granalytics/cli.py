@@ -128,16 +128,25 @@ def _progress(args):
 
 
 def cmd_info(args):
+    from .bed import bed_structure
+
     with open_run(args.run) as run:
         info = run.info()
         meta = run.meta.to_dict()
+        bed = bed_structure(run[len(run) - 1]) if len(run) else None
+    if bed is not None and bed.planar and meta.get("drum_omega"):
+        warnings.warn(f"{args.run}: planar drum run, its granules and statistics are those of stacked 2-D monolayers: "
+                      f"{bed.describe()} (last frame)")
     if args.json:
-        print(json.dumps(_json_safe({"file": info, "meta": meta}), indent=2, default=str))
+        print(json.dumps(_json_safe({"file": info, "meta": meta, "bed_last_frame": bed.to_dict() if bed else None}),
+                         indent=2, default=str))
         return 0
     width = max(len(k) for k in list(info) + list(meta))
     print("file")
     for key, value in info.items():
         print(f"  {key:<{width}}  {value}")
+    if bed is not None:
+        print(f"  {'bed (last frame)':<{width}}  {bed.describe()}")
     print("run metadata (SI units; contact_angle in rad)")
     for key, value in meta.items():
         if key in ("sim_config", "provenance"):

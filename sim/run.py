@@ -110,7 +110,7 @@ class Simulation:
         """Insert particles without overlaps at jittered sites of a bcc lattice, lowest sites
         first, inside the drum and clear of the baffles (:func:`sim.packing.insertion_positions`);
         radii uniform in [1 − d_spread, 1 + d_spread]·r_mean from the seeded generator. Then
-        settle, and refuse a planar or degenerate settled bed (:func:`sim.packing.check_settled_bed`);
+        settle, and refuse a planar settled bed (:func:`sim.packing.check_settled_bed`);
         the settled bed's structure is kept in ``settled_bed`` and the run metadata."""
         p = self.params
         rng = np.random.default_rng(p.seed)
@@ -126,7 +126,7 @@ class Simulation:
             self._advance(settle_steps, settling=True, on_steps=bar.update)
         self.state.step = 0
         self.settled_bed = settled_bed_report(p, self.snapshot())
-        check_settled_bed(self.settled_bed)
+        check_settled_bed(self.settled_bed, p.settle_time)
         self.state.film[:n] = p.initial_film * 4 / 3 * math.pi * self.state.radius**3
         self.liquid_initial = self.state.total_liquid()
         return self.state

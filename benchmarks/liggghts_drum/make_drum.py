@@ -1,6 +1,6 @@
 """LIGGGHTS throughput anchor: the drum of benchmarks/yade_drum_throughput.py.
 Writes drum.stl (closed cylinder R_D x L, 64 segments, 4 radial baffles of 0.15 R_D) and
-drum.data (the same lattice positions and radii as the YADE script: random.seed(1), same loop).
+drum.data (the same 3-D lattice positions and radii as the YADE script: the same seed and loop).
 Run: python3 make_drum.py RD L"""
 import math, random, sys
 RD, L = float(sys.argv[1]), float(sys.argv[2])
@@ -23,20 +23,30 @@ with open("drum.stl", "w") as f:
         for v in t: f.write("   vertex %.9g %.9g %.9g\n" % v)
         f.write("  endloop\n endfacet\n")
     f.write("endsolid drum\n")
+# A 3-D lattice (the same sites, radii and offsets as benchmarks/sim_throughput.py::drum_lattice
+# and liggghts_drum/make_drum.py): rows of spacing a, every other row (along y, against gravity)
+# shifted by a/2 in x and z so that it nests into the row below as the bed settles, and every
+# sphere moved by a random offset in x, y and z within the ball of radius a/2 - r around its site.
 random.seed(1)
 a = 1.85e-3
 atoms = []
-x = -RD + a
-while x < RD - a:
-    y = -RD + a
-    while y < -0.2 * RD:
-        z = a
+y = -RD + a
+row = 0
+while y < -0.2 * RD:
+    shift = 0.5 * a * (row % 2)
+    x = -RD + a + shift
+    while x < RD - a:
+        z = a + shift
         while z < L - a:
             if math.hypot(x, y) < RD - 1.2 * a:
-                atoms.append((x, y, z, 0.75e-3 * random.uniform(0.8, 1.2)))
+                r = 0.75e-3 * random.uniform(0.8, 1.2)
+                d = [random.gauss(0, 1) for _ in range(3)]
+                s = (0.5 * a - r) * random.random() ** (1 / 3) / math.sqrt(sum(c * c for c in d))
+                atoms.append((x + s * d[0], y + s * d[1], z + s * d[2], r))
             z += a
-        y += a
-    x += a
+        x += a
+    y += a
+    row += 1
 m = 0.002
 with open("drum.data", "w") as f:
     f.write(f"LIGGGHTS drum lattice\n\n{len(atoms)} atoms\n1 atom types\n\n")
