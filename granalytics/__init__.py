@@ -27,7 +27,7 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :class:`RunLockedError`, :class:`ParameterError`
 """
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 from ._threading import configure_threading
 from .errors import GranalyticsError, ParameterError, RunFileError, RunLockedError, ValidationError
@@ -43,6 +43,8 @@ from .identify import (
     identify,
 )
 from . import datasets  # the bundled runs and sweeps: granalytics.datasets.open_dataset(...), sweep_path(...)
+from . import files  # shared file helpers: atomic writes, the writer lock, one-line errors
+from . import manifest  # the sweep manifest's schema (sim.sweep writes it, study reads it)
 from . import edges  # the kept contact graph as tables, NetworkX and igraph graphs: granalytics.edges.*
 from .identify import CustomEdges
 from .io import Run, RunSlice, RunWriter, WriterLock, open_run, subset_run
@@ -59,7 +61,7 @@ __all__ = [
     "bed_structure", "BedStructure", "PLANAR_FRACTION",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
-    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "edges", "datasets",
+    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "edges", "datasets", "files", "manifest",
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",

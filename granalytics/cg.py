@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ._atomic import write_atomically
+from .files import write_atomically
 from ._windows import window_mask
 from .cohesion import DEFAULT_COHESION, check_cohesion
 from .errors import ParameterError

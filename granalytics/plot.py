@@ -6,10 +6,18 @@ never change matplotlib's backend (the command line selects Agg itself).
 
 from __future__ import annotations
 
+import math
+
+import typing
+
 import numpy as np
+import pandas as pd
+
+if typing.TYPE_CHECKING:
+    from .tracking import GranuleTracks
 
 __all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure",
-           "frame_figure", "cg_figures"]
+           "frame_figure", "cg_figures", "tracking_figure", "growth_figure"]
 
 _TIMESERIES = (
     ("n_granules_norm", "granules / particles"),
@@ -200,3 +208,156 @@ def cg_figures(comparison) -> dict:
     ax.legend(fontsize=8)
     figures["fig5_size_distribution"] = fig
     return dict(sorted(figures.items()))
+
+
+def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataFrame | None = None, *,
+                    n_histories=8, title=None):
+    """Event rates per bin, a few granule size histories and (optionally) the coalescence kernel.
+
+    Parameters
+    ----------
+    tracks : GranuleTracks
+    rates : DataFrame
+        Output of :func:`event_rates` (per revolution when it has a period, else per second).
+    kernel : DataFrame, optional
+        Output of :func:`coalescence_kernel`: shown as a heatmap of log10 β with the number of
+        coalescence events annotated in each cell.
+    n_histories : int, default 8
+        Size histories shown: the longest-lived tracks (ties: the largest).
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from .tracking import KINDS
+
+    import matplotlib.pyplot as plt
+
+    n = 3 if kernel is not None else 2
+    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4), layout="constrained")
+    ax = axes[0]
+    per_rev = rates["rate_per_rev"].notna().any()
+    for kind in KINDS:
+        part = rates[rates["kind"] == kind]
+        if per_rev:
+            x, y = (part["rev_start"] + part["rev_end"]) / 2, part["rate_per_rev"]
+        else:
+            x, y = (part["time_start_s"] + part["time_end_s"]) / 2, part["rate_per_s"]
+        ax.plot(x, y, marker="o", ms=4, lw=1, label=kind)
+    ax.set_xlabel("revolutions t·Ω/2π" if per_rev else "time [s]")
+    ax.set_ylabel("events per revolution" if per_rev else "events per second [1/s]")
+    ax.set_title("event rates", fontsize=10)
+    ax.legend(fontsize=8)
+
+    ax = axes[1]
+    tr = tracks.tracks
+    if len(tr):
+        life = (tr["last_frame"] - tr["first_frame"]).to_numpy()
+        biggest = np.fromiter((max(s) for s in tr["sizes"]), dtype=np.int64, count=len(tr))
+        chosen = np.lexsort((-biggest, -life))[:n_histories]
+        for row in tr.iloc[np.sort(chosen)].itertuples():
+            times = tracks.times_s[row.first_frame:row.last_frame + 1]
+            ax.plot(times, row.sizes, marker=".", ms=3, lw=1, label=f"track {row.track} ({row.origin} → {row.end})")
+        ax.legend(fontsize=7)
+    ax.set_yscale("log")
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+    for axis_formatter in (ax.yaxis.set_major_formatter, ax.yaxis.set_minor_formatter):
+        axis_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("particles per granule")
+    ax.set_title(f"size histories ({tracks.n_tracks} tracks)", fontsize=10)
+
+    if kernel is not None:
+        ax = axes[2]
+        nc = int(max(kernel["class_i"].max(), kernel["class_j"].max())) + 1 if len(kernel) else 0
+        grid = np.full((nc, nc), np.nan)
+        counts = np.zeros((nc, nc), dtype=np.int64)
+        for row in kernel.itertuples():  # one iteration per class pair
+            for i, j in ((row.class_i, row.class_j), (row.class_j, row.class_i)):
+                counts[i, j] = row.n_events
+                if row.n_events > 0 and np.isfinite(row.beta_per_s) and row.beta_per_s > 0:
+                    grid[i, j] = math.log10(row.beta_per_s)
+        mesh = ax.imshow(grid, origin="lower", cmap="viridis", aspect="auto")
+        fig.colorbar(mesh, ax=ax, label="log10 β [1/s]")
+        for i in range(nc):
+            for j in range(nc):
+                dark = np.isfinite(grid[i, j]) and mesh.norm(grid[i, j]) < 0.6
+                ax.text(j, i, str(counts[i, j]), ha="center", va="center", fontsize=7, color="w" if dark else "k")
+        if nc:
+            bounds = kernel.drop_duplicates("class_i").sort_values("class_i")
+            names = [f"{lo}" if lo == hi else f"{lo}–{hi}" for lo, hi in zip(bounds["size_min_i"], bounds["size_max_i"])]
+            ax.set_xticks(range(nc), names, rotation=45, fontsize=7)
+            ax.set_yticks(range(nc), names, fontsize=7)
+        ax.set_xlabel("size class j [particles]")
+        ax.set_ylabel("size class i [particles]")
+        ax.set_title("coalescence kernel (events annotated)", fontsize=10)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def growth_figure(table, fit=None, cohesion="acting"):
+    """The paper's Fig 7: ⟨V_g⟩/V_p against γ of the original system, one curve per Ω (error
+    bars: s.e.m.), the fitted law and the paper's β = 70, γ₁ = 0.027 N/m for reference.
+
+    Points of one (Ω, γ) (e.g. several seeds) are averaged, their sems combined as
+    √(Σ sem²)/n; points without granules are drawn at 0 with open markers.
+
+    Parameters
+    ----------
+    table : DataFrame
+        :func:`study_table` output.
+    fit : GrowthFit, optional
+        Default: :func:`fit_granule_growth` of the table's rows (no fitted line if that fails).
+    cohesion : str, default "acting"
+        Convention whose rows are drawn (named in the title).
+
+    Returns
+    -------
+    matplotlib Figure
+    """
+    from .errors import ParameterError
+    from .study import PAPER_BETA, PAPER_GAMMA_1, _fit_from_table, _select_cohesion
+
+    import matplotlib.pyplot as plt
+
+    part = _select_cohesion(table, cohesion).copy()
+    if fit is None:
+        try:
+            fit = _fit_from_table(table, cohesion)
+        except ParameterError:
+            fit = None
+    part["_v"] = part["mean_volume_norm_mean"].fillna(0.0)
+    part["_none"] = part["mean_volume_norm_mean"].isna() | (part["mean_volume_norm_mean"] == 0)
+    sem_col = part["mean_volume_norm_sem"] if "mean_volume_norm_sem" in part else pd.Series(np.nan, index=part.index)
+    part["_s2"] = sem_col.fillna(0.0) ** 2
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    for k, (omega, group) in enumerate(part.groupby("omega", sort=True)):
+        agg = group.groupby("gamma", sort=True).agg(v=("_v", "mean"), s2=("_s2", "sum"), n=("_v", "size"),
+                                                     none=("_none", "all"))
+        sem = np.sqrt(agg["s2"]) / agg["n"]
+        colour = f"C{k}"
+        ax.errorbar(agg.index, agg["v"], yerr=sem, color=colour, marker="o", ms=5, lw=1, capsize=3,
+                    label=f"Ω = {omega:g} rad/s")
+        if agg["none"].any():
+            ax.plot(agg.index[agg["none"]], agg["v"][agg["none"]], ls="none", marker="o", ms=5, mfc="white",
+                    color=colour)
+    gmin, gmax = float(part["gamma"].min()), float(part["gamma"].max())
+    grid = np.linspace(min(gmin, PAPER_GAMMA_1 * 0.5), gmax, 200)
+    if fit is not None:
+        ax.plot(grid, fit.predict(grid), color="k", lw=1.5,
+                label=f"fit: β = {fit.beta:.3g} [{fit.beta_ci[0]:.3g}, {fit.beta_ci[1]:.3g}], "
+                      f"γ₁ = {fit.gamma_1:.3g} [{fit.gamma_1_ci[0]:.3g}, {fit.gamma_1_ci[1]:.3g}] N/m")
+    ax.plot(grid, PAPER_BETA * np.maximum(0.0, grid - PAPER_GAMMA_1), color="0.5", ls="--", lw=1,
+            label=f"paper: β ≈ {PAPER_BETA:g}, γ₁ ≈ {PAPER_GAMMA_1:g} N/m")
+    ax.set_xlabel("γ of the original system [N/m] (paper Fig 7 convention)")
+    ax.set_ylabel("⟨V_g⟩ / V_p")
+    alphas = sorted(part["alpha"].dropna().unique()) if "alpha" in part else []
+    cg = f", CG{'/'.join(f'{a:g}' for a in alphas)}" if alphas else ""
+    ax.set_title(f"Mean granule volume in steady state vs surface tension{cg}\ncohesion convention: {cohesion}",
+                 fontsize=10)
+    ax.legend(fontsize=8)
+    return fig

@@ -194,27 +194,3 @@ def write_synthetic_run(path, n_particles=3000, revolutions=6.0, frames_per_revo
                 )
             )
     return str(path)
-
-
-def _main(argv=None):
-    import argparse
-
-    parser = argparse.ArgumentParser(
-        prog="python -m granalytics.synthetic",
-        description="Write a physics-free synthetic run (planted granules; not simulation output).",
-    )
-    parser.add_argument("--out", required=True, help="run file to write (.h5)")
-    parser.add_argument("--particles", type=int, default=3000, help="number of particles (default 3000)")
-    parser.add_argument("--revolutions", type=float, default=6.0, help="drum revolutions covered (default 6)")
-    parser.add_argument("--frames-per-revolution", type=int, default=20, help="default 20")
-    parser.add_argument("--alpha", type=float, default=1.0, help="CG factor α (default 1)")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-    path = write_synthetic_run(
-        args.out, args.particles, args.revolutions, args.frames_per_revolution, alpha=args.alpha, seed=args.seed
-    )
-    print(f"wrote synthetic (physics-free) run {path}")
-
-
-if __name__ == "__main__":
-    _main()

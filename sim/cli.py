@@ -1,4 +1,5 @@
-"""Command line: ``python -m sim run --preset lab-cg3 --revolutions 2 --out run.h5``.
+"""Command line: ``python -m sim run --preset lab-cg3 --revolutions 2 --out run.h5``, ``python -m sim presets``,
+``python -m sim sweep SPEC.toml --out DIR`` (also ``python -m sim.sweep …`` and ``granalytics sweep …``).
 
 Overrides (``--gamma``, ``--omega``, ``--seed``, ``--particles``) apply to the *original*
 (α = 1) system; the run is then coarse-grained by the preset's α or ``--alpha`` (Table 2), so
@@ -16,6 +17,9 @@ import dataclasses
 import math
 import os
 import sys
+
+from granalytics.files import check_output_folder, one_line, warnings_as_lines
+from granalytics.manifest import manifest_path
 
 from .params import MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original
 
@@ -72,8 +76,6 @@ def build_parser():
                         "finished run is left as it is)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     sub.add_parser("presets", help="list the presets")
-    from .sweep import add_sweep_parser
-
     add_sweep_parser(sub)
     return parser
 
@@ -107,8 +109,6 @@ def _run(args) -> int:
         numba.set_num_threads(args.threads)
     frame_every = frame_interval_steps(args.revolutions, args.frame_every_rev, params,
                                        names=("--revolutions", "--frame-every-rev"))
-    from granalytics._atomic import check_output_folder
-
     check_output_folder(out)  # a missing or read-only folder now, not after the settling
     from .run import Simulation
 
@@ -124,7 +124,7 @@ def _run(args) -> int:
         try:
             sim = Simulation(params, original, progress=not args.quiet)
         except RuntimeError as exc:  # e.g. a particle left the drum while settling
-            print(f"sim: error: {_one_line(exc)} (while settling; nothing was written)", file=sys.stderr)
+            print(f"sim: error: {one_line(exc)} (while settling; nothing was written)", file=sys.stderr)
             return 1
         except KeyboardInterrupt:
             print("sim: interrupted while settling; nothing was written", file=sys.stderr)
@@ -133,7 +133,7 @@ def _run(args) -> int:
         sim.run(out, args.revolutions, frame_every=frame_every, checkpoint_every=args.checkpoint_every,
                 progress=not args.quiet, resume=args.resume, overwrite=args.overwrite)
     except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
-        print(f"sim: error: {_one_line(exc)}; {_what_is_left(out, ckpt)}", file=sys.stderr)
+        print(f"sim: error: {one_line(exc)}; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f"sim: interrupted; {_what_is_left(out, ckpt)}", file=sys.stderr)
@@ -150,10 +150,6 @@ def _what_is_left(out, ckpt) -> str:
     if os.path.exists(out):
         return f"{out} holds the frames written so far but no checkpoint yet: start again with --overwrite"
     return f"nothing was written to {out}"
-
-
-def _one_line(exc) -> str:
-    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def main(argv=None):
@@ -173,11 +169,65 @@ def reporting_errors(command) -> int:
     """``command()``'s exit status, with bad input or environment (``ValueError``, ``OSError``,
     ``OverflowError``) as one line ``sim: error: ...`` and exit status 2, and warnings as one
     line each (e.g. a stale lock taken over); shared by ``python -m sim`` and ``python -m sim.sweep``."""
-    from granalytics.cli import warnings_as_lines
-
     with warnings_as_lines("sim"):
         try:
             return command()
         except (ValueError, OSError, OverflowError) as exc:
-            print(f"sim: error: {_one_line(exc)}", file=sys.stderr)
+            print(f"sim: error: {one_line(exc)}", file=sys.stderr)
             return 2
+
+
+# ----------------------------------------------------------------------------- sweeps (sim.sweep runs them)
+def _configure_sweep(p):
+    p.add_argument("spec", help="sweep spec (.toml): preset, revolutions, frame_every_rev and a [grid] of lists")
+    p.add_argument("--out", required=True, help="sweep folder: points/<point>.h5 and manifest.csv")
+    p.add_argument("--workers", type=int, help="worker processes of the local dask cluster, one thread each "
+                                               "(default: the cores, at most the points to run)")
+    p.add_argument("--scheduler", metavar="ADDR", help="use an existing dask cluster (tcp://host:port) instead "
+                                                       "of a local one; its workers must see --out at the same path")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sweep)
+    return p
+
+
+def add_sweep_parser(subparsers):
+    """Add the ``sweep`` subcommand to ``subparsers`` (from ``ArgumentParser.add_subparsers``);
+    its ``func`` is :func:`cmd_sweep`. Returns the subcommand's parser."""
+    p = subparsers.add_parser(
+        "sweep", help="run a parameter study on dask (one run file per grid point)",
+        description="Run every point of the grid of a TOML sweep spec as a dask task (a local cluster of "
+                    "single-threaded worker processes, or --scheduler), one run file per point in OUT/points, "
+                    "recorded in OUT/manifest.csv. Finished points are skipped, interrupted ones resume from "
+                    "their checkpoint, failed ones are recorded and the others go on. See docs/parameter_studies.md.")
+    return _configure_sweep(p)
+
+
+def cmd_sweep(args) -> int:
+    """Run the ``sweep`` subcommand. Bad input raises :class:`ParameterError` (a ``ValueError``;
+    the caller prints it as one line, exit 2). Returns 0, 1 when a point failed, 130 when
+    interrupted (Ctrl-C)."""
+    from .sweep import load_spec, run_sweep
+
+    try:
+        table = run_sweep(args.spec, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"sim: interrupted; the same command continues the sweep in {args.out} (finished points are "
+              "skipped, the others resume from their checkpoints)", file=sys.stderr)
+        return 130
+    spec = load_spec(args.spec)
+    mine = table[table["point"].isin([p.name for p in spec.points])]
+    done = int((mine["status"] == "done").sum())
+    failed = mine[mine["status"] == "failed"]
+    print(f"sweep {args.out}: {len(mine)} points, {done} done, {len(failed)} failed; "
+          f"manifest {manifest_path(args.out)}")
+    for row in failed.itertuples():
+        print(f"  failed {row.point}: {row.error}")
+    return 1 if len(failed) else 0
+
+
+def sweep_main(argv=None) -> int:
+    """``python -m sim.sweep SPEC.toml --out DIR ...`` and ``granalytics sweep ...`` (the same as
+    ``python -m sim sweep``)."""
+    parser = argparse.ArgumentParser(prog="python -m sim.sweep", description="Run a parameter sweep on dask.")
+    args = _configure_sweep(parser).parse_args(argv)
+    return reporting_errors(lambda: args.func(args))  # as python -m sim sweep

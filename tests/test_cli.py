@@ -189,7 +189,7 @@ def test_compare_cg_refuses_existing_outputs_before_analysing(run_file, tmp_path
 
 
 def test_an_output_is_replaced_only_when_complete(tmp_path):
-    from granalytics._atomic import write_atomically
+    from granalytics.files import write_atomically
 
     path = tmp_path / "table.csv"
     path.write_text("old, complete")
@@ -249,12 +249,12 @@ def test_the_edges_module_and_the_custom_method_come_with_the_package():
 
 
 def test_stats_refuses_a_window_before_the_analysis(run_file, tmp_path, monkeypatch, capsys):
-    import granalytics.cli
+    import granalytics.cli.analysis
 
     def no_analysis(*args, **kwargs):
         raise AssertionError("analysed before checking the window")
 
-    monkeypatch.setattr(granalytics.cli, "run_stats", no_analysis)
+    monkeypatch.setattr(granalytics.cli.analysis, "run_stats", no_analysis)
     assert main(["stats", run_file, "--window", "70:90", "--out", str(tmp_path / "w.csv"), "--quiet"]) == 2
     assert "no frame in the window [70, 90]" in capsys.readouterr().err
 

@@ -5,7 +5,8 @@ import pytest
 
 import granalytics as ga
 from granalytics import GranalyticsError
-from granalytics.datasets import DATASETS, _main, dataset_path, make_dataset, open_dataset
+from granalytics.cli.datasets import main as _main
+from granalytics.datasets import DATASETS, dataset_path, make_dataset, open_dataset
 from sim.params import PHYSICS_VERSION
 
 

@@ -17,13 +17,12 @@ from granalytics import GranalyticsError, ParameterError, RunMeta, RunWriter
 from granalytics.study import (
     PAPER_BETA,
     PAPER_GAMMA_1,
-    add_study_parser,
     fit_granule_growth,
     fit_surrogate,
-    growth_figure,
-    parse_predict,
     study_table,
 )
+from granalytics.cli.study import add_study_parser, parse_predict
+from granalytics.plot import growth_figure
 from granalytics.synthetic import synthetic_snapshot
 
 ALPHA = 2.0

@@ -22,7 +22,9 @@ import pytest
 import granalytics as ga
 from granalytics import ParameterError, RunMeta, RunWriter
 from granalytics.synthetic import synthetic_snapshot
-from sim.sweep import add_sweep_parser, cmd_sweep, load_spec, main, parse_spec, point_name, read_manifest, run_sweep
+from sim.cli import add_sweep_parser, cmd_sweep
+from sim.cli import sweep_main as main
+from sim.sweep import load_spec, parse_spec, point_name, read_manifest, run_sweep
 
 # ----------------------------------------------------------------------------- helpers
 

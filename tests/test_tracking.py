@@ -13,14 +13,14 @@ from granalytics.errors import ParameterError
 from granalytics.synthetic import synthetic_snapshot, write_synthetic_run
 from granalytics.tracking import (
     KINDS,
-    add_track_parser,
     breakage_rate,
     coalescence_kernel,
     event_rates,
     track_granules,
     track_run,
-    tracking_figure,
 )
+from granalytics.cli.tracking import add_track_parser
+from granalytics.plot import tracking_figure
 
 
 def frame(granules, ids, rng=None):

@@ -1,4 +1,5 @@
-"""Parameter sweeps on dask: ``python -m sim sweep SPEC.toml --out DIR [--workers N] [--scheduler ADDR]``.
+"""Parameter sweeps on dask: ``python -m sim sweep SPEC.toml --out DIR [--workers N] [--scheduler ADDR]``
+(the command line is in :mod:`sim.cli`).
 
 A sweep is a TOML file::
 
@@ -29,41 +30,37 @@ recorded with its one-line error and the others go on. See docs/parameter_studie
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import datetime
 import hashlib
 import itertools
 import math
 import os
-import sys
 import time
 import uuid
 from dataclasses import dataclass, field
 
-from granalytics.errors import ParameterError
-from granalytics._atomic import write_atomically
-from granalytics.io import WriterLock
+from granalytics import ParameterError, WriterLock
+from granalytics.files import one_line
+from granalytics.manifest import (MANIFEST_COLUMNS, NAMED_PARAMETERS, manifest_path, manifest_rows, read_manifest,
+                                  write_manifest)
 
-from .params import (PHYSICS_VERSION, PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps,
+from ..params import (PHYSICS_VERSION, PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps,
                      preset_original)
 
 __all__ = [
     "SweepSpec", "SweepPoint", "PointTask", "load_spec", "parse_spec", "point_name", "run_point", "run_sweep",
-    "read_manifest", "add_sweep_parser", "cmd_sweep", "main", "GRID_ALIASES", "MANIFEST_COLUMNS",
+    "read_manifest", "GRID_ALIASES", "MANIFEST_COLUMNS",
 ]
 
 #: grid keys that are the ``python -m sim run`` overrides -> SimParams field of the original system
 GRID_ALIASES = {"gamma": "surface_tension", "omega": "drum_omega", "seed": "seed", "particles": "n_particles"}
 #: canonical order of the named keys in point names and manifest columns (others follow, sorted)
-_NAMED = ("gamma", "omega", "alpha", "seed", "particles")
+_NAMED = NAMED_PARAMETERS
 #: SimParams fields that cannot be grid keys under their own name
 _NOT_FIELDS = {"alpha", "surface_tension", "drum_omega", "n_particles", "seed", "gravity"}
 _TOP_LEVEL = {"preset", "revolutions", "frame_every_rev", "checkpoint_every", "threads", "grid"}
 
-#: manifest columns (after ``point``, ``status`` and the parameters)
-MANIFEST_COLUMNS = ("preset", "revolutions", "frame_every_rev", "physics_version", "wall_time_s", "resumed", "file",
-                    "sha256", "error", "finished_utc")
 #: what every point of a folder shares (the simulator's physics version included: a finished
 #: point of another version is not reused)
 _SETTINGS = ("preset", "revolutions", "frame_every_rev", "physics_version")
@@ -285,7 +282,7 @@ def run_point(task: PointTask) -> dict:
 
     from granalytics import configure_threading, open_run
 
-    from .run import Simulation
+    from ..run import Simulation
 
     configure_threading()  # before numba starts its threads: OpenMP, not TBB (tens of times slower here)
     numba.set_num_threads(max(1, min(task.threads, numba.config.NUMBA_NUM_THREADS)))
@@ -307,9 +304,10 @@ def run_point(task: PointTask) -> dict:
     return {"resumed": resumed, "wall_time_s": wall_time_s}
 
 
-def _one_line(exc) -> str:
-    text = " ".join(str(exc).split())
-    text = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+def _error_cell(exc) -> str:
+    """A failed point's error for its manifest cell: the type and the message on one line, at most 500 characters."""
+    text = one_line(exc)
+    text = text if text == type(exc).__name__ else f"{type(exc).__name__}: {text}"
     return text if len(text) <= 500 else text[:497] + "..."
 
 
@@ -335,51 +333,8 @@ def _execute(runner, task: PointTask) -> dict:
         return {"status": "done", "wall_time_s": wall_time_s, "sha256": _sha256(task.out),
                 "error": "", "resumed": bool(info.get("resumed", False))}
     except Exception as exc:  # reported in the manifest; the sweep goes on
-        return {"status": "failed", "wall_time_s": time.perf_counter() - t0, "sha256": "", "error": _one_line(exc),
+        return {"status": "failed", "wall_time_s": time.perf_counter() - t0, "sha256": "", "error": _error_cell(exc),
                 "resumed": False}
-
-
-# ----------------------------------------------------------------------------- manifest
-def read_manifest(out_dir):
-    """``DIR/manifest.csv`` as a DataFrame (empty strings for missing text)."""
-    import pandas as pd
-
-    path = os.path.join(out_dir, "manifest.csv")
-    table = pd.read_csv(path, dtype={"point": str, "status": str, "preset": str, "file": str, "sha256": str,
-                                     "error": str, "finished_utc": str})
-    for col in ("sha256", "error", "file", "finished_utc"):
-        if col in table:
-            table[col] = table[col].fillna("")
-    return table
-
-
-def _load_rows(out_dir) -> dict:
-    if not os.path.exists(os.path.join(out_dir, "manifest.csv")):
-        return {}
-    try:
-        table = read_manifest(out_dir)
-    except Exception as exc:
-        raise ParameterError(f"{os.path.join(out_dir, 'manifest.csv')}: cannot read the manifest ({_one_line(exc)})") from None
-    if "point" not in table or "status" not in table:
-        raise ParameterError(f"{os.path.join(out_dir, 'manifest.csv')}: not a sweep manifest (no point/status columns)")
-    rows = {}
-    for row in table.to_dict("records"):
-        rows[row["point"]] = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
-    return rows
-
-
-def _write_manifest(out_dir, rows):
-    import pandas as pd
-
-    params = []
-    for row in rows.values():
-        for key in row:
-            if key not in ("point", "status", *MANIFEST_COLUMNS) and key not in params:
-                params.append(key)
-    params = [k for k in _NAMED if k in params] + sorted(k for k in params if k not in _NAMED)
-    columns = ["point", "status", *params, *MANIFEST_COLUMNS]
-    table = pd.DataFrame(list(rows.values()), columns=columns)
-    write_atomically(os.path.join(out_dir, "manifest.csv"), lambda tmp: table.to_csv(tmp, index=False))
 
 
 def _is_complete(out_dir, row) -> bool:
@@ -444,8 +399,8 @@ def run_sweep(spec_path, out_dir, workers=None, scheduler=None, progress=True, p
     os.makedirs(os.path.join(out_dir, "points"), exist_ok=True)
     # one sweep at a time per folder: a second one would run the same points and overwrite the
     # manifest (the lock file of its manifest, taken over when its holder was killed)
-    with WriterLock(os.path.join(out_dir, "manifest.csv")):
-        rows = _load_rows(out_dir)
+    with WriterLock(manifest_path(out_dir)):
+        rows = manifest_rows(out_dir)
         settings = {"preset": spec.preset, "revolutions": spec.revolutions, "frame_every_rev": spec.frame_every_rev,
                     "physics_version": PHYSICS_VERSION}
         todo = []
@@ -456,14 +411,14 @@ def run_sweep(spec_path, out_dir, workers=None, scheduler=None, progress=True, p
                     if row.get(key) is not None and not _same(row[key], settings[key]):
                         now = "this simulator has" if key == "physics_version" else "the spec has"
                         raise ParameterError(
-                            f"{os.path.join(out_dir, 'manifest.csv')}: point {point.name} was run with {key}="
+                            f"{manifest_path(out_dir)}: point {point.name} was run with {key}="
                             f"{row[key]!r}, {now} {settings[key]!r}; use another --out folder")
             if not _is_complete(out_dir, row):
                 todo.append(point)
         if todo:
             _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler, progress)
-        elif not os.path.exists(os.path.join(out_dir, "manifest.csv")):
-            _write_manifest(out_dir, rows)
+        elif not os.path.exists(manifest_path(out_dir)):
+            write_manifest(out_dir, rows.values())
         return read_manifest(out_dir)
 
 
@@ -493,14 +448,14 @@ def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler,
             try:
                 client = Client(scheduler, timeout="20s")
             except (OSError, TimeoutError, ValueError) as exc:
-                raise ParameterError(f"cannot connect to the dask scheduler {scheduler} ({_one_line(exc)})") from None
+                raise ParameterError(f"cannot connect to the dask scheduler {scheduler} ({one_line(exc)})") from None
         else:
             n = workers if workers is not None else max(1, min(os.cpu_count() or 1, len(todo)))
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                    silence_logs=logging.ERROR)
             client = Client(cluster)
         try:
-            _write_manifest(out_dir, rows)  # the points as running, once there is a cluster to run them
+            write_manifest(out_dir, rows.values())  # the points as running, once there is a cluster to run them
             token = uuid.uuid4().hex[:8]
             futures = {client.submit(_execute, runner, task, key=f"sweep-{token}-{name}", pure=False, retries=0): name
                        for name, task in tasks.items()}
@@ -511,11 +466,11 @@ def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler,
                 try:
                     result = future.result()
                 except Exception as exc:  # the task itself did not finish (e.g. its worker kept dying)
-                    result = {"status": "failed", "wall_time_s": None, "sha256": "", "error": _one_line(exc),
+                    result = {"status": "failed", "wall_time_s": None, "sha256": "", "error": _error_cell(exc),
                               "resumed": False}
                 rows[name].update(result)
                 rows[name]["finished_utc"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-                _write_manifest(out_dir, rows)
+                write_manifest(out_dir, rows.values())
                 bar.set_postfix_str(f"{name}: {result['status']}")
             bar.close()
         finally:
@@ -523,62 +478,3 @@ def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler,
     finally:
         if cluster is not None:
             cluster.close()
-
-
-# ----------------------------------------------------------------------------- command line
-def _configure(p):
-    p.add_argument("spec", help="sweep spec (.toml): preset, revolutions, frame_every_rev and a [grid] of lists")
-    p.add_argument("--out", required=True, help="sweep folder: points/<point>.h5 and manifest.csv")
-    p.add_argument("--workers", type=int, help="worker processes of the local dask cluster, one thread each "
-                                               "(default: the cores, at most the points to run)")
-    p.add_argument("--scheduler", metavar="ADDR", help="use an existing dask cluster (tcp://host:port) instead "
-                                                       "of a local one; its workers must see --out at the same path")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=cmd_sweep)
-    return p
-
-
-def add_sweep_parser(subparsers):
-    """Add the ``sweep`` subcommand to ``subparsers`` (from ``ArgumentParser.add_subparsers``);
-    its ``func`` is :func:`cmd_sweep`. Returns the subcommand's parser."""
-    p = subparsers.add_parser(
-        "sweep", help="run a parameter study on dask (one run file per grid point)",
-        description="Run every point of the grid of a TOML sweep spec as a dask task (a local cluster of "
-                    "single-threaded worker processes, or --scheduler), one run file per point in OUT/points, "
-                    "recorded in OUT/manifest.csv. Finished points are skipped, interrupted ones resume from "
-                    "their checkpoint, failed ones are recorded and the others go on. See docs/parameter_studies.md.")
-    return _configure(p)
-
-
-def cmd_sweep(args) -> int:
-    """Run the ``sweep`` subcommand. Bad input raises :class:`ParameterError` (a ``ValueError``;
-    the caller prints it as one line, exit 2). Returns 0, 1 when a point failed, 130 when
-    interrupted (Ctrl-C)."""
-    try:
-        table = run_sweep(args.spec, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
-    except KeyboardInterrupt:
-        print(f"sim: interrupted; the same command continues the sweep in {args.out} (finished points are "
-              "skipped, the others resume from their checkpoints)", file=sys.stderr)
-        return 130
-    spec = load_spec(args.spec)
-    mine = table[table["point"].isin([p.name for p in spec.points])]
-    done = int((mine["status"] == "done").sum())
-    failed = mine[mine["status"] == "failed"]
-    print(f"sweep {args.out}: {len(mine)} points, {done} done, {len(failed)} failed; "
-          f"manifest {os.path.join(args.out, 'manifest.csv')}")
-    for row in failed.itertuples():
-        print(f"  failed {row.point}: {row.error}")
-    return 1 if len(failed) else 0
-
-
-def main(argv=None) -> int:
-    """``python -m sim.sweep SPEC.toml --out DIR ...`` (the same as ``python -m sim sweep``)."""
-    parser = argparse.ArgumentParser(prog="python -m sim.sweep", description="Run a parameter sweep on dask.")
-    args = _configure(parser).parse_args(argv)
-    from .cli import reporting_errors
-
-    return reporting_errors(lambda: args.func(args))  # as python -m sim sweep
-
-
-if __name__ == "__main__":
-    sys.exit(main())

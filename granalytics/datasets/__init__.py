@@ -48,12 +48,12 @@ import sys
 import threading
 from pathlib import Path
 
-from .errors import GranalyticsError
+from ..errors import GranalyticsError
 
 __all__ = ["DATASETS", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path", "bundle_sweep",
            "make_sweep"]
 
-DATASET_DIR = Path(__file__).resolve().parents[1] / "datasets"
+DATASET_DIR = Path(__file__).resolve().parents[2] / "datasets"
 _RAW_DIR = "build/runs"  # full-resolution simulator output (not bundled), relative to the repository root
 
 
@@ -196,7 +196,7 @@ def dataset_path(name: str) -> Path:
 
 def open_dataset(name: str):
     """Open a bundled dataset as a :class:`~granalytics.Run`."""
-    from .io import open_run
+    from ..io import open_run
 
     return open_run(dataset_path(name))
 
@@ -270,8 +270,8 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     import shutil
     import tempfile
 
-    from .io import WriterLock, open_run, subset_run, thinned_frames
-    from .study import read_manifest
+    from ..io import WriterLock, open_run, subset_run, thinned_frames
+    from ..manifest import read_manifest
 
     src, dst = Path(src), Path(dst)
     dst.parent.mkdir(parents=True, exist_ok=True)
@@ -358,70 +358,3 @@ def make_sweep(name: str, *, dry_run=False, progress=False) -> str:
     digest = _sha256(DATASET_DIR / entry["dir"] / "manifest.csv")
     _say(name, f"manifest sha256 {digest}")
     return digest
-
-
-def _main(argv=None) -> int:
-    import argparse
-
-    from .cli import _interval
-
-    parser = argparse.ArgumentParser(prog="python -m granalytics.datasets",
-                                     description="List or regenerate the bundled datasets.")
-    sub = parser.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="the registry")
-    p = sub.add_parser("make", help="regenerate datasets from their recipes")
-    p.add_argument("names", nargs="*", help="datasets (default: all)")
-    p.add_argument("--dry-run", action="store_true", help="print the commands only")
-    p.add_argument("--jobs", "-j", type=int, default=1,
-                   help="recipes run at the same time (default 1; each simulation uses one thread, the sweep its "
-                        "own workers)")
-    b = sub.add_parser("bundle-sweep", help="copy a sweep folder's finished points as float32 for bundling")
-    b.add_argument("src", help="sweep folder written by python -m sim sweep")
-    b.add_argument("dst", help="folder to write")
-    b.add_argument("--overwrite", action="store_true", help="replace dst if it exists")
-    b.add_argument("--every", type=int, default=1, help="keep one frame in N outside --full-window (default 1: all)")
-    b.add_argument("--full-window", type=_interval, default=None, metavar="R0:R1",
-                   help="revolutions in which every frame is kept (with --every)")
-    args = parser.parse_args(argv)
-    if args.command == "list":
-        for name, entry in {**DATASETS, **SWEEPS}.items():
-            print(f"{name:<20} {entry.get('file', entry.get('dir')):<28} {entry['description']}")
-            for command in entry["commands"]:
-                print(f"{'':<21}$ {command}")
-        return 0
-    if args.command == "bundle-sweep":
-        try:
-            print(bundle_sweep(args.src, args.dst, overwrite=args.overwrite, every=args.every,
-                               full_window=args.full_window))
-        except (GranalyticsError, OSError) as exc:
-            print(f"python -m granalytics.datasets bundle-sweep: error: {exc}", file=sys.stderr)
-            return 2
-        return 0
-    known = {**DATASETS, **SWEEPS}
-    unknown = [n for n in args.names if n not in known]
-    if unknown:
-        print(f"python -m granalytics.datasets: error: unknown dataset {unknown[0]!r}; available: "
-              f"{', '.join(known)}", file=sys.stderr)
-        return 2
-    if args.jobs < 1:
-        print(f"python -m granalytics.datasets: error: --jobs must be at least 1, got {args.jobs}", file=sys.stderr)
-        return 2
-
-    def make(name):  # progress bars only when one recipe runs at a time (side by side they would interleave)
-        return (make_sweep if name in SWEEPS else make_dataset)(name, dry_run=args.dry_run, progress=args.jobs == 1)
-
-    names = args.names or list(known)
-    # the recipes' processes run side by side (or one after the other); a failed one does not stop
-    # the others, and each failure is one line
-    from concurrent.futures import ThreadPoolExecutor
-
-    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        futures = {name: pool.submit(make, name) for name in names}
-    failed = {name: f.exception() for name, f in futures.items() if f.exception() is not None}
-    for name, exc in failed.items():
-        print(f"python -m granalytics.datasets: error: {name}: {exc}", file=sys.stderr)
-    return 1 if failed else 0
-
-
-if __name__ == "__main__":
-    sys.exit(_main())

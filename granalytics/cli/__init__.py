@@ -1,0 +1,73 @@
+"""Command line of granalytics: ``granalytics COMMAND …`` (``granalytics --help`` lists the commands).
+
+One module per command group, each adding its commands to the parser and running them:
+:mod:`.analysis` (info, identify, stats, sensitivity, compare-methods, compare-cg), :mod:`.data`
+(subset, export-vtk, convert, synthetic), :mod:`.tracking` (track), :mod:`.study` (study, sweep) and
+:mod:`.datasets` (datasets); shared option and output helpers in :mod:`._common`. Library modules
+never import this package.
+
+Errors about the input (files, frames, parameters) are printed as one line on stderr with exit
+status 2, never as a traceback; warnings as one line each.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .._version import __version__
+from ..errors import GranalyticsError
+from ..files import warnings_as_lines
+from . import analysis, data, datasets, study, tracking
+
+__all__ = ["main", "build_parser", "COMMANDS"]
+
+#: the commands in the order of ``granalytics --help``, each with the function that adds its parser
+COMMANDS = {
+    "info": analysis.add_info_parser,
+    "identify": analysis.add_identify_parser,
+    "stats": analysis.add_stats_parser,
+    "sensitivity": analysis.add_sensitivity_parser,
+    "compare-methods": analysis.add_compare_methods_parser,
+    "compare-cg": analysis.add_compare_cg_parser,
+    "subset": data.add_subset_parser,
+    "track": tracking.add_track_parser,
+    "study": study.add_study_parser,
+    "sweep": study.add_sweep_parser,
+    "export-vtk": data.add_export_vtk_parser,
+    "convert": data.add_convert_parser,
+    "datasets": datasets.add_datasets_parser,
+    "synthetic": data.add_synthetic_parser,
+}
+#: commands whose arguments are another program's command line (parsed there, --help included)
+_FORWARDED = {"sweep": study.sweep_main, "datasets": datasets.forwarded_main}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``granalytics`` argument parser with every command of :data:`COMMANDS`."""
+    parser = argparse.ArgumentParser(prog="granalytics", description="Granule analytics for wet-granulation DEM runs.")
+    parser.add_argument("--version", action="version", version=f"granalytics {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add in COMMANDS.values():
+        add(sub)
+    return parser
+
+
+def main(argv=None):
+    """Entry point of the ``granalytics`` console script; returns the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] and argv[0] in _FORWARDED:  # another command line, options and --help included
+        return _FORWARDED[argv[0]](argv[1:])
+    args = build_parser().parse_args(argv)
+    import matplotlib
+
+    matplotlib.use("Agg")  # the command line only writes figures to files
+    from .._threading import configure_threading
+
+    configure_threading()
+    with warnings_as_lines("granalytics"):
+        try:
+            return args.func(args)
+        except (GranalyticsError, OSError, ValueError, OverflowError) as exc:  # bad input or environment: one line
+            print(f"granalytics: error: {exc}", file=sys.stderr)
+            return 2

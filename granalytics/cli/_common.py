@@ -1,0 +1,203 @@
+"""What every command shares: option parsers and adders, the frame selection, and the output
+checks and writers (every output checked before the work that makes it, written atomically)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+
+import numpy as np
+
+from ..cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
+from ..errors import GranalyticsError, ParameterError, ValidationError
+from ..files import check_output_folder, write_atomically
+from ..identify import BACKENDS, make_identifier
+
+def interval(text):
+    """Parse ``A:B`` into a pair of floats."""
+    try:
+        lo, hi = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected START:STOP (two numbers), got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+        raise argparse.ArgumentTypeError(f"expected START <= STOP, got {text!r}")
+    return lo, hi
+
+
+#: most values a START:STOP:NUM grid may have (a sensitivity table has frames × C × A rows)
+MAX_GRID = 10_000
+
+
+def grid(text):
+    """Parse ``START:STOP:NUM`` (NUM evenly spaced values, both ends included) or ``A,B,C``."""
+    try:
+        if ":" in text:
+            start, stop, num = text.split(":")
+            num = int(num)
+            if not 1 <= num <= MAX_GRID:
+                raise argparse.ArgumentTypeError(f"NUM must be in [1, {MAX_GRID}], got {num} in {text!r}")
+            values = np.linspace(float(start), float(stop), num)
+        else:
+            values = np.array([float(x) for x in text.split(",") if x.strip()])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected START:STOP:NUM or a comma-separated list, got {text!r}") from None
+    if values.size == 0 or not np.isfinite(values).all():
+        raise argparse.ArgumentTypeError(f"no valid values in {text!r}")
+    return values
+
+
+def setting(text):
+    """Parse ``METHOD.PARAM=VALUE`` (VALUE as number, true/false/none, or text)."""
+    try:
+        key, value = text.split("=", 1)
+        method, param = key.split(".", 1)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected METHOD.PARAM=VALUE, got {text!r}") from None
+    lowered = value.strip().lower()
+    if lowered in ("true", "false"):
+        parsed = lowered == "true"
+    elif lowered == "none":
+        parsed = None
+    else:
+        try:
+            parsed = int(value)
+        except ValueError:
+            try:
+                parsed = float(value)
+            except ValueError:
+                parsed = value
+    return method.strip(), param.strip(), parsed
+
+
+def add_cohesion_option(parser):
+    parser.add_argument("--cohesion", choices=COHESION_CONVENTIONS, default=DEFAULT_COHESION,
+                        help="which force is F_coh: 'acting' = the cohesion the DEM code applied (a separated "
+                             "bridge's force; 0 for touching pairs unless the run applied capillary force in contact), "
+                             "'bridge' = the bridge force of every wet pair, touching or not (default acting)")
+
+
+def add_gna_options(parser):
+    group = parser.add_argument_group("granule identification (graph network analysis, paper §2.2)")
+    add_cohesion_option(group)
+    group.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold: keep F_coh >= C_agg·2πγR (default 0.6)")
+    group.add_argument("--a-agg-deg", type=float, default=20.0, help="co-motion threshold angle A_agg in degrees (default 20)")
+    group.add_argument("--radius", choices=("pair", "mean"), default="pair",
+                       help="R in 2πγR: pair effective radius 2RiRj/(Ri+Rj) or the run's mean radius (default pair)")
+    group.add_argument("--backend", choices=sorted(BACKENDS), default="fast", help="connected-components backend (default fast)")
+    group.add_argument("--window-rev", type=interval, default=None, metavar="R0:R1",
+                       help="only frames within this revolution window (default: all frames)")
+
+
+def gna_identifier(args):
+    return make_identifier(
+        "gna", c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+        cohesion=args.cohesion,
+    )
+
+
+def selected_frames(run, args):
+    frames = run if args.window_rev is None else run.select(revolutions=args.window_rev)
+    if not len(frames):
+        raise ParameterError(f"{run.path}: no frame in the selection (the run has {len(run)} frames)")
+    return frames
+
+
+def window_axis(frames, by="revolutions"):
+    """The frames' times [s] or revolutions for :func:`~granalytics.stats.check_window`; NaN
+    revolutions for a run whose drum does not turn (which check_window then reports)."""
+    try:
+        return frames.times if by == "time_s" else frames.revolutions
+    except ValidationError:
+        return np.full(len(frames), np.nan)
+
+
+def progress(args):
+    return not args.quiet
+
+
+def json_safe(value):
+    """``value`` with NaN and infinities as None: JSON has no such numbers (``json.dumps``
+    would write the invalid tokens NaN and Infinity)."""
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+_TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
+
+
+def table_format(path):
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in _TABLE_FORMATS:
+        raise ParameterError(f"{path}: unknown table format {ext!r} (use .csv or .parquet)")
+    return _TABLE_FORMATS[ext]
+
+
+def save_figure(fig, path):
+    ext = os.path.splitext(path)[1].lstrip(".").lower() or "png"
+    try:
+        write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=ext))
+    except (OSError, ValueError) as exc:
+        raise GranalyticsError(f"{path}: cannot write plot ({exc})") from None
+    print(f"wrote plot to {path}")
+
+
+def check_new_file(path, overwrite):
+    """Before any work: refuse to replace an existing file unless ``--overwrite``, a folder
+    always, and a file whose folder does not exist or is not writable."""
+    if os.path.isdir(path):
+        raise ParameterError(f"{path}: is a folder, expected a file name")
+    if os.path.exists(path) and not overwrite:
+        raise ParameterError(f"{path}: file exists (pass --overwrite to replace it)")
+    check_output_folder(path)
+
+
+def check_plot_path(path):
+    """Refuse a figure file whose extension matplotlib's Agg canvas cannot write."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    formats = sorted(FigureCanvasAgg.get_supported_filetypes())
+    ext = os.path.splitext(path)[1].lstrip(".").lower()
+    if ext not in formats:
+        raise ParameterError(f"{path}: unknown figure format {ext!r} (use one of {', '.join(formats)})")
+
+
+def check_table_paths(*paths):
+    """Fail before any work if an output table has an unknown format."""
+    for path in paths:
+        if path:
+            table_format(path)
+
+
+def check_outputs(args, tables=(), others=(), plots=()):
+    """Before any work: output tables and figures have a known format, no two outputs are the
+    same file, none is the input run, none exists unless ``--overwrite``, and each one's folder
+    exists and is writable."""
+    paths = [p for p in (*tables, *others, *plots) if p]
+    seen = {os.path.abspath(args.run): "the input run"} if getattr(args, "run", None) else {}
+    for path in paths:
+        key = os.path.abspath(path)
+        if key in seen:
+            raise ParameterError(f"{path}: the same file is given twice ({seen[key]} and an output)")
+        seen[key] = path
+    check_table_paths(*tables)
+    for path in plots:
+        if path:
+            check_plot_path(path)
+    for path in paths:
+        check_new_file(path, args.overwrite)
+
+
+def write_table(table, path):
+    try:
+        if table_format(path) == "csv":
+            write_atomically(path, lambda tmp: table.to_csv(tmp, index=False))
+        else:
+            write_atomically(path, lambda tmp: table.to_parquet(tmp, index=False))
+    except OSError as exc:
+        raise GranalyticsError(f"{path}: cannot write ({exc})") from None

@@ -1,0 +1,345 @@
+"""Analysis commands: info, identify, stats, sensitivity, compare-methods, compare-cg."""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+
+import numpy as np
+
+from ..errors import GranalyticsError, ParameterError
+from ..files import write_atomically
+from ..io import open_run
+from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
+from ._common import (add_cohesion_option, add_gna_options, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
+                      setting, window_axis, write_table)
+
+
+def add_info_parser(sub):
+    """Add the ``info`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("info", help="what a run file holds", description="Print what a run file holds: frames, particles, time span, metadata.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_info)
+    return p
+
+
+def add_identify_parser(sub):
+    """Add the ``identify`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("identify", help="granule labels per frame to a file",
+                       description="Identify granules in every frame and write the labels (−1 = free particle) to an HDF5 file.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--out", required=True, help="labels file to write (.h5): datasets labels, ids, time, frame_index, n_granules")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing labels file")
+    add_gna_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_identify)
+    return p
+
+
+def add_stats_parser(sub):
+    """Add the ``stats`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("stats", help="granulation time series and steady-state table",
+                       description="Granule number, mean volume and yield per frame; steady-state averages over a revolution window.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
+                   help="steady-state window in revolutions (default 3:6)")
+    p.add_argument("--out", help="time series table to write (.csv or .parquet)")
+    p.add_argument("--sizes-out", help="particles-per-granule distribution over the window (.csv or .parquet)")
+    p.add_argument("--plot", help="figure of the time series and size distribution (.png, .pdf, .svg)")
+    p.add_argument("--window-time", type=interval, metavar="T0:T1",
+                   help="steady-state window in seconds instead of revolutions (any run, also without a rotating drum)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    add_gna_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_stats)
+    return p
+
+
+def add_sensitivity_parser(sub):
+    """Add the ``sensitivity`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("sensitivity", help="GNA statistics over a C_agg × A_agg grid",
+                       description="Yield, granule number and mean granule volume of every frame in a revolution window "
+                                   "at every (C_agg, A_agg), the C_agg axis in one pass per frame; mean ± std over the window.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--c-agg", type=grid, default=grid("0.1:1.0:19"), metavar="GRID",
+                   help="cohesion thresholds: START:STOP:NUM or a list (default 0.1:1.0:19)")
+    p.add_argument("--a-agg-deg", type=grid, default=grid("5,10,20,45,90"), metavar="GRID",
+                   help="angle thresholds in degrees (default 5,10,20,45,90)")
+    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
+                   help="revolution window (default 3:6)")
+    p.add_argument("--radius", choices=("pair", "mean"), default="pair", help="R in 2πγR (default pair)")
+    add_cohesion_option(p)
+    p.add_argument("--jobs", type=int, default=1, help="worker threads over frames (default 1)")
+    p.add_argument("--out", help="summary table over the window (.csv or .parquet)")
+    p.add_argument("--frames-out", help="per-frame table (.csv or .parquet)")
+    p.add_argument("--plot", help="heatmaps and line plots (.png, .pdf, .svg)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sensitivity)
+    return p
+
+
+def add_compare_methods_parser(sub):
+    """Add the ``compare-methods`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("compare-methods", help="compare identification methods frame by frame",
+                       description="Run several identification methods on the same frames; adjusted Rand index and "
+                                   "differences of granule number and yield for every pair.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--methods", type=lambda t: [m.strip() for m in t.split(",") if m.strip()],
+                   default=["gna", "dbscan", "sieve", "community"], help="comma-separated (default gna,dbscan,sieve,community)")
+    p.add_argument("--set", action="append", type=setting, metavar="METHOD.PARAM=VALUE",
+                   help="a method parameter, e.g. dbscan.eps_diameters=1.2 or gna.a_agg_deg=30 (repeatable)")
+    add_cohesion_option(p)
+    p.add_argument("--window-rev", type=interval, default=None, metavar="R0:R1",
+                   help="only frames within this revolution window (default: all frames)")
+    p.add_argument("--out", help="pairwise comparison per frame (.csv or .parquet)")
+    p.add_argument("--stats-out", help="statistics per frame and method (.csv or .parquet)")
+    p.add_argument("--plot", help="figure (.png, .pdf, .svg)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_compare)
+    return p
+
+
+def add_compare_cg_parser(sub):
+    """Add the ``compare-cg`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("compare-cg", help="compare runs at several CG factors (paper Figs 3–6)",
+                       description="Granule volume, number, size distribution and yield of runs of one system at "
+                                   "several CG factors α: the paper's Figs 3–6 (PNG and PDF), a table of steady-state "
+                                   "mean ± std (block s.e.m.) with the relative deviation from the finest run, the "
+                                   "Kolmogorov–Smirnov distance of the size distributions, and the measured CG speed-up.")
+    p.add_argument("runs", nargs="+", help="run files (.h5), at least two")
+    p.add_argument("--out", required=True, help="output folder: cg_table.csv, cg_timeseries.csv, cg_sizes.csv, fig3–fig6 .png/.pdf")
+    p.add_argument("--labels", help="comma-separated run names (default: CG<α> (<N> particles))")
+    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
+                   help="steady-state window in revolutions (default 3:6)")
+    p.add_argument("--method", choices=("gna", "dbscan", "sieve", "community"), default="gna",
+                   help="identification method (default gna, the paper's)")
+    p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
+    p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
+    p.add_argument("--set", action="append", type=lambda t: setting("method." + t)[1:], metavar="PARAM=VALUE",
+                   help="another method parameter, e.g. radius=mean or eps_diameters=1.2 (repeatable)")
+    add_cohesion_option(p)
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_compare_cg)
+    return p
+
+
+def cmd_info(args):
+    from ..bed import bed_structure
+
+    with open_run(args.run) as run:
+        info = run.info()
+        meta = run.meta.to_dict()
+        bed = bed_structure(run[len(run) - 1]) if len(run) else None
+    if bed is not None and bed.planar and meta.get("drum_omega"):
+        warnings.warn(f"{args.run}: planar drum run, its granules and statistics are those of stacked 2-D monolayers: "
+                      f"{bed.describe()} (last frame)")
+    if args.json:
+        print(json.dumps(json_safe({"file": info, "meta": meta, "bed_last_frame": bed.to_dict() if bed else None}),
+                         indent=2, default=str))
+        return 0
+    width = max(len(k) for k in list(info) + list(meta))
+    print("file")
+    for key, value in info.items():
+        print(f"  {key:<{width}}  {value}")
+    if bed is not None:
+        print(f"  {'bed (last frame)':<{width}}  {bed.describe()}")
+    print("run metadata (SI units; contact_angle in rad)")
+    for key, value in meta.items():
+        if key in ("sim_config", "provenance"):
+            value = json.dumps(value) if value else "{}"
+            if len(value) > 100:
+                value = value[:97] + "..."
+        print(f"  {key:<{width}}  {value}")
+    return 0
+
+
+def cmd_identify(args):
+    import h5py
+
+    identifier = gna_identifier(args)
+    check_outputs(args, others=(args.out,))
+    with open_run(args.run) as run:
+        frames = selected_frames(run, args)
+        n_frames, n = len(frames), run.n_particles
+
+        def write(tmp):  # renamed into place only when every frame is written
+            try:
+                out = h5py.File(tmp, "w")
+            except OSError as exc:
+                raise GranalyticsError(f"{args.out}: cannot create labels file ({exc})") from None
+            with out:
+                _write_labels(out, args, frames, identifier, n_frames, n)
+                return out["n_granules"][:]
+
+        counts = write_atomically(args.out, write)
+    print(f"wrote {args.out}: labels of {n} particles in {n_frames} frames "
+          f"(granules per frame: min {counts.min()}, mean {counts.mean():.1f}, max {counts.max()})")
+    return 0
+
+
+def _write_labels(out, args, frames, identifier, n_frames, n):
+    """Fill an open labels file: attributes, frame index and time, labels and ids per frame."""
+    from tqdm.auto import tqdm
+
+    out.attrs["format"] = "granalytics-labels"
+    out.attrs["run"] = os.path.abspath(args.run)
+    out.attrs["method"] = identifier.method
+    out.attrs["params"] = json.dumps(identifier.params())
+    out["frame_index"] = frames.frame_indices
+    out["time"] = frames.times
+    out["time"].attrs["unit"] = "s"
+    chunked = dict(chunks=(1, n), compression="gzip", shuffle=True)
+    labels = out.create_dataset("labels", (n_frames, n), dtype=np.int32, **chunked)
+    ids = out.create_dataset("ids", (n_frames, n), dtype=np.int64, **chunked)
+    n_granules = out.create_dataset("n_granules", (n_frames,), dtype=np.int64)
+    for k, snapshot in enumerate(tqdm(frames, disable=not progress(args), unit="frame", desc="identify")):
+        result = identifier.identify(snapshot)
+        labels[k] = result.labels
+        ids[k] = snapshot.ids
+        n_granules[k] = result.n_granules
+
+
+def cmd_stats(args):
+    import pandas as pd
+
+    check_outputs(args, tables=(args.out, args.sizes_out), plots=(args.plot,))
+    by, window = ("time_s", args.window_time) if args.window_time is not None else ("revolutions", args.window)
+    with open_run(args.run) as run:
+        frames = selected_frames(run, args)
+        # the window is checked on the frame times before the analysis (its warnings come with the table)
+        in_window, _ = check_window(window_axis(frames, by), window, by=by, source=args.run, warn=False)
+        ts, sizes = run_stats(
+            frames, "gna", progress=progress(args), return_sizes=True,
+            c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+            cohesion=args.cohesion,
+        )
+    steady = steady_state(ts, window=window, by=by, source=args.run)
+    dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
+    if args.out:
+        write_table(ts, args.out)
+        print(f"wrote time series ({len(ts)} frames) to {args.out}")
+    if args.sizes_out:
+        write_table(dist, args.sizes_out)
+        print(f"wrote size distribution to {args.sizes_out}")
+    if args.plot:
+        from ..plot import stats_figure
+
+        save_figure(stats_figure(ts, dist, window=window, x=by,
+                           title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}"), args.plot)
+    lo, hi = window
+    print(f"steady state over {'revolutions' if by == 'revolutions' else 'time [s]'} [{lo:g}, {hi:g}] "
+          f"(C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°, cohesion={args.cohesion}):")
+    with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
+        print(steady.to_string())
+    return 0
+
+
+def cmd_sensitivity(args):
+    from ..sensitivity import sensitivity, sensitivity_summary
+
+    check_outputs(args, tables=(args.out, args.frames_out), plots=(args.plot,))
+    if (args.c_agg < 0).any():
+        raise ParameterError(f"--c-agg values must be >= 0, got min {args.c_agg.min():g}")
+    bad = [a for a in args.a_agg_deg if not 0 < a <= 180]
+    if bad:
+        raise ParameterError(f"--a-agg-deg values must be in (0, 180] degrees, got {bad[0]:g}")
+    with open_run(args.run) as run:
+        check_window(window_axis(run), args.window, source=args.run)  # refuses an empty window, warns for an uncovered one
+        frames = run.select(revolutions=args.window)
+        table = sensitivity(frames, args.c_agg, args.a_agg_deg, radius=args.radius, cohesion=args.cohesion,
+                            jobs=args.jobs, progress=not args.quiet)
+    summary = sensitivity_summary(table)
+    if args.frames_out:
+        write_table(table, args.frames_out)
+        print(f"wrote per-frame table ({len(table)} rows) to {args.frames_out}")
+    if args.out:
+        write_table(summary, args.out)
+        print(f"wrote summary over {len(frames)} frames ({len(summary)} grid points) to {args.out}")
+    if args.plot:
+        from ..plot import sensitivity_figure
+
+        save_figure(sensitivity_figure(summary, title=f"{os.path.basename(args.run)}, revolutions "
+                                 f"[{args.window[0]:g}, {args.window[1]:g}], cohesion={args.cohesion}"), args.plot)
+    import pandas as pd
+
+    shown = summary[["a_agg_deg", "c_agg", "yield_fraction_mean", "n_granules_norm_mean", "mean_volume_norm_mean"]]
+    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120, "display.max_rows", 40):
+        print(shown.to_string(index=False))
+    return 0
+
+
+def cmd_compare(args):
+    from ..compare import compare_methods
+
+    check_outputs(args, tables=(args.out, args.stats_out), plots=(args.plot,))
+    methods = {name: (name, {}) for name in args.methods}
+    for method, param, value in args.set or []:
+        if method not in methods:
+            raise ParameterError(f"--set {method}.{param}: {method!r} is not among --methods {','.join(methods)}")
+        methods[method][1][param] = value
+    with open_run(args.run) as run:
+        frames = selected_frames(run, args)
+        stats, pairs = compare_methods(frames, methods, cohesion=args.cohesion, progress=not args.quiet)
+    if args.out:
+        write_table(pairs, args.out)
+        print(f"wrote pairwise comparison to {args.out}")
+    if args.stats_out:
+        write_table(stats, args.stats_out)
+        print(f"wrote per-method statistics to {args.stats_out}")
+    if args.plot:
+        from ..plot import comparison_figure
+
+        save_figure(comparison_figure(stats, pairs, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}"), args.plot)
+    import pandas as pd
+
+    mean_stats = stats.groupby("method", sort=False)[["n_granules_norm", "yield_fraction", "mean_volume_norm"]].mean()
+    mean_pairs = pairs.groupby(["method_a", "method_b"], sort=False)[["ari", "d_n_granules_norm", "d_yield_fraction"]].mean()
+    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
+        print(f"means over {len(frames)} frames")
+        print(mean_stats.to_string())
+        print(mean_pairs.to_string())
+    return 0
+
+
+def cmd_compare_cg(args):
+    import inspect
+
+    from ..cg import CGComparison, compare_cg
+    from ..identify import METHODS
+
+    labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
+    accepted = inspect.signature(METHODS[args.method]).parameters
+    params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg)) if k in accepted}
+    for param, value in args.set or []:
+        params[param] = value
+    CGComparison.check_outputs(args.out, overwrite=args.overwrite)  # before minutes of analysis
+    comparison = compare_cg(args.runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
+                            progress=not args.quiet, **params)
+    written = comparison.save(args.out, overwrite=args.overwrite)
+    print(f"wrote {len(written)} files to {args.out}: " + ", ".join(os.path.basename(p) for p in written))
+    print(format_cg_table(comparison))
+    return 0
+
+
+def format_cg_table(comparison) -> str:
+    """The CG table as text: steady-state mean ± s.e.m. of each metric, its deviation from the
+    reference run, the KS distance of the size distributions and the speed-ups."""
+    lines = [f"CG comparison, {comparison.description}; deviations from {comparison.reference}"]
+    header = (f"{'run':<26} {'yield':>19} {'<V_g>/V_p':>21} {'N_g/N':>23} {'KS D':>6} "
+              f"{'speed-up*':>9} {'paper':>6}")
+    lines.append(header)
+    for row in comparison.table.itertuples():
+        cells = []
+        for metric, fmt in (("yield_fraction", ".3f"), ("mean_volume_norm", ".2f"), ("n_granules_norm", ".4f")):
+            mean, sem, dev = (getattr(row, f"{metric}_{x}") for x in ("mean", "sem", "rel_dev"))
+            cells.append(f"{mean:{fmt}} ± {sem:{fmt}} ({dev:+.0%})")
+        lines.append(f"{row.run:<26} {cells[0]:>19} {cells[1]:>21} {cells[2]:>23} {row.ks_distance:>6.3f} "
+                     f"{row.speedup:>8.1f}× {row.paper_speedup:>5.1f}×")
+    lines.append("* wall time per simulated second recorded by the simulator in each run; runs that shared the "
+                 "machine unevenly give unfair ratios (benchmarks/cg_speedup.py measures them side by side)")
+    return "\n".join(lines)

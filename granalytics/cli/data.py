@@ -1,0 +1,153 @@
+"""Data commands: subset (fewer frames, float32), export-vtk (ParaView), convert (other codes' output),
+synthetic (a physics-free test run)."""
+
+from __future__ import annotations
+
+import os
+
+
+from ..errors import ParameterError
+from ..io import open_run
+from ._common import (add_gna_options, check_new_file, interval, selected_frames)
+
+
+def add_subset_parser(sub):
+    """Add the ``subset`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("subset", help="copy some frames of a run, optionally as float32",
+                       description="Write a smaller copy of a run: every --every-th frame, plus every frame inside "
+                                   "--full-window; --float32 stores floating-point data in single precision.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--out", required=True, help="run file to write (.h5)")
+    p.add_argument("--every", type=int, default=1, help="keep every N-th frame (default 1: all)")
+    p.add_argument("--full-window", type=interval, metavar="R0:R1",
+                   help="keep every frame within this revolution window")
+    p.add_argument("--float32", action="store_true", help="store floats as float32 (read back as float64)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_subset)
+    return p
+
+
+def add_export_vtk_parser(sub):
+    """Add the ``export-vtk`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("export-vtk", help="VTK files for ParaView (one .vtu per frame + .pvd)",
+                       description="Write particles (radius, velocities, film, granule label and size) and bonds "
+                                   "(kept by GNA or not, F_coh, bridge volume, gap) per frame, plus a .pvd time series.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--overwrite", action="store_true", help="replace an earlier export of the same run in the folder")
+    add_gna_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_export_vtk)
+    return p
+
+
+def add_convert_parser(sub):
+    """Add the ``convert`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
+    p = sub.add_parser("convert", help="convert LIGGGHTS/LAMMPS dumps into a run file",
+                       description="Read particle dumps (dump custom) and contact dumps (compute pair/gran/local + dump local), "
+                                   "plain or gzip, one or many timesteps per file, and write a granalytics run file.")
+    p.add_argument("particles", nargs="+", help="particle dump files (LIGGGHTS) or particle CSVs (YADE export)")
+    p.add_argument("--from", dest="source", choices=("liggghts", "yade"), default="liggghts",
+                   help="liggghts (LIGGGHTS/LAMMPS dumps) or yade (CSVs of docs/yade_export.py)")
+    p.add_argument("--contacts", nargs="+", required=True, help="contact dump files or contact CSVs")
+    p.add_argument("--mapping", required=True, help="TOML file: for liggghts units, contact columns and material metadata "
+                   "(granalytics.io.lammps.DumpMapping); for yade surface_tension, density, drum_omega, contact_angle, alpha")
+    p.add_argument("--dt-s", type=float, help="simulation time step in seconds (liggghts: time = timestep × dt; "
+                   "yade files carry their time)")
+    p.add_argument("--out", required=True, help="run file to write (.h5)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing run file")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_convert)
+    return p
+
+
+def cmd_subset(args):
+    from ..io import subset_run, thinned_frames
+
+    if args.every < 1:
+        raise ParameterError(f"--every must be >= 1, got {args.every}")
+    if os.path.abspath(args.out) == os.path.abspath(args.run):
+        raise ParameterError(f"{args.out}: --out is the input run")
+    if os.path.exists(args.out) and not args.overwrite:
+        raise ParameterError(f"{args.out}: file exists (pass --overwrite to replace it)")
+    with open_run(args.run) as run:
+        n_frames = len(run)
+        # revolutions only where a window of them is asked for (a static run has none)
+        frames = thinned_frames(run.times if args.full_window is None else run.revolutions, args.every,
+                                args.full_window)
+    subset_run(args.run, args.out, frames, float_dtype="float32" if args.float32 else "float64",
+               overwrite=args.overwrite, progress=not args.quiet)
+    print(f"wrote {args.out}: {len(frames)} of {n_frames} frames"
+          + (", float32" if args.float32 else "") + f", {os.path.getsize(args.out) / 1e6:.1f} MB")
+    return 0
+
+
+def cmd_export_vtk(args):
+    from ..io import WriterLock
+    from ..io.vtk import export_vtk
+
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise ParameterError(f"{args.out}: exists and is not a folder")
+    try:  # before the export, not after its first frame
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
+    pvd_path = os.path.join(args.out, "run.pvd")
+    with WriterLock(pvd_path), open_run(args.run) as run:  # one export at a time into the folder
+        if os.path.exists(pvd_path) and not args.overwrite:
+            raise ParameterError(f"{pvd_path}: exists (pass --overwrite to replace the export in {args.out})")
+        frames = selected_frames(run, args)
+        ids = frames.frame_indices if hasattr(frames, "frame_indices") else range(len(frames))
+        existing = [p for p in (os.path.join(args.out, f"frame_{int(k):05d}.vtu") for k in ids) if os.path.exists(p)]
+        if existing and not args.overwrite:
+            raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace {len(existing)} frame file(s) "
+                                 f"in {args.out})")
+        pvd = export_vtk(frames, args.out, "gna", progress=not args.quiet, c_agg=args.c_agg,
+                         a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+                         cohesion=args.cohesion)
+    print(f"wrote {len(frames)} frames and {pvd} (open it in ParaView)")
+    return 0
+
+
+def cmd_convert(args):
+    from tqdm.auto import tqdm
+
+    from ..io import RunWriter, replacing_run
+    from ..io.lammps import DumpMapping, read_liggghts
+
+    check_new_file(args.out, args.overwrite)  # before reading the dumps
+    if args.source == "yade":
+        from ..io.yade import read_yade_csv
+
+        snapshots, meta = read_yade_csv(args.particles, args.contacts, args.mapping)
+    else:
+        snapshots, meta = read_liggghts(args.particles, args.contacts, DumpMapping.from_toml(args.mapping), dt=args.dt_s)
+    with replacing_run(args.out, args.overwrite) as tmp, RunWriter(tmp, meta, overwrite=True) as writer:
+        for snapshot in tqdm(snapshots, disable=args.quiet, unit="frame", desc="convert"):
+            writer.append(snapshot)
+    print(f"wrote {args.out}: {len(snapshots)} frames of {meta.n_particles} particles")
+    return 0
+
+
+def add_synthetic_parser(sub):
+    """Add the ``synthetic`` command to ``sub``."""
+    p = sub.add_parser("synthetic", help="write a physics-free synthetic run (planted granules, for tests and demos)",
+                       description="Write a physics-free synthetic run (planted granules; not simulation output).")
+    p.add_argument("--out", required=True, help="run file to write (.h5)")
+    p.add_argument("--particles", type=int, default=3000, help="number of particles (default 3000)")
+    p.add_argument("--revolutions", type=float, default=6.0, help="drum revolutions covered (default 6)")
+    p.add_argument("--frames-per-revolution", type=int, default=20, help="default 20")
+    p.add_argument("--alpha", type=float, default=1.0, help="CG factor α (default 1)")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=cmd_synthetic)
+    return p
+
+
+def cmd_synthetic(args) -> int:
+    from ..synthetic import write_synthetic_run
+
+    path = write_synthetic_run(args.out, args.particles, args.revolutions, args.frames_per_revolution,
+                               alpha=args.alpha, seed=args.seed)
+    print(f"wrote synthetic (physics-free) run {path}")
+    return 0

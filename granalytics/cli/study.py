@@ -1,0 +1,177 @@
+"""Parameter-study commands: ``study`` (steady-state table, Fig 7 fit, GP surrogate) and ``sweep``
+(the simulator's sweep runner, imported only when the command runs)."""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import math
+import os
+
+import pandas as pd
+
+from ..errors import ParameterError
+from ..identify import METHODS
+from ..manifest import read_manifest
+from ..plot import growth_figure
+from ..stats import DEFAULT_WINDOW_REV
+from ..study import _fit_from_table, fit_surrogate, study_table
+from ._common import check_outputs, interval, save_figure, write_table
+
+def parse_predict(text, inputs=("gamma", "omega")) -> dict:
+    """Parse ``"gamma=0.2,omega=3"`` into ``{"gamma": 0.2, "omega": 3.0}``.
+
+    Only the names in ``inputs`` are accepted, each exactly once, every value a finite number
+    (read with ``float``; nothing is evaluated). Raises :class:`ParameterError` otherwise.
+    """
+    values = {}
+    for item in (x.strip() for x in str(text).split(",")):
+        if not item:
+            continue
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep:
+            raise ParameterError(f"--predict: expected NAME=VALUE pairs separated by commas, got {item!r}")
+        if key not in inputs:
+            raise ParameterError(f"--predict: unknown input {key!r}; the inputs are {', '.join(inputs)}")
+        if key in values:
+            raise ParameterError(f"--predict: {key} is given twice")
+        try:
+            number = float(value.strip())
+        except ValueError:
+            raise ParameterError(f"--predict: {key} must be a number, got {value.strip()!r}") from None
+        if not math.isfinite(number):
+            raise ParameterError(f"--predict: {key} must be a finite number, got {value.strip()!r}")
+        values[key] = number
+    missing = [k for k in inputs if k not in values]
+    if missing:
+        raise ParameterError(f"--predict: missing {', '.join(missing)} (give {', '.join(f'{k}=…' for k in inputs)})")
+    return values
+
+
+def add_study_parser(sub):
+    """Add the ``study`` subcommand to ``subparsers`` (from ``ArgumentParser.add_subparsers``);
+    its ``func`` is :func:`cmd_study`. Returns the subcommand's parser."""
+    p = sub.add_parser(
+        "study", help="analyse a parameter sweep: steady-state table, Fig 7 fit, GP surrogate",
+        description="Steady-state yield, mean granule volume and granule number of every finished point of a "
+                    "sweep folder (python -m sim sweep), the fit of <V_g>/V_p = β(γ − γ₁) against the paper's "
+                    "β ≈ 70, γ₁ ≈ 0.027 N/m, and a Gaussian-process surrogate on (gamma, omega) with its "
+                    "leave-one-out error. See docs/parameter_studies.md.")
+    p.add_argument("sweep", help="sweep folder (manifest.csv and points/)")
+    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
+                   help="steady-state window in revolutions (default 3:6)")
+    p.add_argument("--method", choices=sorted(m for m in METHODS if m != "custom"), default="gna",
+                   help="identification method (default gna; a custom criterion needs the Python API, "
+                        "study_table(..., method='custom', criterion=...))")
+    p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
+    p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
+    p.add_argument("--cohesion", choices=("acting", "bridge", "both"), default="both",
+                   help="cohesion convention(s) of the table; fit and surrogate are reported for each, the plot "
+                        "shows the first (default both: acting, bridge)")
+    p.add_argument("--model", choices=("hinge", "linear"), default="hinge",
+                   help="growth fit: hinge β·max(0, γ−γ₁) over all points (default) or a line through the points "
+                        "with granules")
+    p.add_argument("--out", help="study table to write (.csv or .parquet)")
+    p.add_argument("--plot", help="Fig 7 figure to write (.png, .pdf, .svg)")
+    p.add_argument("--predict", action="append", metavar="gamma=G,omega=W",
+                   help="surrogate prediction at this point (repeatable)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_study)
+    return p
+
+
+def cmd_study(args) -> int:
+    """Run the ``study`` subcommand; bad input raises :class:`ParameterError` (one line, exit 2)."""
+    inputs = ["gamma", "omega"]
+    predictions = [parse_predict(text, inputs) for text in (args.predict or [])]
+    if not os.path.isdir(args.sweep):
+        raise ParameterError(f"{args.sweep}: not a folder")
+    sweep = os.path.abspath(args.sweep)
+    for path in (args.out, args.plot):
+        if path and os.path.commonpath([sweep, os.path.abspath(path)]) == sweep:
+            raise ParameterError(f"{path}: inside the sweep folder {args.sweep} (its manifest and points are the input)")
+    check_outputs(args, tables=(args.out,), plots=(args.plot,))
+    conventions = ["acting", "bridge"] if args.cohesion == "both" else [args.cohesion]
+    accepted = inspect.signature(METHODS[args.method]).parameters
+    params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg)) if k in accepted}
+    manifest = read_manifest(args.sweep)
+    table = study_table(args.sweep, window=args.window, method=args.method, cohesion=conventions,
+                        progress=not args.quiet, **params)
+    shown_params = ", ".join(f"{k}={v:g}" for k, v in params.items())
+    print(f"study of {args.sweep}: {table['point'].nunique()} finished points of {len(manifest)} in the manifest; "
+          f"window [{args.window[0]:g}, {args.window[1]:g}] rev, {args.method} ({shown_params})")
+    left = manifest[manifest["status"] != "done"]
+    for row in left.itertuples():
+        error = getattr(row, "error", "")
+        error = error if isinstance(error, str) else ""  # an empty cell reads as NaN
+        print(f"  left out: {row.point} ({row.status}{': ' + error if error else ''})")
+    columns = ["point", "gamma", "omega", "alpha", "cohesion"]
+    cells = table[[c for c in columns if c in table]].copy()
+    for metric, fmt in (("yield_fraction", ".3f"), ("mean_volume_norm", ".3g"), ("n_granules_norm", ".4f")):
+        cells[metric] = [f"{m:{fmt}} ± {s:{fmt}}" for m, s in zip(table[f"{metric}_mean"], table[f"{metric}_sem"])]
+    with pd.option_context("display.width", 160, "display.max_rows", 200, "display.max_colwidth", 60):
+        print(cells.to_string(index=False))
+    if args.out:
+        write_table(table, args.out)
+        print(f"wrote the study table ({len(table)} rows) to {args.out}")
+    fits, surrogates = {}, {}
+    for conv in ([None] if table["cohesion"].isna().all() else conventions):
+        label = f"cohesion={conv}" if conv else "all rows"
+        try:
+            fits[conv] = _fit_from_table(table, conv, model=args.model)
+            print(f"growth fit ({label}): {fits[conv].summary()}")
+            fit, swept = fits[conv], table["gamma"]
+            if fit.model == "hinge" and not swept.min() <= fit.gamma_1 <= swept.max():
+                print(f"  note: the onset γ₁ = {fit.gamma_1:.3g} N/m lies outside the swept γ "
+                      f"[{swept.min():g}, {swept.max():g}] N/m: the data show no onset")
+            if fit.beta_ci[0] <= 0 <= fit.beta_ci[1]:
+                print("  note: β's interval includes 0: no significant growth with γ")
+        except ParameterError as exc:
+            print(f"growth fit ({label}): not possible: {exc}")
+        try:
+            surrogates[conv] = fit_surrogate(table, inputs, cohesion=conv)
+            loo = surrogates[conv].loo
+            print(f"surrogate ({label}; GP on {', '.join(inputs)}), leave-one-out error:")
+            with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
+                print(loo.to_string())
+        except ParameterError as exc:
+            print(f"surrogate ({label}): not possible: {exc}")
+    if predictions:
+        if not surrogates:
+            raise ParameterError("--predict: no surrogate could be fitted (see above)")
+        for conv, model in surrogates.items():
+            for point in predictions:
+                row = model.predict(point).iloc[0]
+                where = ", ".join(f"{k}={point[k]:g}" for k in inputs)
+                values = ", ".join(f"{name} = {row[name]:.4g} ± {row[name + '_std']:.2g}" for name in model.outputs)
+                print(f"prediction at {where}{f' (cohesion={conv})' if conv else ''}: {values}")
+    if args.plot:
+        import matplotlib.pyplot as plt
+
+        conv = conventions[0] if not table["cohesion"].isna().all() else None
+        fig = growth_figure(table, fits.get(conv), cohesion=conv if conv else "n/a")
+        save_figure(fig, args.plot)
+        plt.close(fig)
+    return 0
+
+
+def add_sweep_parser(sub):
+    """Add the ``sweep`` command to ``sub``: its arguments are those of ``python -m sim sweep``
+    (:func:`sweep_main` receives them unparsed)."""
+    p = sub.add_parser("sweep", help="run a parameter sweep of the simulator on dask (same as python -m sim sweep)",
+                       description="Run a parameter sweep of the bundled simulator on dask: the arguments are those of "
+                                   "'python -m sim sweep' (SPEC.toml --out DIR [--workers N] [--scheduler ADDR]); "
+                                   "see docs/parameter_studies.md.", add_help=False)
+    p.add_argument("sweep_args", nargs=argparse.REMAINDER, help="SPEC.toml --out DIR [--workers N] [--scheduler ADDR]")
+    # forwarded by main() before parsing (see sweep_main)
+    return p
+
+
+def sweep_main(argv) -> int:
+    """``granalytics sweep …``: the simulator's sweep command line (the only place where
+    granalytics reaches into ``sim``, imported only when the command runs)."""
+    from sim.cli import sweep_main as run
+
+    return run(argv)

@@ -1,0 +1,101 @@
+"""The ``track`` command: granule life histories, events, rates, the coalescence kernel (docs/tracking.md)."""
+
+from __future__ import annotations
+
+import math
+import os
+
+from ..errors import ParameterError
+from ..files import WriterLock
+from ..identify import METHODS
+from ..io import open_run
+from ..plot import tracking_figure
+from ..tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
+from ._common import add_cohesion_option, interval, save_figure, write_table
+
+_OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
+
+
+def add_track_parser(sub):
+    """Add the ``track`` command to ``sub`` (``ArgumentParser.add_subparsers``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The subcommand's parser (``func`` defaults to :func:`cmd_track`).
+    """
+    p = sub.add_parser(
+        "track", help="granule tracks, coalescence and breakage events, population-balance rates",
+        description="Identify granules in every frame, follow them from frame to frame by their particle ids and "
+                    "record births, deaths, coalescences and breakages; write the events, the tracks (size "
+                    "histories), event rates per revolution, the coalescence kernel β(i, j), the breakage "
+                    "rate S(i) and a figure. See docs/tracking.md.")
+    p.add_argument("run", help="run file (.h5)")
+    p.add_argument("--out", required=True,
+                   help="output folder: events.csv, tracks.csv, rates.csv, kernel.csv, breakage.csv, tracking.png")
+    p.add_argument("--method", choices=("gna", "dbscan", "sieve", "community"), default="gna",
+                   help="identification method (default gna)")
+    p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
+    p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
+    add_cohesion_option(p)
+    p.add_argument("--window", type=interval, default=None, metavar="R0:R1",
+                   help="only frames within this revolution window (default: all frames)")
+    p.add_argument("--min-fragment", type=int, default=2,
+                   help="fewest particles that count as a fragment in a coalescence or breakage (default 2)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_track)
+    return p
+
+
+def cmd_track(args):
+    """Run the ``track`` subcommand (see :func:`add_track_parser`); returns the exit status 0."""
+    import inspect
+
+    import matplotlib.pyplot as plt
+
+
+    if args.min_fragment < 1:
+        raise ParameterError(f"--min-fragment must be >= 1, got {args.min_fragment}")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise ParameterError(f"{args.out}: exists and is not a folder")
+    try:  # before the analysis, not after it
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
+    # one writer at a time into the folder (OUT/tracking.lock), the outputs checked under the lock
+    with WriterLock(os.path.join(args.out, "tracking")):
+        paths = {name: os.path.join(args.out, name) for name in _OUTPUTS}
+        existing = [p for p in paths.values() if os.path.exists(p)]
+        if existing and not args.overwrite:
+            raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
+        accepted = inspect.signature(METHODS[args.method]).parameters
+        params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg), ("cohesion", args.cohesion))
+                  if k in accepted}
+        with open_run(args.run) as run:
+            omega = run.meta.drum_omega
+            frames = run if args.window is None else run.select(revolutions=args.window)
+            if len(frames) < 2:
+                raise ParameterError(f"{args.run}: tracking needs at least two frames, the selection has {len(frames)} "
+                                     f"(the run has {len(run)})")
+            tracks = track_run(frames, args.method, progress=not args.quiet, min_fragment=args.min_fragment, **params)
+        period = 2 * math.pi / abs(omega) if omega else None
+        rates = event_rates(tracks, period)
+        kernel = coalescence_kernel(tracks)
+        breakage = breakage_rate(tracks)
+        write_table(tracks.events, paths["events.csv"])
+        write_table(tracks.tracks, paths["tracks.csv"])
+        write_table(rates, paths["rates.csv"])
+        write_table(kernel, paths["kernel.csv"])
+        write_table(breakage, paths["breakage.csv"])
+        setting = ", ".join(f"{k}={v}" for k, v in params.items())
+        fig = tracking_figure(tracks, rates, kernel, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
+                                                           f"min_fragment={args.min_fragment}")
+        try:
+            save_figure(fig, paths["tracking.png"])
+        finally:
+            plt.close(fig)
+        counts = tracks.event_counts()
+        print(f"wrote {len(_OUTPUTS)} files to {args.out}: {tracks.n_tracks} tracks over {tracks.n_frames} frames; "
+              + ", ".join(f"{kind} {counts[kind]}" for kind in KINDS))
+        return 0

@@ -1,0 +1,7 @@
+"""``python -m granalytics.datasets …``: the same as ``granalytics datasets …``."""
+
+import sys
+
+from ..cli.datasets import main
+
+sys.exit(main())

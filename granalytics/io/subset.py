@@ -1,0 +1,108 @@
+"""Run subsets: fewer frames (:func:`thinned_frames`), float32 storage, written whole or not at all."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+
+import numpy as np
+
+from ..files import WriterLock, replaced_atomically
+from .reader import open_run
+from .writer import RunWriter
+from ..errors import RunFileError, ValidationError
+from ..snapshot import RunMeta
+
+
+
+def thinned_frames(revolutions, every=1, full_window=None) -> np.ndarray:
+    """Indices of the frames to keep when thinning a run: every ``every``-th frame (the first
+    included), and every frame whose time in revolutions lies in ``full_window`` = (r0, r1).
+
+    Parameters
+    ----------
+    revolutions : array of float
+        The run's frame times in drum revolutions (:attr:`Run.revolutions`); only their number
+        matters without ``full_window`` (any per-frame array will do, e.g. the times of a run
+        whose drum does not turn).
+    every : int
+        Keep one frame in ``every`` outside the window (>= 1; 1 keeps all).
+    full_window : (float, float), optional
+        Revolutions [r0, r1] in which every frame is kept.
+
+    Raises
+    ------
+    ValidationError
+        ``every`` below 1 or ``full_window`` not two increasing numbers.
+    """
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise ValidationError("every", f"must be an integer >= 1, got {every!r}")
+    revs = np.asarray(revolutions, dtype=float)
+    index = np.arange(revs.size)
+    keep = index % every == 0
+    if full_window is not None:
+        r0, r1 = full_window
+        if not r0 <= r1:
+            raise ValidationError("full_window", f"must be (r0, r1) with r0 <= r1, got {full_window!r}")
+        keep |= (revs >= r0) & (revs <= r1)  # exact, as when the bundled datasets were thinned
+    return index[keep]
+
+
+@contextlib.contextmanager
+def replacing_run(dst, overwrite=False):
+    """Write a whole new run for ``dst`` into a temporary file beside it and rename it over
+    ``dst`` only when the block inside succeeds; on any error (a bad input frame, a full disk,
+    an interrupt) the temporary file is removed and an existing ``dst`` is left as it was. The
+    lock of ``dst`` is held throughout. Yields the path to give :class:`RunWriter`.
+
+    Raises
+    ------
+    RunFileError
+        ``dst`` exists and not ``overwrite``; :class:`~granalytics.errors.RunLockedError` if
+        another writer holds its lock.
+    """
+    dst = os.fspath(dst)
+    with WriterLock(dst):
+        if os.path.exists(dst) and not overwrite:
+            raise RunFileError(f"{dst}: file exists (pass overwrite=True, or --overwrite, to replace it)")
+        with replaced_atomically(dst, f"{dst}.partial") as tmp:
+            yield tmp
+
+
+def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, progress=False) -> str:
+    """Copy some frames of a run into a new run file, optionally stored as float32.
+
+    For bundling and archiving long runs: e.g. every frame of the steady-state window and every
+    fifth frame before it. The metadata is copied; ``provenance["subset_of"]`` records the source
+    file name, its frame count, the frames kept and the storage type.
+
+    Parameters
+    ----------
+    src, dst : path
+        Source run and file to write (refused if it exists, unless ``overwrite``; written
+        atomically, see :func:`replacing_run`).
+    frames : sequence of int
+        Frame indices of ``src`` to keep, increasing.
+    float_dtype : {"float64", "float32"}
+    progress : bool
+        Progress bar over frames.
+
+    Returns
+    -------
+    str : ``dst``
+    """
+    from tqdm.auto import tqdm
+
+    frames = np.asarray(frames, dtype=np.int64)
+    with open_run(src) as run:
+        if frames.size == 0 or (np.diff(frames) <= 0).any() or frames[0] < 0 or frames[-1] >= len(run):
+            raise ValidationError("frames", f"must be increasing indices in [0, {len(run)}) of {src}")
+        meta = RunMeta.from_dict(run.meta.to_dict())
+        meta.provenance = {**meta.provenance, "subset_of": {
+            "file": os.path.basename(os.fspath(src)), "frames_in_source": len(run),
+            "frames_kept": frames.tolist(), "float_dtype": float_dtype}}
+        with replacing_run(dst, overwrite) as tmp, RunWriter(tmp, meta, overwrite=True, float_dtype=float_dtype) as writer:
+            for k in tqdm(frames, disable=not progress, unit="frame", desc="subset"):
+                writer.append(run[int(k)])
+    return os.fspath(dst)
+

@@ -1,0 +1,94 @@
+"""The layers point one way (docs/architecture.md): checked on the source, import by import."""
+
+import ast
+import pathlib
+
+import networkx as nx
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def _modules(package):
+    for path in sorted((ROOT / package).rglob("*.py")):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        yield name, path
+
+
+def _imports(name, path, top_level_only=False):
+    """(imported module, line) of every import in the file; relative imports resolved."""
+    tree = ast.parse(path.read_text())
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    nodes = tree.body if top_level_only else ast.walk(tree)
+    for node in nodes:
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield alias.name, node.lineno
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module
+            yield module, node.lineno
+            for alias in node.names:  # "from . import datasets" imports a module
+                if f"{module}.{alias.name}" in _ALL:
+                    yield f"{module}.{alias.name}", node.lineno
+
+
+_ALL = {name for package in ("granalytics", "sim") for name, _ in _modules(package)}
+
+
+def _is_entry(name):
+    return name.endswith("__main__")
+
+
+def test_no_library_module_imports_argparse_or_the_command_line():
+    offenders = [f"{name}:{line} imports {module}"
+                 for name, path in _modules("granalytics")
+                 if not (name == "granalytics.cli" or name.startswith("granalytics.cli.") or _is_entry(name))
+                 for module, line in _imports(name, path)
+                 if module == "argparse" or module == "granalytics.cli" or module.startswith("granalytics.cli.")]
+    assert offenders == []
+
+
+def test_granalytics_reaches_into_sim_only_through_the_lazy_sweep_command():
+    edges = [(name, module, line) for name, path in _modules("granalytics") for module, line in _imports(name, path)
+             if module == "sim" or module.startswith("sim.")]
+    assert [(name, module) for name, module, _ in edges] == [("granalytics.cli.study", "sim.cli")]
+    top_level = [m for m, _ in _imports("granalytics.cli.study", ROOT / "granalytics/cli/study.py", top_level_only=True)]
+    assert not any(m == "sim" or m.startswith("sim.") for m in top_level)  # imported inside sweep_main only
+
+
+def test_sim_uses_granalytics_public_api_only():
+    import granalytics
+
+    public_modules = {"granalytics"} | {f"granalytics.{name}" for name in granalytics.__all__}
+    offenders = [f"{name}:{line} imports {module}"
+                 for name, path in _modules("sim")
+                 for module, line in _imports(name, path)
+                 if module.startswith("granalytics") and module.rpartition(".")[0] not in public_modules
+                 and module not in public_modules]
+    assert offenders == []
+
+
+@pytest.mark.parametrize("package", ["granalytics", "sim"])
+def test_no_import_cycle_between_modules(package):
+    """Module-level imports only (a function-level import is a deliberate late edge). A package's
+    ``__init__`` importing its own submodules (to re-export them) is not counted; a submodule
+    importing its package back (``from .. import __version__``) is."""
+    graph = nx.DiGraph()
+    names = dict(_modules(package))
+    for name, path in names.items():
+        for module, _ in _imports(name, path, top_level_only=True):
+            if module in names and module != name and not module.startswith(name + "."):
+                graph.add_edge(name, module)
+    cycles = list(nx.simple_cycles(graph))
+    assert cycles == []
+
+
+def test_the_two_packages_do_not_import_each_other_at_module_level():
+    from_granalytics = {m for name, path in _modules("granalytics") for m, _ in _imports(name, path, top_level_only=True)}
+    assert not any(m == "sim" or m.startswith("sim.") for m in from_granalytics)
