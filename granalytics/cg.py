@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from .files import write_atomically
+from .metrics import BY_FIGURE, METRICS
 from ._windows import window_mask
 from .cohesion import DEFAULT_COHESION, check_cohesion
 from .errors import ParameterError
@@ -31,11 +32,7 @@ __all__ = ["compare_cg", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
 
 #: steady-state metrics compared, with the paper's figure
-CG_METRICS = {
-    "mean_volume_norm": "Fig 3: ⟨V_g⟩/V_p",
-    "n_granules_norm": "Fig 4: N_g/N",
-    "yield_fraction": "Fig 6: yield",
-}
+CG_METRICS = {name: f"{METRICS[name].figure}: {METRICS[name].label}" for name in BY_FIGURE}
 
 
 @dataclass

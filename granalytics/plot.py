@@ -13,17 +13,15 @@ import typing
 import numpy as np
 import pandas as pd
 
+from .metrics import METRICS, STEADY
+
 if typing.TYPE_CHECKING:
     from .tracking import GranuleTracks
 
 __all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure",
            "frame_figure", "cg_figures", "tracking_figure", "growth_figure"]
 
-_TIMESERIES = (
-    ("n_granules_norm", "granules / particles"),
-    ("mean_volume_norm", "⟨V_g⟩ / V_p"),
-    ("yield_fraction", "yield"),
-)
+_TIMESERIES = tuple((name, METRICS[name].label) for name in STEADY if METRICS[name].headline)
 
 
 def plot_timeseries(ts, column, ax=None, window=None, label=None, ylabel=None, x="revolutions"):

@@ -18,6 +18,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from . import _kernels
+from .metrics import HEADLINE
 from ._windows import window_mask
 from .cohesion import DEFAULT_COHESION, check_cohesion
 from .errors import ParameterError
@@ -26,7 +27,7 @@ from .identify.common import check_c_agg
 
 __all__ = ["sensitivity", "sensitivity_summary"]
 
-_METRICS = ("yield_fraction", "n_granules_norm", "mean_volume_norm")
+_METRICS = HEADLINE
 
 
 def _frame_sweep(snapshot, c_desc, a_list, radius, gamma, cohesion):

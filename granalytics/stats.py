@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from .metrics import STEADY
 from ._windows import window_mask, window_tolerance
 from .errors import ParameterError
 from .granules import granule_table
@@ -29,7 +30,7 @@ __all__ = [
 #: Default steady-state window [revolutions] (Fig. 5 of the paper).
 DEFAULT_WINDOW_REV = (3.0, 6.0)
 
-_STEADY_COLUMNS = ("n_granules_norm", "mean_volume_norm", "yield_fraction", "mean_granule_size")
+_STEADY_COLUMNS = STEADY
 
 
 def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFrame:

@@ -17,7 +17,6 @@ run files ``points/<point>.h5``. This module reads only those files; it does not
 
 from __future__ import annotations
 
-import inspect
 import math
 import os
 import warnings
@@ -26,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from .metrics import HEADLINE
 from .cohesion import check_cohesion
 from .errors import ParameterError
 from .manifest import read_manifest
@@ -42,7 +42,7 @@ PAPER_BETA = 70.0
 PAPER_GAMMA_1 = 0.027
 
 #: steady-state metrics of the study table
-STUDY_METRICS = ("yield_fraction", "mean_volume_norm", "n_granules_norm")
+STUDY_METRICS = HEADLINE
 
 #: manifest columns that are bookkeeping, not point parameters
 _BOOKKEEPING = ("status", "preset", "revolutions", "frame_every_rev", "wall_time_s", "resumed", "file", "sha256",
@@ -93,7 +93,7 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     """
     from tqdm.auto import tqdm
 
-    from .identify import METHODS
+    from .identify import METHODS, method_parameters
     from .io import open_run
     from .stats import run_stats, steady_state
 
@@ -104,7 +104,7 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
         raise ParameterError("cohesion: give at least one convention")
     for c in conventions:
         check_cohesion(c)
-    if "cohesion" not in inspect.signature(METHODS[method]).parameters:
+    if "cohesion" not in method_parameters(method):
         conventions = [None]
     lo, hi = (float(w) for w in window)
     manifest = read_manifest(sweep_dir)

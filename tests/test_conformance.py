@@ -95,3 +95,25 @@ def test_a_stricter_criterion_never_merges_granules(method, snapshot, loose, str
         assert len(set(a.labels[b.labels == g].tolist())) == 1
         assert (a.labels[b.labels == g] >= 0).all()
     assert b.n_granulated <= a.n_granulated
+
+
+def test_every_registered_method_keeps_the_identifier_contract():
+    """The contract of granalytics.identify.Identifier, for every method of METHODS (a new method
+    registered there fails here until it keeps it, and until IDENTIFIERS above covers it)."""
+    import inspect
+
+    from granalytics import COHESION_CONVENTIONS
+    from granalytics.identify import DEFAULT_METHODS, METHODS, Identifier
+
+    covered = {key.split("-")[0] for key in IDENTIFIERS}
+    assert covered == set(METHODS)
+    for name, cls in METHODS.items():
+        assert issubclass(cls, Identifier) and cls.method == name
+        params = inspect.signature(cls).parameters
+        assert "cohesion" in params and params["cohesion"].kind is inspect.Parameter.KEYWORD_ONLY
+        assert params["cohesion"].default in COHESION_CONVENTIONS
+    assert set(DEFAULT_METHODS) == set(METHODS) - {"custom"}  # custom needs its criterion
+    for name in DEFAULT_METHODS:
+        identifier = METHODS[name](cohesion="bridge")
+        assert identifier.params()["cohesion"] == "bridge"
+        assert set(identifier.params()) == set(inspect.signature(METHODS[name]).parameters)

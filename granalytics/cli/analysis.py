@@ -8,8 +8,10 @@ import warnings
 
 import numpy as np
 
+from ..metrics import HEADLINE, METRICS
 from ..errors import GranalyticsError, ParameterError
 from ..files import write_atomically
+from ..identify import DEFAULT_METHODS, accepted_params
 from ..io import open_run
 from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
 from ._common import (add_cohesion_option, add_gna_options, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
@@ -88,7 +90,7 @@ def add_compare_methods_parser(sub):
                                    "differences of granule number and yield for every pair.")
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--methods", type=lambda t: [m.strip() for m in t.split(",") if m.strip()],
-                   default=["gna", "dbscan", "sieve", "community"], help="comma-separated (default gna,dbscan,sieve,community)")
+                   default=list(DEFAULT_METHODS), help=f"comma-separated (default {','.join(DEFAULT_METHODS)})")
     p.add_argument("--set", action="append", type=setting, metavar="METHOD.PARAM=VALUE",
                    help="a method parameter, e.g. dbscan.eps_diameters=1.2 or gna.a_agg_deg=30 (repeatable)")
     add_cohesion_option(p)
@@ -115,7 +117,7 @@ def add_compare_cg_parser(sub):
     p.add_argument("--labels", help="comma-separated run names (default: CG<α> (<N> particles))")
     p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
                    help="steady-state window in revolutions (default 3:6)")
-    p.add_argument("--method", choices=("gna", "dbscan", "sieve", "community"), default="gna",
+    p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna, the paper's)")
     p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
     p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
@@ -307,14 +309,10 @@ def cmd_compare(args):
 
 
 def cmd_compare_cg(args):
-    import inspect
-
     from ..cg import CGComparison, compare_cg
-    from ..identify import METHODS
 
     labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
-    accepted = inspect.signature(METHODS[args.method]).parameters
-    params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg)) if k in accepted}
+    params = accepted_params(args.method, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg)
     for param, value in args.set or []:
         params[param] = value
     CGComparison.check_outputs(args.out, overwrite=args.overwrite)  # before minutes of analysis
@@ -335,7 +333,7 @@ def format_cg_table(comparison) -> str:
     lines.append(header)
     for row in comparison.table.itertuples():
         cells = []
-        for metric, fmt in (("yield_fraction", ".3f"), ("mean_volume_norm", ".2f"), ("n_granules_norm", ".4f")):
+        for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
             mean, sem, dev = (getattr(row, f"{metric}_{x}") for x in ("mean", "sem", "rel_dev"))
             cells.append(f"{mean:{fmt}} ± {sem:{fmt}} ({dev:+.0%})")
         lines.append(f"{row.run:<26} {cells[0]:>19} {cells[1]:>21} {cells[2]:>23} {row.ks_distance:>6.3f} "

@@ -7,6 +7,7 @@ import os
 
 
 from ..errors import ParameterError
+from ..io.readers import READERS
 from ..io import open_run
 from ._common import (add_gna_options, check_new_file, interval, selected_frames)
 
@@ -48,8 +49,8 @@ def add_convert_parser(sub):
                        description="Read particle dumps (dump custom) and contact dumps (compute pair/gran/local + dump local), "
                                    "plain or gzip, one or many timesteps per file, and write a granalytics run file.")
     p.add_argument("particles", nargs="+", help="particle dump files (LIGGGHTS) or particle CSVs (YADE export)")
-    p.add_argument("--from", dest="source", choices=("liggghts", "yade"), default="liggghts",
-                   help="liggghts (LIGGGHTS/LAMMPS dumps) or yade (CSVs of docs/yade_export.py)")
+    p.add_argument("--from", dest="source", choices=tuple(READERS), default="liggghts",
+                   help="; ".join(f"{r.name}: {r.description}" for r in READERS.values()) + " (default liggghts)")
     p.add_argument("--contacts", nargs="+", required=True, help="contact dump files or contact CSVs")
     p.add_argument("--mapping", required=True, help="TOML file: for liggghts units, contact columns and material metadata "
                    "(granalytics.io.lammps.DumpMapping); for yade surface_tension, density, drum_omega, contact_angle, alpha")
@@ -114,15 +115,10 @@ def cmd_convert(args):
     from tqdm.auto import tqdm
 
     from ..io import RunWriter, replacing_run
-    from ..io.lammps import DumpMapping, read_liggghts
+    from ..io.readers import read_run_files
 
     check_new_file(args.out, args.overwrite)  # before reading the dumps
-    if args.source == "yade":
-        from ..io.yade import read_yade_csv
-
-        snapshots, meta = read_yade_csv(args.particles, args.contacts, args.mapping)
-    else:
-        snapshots, meta = read_liggghts(args.particles, args.contacts, DumpMapping.from_toml(args.mapping), dt=args.dt_s)
+    snapshots, meta = read_run_files(args.source, args.particles, args.contacts, args.mapping, args.dt_s)
     with replacing_run(args.out, args.overwrite) as tmp, RunWriter(tmp, meta, overwrite=True) as writer:
         for snapshot in tqdm(snapshots, disable=args.quiet, unit="frame", desc="convert"):
             writer.append(snapshot)

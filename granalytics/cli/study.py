@@ -4,14 +4,14 @@
 from __future__ import annotations
 
 import argparse
-import inspect
 import math
 import os
 
 import pandas as pd
 
+from ..metrics import HEADLINE, METRICS
+from ..identify import DEFAULT_METHODS, accepted_params
 from ..errors import ParameterError
-from ..identify import METHODS
 from ..manifest import read_manifest
 from ..plot import growth_figure
 from ..stats import DEFAULT_WINDOW_REV
@@ -61,7 +61,7 @@ def add_study_parser(sub):
     p.add_argument("sweep", help="sweep folder (manifest.csv and points/)")
     p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
                    help="steady-state window in revolutions (default 3:6)")
-    p.add_argument("--method", choices=sorted(m for m in METHODS if m != "custom"), default="gna",
+    p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna; a custom criterion needs the Python API, "
                         "study_table(..., method='custom', criterion=...))")
     p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
@@ -94,8 +94,7 @@ def cmd_study(args) -> int:
             raise ParameterError(f"{path}: inside the sweep folder {args.sweep} (its manifest and points are the input)")
     check_outputs(args, tables=(args.out,), plots=(args.plot,))
     conventions = ["acting", "bridge"] if args.cohesion == "both" else [args.cohesion]
-    accepted = inspect.signature(METHODS[args.method]).parameters
-    params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg)) if k in accepted}
+    params = accepted_params(args.method, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg)
     manifest = read_manifest(args.sweep)
     table = study_table(args.sweep, window=args.window, method=args.method, cohesion=conventions,
                         progress=not args.quiet, **params)
@@ -109,7 +108,7 @@ def cmd_study(args) -> int:
         print(f"  left out: {row.point} ({row.status}{': ' + error if error else ''})")
     columns = ["point", "gamma", "omega", "alpha", "cohesion"]
     cells = table[[c for c in columns if c in table]].copy()
-    for metric, fmt in (("yield_fraction", ".3f"), ("mean_volume_norm", ".3g"), ("n_granules_norm", ".4f")):
+    for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
         cells[metric] = [f"{m:{fmt}} ± {s:{fmt}}" for m, s in zip(table[f"{metric}_mean"], table[f"{metric}_sem"])]
     with pd.option_context("display.width", 160, "display.max_rows", 200, "display.max_colwidth", 60):
         print(cells.to_string(index=False))

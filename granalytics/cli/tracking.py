@@ -7,7 +7,7 @@ import os
 
 from ..errors import ParameterError
 from ..files import WriterLock
-from ..identify import METHODS
+from ..identify import DEFAULT_METHODS, accepted_params
 from ..io import open_run
 from ..plot import tracking_figure
 from ..tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
@@ -33,7 +33,7 @@ def add_track_parser(sub):
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--out", required=True,
                    help="output folder: events.csv, tracks.csv, rates.csv, kernel.csv, breakage.csv, tracking.png")
-    p.add_argument("--method", choices=("gna", "dbscan", "sieve", "community"), default="gna",
+    p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna)")
     p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
     p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
@@ -50,7 +50,6 @@ def add_track_parser(sub):
 
 def cmd_track(args):
     """Run the ``track`` subcommand (see :func:`add_track_parser`); returns the exit status 0."""
-    import inspect
 
     import matplotlib.pyplot as plt
 
@@ -69,9 +68,7 @@ def cmd_track(args):
         existing = [p for p in paths.values() if os.path.exists(p)]
         if existing and not args.overwrite:
             raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
-        accepted = inspect.signature(METHODS[args.method]).parameters
-        params = {k: v for k, v in (("c_agg", args.c_agg), ("a_agg_deg", args.a_agg_deg), ("cohesion", args.cohesion))
-                  if k in accepted}
+        params = accepted_params(args.method, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, cohesion=args.cohesion)
         with open_run(args.run) as run:
             omega = run.meta.drum_omega
             frames = run if args.window is None else run.select(revolutions=args.window)

@@ -20,7 +20,7 @@ from .result import IdentificationResult
 from .sieve import VirtualSieve, sieve_analysis
 
 __all__ = [
-    "identify", "make_identifier", "METHODS", "BACKENDS", "IdentificationResult", "Identifier",
+    "identify", "make_identifier", "METHODS", "DEFAULT_METHODS", "BACKENDS", "method_parameters", "accepted_params", "IdentificationResult", "Identifier",
     "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "sieve_analysis",
 ]
 
@@ -32,6 +32,28 @@ METHODS = {
     "community": CommunityDetection,
     "custom": CustomEdges,
 }
+
+
+def method_parameters(method) -> tuple:
+    """Names of the constructor parameters of ``method`` (a :data:`METHODS` key)."""
+    try:
+        cls = METHODS[method]
+    except KeyError:
+        raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}") from None
+    return tuple(inspect.signature(cls).parameters)
+
+
+def accepted_params(method, **candidates) -> dict:
+    """The ``candidates`` that ``method`` accepts, the others dropped: a command's shared options
+    (``c_agg``, ``a_agg_deg``, ``cohesion``) handed to whichever method was chosen."""
+    names = method_parameters(method)
+    return {k: v for k, v in candidates.items() if k in names}
+
+
+#: the methods that run with their defaults: every one but ``custom`` (it needs a criterion), the
+#: choices of the command line's ``--method``
+DEFAULT_METHODS = tuple(name for name, cls in METHODS.items()
+                        if all(p.default is not inspect.Parameter.empty for p in inspect.signature(cls).parameters.values()))
 
 
 def make_identifier(method="gna", **params):

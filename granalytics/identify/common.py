@@ -21,9 +21,16 @@ __all__ = ["Identifier", "check_c_agg", "check_angle", "check_radius_mode", "co_
 class Identifier:
     """Base of every identification method (scikit-learn style).
 
-    Subclasses set ``method`` and store every constructor argument under the same attribute name;
-    validation happens when :meth:`identify` runs. :meth:`params` reads the constructor's
-    signature, so a new parameter needs no second list.
+    The contract of a method (checked for every registered method by ``tests/test_conformance.py``):
+
+    - a class attribute ``method``, its name in :data:`granalytics.identify.METHODS`;
+    - every constructor argument stored under the same attribute name, validated when
+      :meth:`identify` runs (not in the constructor);
+    - a keyword argument ``cohesion`` (one of :data:`granalytics.COHESION_CONVENTIONS`), also for
+      methods that do not use it: commands and :func:`granalytics.compare_methods` hand it to any method;
+    - :meth:`identify` ``(snapshot)`` returning an :class:`~granalytics.IdentificationResult`.
+
+    :meth:`params` reads the constructor's signature, so a new parameter needs no second list.
     """
 
     method = ""

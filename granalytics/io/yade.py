@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..errors import GranalyticsError, ValidationError
 from ..snapshot import RunMeta, Snapshot
-from .lammps import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps
+from ._text import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps
 
 __all__ = ["read_yade_csv", "PARTICLE_COLUMNS", "CONTACT_COLUMNS"]
 
