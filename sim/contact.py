@@ -14,7 +14,13 @@ import math
 
 from numba import njit
 
-__all__ = ["rotate_spring", "mechanical_force"]
+__all__ = ["rotate_spring", "mechanical_force", "contact_force", "CONTACT_LAWS"]
+
+#: contact law name -> the integer id the kernels dispatch on (:func:`contact_force`). Adding a law:
+#: write it as a numba function of the same arguments and results as :func:`mechanical_force`,
+#: give it the next id here and a branch in :func:`contact_force` (docs/simulator.md, "Adding a
+#: contact law"); ``SimParams.contact_law`` then accepts its name.
+CONTACT_LAWS = {"linear_coulomb": 0}
 
 
 @njit(cache=True, inline="always")
@@ -84,3 +90,12 @@ def mechanical_force(u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, 
         fx, fy, fz = fx * scale, fy * scale, fz * scale
         return f_n, fx, fy, fz, fx, fy, fz
     return f_n, fx, fy, fz, fx - c_t * vtx, fy - c_t * vty, fz - c_t * vtz
+
+
+@njit(cache=True, inline="always")
+def contact_force(law, u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, mu, dt):
+    """The contact law ``law`` (a value of :data:`CONTACT_LAWS`): the arguments and results of
+    :func:`mechanical_force`, the linear viscoelastic law with Coulomb friction (law 0)."""
+    if law == 0:
+        return mechanical_force(u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, mu, dt)
+    raise ValueError("unknown contact law id")

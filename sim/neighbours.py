@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _kernels
+from . import _neighbour_kernels as _kernels
 from .state import PARTICLE_FIELDS, SLOT_FIELDS, State
 
 __all__ = ["max_rupture_distance", "rebuild", "empty_slots"]
@@ -60,7 +60,7 @@ def rebuild(state: State, params, n_walls: int) -> State:
 
     Everything proportional to the number of particles or slots runs in compiled code, in
     parallel except the counting sorts (the cell sort and the partner transposition in
-    :func:`sim._kernels.build_csr`).
+    :func:`sim._neighbour_kernels.build_csr`).
 
     Raises
     ------

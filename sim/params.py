@@ -10,6 +10,9 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from .capillary import CAPILLARY_MODELS
+from .contact import CONTACT_LAWS
+
 __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHYSICS_VERSION", "MIN_PARTICLES",
            "check_cg_particle_count", "frame_interval_steps"]
 
@@ -21,7 +24,8 @@ __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHY
 #: cubic lattice that kept every run a stack of planar monolayers, and the settled-bed check.
 PHYSICS_VERSION = 3
 
-CAPILLARY_MODEL_NAMES = ("willett_numeric", "willett_analytic", "rabinovich", "lambert")
+CAPILLARY_MODEL_NAMES = tuple(CAPILLARY_MODELS)
+CONTACT_LAW_NAMES = tuple(CONTACT_LAWS)
 #: Δt must resolve the contact of the smallest particles with at least this many steps
 MIN_STEPS_PER_CONTACT = 20
 
@@ -32,7 +36,8 @@ class SimParams:
 
     Material and contact (pair values)
         density [kg/m³], d_mean [m] (diameters uniform in [1 − d_spread, 1 + d_spread]·d_mean),
-        k_n, k_t [N/m], c_n, c_t [N s/m], friction μ.
+        contact_law (a name of ``sim.contact.CONTACT_LAWS``, default the linear viscoelastic law with
+        Coulomb friction), k_n, k_t [N/m], c_n, c_t [N s/m], friction μ.
     Liquid
         surface_tension γ [N/m], viscosity η [Pa s], contact_angle θ [rad], capillary_model,
         viscous (Pitois lubrication force on/off), capillary_in_contact (YADE: False),
@@ -64,6 +69,7 @@ class SimParams:
     viscosity: float = 0.0015
     contact_angle: float = 0.0
     capillary_model: str = "willett_numeric"
+    contact_law: str = "linear_coulomb"
     viscous: bool = True
     capillary_in_contact: bool = False
     v_max_coef: float = 0.03
@@ -101,6 +107,8 @@ class SimParams:
             raise ValueError(f"parameter d_spread must be in [0, 1), got {self.d_spread!r}")
         if not 0 <= self.contact_angle < math.pi / 2:
             raise ValueError(f"parameter contact_angle must be in [0, π/2) rad, got {self.contact_angle!r}")
+        if self.contact_law not in CONTACT_LAW_NAMES:
+            raise ValueError(f"parameter contact_law must be one of {CONTACT_LAW_NAMES}, got {self.contact_law!r}")
         if self.capillary_model not in CAPILLARY_MODEL_NAMES:
             raise ValueError(f"parameter capillary_model must be one of {CAPILLARY_MODEL_NAMES}, got {self.capillary_model!r}")
         if not (isinstance(self.n_particles, int) and self.n_particles > 0):

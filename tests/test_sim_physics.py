@@ -263,3 +263,16 @@ def test_public_capillary_force_is_the_engine_law_for_a_tiny_bridge():
             else:
                 seen.add("separated")
     assert seen == {"bridge", "created", "contact", "separated, capped", "separated", "ruptured"}, seen
+
+
+def test_contact_law_dispatcher_and_registry():
+    """The kernels call the contact law through sim.contact.contact_force; an unregistered law is refused."""
+    import dataclasses
+
+    from sim.contact import CONTACT_LAWS, contact_force, mechanical_force
+    from sim.params import SimParams
+
+    args = (2e-6, 0.6, 0.8, 0.0, 0.01, -0.02, 0.005, 1e-4, -2e-4, 0.0, 150.0, 120.0, 0.0011, 0.0011, 0.5, 1e-6)
+    assert contact_force(CONTACT_LAWS["linear_coulomb"], *args) == mechanical_force(*args)
+    with pytest.raises(ValueError, match="contact_law must be one of"):
+        dataclasses.replace(SimParams(), contact_law="hertz")
