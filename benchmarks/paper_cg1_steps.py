@@ -31,8 +31,7 @@ import numba
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from profile_step import run_segment, settle_and_turn  # noqa: E402
-from sim_throughput import live_counts  # noqa: E402
+from _bench import live_counts, run_segment, settle_and_turn  # noqa: E402
 
 from sim.params import preset  # noqa: E402
 from sim.run import Simulation  # noqa: E402

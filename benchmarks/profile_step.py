@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import dataclasses
 import math
 import os
 import sys
@@ -42,59 +41,19 @@ from numba import njit
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from sim_throughput import live_counts, drum_lattice
+from _bench import SIZES, drum_system, live_counts, run_segment  # noqa: E402
 
 from granalytics import RunWriter, configure_threading
 from sim import _kernels
-from sim import run as sim_run
 from sim.drum import baffle_directions
 from sim.liquid import migrate_events
-from sim.params import SimParams
-from sim.run import Simulation
-
-#: particle count -> (drum radius [m], drum length [m], settling steps at 10 g)
-SIZES = {2435: (0.04, 0.012, 0), 20000: (0.07, 0.028, 10000), 120000: (0.12, 0.05, 14000)}
-SETTLE_1G = 40000  # then this many settling steps at 1 g for the smallest drum, 4000 for the others
 
 
-def drum_system(size, beds=None):
-    """The lattice drum of ``size`` particles, settled and turned for 500 steps. The large beds
-    first collapse under 10 g (a 50-layer lattice takes ~60 ms of free fall to close its gaps at
-    1 g), then relax at 1 g; the smallest settles at 1 g as in the YADE comparison.
-
-    With ``beds`` (a folder), the settled bed is saved there as a checkpoint the first time and
-    restored afterwards (minutes saved per size; delete the folder after a physics change).
-    """
-    saved = os.path.join(beds, f"drum-{size}.npz") if beds else None
-    if saved and os.path.exists(saved):
-        return Simulation.from_checkpoint(saved)[0], f"(restored from {saved})"
-    sim, how = _settled_drum(size)
-    if saved:
-        os.makedirs(beds, exist_ok=True)
-        sim.save_checkpoint(saved)
-    return sim, how
 
 
-def _settled_drum(size):
-    rd, length, settle_10g = SIZES[size]
-    pos, rad = drum_lattice(rd, length)
-    p = SimParams(n_particles=len(pos), drum_radius=rd, drum_length=length, spray_radius=0.0,
-                  initial_film=0.03, viscous=False)
-    sim = Simulation.from_particles(p, pos, rad, film=p.initial_film * 4 / 3 * np.pi * rad**3)
-    settle_and_turn(sim, settle_10g, 4000 if settle_10g else SETTLE_1G)
-    return sim, (f"{settle_10g} steps at 10 g + 4000 at 1 g" if settle_10g else f"{SETTLE_1G} steps")
 
 
-def settle_and_turn(sim, steps_10g, steps_1g):
-    """Settle ``sim`` in the static drum, ``steps_10g`` steps under 10 g (to collapse a tall
-    lattice in minutes) then ``steps_1g`` at 1 g, then turn it for 500 steps."""
-    p = sim.params
-    if steps_10g:
-        sim.params = dataclasses.replace(p, gravity=tuple(10.0 * g for g in p.gravity))
-        sim._advance(steps_10g, settling=True)
-        sim.params = p
-    sim._advance(steps_1g, settling=True)
-    sim.advance(500)
+
 
 
 @njit
@@ -177,33 +136,6 @@ def component_costs(sim, reps):
     return out
 
 
-def run_segment(sim, steps):
-    """Wall time of ``steps`` steps through Simulation.advance, split into kernel calls, rebuilds
-    and the Python around them."""
-    spent = {"kernel": 0.0, "rebuild": 0.0, "rebuilds": 0}
-    kernel, rebuild = _kernels.advance, sim_run.rebuild
-
-    def timed_kernel(*args):
-        t0 = time.perf_counter()
-        r = kernel(*args)
-        spent["kernel"] += time.perf_counter() - t0
-        return r
-
-    def timed_rebuild(*args):
-        t0 = time.perf_counter()
-        r = rebuild(*args)
-        spent["rebuild"] += time.perf_counter() - t0
-        spent["rebuilds"] += 1
-        return r
-
-    _kernels.advance, sim_run.rebuild = timed_kernel, timed_rebuild
-    try:
-        t0 = time.perf_counter()
-        sim.advance(steps)
-        total = time.perf_counter() - t0
-    finally:
-        _kernels.advance, sim_run.rebuild = kernel, rebuild
-    return total, spent
 
 
 def output_cost(sim):

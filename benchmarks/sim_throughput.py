@@ -22,9 +22,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 import os
-import random
 import re
 import shutil
 import subprocess
@@ -41,25 +39,11 @@ sys.path.insert(0, os.path.dirname(HERE))
 from granalytics import configure_threading  # noqa: E402
 from sim.params import SimParams, _ORIGINALS, cg_scale  # noqa: E402
 from sim.run import Simulation  # noqa: E402
+from _bench import drum_lattice, live_counts, rate  # noqa: E402
 
 
-def live_counts(sim):
-    s = sim.state
-    n = s.n_particles
-    pairs = s.alive[n * sim.n_walls:]
-    wet = pairs & (s.v_b[n * sim.n_walls:] > 0)
-    walls = s.alive[: n * sim.n_walls].sum()
-    # interactions per particle counted at both ends (as YADE's 2·n_interactions/n), walls once
-    return (2 * pairs.sum() + walls) / n, 2 * wet.sum() / n
 
 
-def rate(sim, steps, threads):
-    numba.set_num_threads(threads)
-    sim.advance(50)
-    t0 = time.perf_counter()
-    sim.advance(steps)
-    wall = time.perf_counter() - t0
-    return steps * sim.state.n_particles / wall, wall
 
 
 def compile_time():
@@ -81,35 +65,6 @@ def compile_time():
     return out
 
 
-def drum_lattice(rd, length):
-    """The particle set of benchmarks/yade_drum_throughput.py and liggghts_drum/make_drum.py (same loop,
-    same random stream): positions (N, 3) [m] and radii (N,) [m]."""
-    # A 3-D lattice (the same sites, radii and offsets as benchmarks/sim_throughput.py::drum_lattice
-    # and liggghts_drum/make_drum.py): rows of spacing a, every other row (along y, against gravity)
-    # shifted by a/2 in x and z so that it nests into the row below as the bed settles, and every
-    # sphere moved by a random offset in x, y and z within the ball of radius a/2 - r around its site.
-    random.seed(1)
-    a = 1.85e-3
-    atoms = []
-    y = -rd + a
-    row = 0
-    while y < -0.2 * rd:
-        shift = 0.5 * a * (row % 2)
-        x = -rd + a + shift
-        while x < rd - a:
-            z = a + shift
-            while z < length - a:
-                if math.hypot(x, y) < rd - 1.2 * a:
-                    r = 0.75e-3 * random.uniform(0.8, 1.2)
-                    d = [random.gauss(0, 1) for _ in range(3)]
-                    s = (0.5 * a - r) * random.random() ** (1 / 3) / math.sqrt(sum(c * c for c in d))
-                    atoms.append((x + s * d[0], y + s * d[1], z + s * d[2], r))
-                z += a
-            x += a
-        y += a
-        row += 1
-    atoms = np.array(atoms)
-    return atoms[:, :3], atoms[:, 3]
 
 
 def run_yade(threads, rd, length, settle, measure, spincount):
@@ -247,7 +202,7 @@ def comparison(q, cores, with_yade, with_liggghts):
 
 def scaling(q, sizes=None, beds=None):
     """Section 5: particle-steps/s against N (the same drum, scaled) at 1 and 2 threads."""
-    from profile_step import SIZES, drum_system
+    from _bench import SIZES, drum_system
 
     print("\n5. scaling: the same wet drum scaled in R_D and L (benchmarks/profile_step.py), best of 3")
     print(f"{'particles':>10}{'int/p':>7}{'br/p':>7}{'1 thread':>12}{'2 threads':>12}{'speed-up':>10}")

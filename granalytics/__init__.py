@@ -6,7 +6,7 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 - run files: :class:`RunWriter`, :func:`open_run`, :class:`Run`; :class:`WriterLock` (the lock
   file a writer holds on its output)
 - identification: :func:`identify` with methods ``"gna"`` (:class:`GraphNetworkAnalysis`),
-  ``"dbscan"`` (:class:`DBSCANIdentifier`), ``"sieve"`` (:class:`VirtualSieve`), ``"community"``
+  ``"dbscan"`` (:class:`DBSCANClustering`), ``"sieve"`` (:class:`VirtualSieve`), ``"community"``
   (:class:`CommunityDetection`), ``"custom"`` (:class:`CustomEdges`, a user edge criterion), all
   returning :class:`IdentificationResult`; the kept contact graph as tables, NetworkX or igraph
   graphs: :mod:`granalytics.edges`
@@ -36,6 +36,7 @@ from .cohesion import COHESION_CONVENTIONS, cohesive_force
 from .compare import compare_methods
 from .identify import (
     CommunityDetection,
+    DBSCANClustering,
     DBSCANIdentifier,
     GraphNetworkAnalysis,
     IdentificationResult,
@@ -61,7 +62,8 @@ __all__ = [
     "bed_structure", "BedStructure", "PLANAR_FRACTION",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
-    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "edges", "datasets", "files", "manifest",
+    "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",
+    "edges", "datasets", "files", "manifest",
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",

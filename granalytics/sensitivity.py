@@ -51,13 +51,13 @@ def _frame_sweep(snapshot, c_desc, a_list, radius, gamma, cohesion):
     return pd.concat(rows, ignore_index=True)
 
 
-def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION,
+def sensitivity(frames, c_agg, a_agg_deg, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION,
                 jobs=1, progress=False):
     """GNA statistics of every frame at every (C_agg, A_agg).
 
     Parameters
     ----------
-    snapshots : Run, RunSlice or sequence of Snapshot
+    frames : Run, RunSlice or sequence of Snapshot
     c_agg : sequence of float
         Cohesion thresholds (≥ 0).
     a_agg_deg : sequence of float
@@ -87,7 +87,7 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
         raise ParameterError("a_agg_deg must not be empty")
     check_cohesion(cohesion)
     c_desc = np.unique(c)[::-1].copy()
-    frame_ids = snapshots.frame_indices if hasattr(snapshots, "frame_indices") else np.arange(len(snapshots))
+    frame_ids = frames.frame_indices if hasattr(frames, "frame_indices") else np.arange(len(frames))
     if len(frame_ids) == 0:
         raise ParameterError("no frames to analyse (empty run or selection)")
     if int(jobs) < 1:
@@ -96,7 +96,7 @@ def sensitivity(snapshots, c_agg, a_agg_deg, *, radius="pair", surface_tension=N
     bar = tqdm(total=len(frame_ids), disable=not progress, unit="frame", desc="sensitivity")
     with ThreadPoolExecutor(max_workers=int(jobs)) as pool:
         pending = []
-        for snapshot in snapshots:
+        for snapshot in frames:
             pending.append(pool.submit(_frame_sweep, snapshot, c_desc, a_list, radius, surface_tension, cohesion))
             if len(pending) >= 2 * int(jobs):  # bound the frames held in memory
                 tables.append(pending.pop(0).result())

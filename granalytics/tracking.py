@@ -421,12 +421,12 @@ def _tracks_table(times, labels_to_tracks, sizes_by_frame, n_tracks, origins, en
     }, columns=list(_TRACK_COLUMNS))
 
 
-def track_run(run, method="gna", window=None, progress=False, *, min_fragment=2, **params) -> GranuleTracks:
+def track_run(frames, method="gna", window=None, progress=False, *, min_fragment=2, **params) -> GranuleTracks:
     """Identify granules in every frame of a run and track them (:func:`track_granules`).
 
     Parameters
     ----------
-    run : Run, RunSlice or sequence of Snapshot
+    frames : Run, RunSlice or sequence of Snapshot
         For example ``open_run(path)``.
     method : str, default "gna"
         Identification method; ``params`` go to its constructor (e.g. ``c_agg=0.6``,
@@ -450,12 +450,12 @@ def track_run(run, method="gna", window=None, progress=False, *, min_fragment=2,
     from .identify import make_identifier
 
     if window is not None:
-        if not hasattr(run, "select"):
+        if not hasattr(frames, "select"):
             raise ParameterError("window needs a Run or RunSlice (open_run), not a plain sequence of snapshots")
-        run = run.select(revolutions=tuple(window))
+        frames = frames.select(revolutions=tuple(window))
     identifier = make_identifier(method, **params)
     labels, ids, times = [], [], []
-    for snapshot in tqdm(run, disable=not progress, unit="frame", desc="identify"):
+    for snapshot in tqdm(frames, disable=not progress, unit="frame", desc="identify"):
         result = identifier.identify(snapshot)
         labels.append(result.labels)
         ids.append(snapshot.ids)
@@ -463,7 +463,7 @@ def track_run(run, method="gna", window=None, progress=False, *, min_fragment=2,
     if not labels:
         raise ParameterError("no frames to track (empty run or selection)")
     tracks = track_granules(labels, ids, times, min_fragment=min_fragment)
-    tracks.frame_indices = (np.asarray(run.frame_indices) if hasattr(run, "frame_indices")
+    tracks.frame_indices = (np.asarray(frames.frame_indices) if hasattr(frames, "frame_indices")
                             else np.arange(len(labels)))
     return tracks
 

@@ -1,6 +1,6 @@
 """sim: the reference Numba wet-DEM simulator of a baffled drum granulator.
 
-It writes runs through :class:`granalytics.RunWriter`; granalytics never imports sim.
+It writes runs through :class:`granalytics.RunWriter`; granalytics imports sim only in its lazy `granalytics sweep` command.
 
 Public force laws (numpy arrays in, SI units):
 
@@ -9,8 +9,8 @@ Public force laws (numpy arrays in, SI units):
 - :func:`rupture_distance` ``(bridge_volume, r1, r2, contact_angle)`` → m;
 - :func:`scale_parameters` ``(params, alpha)`` → CG-scaled :class:`SimParams` (Table 2).
 
-(The scalar numba kernels of the same physics are ``sim.capillary.capillary_force`` and
-``sim.capillary.rupture_distance``, with the effective radius as argument.)
+(The scalar numba kernels of the same physics are ``sim.capillary.capillary_force_scalar`` and
+``sim.capillary.rupture_distance_scalar``, with the effective radius as argument.)
 """
 
 from .capillary import CAPILLARY_MODELS

@@ -20,8 +20,8 @@ from numba import njit
 
 __all__ = [
     "CAPILLARY_MODELS",
-    "capillary_force",
-    "rupture_distance",
+    "capillary_force_scalar",
+    "rupture_distance_scalar",
     "effective_radius",
     "bridge_ruptured",
     "bridge_force",
@@ -124,7 +124,7 @@ def _rabinovich(s, v_b, r, gamma, theta):
 
 
 @njit(cache=True)
-def capillary_force(model, s, v_b, r_eff, gamma, theta):
+def capillary_force_scalar(model, s, v_b, r_eff, gamma, theta):
     """Attractive magnitude of the capillary force of a liquid bridge (docs/physics.md,
     "Capillary models").
 
@@ -148,7 +148,7 @@ def capillary_force(model, s, v_b, r_eff, gamma, theta):
     -------
     float
         F ≥ 0 [N], pulling the pair together; 0.0 when v_b ≤ 0. The caller applies it only
-        while 0 < s < :func:`rupture_distance`. ``willett_numeric`` is capped at 2πRγ (its value
+        while 0 < s < :func:`rupture_distance_scalar`. ``willett_numeric`` is capped at 2πRγ (its value
         at contact, 2πRγ·e^{f1}, stays below that for the volumes Willett fitted, but f1 is cubic
         in ln V* and exceeds 0 for V_b/R³ below about 1e-5, growing without bound as V_b → 0 —
         a volume migration's tiny leftover films do reach; 1e-24 m³ gave ~1e3 N).
@@ -172,7 +172,7 @@ def capillary_force(model, s, v_b, r_eff, gamma, theta):
 
 
 @njit(cache=True)
-def rupture_distance(v_b, r_eff, theta):
+def rupture_distance_scalar(v_b, r_eff, theta):
     """Gap at which a bridge ruptures (Willett 2000 eq. 15, full gap; docs/physics.md,
     "Liquid bridges").
 
@@ -209,17 +209,17 @@ def effective_radius(r_i, r_j):
 @njit(cache=True, inline="always")
 def bridge_ruptured(gap, v_b, r_eff, theta):
     """Whether a bridge at surface gap ``gap`` [m] has ruptured: s > 0 and s ≥ s_crit(V_b)
-    (:func:`rupture_distance`). The engine ends a bridge in the first step where this holds."""
-    return gap > 0.0 and gap >= rupture_distance(v_b, r_eff, theta)
+    (:func:`rupture_distance_scalar`). The engine ends a bridge in the first step where this holds."""
+    return gap > 0.0 and gap >= rupture_distance_scalar(v_b, r_eff, theta)
 
 
 @njit(cache=True, inline="always")
 def bridge_force(model, gap, v_b, r_eff, gamma, theta):
     """Capillary force [N] ≥ 0 of a bridge that has not ruptured, at surface gap ``gap`` [m]:
-    :func:`capillary_force` at max(gap, 0⁺) (touching or overlapping pairs get the value at
+    :func:`capillary_force_scalar` at max(gap, 0⁺) (touching or overlapping pairs get the value at
     contact). This is the value the engine computes for every live bridge, applied while the
     pair is separated (and in contact too with ``capillary_in_contact``)."""
-    return capillary_force(model, gap if gap > 0.0 else 0.0, v_b, r_eff, gamma, theta)
+    return capillary_force_scalar(model, gap if gap > 0.0 else 0.0, v_b, r_eff, gamma, theta)
 
 
 #: columns of a bridge-constants row (:func:`bridge_constants`)
@@ -230,13 +230,13 @@ BRIDGE_CONSTANTS = ("v_b", "s_crit", "f_contact", "f1", "f2", "f3", "f4", "root"
 def bridge_constants(model, v_b, r_eff, gamma, theta, table, k):
     """Fill row ``k`` of ``table`` (:data:`BRIDGE_CONSTANTS`) with what a bridge's force and
     rupture test need that depends only on its volume (v_b > 0): the volume itself (the row's
-    key), s_crit (:func:`rupture_distance`), the force at contact (:func:`bridge_force` at
+    key), s_crit (:func:`rupture_distance_scalar`), the force at contact (:func:`bridge_force` at
     s ≤ 0) and, for ``willett_numeric``, f1 … f4 and √(V_b/R). A bridge's volume changes only
     when liquid migrates, so the engine computes these once per volume instead of every step;
     :func:`bridge_force_from_constants` then gives bit for bit what :func:`bridge_force` gives."""
     table[k, 0] = v_b
-    table[k, 1] = rupture_distance(v_b, r_eff, theta)
-    table[k, 2] = capillary_force(model, 0.0, v_b, r_eff, gamma, theta)
+    table[k, 1] = rupture_distance_scalar(v_b, r_eff, theta)
+    table[k, 2] = capillary_force_scalar(model, 0.0, v_b, r_eff, gamma, theta)
     if model == 0:
         f1, f2, f3, f4 = _willett_coefficients(v_b, r_eff, theta)
         table[k, 3] = f1
@@ -255,7 +255,7 @@ def bridge_force_from_constants(model, gap, v_b, r_eff, gamma, theta, table, k):
     if model == 0:
         return min(_willett_separated(gap, r_eff, gamma, table[k, 3], table[k, 4], table[k, 5], table[k, 6],
                                       table[k, 7]), 2.0 * math.pi * r_eff * gamma)
-    return capillary_force(model, gap, v_b, r_eff, gamma, theta)
+    return capillary_force_scalar(model, gap, v_b, r_eff, gamma, theta)
 
 
 @njit(cache=True)
@@ -309,9 +309,9 @@ def viscous_force(eta, r_i, r_j, v_n, s, v_b):
 
 @njit(cache=True)
 def _force_loop(model, s, v_b, r_eff, gamma, theta, out):
-    """Fill ``out`` with :func:`capillary_force` over equal-length 1-D arrays."""
+    """Fill ``out`` with :func:`capillary_force_scalar` over equal-length 1-D arrays."""
     for k in range(out.size):
-        out[k] = capillary_force(model, s[k], v_b[k], r_eff[k], gamma[k], theta[k])
+        out[k] = capillary_force_scalar(model, s[k], v_b[k], r_eff[k], gamma[k], theta[k])
 
 
 def capillary_force_curve(model: str, s, v_b, r_eff, gamma, theta=0.0) -> np.ndarray:
@@ -337,8 +337,8 @@ def capillary_force_curve(model: str, s, v_b, r_eff, gamma, theta=0.0) -> np.nda
     Returns
     -------
     numpy.ndarray
-        F ≥ 0 [N] of :func:`capillary_force`, float64, of the broadcast shape. The force is
-        evaluated at every gap; rupture (s ≥ :func:`rupture_distance`) is not applied.
+        F ≥ 0 [N] of :func:`capillary_force_scalar`, float64, of the broadcast shape. The force is
+        evaluated at every gap; rupture (s ≥ :func:`rupture_distance_scalar`) is not applied.
 
     Raises
     ------
@@ -366,7 +366,7 @@ def _pair_force_loop(model, gap, r1, r2, v_b, gamma, theta, out):
 @njit(cache=True)
 def _pair_rupture_loop(v_b, r1, r2, theta, out):
     for k in range(out.size):
-        out[k] = rupture_distance(v_b[k], effective_radius(r1[k], r2[k]), theta[k])
+        out[k] = rupture_distance_scalar(v_b[k], effective_radius(r1[k], r2[k]), theta[k])
 
 
 def _flat_float_arrays(*values):

@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from granalytics.identify import (BACKENDS, CommunityDetection, CustomEdges, DBSCANIdentifier, GraphNetworkAnalysis,
+from granalytics.identify import (BACKENDS, CommunityDetection, CustomEdges, DBSCANClustering, GraphNetworkAnalysis,
                                   VirtualSieve)
 from granalytics.snapshot import Snapshot
 from granalytics.synthetic import synthetic_snapshot
@@ -24,9 +24,9 @@ IDENTIFIERS = {
         for backend in BACKENDS
     },
     # min_samples = 2: clusters are the components of the ε-graph, nested in ε
-    "dbscan-positions+velocity": (lambda strictness: DBSCANIdentifier(
+    "dbscan-positions+velocity": (lambda strictness: DBSCANClustering(
         eps_diameters=1.3 - 0.25 * strictness, velocity_weight=2.0), True),
-    "dbscan-bridged": (lambda strictness: DBSCANIdentifier(eps_diameters=1.3 - 0.25 * strictness, bridged_only=True), True),
+    "dbscan-bridged": (lambda strictness: DBSCANClustering(eps_diameters=1.3 - 0.25 * strictness, bridged_only=True), True),
     "sieve-gna": (lambda strictness: VirtualSieve(connect="gna", c_agg=0.3 + 0.6 * strictness), True),
     # Leiden on all cohesive co-moving contacts, communities split by C_agg: nested in C_agg
     "community": (lambda strictness: CommunityDetection(c_agg=0.3 + 0.6 * strictness, a_agg_deg=20.0), True),

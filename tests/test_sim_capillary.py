@@ -14,9 +14,9 @@ from sim.capillary import (
     bridge_constants,
     bridge_force,
     bridge_force_from_constants,
-    capillary_force,
+    capillary_force_scalar,
     capillary_force_curve,
-    rupture_distance,
+    rupture_distance_scalar,
     viscous_force,
 )
 
@@ -61,7 +61,7 @@ def test_force_matches_yade_curves(yade, yade_name):
 
 
 def test_rupture_distance_matches_yade(yade):
-    got = np.array([rupture_distance(v, r, t) for v, r, t in
+    got = np.array([rupture_distance_scalar(v, r, t) for v, r, t in
                     zip(yade.bridge_volume_m3, yade.r_eff, yade.contact_angle_rad)])
     assert _rel_err(got, yade.yade_s_crit_m).max() <= 1e-6
     active = yade.bridge_active.to_numpy() == 1
@@ -71,15 +71,15 @@ def test_rupture_distance_matches_yade(yade):
 
 
 def test_rupture_distance_spec_check_values():
-    assert rupture_distance(1e-12, 0.75e-3, 0.0) == pytest.approx(1.013333e-4, rel=5e-7)
+    assert rupture_distance_scalar(1e-12, 0.75e-3, 0.0) == pytest.approx(1.013333e-4, rel=5e-7)
     r_i, r_j = 0.5e-3, 1e-3
     r_eff = 2 * r_i * r_j / (r_i + r_j)
-    assert rupture_distance(1e-12, r_eff, 0.0) == pytest.approx(1.0150e-4, rel=5e-5)
+    assert rupture_distance_scalar(1e-12, r_eff, 0.0) == pytest.approx(1.0150e-4, rel=5e-5)
 
 
 def test_rupture_distance_grows_with_contact_angle():
     # (1 + θ/2) prefactor
-    assert rupture_distance(V_B, R, 1.0) == pytest.approx(1.5 * rupture_distance(V_B, R, 0.0),
+    assert rupture_distance_scalar(V_B, R, 1.0) == pytest.approx(1.5 * rupture_distance_scalar(V_B, R, 0.0),
                                                           rel=1e-14)
 
 
@@ -105,7 +105,7 @@ def test_spec_reference_table(model):
 
 
 def test_willett_analytic_spec_check_value():
-    got = capillary_force(CAPILLARY_MODELS["willett_analytic"], 1.875e-6, V_B, R, GAMMA, 0.0)
+    got = capillary_force_scalar(CAPILLARY_MODELS["willett_analytic"], 1.875e-6, V_B, R, GAMMA, 0.0)
     assert got == pytest.approx(4.86565e-4, rel=1e-5)
 
 
@@ -115,11 +115,11 @@ def test_willett_analytic_spec_check_value():
 @pytest.mark.parametrize("model", sorted(CAPILLARY_MODELS))
 def test_contact_value_is_limit_from_above(model, theta):
     mid = CAPILLARY_MODELS[model]
-    at_contact = capillary_force(mid, 0.0, V_B, R, GAMMA, theta)
+    at_contact = capillary_force_scalar(mid, 0.0, V_B, R, GAMMA, theta)
     assert at_contact > 0.0
-    assert capillary_force(mid, -1e-6, V_B, R, GAMMA, theta) == at_contact
+    assert capillary_force_scalar(mid, -1e-6, V_B, R, GAMMA, theta) == at_contact
     gaps = R * np.array([1e-4, 1e-6, 1e-8, 1e-10])
-    diffs = np.abs([capillary_force(mid, s, V_B, R, GAMMA, theta) - at_contact for s in gaps])
+    diffs = np.abs([capillary_force_scalar(mid, s, V_B, R, GAMMA, theta) - at_contact for s in gaps])
     assert np.all(np.diff(diffs) <= 0.0)
     assert diffs[-1] <= 1e-6 * at_contact
 
@@ -127,7 +127,7 @@ def test_contact_value_is_limit_from_above(model, theta):
 @pytest.mark.parametrize("model", ["willett_analytic", "lambert"])
 def test_contact_value_closed_form(model):
     theta = 0.3
-    got = capillary_force(CAPILLARY_MODELS[model], 0.0, V_B, R, GAMMA, theta)
+    got = capillary_force_scalar(CAPILLARY_MODELS[model], 0.0, V_B, R, GAMMA, theta)
     assert got == pytest.approx(2 * math.pi * R * GAMMA * math.cos(theta), rel=1e-14)
 
 
@@ -136,7 +136,7 @@ def test_rabinovich_contact_value_closed_form():
     theta = 0.3
     alpha0 = (2 * V_B / (math.pi * R**3)) ** 0.25
     want = 2 * math.pi * R * GAMMA * (math.cos(theta) + math.sin(alpha0) * math.sin(theta + alpha0))
-    got = capillary_force(CAPILLARY_MODELS["rabinovich"], 0.0, V_B, R, GAMMA, theta)
+    got = capillary_force_scalar(CAPILLARY_MODELS["rabinovich"], 0.0, V_B, R, GAMMA, theta)
     assert got == pytest.approx(want, rel=1e-12)
 
 
@@ -144,12 +144,12 @@ def test_rabinovich_contact_value_closed_form():
 @pytest.mark.parametrize("s", [-1e-6, 0.0, 1e-5])
 @pytest.mark.parametrize("v_b", [0.0, -1e-15])
 def test_no_liquid_no_force(model, s, v_b):
-    assert capillary_force(CAPILLARY_MODELS[model], s, v_b, R, GAMMA, 0.0) == 0.0
+    assert capillary_force_scalar(CAPILLARY_MODELS[model], s, v_b, R, GAMMA, 0.0) == 0.0
 
 
 def test_no_liquid_no_rupture_distance():
-    assert rupture_distance(0.0, R, 0.0) == 0.0
-    assert rupture_distance(-1e-15, R, 0.5) == 0.0
+    assert rupture_distance_scalar(0.0, R, 0.0) == 0.0
+    assert rupture_distance_scalar(-1e-15, R, 0.5) == 0.0
 
 
 def test_callable_from_numba_kernel():
@@ -157,13 +157,13 @@ def test_callable_from_numba_kernel():
     def kernel(model, gaps):
         total = 0.0
         for s in gaps:
-            total += capillary_force(model, s, 1e-12, 0.75e-3, 0.1095, 0.0)
-        return total + rupture_distance(1e-12, 0.75e-3, 0.0)
+            total += capillary_force_scalar(model, s, 1e-12, 0.75e-3, 0.1095, 0.0)
+        return total + rupture_distance_scalar(1e-12, 0.75e-3, 0.0)
 
     gaps = np.array(SPEC_GAPS)
     mid = CAPILLARY_MODELS["willett_numeric"]
-    want = sum(capillary_force(mid, s, V_B, R, GAMMA, 0.0) for s in gaps)
-    assert kernel(mid, gaps) == pytest.approx(want + rupture_distance(V_B, R, 0.0), rel=1e-14)
+    want = sum(capillary_force_scalar(mid, s, V_B, R, GAMMA, 0.0) for s in gaps)
+    assert kernel(mid, gaps) == pytest.approx(want + rupture_distance_scalar(V_B, R, 0.0), rel=1e-14)
 
 
 # --- viscous force -----------------------------------------------------------------------------
@@ -223,7 +223,7 @@ def test_curve_matches_scalar_and_broadcasts():
     got = capillary_force_curve("rabinovich", gaps, volumes, R, GAMMA, 0.2)
     assert got.shape == (2, 7)
     mid = CAPILLARY_MODELS["rabinovich"]
-    want = [[capillary_force(mid, s, v, R, GAMMA, 0.2) for s in gaps] for v in volumes[:, 0]]
+    want = [[capillary_force_scalar(mid, s, v, R, GAMMA, 0.2) for s in gaps] for v in volumes[:, 0]]
     np.testing.assert_array_equal(got, want)
 
 
@@ -234,7 +234,7 @@ def test_curve_unknown_model():
 
 def test_scalar_unknown_model_id():
     with pytest.raises(ValueError):
-        capillary_force(len(CAPILLARY_MODELS), 1e-5, V_B, R, GAMMA, 0.0)
+        capillary_force_scalar(len(CAPILLARY_MODELS), 1e-5, V_B, R, GAMMA, 0.0)
 
 
 def test_public_vectorised_force_laws_match_yade_and_vanish_beyond_rupture():
@@ -262,9 +262,9 @@ def test_willett_numeric_stays_bounded_for_tiny_bridges():
     r, gamma = 1.1e-3, 0.3285
     for v in (1e-24, 1e-18, 1e-14, 1e-12, 3e-11):
         for s in (0.0, 1e-9, 1e-7):
-            f = capillary_force(CAPILLARY_MODELS["willett_numeric"], s, v, r, gamma, 0.0)
+            f = capillary_force_scalar(CAPILLARY_MODELS["willett_numeric"], s, v, r, gamma, 0.0)
             assert 0.0 <= f <= 2 * math.pi * r * gamma
-    assert capillary_force(CAPILLARY_MODELS["willett_numeric"], 0.0, 1e-24, r, gamma, 0.0) == pytest.approx(2 * math.pi * r * gamma)
+    assert capillary_force_scalar(CAPILLARY_MODELS["willett_numeric"], 0.0, 1e-24, r, gamma, 0.0) == pytest.approx(2 * math.pi * r * gamma)
 
 
 @njit(cache=True)
@@ -277,7 +277,7 @@ def _bridge_table_vs_direct(model, gaps, volumes, radii, gamma, theta, out):
         out[q, 0] = bridge_force_from_constants(model, gaps[q], volumes[q], radii[q], gamma, theta, table, 0)
         out[q, 1] = bridge_force(model, gaps[q], volumes[q], radii[q], gamma, theta)
         out[q, 2] = table[0, 1]
-        out[q, 3] = rupture_distance(volumes[q], radii[q], theta)
+        out[q, 3] = rupture_distance_scalar(volumes[q], radii[q], theta)
 
 
 @pytest.mark.parametrize("model", sorted(CAPILLARY_MODELS))
@@ -290,7 +290,7 @@ def test_bridge_constants_give_the_direct_force_bit_for_bit(model, theta):
     n = 4000
     radii = rng.uniform(0.5e-3, 2.5e-3, n)
     volumes = 10.0 ** rng.uniform(-24, -10, n)
-    s_crit = np.array([rupture_distance(v, r, theta) for v, r in zip(volumes, radii)])
+    s_crit = np.array([rupture_distance_scalar(v, r, theta) for v, r in zip(volumes, radii)])
     gaps = np.where(rng.random(n) < 0.2, -rng.uniform(0, 1e-5, n), rng.uniform(0, 1.0, n) * s_crit)
     gaps[:10] = 0.0
     out = np.empty((n, 4))

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sim.capillary import CAPILLARY_MODELS, capillary_force, rupture_distance
+from sim.capillary import CAPILLARY_MODELS, capillary_force_scalar, rupture_distance_scalar
 from sim.neighbours import max_rupture_distance, pair_count_reference, rebuild
 from sim.params import PRESETS, SimParams, cg_scale, preset, preset_original
 from sim.run import Simulation
@@ -76,7 +76,7 @@ def test_bridge_forms_at_touch_pulls_while_stretched_and_ruptures_at_s_crit():
     assert s.v_b[live[0]] == pytest.approx(min(2 * film, v_max), rel=1e-12)
     assert s.film[:2].sum() + s.v_b[live[0]] == pytest.approx(2 * film, rel=1e-12)
     v_b = s.v_b[live[0]]
-    s_crit = rupture_distance(v_b, R, 0.0)
+    s_crit = rupture_distance_scalar(v_b, R, 0.0)
     # pull the pair apart (fast enough to beat the bridge); record the capillary force on the way
     s.vel[:] = 0
     s.vel[np.argsort(s.ids)] = [[-0.5, 0, 0], [0.5, 0, 0]]
@@ -91,7 +91,7 @@ def test_bridge_forms_at_touch_pulls_while_stretched_and_ruptures_at_s_crit():
             break
         k = live[0]
         assert s.gap[k] == pytest.approx(gaps[-1], rel=1e-9, abs=1e-18)
-        expected = capillary_force(model, max(gaps[-1], 0.0), v_b, R, p.surface_tension, 0.0)
+        expected = capillary_force_scalar(model, max(gaps[-1], 0.0), v_b, R, p.surface_tension, 0.0)
         assert s.f_cap[k] == pytest.approx(expected, rel=1e-12)
     # it ruptured in the first step that started with s >= s_crit
     assert not s.alive[2 * sim.n_walls:].any()
@@ -118,7 +118,7 @@ def test_verlet_list_equals_brute_force_and_covers_bridge_range():
     assert (np.diff(key) > 0).all()
     # the reach covers the largest rupture distance of any bridge
     r_max = p.r_max
-    assert max_rupture_distance(p) >= rupture_distance(0.03 * r_max**3, r_max, 0.0)
+    assert max_rupture_distance(p) >= rupture_distance_scalar(0.03 * r_max**3, r_max, 0.0)
 
 
 def _interactions_by_id(s):
@@ -191,8 +191,8 @@ def test_cg_scaling_follows_table_2():
         assert (c.spray_radius, c.drum_radius, c.drum_omega, c.friction) == (o.spray_radius, o.drum_radius, o.drum_omega, o.friction)
         assert (c.v_max_coef, c.spray_dose) == (o.v_max_coef, o.spray_dose)
         # forces scale as α²: capillary force at contact (γ·R) and the weight of a particle
-        f_o = capillary_force(0, 1e-6, 1e-12, o.r_mean, o.surface_tension, 0.0)
-        f_c = capillary_force(0, 1e-6 * alpha, 1e-12 * alpha**3, c.r_mean, c.surface_tension, 0.0)
+        f_o = capillary_force_scalar(0, 1e-6, 1e-12, o.r_mean, o.surface_tension, 0.0)
+        f_c = capillary_force_scalar(0, 1e-6 * alpha, 1e-12 * alpha**3, c.r_mean, c.surface_tension, 0.0)
         assert f_c == pytest.approx(alpha**2 * f_o, rel=1e-12)
         assert closed_form(c, c.r_mean)[1] == pytest.approx(closed_form(o, o.r_mean)[1])  # same restitution
     with pytest.raises(ValueError):

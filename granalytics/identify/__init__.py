@@ -14,20 +14,20 @@ from ..errors import ParameterError
 from .common import Identifier
 from .community import CommunityDetection
 from .custom import CustomEdges
-from .dbscan import DBSCANIdentifier
-from .graph import BACKENDS, GraphNetworkAnalysis
+from .dbscan import DBSCANClustering, DBSCANIdentifier
+from .gna import BACKENDS, GraphNetworkAnalysis
 from .result import IdentificationResult
 from .sieve import VirtualSieve, sieve_analysis
 
 __all__ = [
     "identify", "make_identifier", "METHODS", "DEFAULT_METHODS", "BACKENDS", "method_parameters", "accepted_params", "IdentificationResult", "Identifier",
-    "GraphNetworkAnalysis", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "sieve_analysis",
+    "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "sieve_analysis",
 ]
 
 #: method name -> identifier class
 METHODS = {
     "gna": GraphNetworkAnalysis,
-    "dbscan": DBSCANIdentifier,
+    "dbscan": DBSCANClustering,
     "sieve": VirtualSieve,
     "community": CommunityDetection,
     "custom": CustomEdges,

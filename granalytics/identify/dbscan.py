@@ -24,10 +24,10 @@ from ..snapshot import Snapshot
 from .common import Identifier, labels_from_clusters, mean_radius
 from .result import IdentificationResult
 
-__all__ = ["DBSCANIdentifier"]
+__all__ = ["DBSCANClustering", "DBSCANIdentifier"]
 
 
-class DBSCANIdentifier(Identifier):
+class DBSCANClustering(Identifier):
     """Granules as DBSCAN clusters (method ``"dbscan"``).
 
     Parameters
@@ -99,3 +99,7 @@ class DBSCANIdentifier(Identifier):
         labels, sizes = labels_from_clusters(clusters)
         return IdentificationResult(labels=labels, sizes=sizes, method=self.method, params=self.params(),
                                     snapshot=snapshot)
+
+
+#: the earlier name of :class:`DBSCANClustering` (kept for one release)
+DBSCANIdentifier = DBSCANClustering

@@ -26,7 +26,7 @@ from .. import _kernels
 from ..errors import ParameterError
 from ..snapshot import Snapshot
 from .common import Identifier, mean_radius
-from .graph import GraphNetworkAnalysis
+from .gna import GraphNetworkAnalysis
 from .result import IdentificationResult
 
 __all__ = ["VirtualSieve", "sieve_analysis"]
