@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .files import write_atomically
+from .files import staged_outputs
 from .metrics import BY_FIGURE, METRICS
 from ._windows import window_mask
 from .cohesion import DEFAULT_COHESION, check_cohesion
@@ -115,21 +115,28 @@ class CGComparison:
     def save(self, out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
         """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` and the four figures
         (one file per format) into ``out_dir``; existing files are refused unless ``overwrite``.
-        Returns the written paths."""
+        Written as one (:func:`granalytics.files.staged_outputs`): a failure or Ctrl-C leaves
+        every earlier output in ``out_dir`` as it was, never old and new figures mixed. Returns
+        the written paths."""
         import matplotlib.pyplot as plt
 
         paths = self.check_outputs(out_dir, overwrite=overwrite, formats=formats)
         try:
             os.makedirs(out_dir, exist_ok=True)
-            for table, path in zip((self.table, self.timeseries, self.distributions), paths):
-                write_atomically(path, lambda tmp, t=table: t.to_csv(tmp, index=False))
-            written = paths[:3]
-            for name, fig in self.figures().items():
-                for ext in formats:
-                    path = os.path.join(out_dir, f"{name}.{ext}")
-                    write_atomically(path, lambda tmp, f=fig, e=ext: f.savefig(tmp, dpi=150, format=e))
-                    written.append(path)
-                plt.close(fig)
+            figures = self.figures()
+            try:
+                with staged_outputs(out_dir) as stage:
+                    for table, path in zip((self.table, self.timeseries, self.distributions), paths):
+                        table.to_csv(stage(path), index=False)
+                    written = paths[:3]
+                    for name, fig in figures.items():
+                        for ext in formats:
+                            path = os.path.join(out_dir, f"{name}.{ext}")
+                            fig.savefig(stage(path), dpi=150, format=ext)
+                            written.append(path)
+            finally:
+                for fig in figures.values():
+                    plt.close(fig)
         except OSError as exc:
             raise ParameterError(f"{out_dir}: cannot write the comparison ({exc})") from None
         return written

@@ -21,16 +21,18 @@ import warnings
 
 from .errors import ParameterError, RunFileError, RunLockedError
 
-__all__ = ["replaced_atomically", "write_atomically", "check_output_folder", "WriterLock", "one_line",
-           "warnings_as_lines"]
+__all__ = ["replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
+           "warnings_as_lines", "regular_input", "staged_outputs", "output_folder"]
 
 
 @contextlib.contextmanager
 def replaced_atomically(path, tmp=None):
     """Yield a temporary path beside ``path`` (default ``PATH.<pid>.tmp``) to write into; it is
     renamed over ``path`` when the block succeeds, and removed when it fails (a full disk, an
-    interrupt), leaving an earlier ``path`` as it was."""
+    interrupt), leaving an earlier ``path`` as it was. Temporary files ``PATH.<pid>.tmp`` that a
+    killed writer on this host left behind (its pid is gone) are removed first."""
     path = os.fspath(path)
+    _remove_stale_temporaries(path)
     tmp = f"{path}.{os.getpid()}.tmp" if tmp is None else os.fspath(tmp)
     try:
         yield tmp
@@ -41,10 +43,107 @@ def replaced_atomically(path, tmp=None):
         raise
 
 
+def _remove_stale_temporaries(path) -> None:
+    """Remove ``PATH.<pid>.tmp`` files whose writer process no longer runs on this host (SIGKILL
+    leaves them; nothing else can)."""
+    import glob
+
+    for tmp in glob.glob(glob.escape(path) + ".*.tmp"):
+        pid = tmp[len(path) + 1:-len(".tmp")]
+        if pid.isdigit() and _owner_is_dead({"host": socket.gethostname(), "pid": int(pid)}):
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+
+
 def write_atomically(path, write):
     """``write(tmp)`` under :func:`replaced_atomically`; returns what ``write`` returns."""
     with replaced_atomically(path) as tmp:
         return write(tmp)
+
+
+def check_apart(output, inputs, what="output") -> None:
+    """Refuse (``ParameterError``) an ``output`` path that is, contains or lies inside one of
+    ``inputs`` (after resolving links): ``--overwrite`` must never replace or delete a source."""
+    out = os.path.realpath(os.fspath(output))
+    for source in inputs:
+        src = os.path.realpath(os.fspath(source))
+        if out == src:
+            raise ParameterError(f"{output}: the {what} is the input {source}")
+        if os.path.commonpath([out, src]) == src:
+            raise ParameterError(f"{output}: the {what} lies inside the input {source}")
+        if os.path.commonpath([out, src]) == out:
+            raise ParameterError(f"{output}: the {what} contains the input {source}")
+
+
+def regular_input(path):
+    """``path`` if it names a regular file (or a folder), else ``ParameterError``: reading a FIFO,
+    a socket or a device would block for ever or read garbage."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise ParameterError(f"{path}: cannot read (no such file)") from None
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot read ({exc.strerror or one_line(exc)})") from None
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        raise ParameterError(f"{path}: not a regular file (a FIFO, socket or device cannot be read as a run or dump)")
+    return path
+
+
+@contextlib.contextmanager
+def staged_outputs(folder=None):
+    """Several output files written as one: nothing is replaced unless all of them were written.
+
+    Yields a function ``stage(target) -> path`` that gives, for each output file ``target``, a
+    temporary name to write into, in a staging folder ``.staging-PID-…`` inside ``folder`` (or,
+    when ``folder`` is None, in the target's own folder: renames never cross file systems); the
+    file's extension is kept, for writers that choose the format by it. When the block succeeds every staged file is renamed over its
+    target (a loop of atomic renames on one file system); when it fails or is interrupted
+    (Ctrl-C) the staging folder is deleted and no target is touched.
+    """
+    import shutil
+    import tempfile
+
+    staging, dirs = {}, {}  # target -> staged file; base folder -> its staging folder
+
+    def stage(target):
+        target = os.fspath(target)
+        base = folder if folder is not None else os.path.dirname(os.path.abspath(target))
+        if base not in dirs:
+            dirs[base] = tempfile.mkdtemp(prefix=f".staging-{os.getpid()}-", dir=base)
+        tmp = os.path.join(dirs[base], f"{len(staging):04d}-{os.path.basename(target)}")
+        staging[target] = tmp
+        return tmp
+
+    try:
+        yield stage
+        for target, tmp in staging.items():
+            os.replace(tmp, target)
+    finally:
+        for staging_dir in dirs.values():
+            shutil.rmtree(staging_dir, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def output_folder(path):
+    """Make the output folder ``path`` (refusing a file of that name, naming the reason); when the
+    block fails or is interrupted and the folder was made here and is empty, remove it again."""
+    path = os.fspath(path)
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise ParameterError(f"{path}: exists and is not a folder")
+    created = not os.path.exists(path)
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot create the output folder ({exc.strerror or exc})") from None
+    try:
+        yield path
+    except BaseException:
+        if created:
+            with contextlib.suppress(OSError):
+                os.rmdir(path)  # only if empty
+        raise
 
 
 def check_output_folder(path) -> None:

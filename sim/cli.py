@@ -126,7 +126,9 @@ def _run(args) -> int:
         except RuntimeError as exc:  # e.g. a particle left the drum while settling
             print(f"sim: error: {one_line(exc)} (while settling; nothing was written)", file=sys.stderr)
             return 1
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not _interrupted(exc):
+                raise
             print("sim: interrupted while settling; nothing was written", file=sys.stderr)
             return 130
     try:
@@ -135,12 +137,23 @@ def _run(args) -> int:
     except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
         print(f"sim: error: {one_line(exc)}; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, SystemError) as exc:
+        if not _interrupted(exc):
+            raise
         print(f"sim: interrupted; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 130
-    print(f"{out}: {sim.state.step // frame_every + 1} frames, t = {sim.time:.4g} s "
-          f"({sim.time / params.revolution_period:.3g} revolutions)")
+    from granalytics import open_run
+
+    with open_run(out, validate=False) as run:  # what the file holds (a finished run resumed is left as it was)
+        n_frames, t_last = len(run), float(run.times[-1])
+    print(f"{out}: {n_frames} frames, t = {t_last:.4g} s ({t_last / params.revolution_period:.3g} revolutions)")
     return 0
+
+
+def _interrupted(exc) -> bool:
+    """A Ctrl-C: a KeyboardInterrupt, or the SystemError a numba kernel raises when the interrupt
+    arrives while it runs ("... returned a result with an exception set")."""
+    return isinstance(exc, KeyboardInterrupt) or isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt)
 
 
 def _what_is_left(out, ckpt) -> str:

@@ -147,14 +147,16 @@ def test_the_documented_criterion_reproduces_gna(snapshot):
 def test_scalar_results_broadcast_and_non_booleans_are_refused(snapshot):
     assert ga.identify(snapshot, method="custom", criterion="1 > 0").kept.all()
     assert not ga.identify(snapshot, method="custom", criterion="2 < 1").kept.any()
-    for criterion, word in [("f_norm", "float64 values, not true/false"), ("1", "int64 values, not true/false"),
+    for criterion, word in [("f_norm", "float64 values, not true/false"), ("1", "float64 values, not true/false"),
                             ("f_norm + 1", "not true/false"), ("f_norm and gap > 0", "'and' needs true/false"),
-                            ("~f_norm", "'~' needs a true/false"), ("i ** -1 > 0", "evaluation error")]:
+                            ("~f_norm", "'~' needs a true/false")]:
         with pytest.raises(ParameterError, match="edge criterion") as exc:
             ga.identify(snapshot, method="custom", criterion=criterion)
         assert word in str(exc.value) and "\n" not in str(exc.value)
     with pytest.raises(ParameterError, match="expression string or a callable"):
         CustomEdges(0.5)
+    # numbers are real numbers: an integer power with a negative exponent no longer fails (int64 did)
+    assert ga.identify(snapshot, method="custom", criterion="j ** -1 > 0").kept.all()
 
 
 def test_callable_criteria_still_get_the_table(snapshot):
@@ -198,3 +200,15 @@ def test_cli_accepts_a_valid_criterion(run_file, capsys):
             "--set", "custom.criterion=f_norm >= 0.6 and (angle_v_deg < 20 or angle_w_deg < 20)", "--quiet"]
     assert main(argv) == 0
     assert "means over" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("criterion, expected", [
+    ("f_norm > 2**64", "none"), ("f_norm < 10**19", "all"), ("f_norm < 2**63 * 4", "all"),
+    ("f_norm > -(2**70)", "all"), ("f_norm > 9223372036854775807 + 1", "none"),
+])
+def test_big_integer_literals_are_real_numbers_not_wrapped_int64(snapshot, table, criterion, expected):
+    """int64 arithmetic wrapped 2**64 to 0 (kept 32 of 155 contacts) and made 10**19 negative (kept none)."""
+    from granalytics.identify.custom import compile_criterion, evaluate_criterion
+
+    mask = evaluate_criterion(compile_criterion(criterion), table, snapshot.n_contacts, criterion)
+    assert mask.all() if expected == "all" else not mask.any()

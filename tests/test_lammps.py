@@ -331,15 +331,31 @@ def test_a_timestep_with_another_particle_count_is_refused_naming_its_dump(tmp_p
 
 
 def test_contact_timesteps_without_particles_are_reported(tmp_path, frames, capsys):
+    """Contacts dumped between the particle timesteps are left out with a warning; contacts after
+    the last particle timestep mean that the particle dump ends early (cut at a timestep boundary,
+    or a file left out): refused, naming the timesteps."""
     from granalytics.cli import main
 
     pf, cf = write_dumps(tmp_path, frames, per_step=True)
-    argv = ["convert", *map(str, pf[:2]), "--contacts", *map(str, cf), "--mapping", str(_mapping_file(tmp_path)),
-            "--dt-s", str(DT), "--out", str(tmp_path / "run.h5"), "--quiet"]
-    assert main(argv) == 0
+    common = ["--contacts", *map(str, cf), "--mapping", str(_mapping_file(tmp_path)), "--dt-s", str(DT), "--quiet"]
+    assert main(["convert", str(pf[0]), str(pf[2]), *common, "--out", str(tmp_path / "run.h5")]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"granalytics: warning: 1 contact timestep(s) without a particle timestep are not converted "
-                   f"(200; from {cf[0]}, {cf[1]}, {cf[2]})"]
+                   f"(100; from {cf[0]}, {cf[1]}, {cf[2]})"]
+    assert main(["convert", *map(str, pf[:2]), *common, "--out", str(tmp_path / "cut.h5")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "the particle files end at timestep 100 but the contact files go on to 200" in err[0]
+    assert not (tmp_path / "cut.h5").exists()
+
+
+def test_a_dump_cut_at_a_timestep_boundary_is_refused(tmp_path, frames):
+    """The case hypothesis found (a particle dump cut exactly before a TIMESTEP line), kept as an example."""
+    pf, cf = write_dumps(tmp_path, frames)
+    lines = open(pf[0]).read().splitlines()
+    last_block = max(i for i, line in enumerate(lines) if line == "ITEM: TIMESTEP")
+    open(pf[0], "w").write("\n".join(lines[:last_block]) + "\n")
+    with pytest.raises(DumpFormatError, match="particle files end at timestep 100 but the contact files go on to 200"):
+        read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
 
 
 @pytest.mark.parametrize("line, words", [

@@ -68,9 +68,11 @@ def test_yade_csv_cut_inside_its_last_line_is_refused(tmp_path, gz, which):
 
 
 def test_unused_contact_files_are_reported_and_a_bad_step_names_the_file(tmp_path):
-    with pytest.warns(UserWarning, match=r"1 contact timestep\(s\) without a particle timestep are not converted \(16000"):
-        snapshots, _ = read_yade_csv(PARTICLES[:1], CONTACTS, DATA / "meta.toml")
-    assert [s.step for s in snapshots] == [12000]
+    with pytest.warns(UserWarning, match=r"1 contact timestep\(s\) without a particle timestep are not converted \(12000"):
+        snapshots, _ = read_yade_csv(PARTICLES[1:], CONTACTS, DATA / "meta.toml")
+    assert [s.step for s in snapshots] == [16000]
+    with pytest.raises(GranalyticsError, match="particle files end at timestep 12000 but the contact files go on to 16000"):
+        read_yade_csv(PARTICLES[:1], CONTACTS, DATA / "meta.toml")
     text = gzip.open(PARTICLES[-1], "rt").read().splitlines()
     bad = tmp_path / "p.csv"
     bad.write_text("\n".join([text[0].replace("step=16000", "step=16k")] + text[1:]) + "\n")

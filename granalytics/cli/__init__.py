@@ -68,6 +68,24 @@ def main(argv=None):
     with warnings_as_lines("granalytics"):
         try:
             return args.func(args)
+        except KeyboardInterrupt:
+            print(f"granalytics: {args.command}: interrupted; no output was replaced (outputs are written whole "
+                  "or not at all)", file=sys.stderr)
+            return 130
+        except BrokenPipeError:  # the reader went away (granalytics info RUN | head): quietly, as Unix tools do
+            _silence_stdout()
+            return 141
         except (GranalyticsError, OSError, ValueError, OverflowError) as exc:  # bad input or environment: one line
             print(f"granalytics: error: {exc}", file=sys.stderr)
             return 2
+
+
+def _silence_stdout():
+    """Point stdout at /dev/null, so that flushing it at exit raises no second BrokenPipeError."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # no real file descriptor (e.g. captured by a test)
+        pass

@@ -138,10 +138,15 @@ def table_format(path):
     return _TABLE_FORMATS[ext]
 
 
-def save_figure(fig, path):
+def save_figure(fig, path, stage=None):
+    """Write ``fig`` to ``path`` (its format from the extension), atomically, or into
+    ``stage(path)`` when the command writes its outputs as one (:func:`granalytics.files.staged_outputs`)."""
     ext = os.path.splitext(path)[1].lstrip(".").lower() or "png"
     try:
-        write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=ext))
+        if stage is not None:
+            fig.savefig(stage(path), dpi=120, format=ext)
+        else:
+            write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=ext))
     except (OSError, ValueError) as exc:
         raise GranalyticsError(f"{path}: cannot write plot ({exc})") from None
     print(f"wrote plot to {path}")
@@ -193,11 +198,19 @@ def check_outputs(args, tables=(), others=(), plots=()):
         check_new_file(path, args.overwrite)
 
 
-def write_table(table, path):
-    try:
+def write_table(table, path, stage=None):
+    """Write ``table`` to ``path`` (.csv or .parquet), atomically, or into ``stage(path)`` when the
+    command writes its outputs as one (:func:`granalytics.files.staged_outputs`)."""
+    def write(tmp):
         if table_format(path) == "csv":
-            write_atomically(path, lambda tmp: table.to_csv(tmp, index=False))
+            table.to_csv(tmp, index=False)
         else:
-            write_atomically(path, lambda tmp: table.to_parquet(tmp, index=False))
+            table.to_parquet(tmp, index=False)
+
+    try:
+        if stage is not None:
+            write(stage(path))
+        else:
+            write_atomically(path, write)
     except OSError as exc:
         raise GranalyticsError(f"{path}: cannot write ({exc})") from None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import warnings
@@ -10,7 +11,7 @@ import numpy as np
 
 from ..metrics import HEADLINE, METRICS
 from ..errors import GranalyticsError, ParameterError
-from ..files import write_atomically
+from ..files import WriterLock, staged_outputs, write_atomically
 from ..identify import DEFAULT_METHODS, accepted_params
 from ..io import open_run
 from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
@@ -165,7 +166,9 @@ def cmd_identify(args):
 
     identifier = gna_identifier(args)
     check_outputs(args, others=(args.out,))
-    with open_run(args.run) as run:
+    # one writer at a time on the labels file (OUT.lock), the output checked again under the lock
+    with WriterLock(args.out), open_run(args.run) as run:
+        check_outputs(args, others=(args.out,))
         frames = selected_frames(run, args)
         n_frames, n = len(frames), run.n_particles
 
@@ -207,6 +210,15 @@ def _write_labels(out, args, frames, identifier, n_frames, n):
 
 
 def cmd_stats(args):
+    check_outputs(args, tables=(args.out, args.sizes_out), plots=(args.plot,))  # before taking the locks
+    with contextlib.ExitStack() as locks:  # one writer at a time on each output (OUT.lock), checked again under it
+        for path in (args.out, args.sizes_out, args.plot):
+            if path:
+                locks.enter_context(WriterLock(path))
+        return _stats(args)
+
+
+def _stats(args):
     import pandas as pd
 
     check_outputs(args, tables=(args.out, args.sizes_out), plots=(args.plot,))
@@ -222,17 +234,25 @@ def cmd_stats(args):
         )
     steady = steady_state(ts, window=window, by=by, source=args.run)
     dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
+    with staged_outputs() as stage:  # every output, or none (a failing figure replaces no table)
+        if args.out:
+            write_table(ts, args.out, stage)
+        if args.sizes_out:
+            write_table(dist, args.sizes_out, stage)
+        if args.plot:
+            import matplotlib.pyplot as plt
+
+            from ..plot import stats_figure
+
+            fig = stats_figure(ts, dist, window=window, x=by, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}")
+            try:
+                save_figure(fig, args.plot, stage)
+            finally:
+                plt.close(fig)
     if args.out:
-        write_table(ts, args.out)
         print(f"wrote time series ({len(ts)} frames) to {args.out}")
     if args.sizes_out:
-        write_table(dist, args.sizes_out)
         print(f"wrote size distribution to {args.sizes_out}")
-    if args.plot:
-        from ..plot import stats_figure
-
-        save_figure(stats_figure(ts, dist, window=window, x=by,
-                           title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}"), args.plot)
     lo, hi = window
     print(f"steady state over {'revolutions' if by == 'revolutions' else 'time [s]'} [{lo:g}, {hi:g}] "
           f"(C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°, cohesion={args.cohesion}):")

@@ -7,6 +7,7 @@ import os
 
 
 from ..errors import ParameterError
+from ..files import check_apart, output_folder, regular_input
 from ..io.readers import READERS
 from ..io import open_run
 from ._common import (add_gna_options, check_new_file, interval, selected_frames)
@@ -88,14 +89,10 @@ def cmd_export_vtk(args):
     from ..io import WriterLock
     from ..io.vtk import export_vtk
 
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise ParameterError(f"{args.out}: exists and is not a folder")
-    try:  # before the export, not after its first frame
-        os.makedirs(args.out, exist_ok=True)
-    except OSError as exc:
-        raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
     pvd_path = os.path.join(args.out, "run.pvd")
-    with WriterLock(pvd_path), open_run(args.run) as run:  # one export at a time into the folder
+    # the folder made before the export (and removed again if the export fails and leaves it empty),
+    # one export at a time into it
+    with output_folder(args.out), WriterLock(pvd_path), open_run(args.run) as run:
         if os.path.exists(pvd_path) and not args.overwrite:
             raise ParameterError(f"{pvd_path}: exists (pass --overwrite to replace the export in {args.out})")
         frames = selected_frames(run, args)
@@ -117,6 +114,10 @@ def cmd_convert(args):
     from ..io import RunWriter, replacing_run
     from ..io.readers import read_run_files
 
+    inputs = [*args.particles, *args.contacts, args.mapping]
+    check_apart(args.out, inputs, "converted run")  # --overwrite must never replace an input
+    for path in inputs:
+        regular_input(path)
     check_new_file(args.out, args.overwrite)  # before reading the dumps
     snapshots, meta = read_run_files(args.source, args.particles, args.contacts, args.mapping, args.dt_s)
     with replacing_run(args.out, args.overwrite) as tmp, RunWriter(tmp, meta, overwrite=True) as writer:

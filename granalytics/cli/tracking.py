@@ -6,7 +6,7 @@ import math
 import os
 
 from ..errors import ParameterError
-from ..files import WriterLock
+from ..files import WriterLock, output_folder, staged_outputs
 from ..identify import DEFAULT_METHODS, accepted_params
 from ..io import open_run
 from ..plot import tracking_figure
@@ -56,14 +56,10 @@ def cmd_track(args):
 
     if args.min_fragment < 1:
         raise ParameterError(f"--min-fragment must be >= 1, got {args.min_fragment}")
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise ParameterError(f"{args.out}: exists and is not a folder")
-    try:  # before the analysis, not after it
-        os.makedirs(args.out, exist_ok=True)
-    except OSError as exc:
-        raise ParameterError(f"{args.out}: cannot create the output folder ({exc.strerror or exc})") from None
-    # one writer at a time into the folder (OUT/tracking.lock), the outputs checked under the lock
-    with WriterLock(os.path.join(args.out, "tracking")):
+    # the folder made before the analysis (removed again if the command fails and leaves it empty),
+    # one writer at a time into it (OUT/tracking.lock), the outputs checked under the lock and
+    # written as one (all six, or none)
+    with output_folder(args.out), WriterLock(os.path.join(args.out, "tracking")):
         paths = {name: os.path.join(args.out, name) for name in _OUTPUTS}
         existing = [p for p in paths.values() if os.path.exists(p)]
         if existing and not args.overwrite:
@@ -80,16 +76,15 @@ def cmd_track(args):
         rates = event_rates(tracks, period)
         kernel = coalescence_kernel(tracks)
         breakage = breakage_rate(tracks)
-        write_table(tracks.events, paths["events.csv"])
-        write_table(tracks.tracks, paths["tracks.csv"])
-        write_table(rates, paths["rates.csv"])
-        write_table(kernel, paths["kernel.csv"])
-        write_table(breakage, paths["breakage.csv"])
         setting = ", ".join(f"{k}={v}" for k, v in params.items())
         fig = tracking_figure(tracks, rates, kernel, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
                                                            f"min_fragment={args.min_fragment}")
         try:
-            save_figure(fig, paths["tracking.png"])
+            with staged_outputs(args.out) as stage:
+                for table, name in ((tracks.events, "events.csv"), (tracks.tracks, "tracks.csv"), (rates, "rates.csv"),
+                                    (kernel, "kernel.csv"), (breakage, "breakage.csv")):
+                    write_table(table, paths[name], stage)
+                save_figure(fig, paths["tracking.png"], stage)
         finally:
             plt.close(fig)
         counts = tracks.event_counts()

@@ -273,7 +273,10 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     from ..io import WriterLock, open_run, subset_run, thinned_frames
     from ..manifest import read_manifest
 
+    from ..files import check_apart
+
     src, dst = Path(src), Path(dst)
+    check_apart(dst, [src], "bundle folder")  # --overwrite must never delete the sweep it copies
     dst.parent.mkdir(parents=True, exist_ok=True)
     with WriterLock(dst):  # DST.lock beside it: one bundling at a time, dst checked under the lock
         if dst.exists() and not dst.is_dir():
@@ -284,6 +287,13 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
         done = table[table.status == "done"].copy()
         if done.empty:
             raise GranalyticsError(f"{src}/manifest.csv: no finished point to bundle")
+        points = os.path.realpath(src / "points")
+        for row in done.itertuples():  # a manifest names files inside its points/ folder, nothing else
+            rel = str(row.file)
+            target = os.path.realpath(src / rel)
+            if (os.path.isabs(rel) or ".." in Path(rel).parts or not rel.startswith("points/")
+                    or os.path.commonpath([target, points]) != points):
+                raise GranalyticsError(f"{src}/manifest.csv: point {row.point}: file {rel!r} is not inside {src}/points")
         left = table.point[table.status != "done"].tolist()
         if left:
             print(f"bundle-sweep: {len(left)} unfinished points left out: {', '.join(left)}", file=sys.stderr)

@@ -176,15 +176,12 @@ def _check(node, source, depth=0):
 
 
 def _literal(value, here=""):
-    """A numeric literal as a bounded numpy scalar (int64 when it fits, else float64)."""
-    if type(value) is int:
-        if -2**63 <= value < 2**63:
-            return np.int64(value)
-        try:
-            return np.float64(float(value))
-        except OverflowError:
-            _refuse(f"the number{here} is too large")
-    return np.float64(value)
+    """A numeric literal as a float64 scalar: integers too, so that arithmetic on them cannot wrap
+    around (``2**64`` in int64 is 0) and every comparison is one of real numbers."""
+    try:
+        return np.float64(float(value))
+    except OverflowError:
+        _refuse(f"the number{here} is too large")
 
 
 def compile_criterion(source) -> ast.Expression:

@@ -8,6 +8,7 @@ import gzip
 import warnings
 
 from ..errors import GranalyticsError
+from ..files import regular_input
 
 __all__ = ["DumpFormatError", "read_complete_lines", "load_toml", "warn_unused_contact_steps"]
 
@@ -29,6 +30,7 @@ def read_complete_lines(path) -> list:
     (``-156.81`` read as ``-156``). Such a file raises :class:`DumpFormatError` naming the file
     and the line.
     """
+    regular_input(path)  # a FIFO would block for ever
     try:
         with _open_text(path) as f:
             text = f.read()
@@ -47,9 +49,12 @@ def load_toml(path) -> dict:
         import tomllib
     except ModuleNotFoundError:  # Python 3.10
         import tomli as tomllib
+    regular_input(path)
     try:
         with open(path, "rb") as f:
             return tomllib.load(f)
+    except RecursionError:
+        raise GranalyticsError(f"{path}: cannot read the mapping: its tables or arrays are nested too deeply") from None
     except UnicodeDecodeError as exc:
         raise GranalyticsError(f"{path}: cannot read the mapping: not UTF-8 text (byte "
                                f"0x{exc.object[exc.start]:02x} at offset {exc.start}); a TOML file is "
@@ -59,8 +64,20 @@ def load_toml(path) -> dict:
 
 
 def warn_unused_contact_steps(contact_steps, particle_steps, contact_files) -> None:
-    """Warn about contact timesteps that no particle timestep uses (they are not converted)."""
+    """Contact timesteps that no particle timestep uses are not converted.
+
+    Those between the particle timesteps (contacts dumped more often than particles) get a
+    warning. Those after the last particle timestep mean that the particle files end early (a dump
+    cut at a timestep boundary, or a file left out): :class:`DumpFormatError`, naming them.
+    """
     unused = sorted(set(contact_steps) - set(particle_steps))
+    last = max(particle_steps)
+    after = [s for s in unused if s > last]
+    if after:
+        shown = ", ".join(map(str, after[:5])) + (", ..." if len(after) > 5 else "")
+        raise DumpFormatError(f"the particle files end at timestep {last} but the contact files go on to {after[-1]} "
+                              f"({len(after)} timestep(s): {shown}; from {', '.join(map(str, contact_files[:3]))}"
+                              f"{', ...' if len(contact_files) > 3 else ''}): a particle file was cut short or left out")
     if unused:
         shown = ", ".join(map(str, unused[:5])) + (", ..." if len(unused) > 5 else "")
         warnings.warn(f"{len(unused)} contact timestep(s) without a particle timestep are not converted "

@@ -14,7 +14,7 @@ from ..files import one_line
 from .format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_DATASETS, _CONTACT_LAYOUT, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from .native import _HDF5Handle, _open_h5
 from .._windows import window_mask
-from ..errors import GranalyticsError, RunFileError, ValidationError
+from ..errors import ParameterError, GranalyticsError, RunFileError, ValidationError
 from ..snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
 
 
@@ -141,10 +141,14 @@ class Run(_HDF5Handle, _FrameSequence):
     """
 
     def __init__(self, path, *, validate=True):
+        if not isinstance(path, (str, os.PathLike)):
+            raise ParameterError(f"open_run: path must be a file name (str or path-like), got {type(path).__name__} {path!r}")
         self.path = os.fspath(path)
         self.validate = validate
         if not os.path.exists(self.path):
             raise RunFileError(f"{self.path}: no such file")
+        if not os.path.isfile(self.path):  # a FIFO would block for ever, a folder is no run
+            raise RunFileError(f"{self.path}: not a regular file (a folder, FIFO, socket or device is no run file)")
         self._file, self._writer_open = _open_h5(self.path)
         try:
             self._load_index()

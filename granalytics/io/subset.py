@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from ..files import WriterLock, replaced_atomically
+from ..files import WriterLock, check_apart, replaced_atomically
 from .reader import open_run
 from .writer import RunWriter
 from ..errors import RunFileError, ValidationError
@@ -93,7 +93,14 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
     """
     from tqdm.auto import tqdm
 
-    frames = np.asarray(frames, dtype=np.int64)
+    check_apart(dst, [src], "subset")  # overwrite=True must never replace its own source
+    raw = np.asarray(frames)
+    if raw.dtype.kind == "f" and not np.array_equal(raw, np.round(raw)):
+        bad = raw[raw != np.round(raw)][0]
+        raise ValidationError("frames", f"must be whole frame indices, got {bad!r}")
+    if raw.dtype.kind not in "iuf" and raw.size:
+        raise ValidationError("frames", f"must be whole frame indices, got {raw.dtype} values")
+    frames = raw.astype(np.int64)
     with open_run(src) as run:
         if frames.size == 0 or (np.diff(frames) <= 0).any() or frames[0] < 0 or frames[-1] >= len(run):
             raise ValidationError("frames", f"must be increasing indices in [0, {len(run)}) of {src}")

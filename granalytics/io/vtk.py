@@ -17,6 +17,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 from tqdm.auto import tqdm
 
+from ..files import staged_outputs
 from ..errors import GranalyticsError
 from ..identify import make_identifier
 
@@ -63,6 +64,10 @@ def export_vtk(frames, out_dir, method="gna", *, progress=False, **params):
     -------
     str
         Path of the ``.pvd`` file.
+
+    The export is written whole or not at all: every file goes into a staging folder inside
+    ``out_dir`` first (:func:`granalytics.files.staged_outputs`) and is renamed into place only
+    when all frames are written; a failure or Ctrl-C leaves ``out_dir`` as it was.
     """
     import meshio
 
@@ -71,13 +76,14 @@ def export_vtk(frames, out_dir, method="gna", *, progress=False, **params):
     frame_ids = frames.frame_indices if hasattr(frames, "frame_indices") else np.arange(len(frames))
     collection = ET.Element("VTKFile", type="Collection", version="0.1")
     datasets = ET.SubElement(collection, "Collection")
-    for k, snapshot in zip(frame_ids, tqdm(frames, disable=not progress, unit="frame", desc="export-vtk")):
-        name = f"frame_{int(k):05d}.vtu"
-        try:
-            meshio.write(os.path.join(out_dir, name), frame_mesh(identifier.identify(snapshot)))
-        except OSError as exc:
-            raise GranalyticsError(f"{os.path.join(out_dir, name)}: cannot write ({exc})") from None
-        ET.SubElement(datasets, "DataSet", timestep=repr(float(snapshot.time)), part="0", file=name)
     pvd = os.path.join(out_dir, "run.pvd")
-    ET.ElementTree(collection).write(pvd, xml_declaration=True, encoding="utf-8")
+    with staged_outputs(out_dir) as stage:
+        for k, snapshot in zip(frame_ids, tqdm(frames, disable=not progress, unit="frame", desc="export-vtk")):
+            name = f"frame_{int(k):05d}.vtu"
+            try:
+                meshio.write(stage(os.path.join(out_dir, name)), frame_mesh(identifier.identify(snapshot)))
+            except OSError as exc:
+                raise GranalyticsError(f"{os.path.join(out_dir, name)}: cannot write ({exc})") from None
+            ET.SubElement(datasets, "DataSet", timestep=repr(float(snapshot.time)), part="0", file=name)
+        ET.ElementTree(collection).write(stage(pvd), xml_declaration=True, encoding="utf-8")
     return pvd

@@ -41,7 +41,7 @@ import uuid
 from dataclasses import dataclass, field
 
 from granalytics import ParameterError, WriterLock
-from granalytics.files import one_line
+from granalytics.files import one_line, regular_input
 from granalytics.manifest import (MANIFEST_COLUMNS, NAMED_PARAMETERS, manifest_path, manifest_rows, read_manifest,
                                   write_manifest)
 
@@ -257,9 +257,12 @@ def load_spec(path) -> SweepSpec:
         import tomllib
     except ImportError:  # Python < 3.11
         import tomli as tomllib
+    regular_input(path)  # a FIFO would block for ever
     try:
         with open(path, "rb") as f:
             spec = tomllib.load(f)
+    except RecursionError:
+        raise ParameterError(f"{path}: not a sweep spec: its tables or arrays are nested too deeply") from None
     except OSError as exc:
         raise ParameterError(f"{path}: cannot read the sweep spec ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
