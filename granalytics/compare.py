@@ -50,6 +50,11 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
     """
     from sklearn.metrics import adjusted_rand_score
 
+    if not isinstance(methods, dict) or not all(
+            isinstance(v, (tuple, list)) and len(v) == 2 and isinstance(v[1], dict) for v in methods.values()):
+        raise ParameterError("compare_methods: methods must be a dict of display name -> (method, params), e.g. "
+                             "{'gna': ('gna', {}), 'dbscan': ('dbscan', {'eps_diameters': 1.1})}; got "
+                             f"{type(methods).__name__} {str(methods)[:80]}")
     if len(methods) < 2:
         raise ParameterError("compare_methods needs at least two methods")
     identifiers = {name: make_identifier(method, **{"cohesion": cohesion, **params})

@@ -120,8 +120,17 @@ def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
     window : (float, float), optional
         Revolution window; all frames when None.
     """
+    need = ["a_agg_deg", "c_agg", *(["revolutions"] if window is not None else []), *_METRICS]
+    if not isinstance(table, pd.DataFrame) or any(c not in table for c in need):
+        raise ParameterError(f"sensitivity_summary: table must be the DataFrame of sensitivity() (columns "
+                             f"{', '.join(need)}), got {type(table).__name__}"
+                             f"{' without ' + repr(next(c for c in need if c not in table)) if isinstance(table, pd.DataFrame) else ''}")
+    if table.empty:
+        raise ParameterError("sensitivity_summary: the table has no rows (no frame was analysed)")
     if window is not None:
-        lo, hi = window
+        from .stats import _window_pair
+
+        lo, hi = _window_pair(window, "sensitivity_summary: window")
         table = table[window_mask(table["revolutions"], lo, hi)]
         if table.empty:
             raise ParameterError(f"no frame in the window [{lo:g}, {hi:g}] revolutions")

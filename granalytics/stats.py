@@ -70,8 +70,18 @@ def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFram
     yield_fraction
         Fraction of particles in granules — Fig. 6.
     """
+    if not isinstance(snapshot, Snapshot):
+        raise ParameterError(f"frame_stats: snapshot must be a Snapshot, got {type(snapshot).__name__}")
+    if not isinstance(result, IdentificationResult):
+        raise ParameterError(f"frame_stats: result must be an IdentificationResult (from identify), got "
+                             f"{type(result).__name__}")
     if result.labels.shape != (snapshot.n_particles,):
         raise ParameterError("result does not belong to this snapshot (label count differs)")
+    other = result.snapshot
+    if other is not snapshot and (other.time != snapshot.time or other.step != snapshot.step
+                                  or not np.array_equal(other.ids, snapshot.ids)):
+        raise ParameterError(f"frame_stats: the result was identified on another frame (t = {other.time!r} s, step "
+                             f"{other.step}) than the snapshot (t = {snapshot.time!r} s, step {snapshot.step})")
     n = snapshot.n_particles
     n_initial = snapshot.meta.n_particles if snapshot.meta is not None else n
     volume = snapshot.particle_volume
@@ -212,7 +222,15 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     """
     if by not in ("revolutions", "time_s"):
         raise ParameterError(f"by must be 'revolutions' or 'time_s', got {by!r}")
-    lo, hi = (float(w) for w in window)
+    if not isinstance(timeseries, pd.DataFrame):
+        raise ParameterError(f"steady_state: timeseries must be a DataFrame (run_stats' result), got {type(timeseries).__name__}")
+    lo, hi = _window_pair(window, "steady_state: window")
+    if isinstance(columns, str):
+        columns = (columns,)
+    missing = [c for c in (by, *columns) if c not in timeseries]
+    if missing:
+        raise ParameterError(f"steady_state: the time series has no column {missing[0]!r} "
+                             f"(it has {', '.join(map(str, timeseries.columns))})")
     axis = timeseries[by].to_numpy(dtype=float)
     mask, tol = check_window(axis, (lo, hi), by=by, source=source)
     inside = timeseries[mask]
@@ -247,6 +265,21 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     return table.astype({"n_frames": int, "n_blocks": int})
 
 
+def _window_pair(window, name) -> tuple:
+    """``(lo, hi)`` of a window given as a pair of finite numbers lo <= hi, else ParameterError naming it."""
+    if isinstance(window, (str, bytes)) or not hasattr(window, "__len__") or len(window) != 2:
+        raise ParameterError(f"{name} must be a pair of numbers (start, stop), got {window!r}")
+    try:
+        lo, hi = (float(w) for w in window)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a pair of numbers (start, stop), got {window!r}") from None
+    if lo > hi:
+        raise ParameterError(f"{name} {window!r} is empty (start > stop)")
+    if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)):
+        raise ParameterError(f"{name} must be finite with start <= stop, got {window!r}")
+    return lo, hi
+
+
 def size_distribution(sizes, bins_per_decade=5, min_size=2) -> pd.DataFrame:
     """Distribution of particles per granule on logarithmic bins of integers.
 
@@ -264,9 +297,14 @@ def size_distribution(sizes, bins_per_decade=5, min_size=2) -> pd.DataFrame:
     integer bounds), ``size_center`` (geometric centre), ``count``, ``probability``
     (count / total), ``density`` (probability per integer size: probability / integers in bin).
     """
-    if isinstance(sizes, (list, tuple)):
+    if isinstance(sizes, (list, tuple)) and sizes and np.ndim(sizes[0]) == 0:  # one list of sizes
+        sizes = np.asarray(sizes)
+    elif isinstance(sizes, (list, tuple)):  # one array of sizes per frame
         sizes = np.concatenate([np.asarray(s, dtype=np.int64) for s in sizes]) if sizes else np.zeros(0, np.int64)
     sizes = np.asarray(sizes, dtype=np.int64)
+    for name, value in (("bins_per_decade", bins_per_decade), ("min_size", min_size)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ParameterError(f"size_distribution: {name} must be a whole number >= 1, got {value!r}")
     if (sizes < min_size).any():
         raise ParameterError(f"granule sizes must be >= {min_size}, found {sizes.min()}")
     top = max(int(sizes.max()) if sizes.size else min_size, min_size) + 1

@@ -188,6 +188,13 @@ class GrowthFit:
         ``"hinge"`` or ``"linear"``.
     rss : float
         (Weighted) residual sum of squares over the used points.
+    gamma_range : (float, float)
+        The smallest and largest γ given [N/m].
+
+    One rule decides whether the data show growth (:attr:`shows_growth`): the slope's interval
+    lies above zero and, for the hinge, the onset γ₁ lies within the γ given. A fit that fails it
+    is reported as "no growth" (:meth:`summary`, the ``study`` command) and never drawn as a law
+    (:func:`granalytics.plot.growth_figure`); its numbers stay available for inspection.
     """
 
     beta: float
@@ -205,18 +212,38 @@ class GrowthFit:
     weighted: bool
     model: str
     rss: float
+    gamma_range: tuple = (-math.inf, math.inf)
     paper_beta: float = PAPER_BETA
     paper_gamma_1: float = PAPER_GAMMA_1
     extra: dict = field(default_factory=dict)
+
+    @property
+    def shows_growth(self) -> bool:
+        """β's interval above 0 and (hinge) γ₁ within the γ given: see the class docstring."""
+        slope = self.beta_ci[0] > 0
+        onset = self.model != "hinge" or self.gamma_range[0] <= self.gamma_1 <= self.gamma_range[1]
+        return bool(slope and onset)
+
+    def no_growth_reason(self) -> str:
+        """Why :attr:`shows_growth` is False ("" when it is True)."""
+        reasons = []
+        if not self.beta_ci[0] > 0:
+            reasons.append(f"β's interval [{self.beta_ci[0]:.3g}, {self.beta_ci[1]:.3g}] includes 0")
+        if self.model == "hinge" and not self.gamma_range[0] <= self.gamma_1 <= self.gamma_range[1]:
+            reasons.append(f"the onset γ₁ = {self.gamma_1:.3g} N/m lies outside the γ given "
+                           f"[{self.gamma_range[0]:g}, {self.gamma_range[1]:g}] N/m")
+        return "; ".join(reasons)
 
     def predict(self, gamma):
         """β·max(0, γ − γ₁) at ``gamma`` (array-like)."""
         return self.beta * np.maximum(0.0, np.asarray(gamma, dtype=float) - self.gamma_1)
 
     def summary(self) -> str:
-        """One line: β and γ₁ with their intervals beside the paper's values."""
+        """One line: β and γ₁ with their intervals beside the paper's values ("no growth: …" first
+        when the data show none, :attr:`shows_growth`)."""
         pct = f"{100 * self.confidence:g} %"
-        return (f"⟨V_g⟩/V_p = β(γ − γ₁), {self.model} model: β = {self.beta:.4g} "
+        verdict = "" if self.shows_growth else f"no growth ({self.no_growth_reason()}); the fit, not a law: "
+        return (f"{verdict}⟨V_g⟩/V_p = β(γ − γ₁), {self.model} model: β = {self.beta:.4g} "
                 f"[{self.beta_ci[0]:.4g}, {self.beta_ci[1]:.4g}] (paper ≈ {self.paper_beta:g}), "
                 f"γ₁ = {self.gamma_1:.4g} [{self.gamma_1_ci[0]:.4g}, {self.gamma_1_ci[1]:.4g}] N/m "
                 f"(paper ≈ {self.paper_gamma_1:g} N/m); {pct} intervals, {self.n_points} points "
@@ -230,7 +257,8 @@ class GrowthFit:
                 "gamma_1": self.gamma_1, "gamma_1_ci_low": self.gamma_1_ci[0], "gamma_1_ci_high": self.gamma_1_ci[1],
                 "beta_se": self.beta_se, "gamma_1_se": self.gamma_1_se, "confidence": self.confidence,
                 "dof": self.dof, "n_points": self.n_points, "n_used": self.n_used,
-                "n_no_granules": self.n_no_granules, "weighted": self.weighted, "model": self.model, "rss": self.rss}
+                "n_no_granules": self.n_no_granules, "weighted": self.weighted, "model": self.model, "rss": self.rss,
+                "shows_growth": self.shows_growth}
 
 
 def _hinge(g, beta, gamma_1):
@@ -296,7 +324,17 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
         s_in = np.asarray(sem, dtype=float).ravel()
         if s_in.shape != g.shape:
             raise ParameterError(f"{s_in.size} sems for {g.size} points")
+        if (s_in < 0).any():
+            k = int(np.flatnonzero(s_in < 0)[0])
+            raise ParameterError(f"sem must be >= 0, got {float(s_in[k])!r} at γ = {g[k]:g} N/m")
         ok = np.isfinite(s_in) & (s_in > 0)
+        odd = ~ok & ~no_granules  # a point without granules has no sem; one with granules should
+        if ok.any() and odd.any():
+            import warnings
+
+            warnings.warn(f"{int(odd.sum())} sem(s) zero or NaN at points with granules (γ = "
+                          f"{', '.join(f'{x:g}' for x in g[odd])} N/m; a single block?) take the smallest positive "
+                          f"sem given, {s_in[ok].min():.3g}", stacklevel=2)
         if ok.any():
             s = np.where(ok, s_in, s_in[ok].min())
             weighted = True
@@ -371,6 +409,7 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
         gamma_1_ci=(gamma_1 - q * se[1], gamma_1 + q * se[1]), beta_se=float(se[0]), gamma_1_se=float(se[1]),
         cov=np.asarray(pcov), confidence=float(confidence), dof=int(dof), n_points=int(g.size), n_used=n_used,
         n_no_granules=int(no_granules.sum()), weighted=weighted, model=model, rss=residual(popt),
+        gamma_range=(float(g.min()), float(g.max())),
     )
 
 

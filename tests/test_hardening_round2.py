@@ -244,3 +244,107 @@ def test_a_failed_track_leaves_no_empty_folder(run_file, tmp_path, capsys):
     out = tmp_path / "kinetics"
     assert main(["track", run_file, "--out", str(out), "--window", "50:60", "--quiet"]) == 2
     assert not out.exists()
+
+
+# 9, 12 --------------------------------------------------------------------------------------
+def test_silent_wrong_answers_are_refused_or_warned(run_file):
+    with ga.open_run(run_file) as run:
+        with pytest.raises(ga.ParameterError, match="another frame"):
+            ga.frame_stats(run[6], ga.identify(run[5]))
+        with pytest.raises(ga.ParameterError, match="revolutions must be a finite number, got nan"):
+            run.nearest(revolutions=float("nan"))
+        with pytest.warns(UserWarning, match="no frame near revolutions=100"):
+            assert run.nearest(revolutions=100).time == run.times[-1]
+    with pytest.raises(ga.ParameterError, match="bins_per_decade must be a whole number >= 1, got 0"):
+        ga.size_distribution([2, 3, 4], bins_per_decade=0)
+    with pytest.raises(ga.ParameterError, match="min_size must be a whole number >= 1, got 0"):
+        ga.size_distribution([2, 3, 4], min_size=0)
+    with pytest.raises(ga.ValidationError, match="whole frame indices, got 1.7"):
+        ga.subset_run(run_file, os.path.join(os.path.dirname(run_file), "s.h5"), [0, 1.7])
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda: ga.identify(None), "snapshot must be a granalytics Snapshot, got NoneType"),
+    (lambda: ga.identify("run.h5"), "open the run with granalytics.open_run"),
+    (lambda: ga.open_run(123), "path must be a file name"),
+    (lambda: ga.steady_state(pd.DataFrame({"revolutions": [0.0, 1.0]}), window="3:6"), "window must be a pair"),
+    (lambda: ga.steady_state(pd.DataFrame({"revolutions": [0.0, 1.0]}), columns=("nope",)), "no column 'nope'"),
+    (lambda: ga.sensitivity_summary(pd.DataFrame()), "sensitivity_summary: table must be"),
+    (lambda: ga.compare_methods([], ["gna", "dbscan"]), "methods must be a dict"),
+])
+def test_the_public_api_names_the_argument(call, words):
+    with pytest.raises(ga.ParameterError, match=words):
+        call()
+
+
+# 10, 11 -------------------------------------------------------------------------------------
+@pytest.mark.parametrize("argv, words", [
+    (["stats", "RUN", "--window", "3:6", "--window-time", "1:5"], "give one steady-state window"),
+    (["track", "RUN", "--out", "OUT", "--method", "dbscan", "--c-agg", "0.9"], "--c-agg 0.9: method 'dbscan'"),
+    (["compare-cg", "RUN", "RUN", "--out", "OUT", "--method", "dbscan", "--a-agg-deg", "30"],
+     "--a-agg-deg 30: method 'dbscan'"),
+    (["stats", "RUN", "--window=-1e308:1e308"], "--window"),
+    (["subset", "RUN", "--out", "OUT", "--every", str(10**23)], "--every"),
+    (["compare-methods", "RUN", "--set", "sieve.apertures_m=abc"], "apertures_m must be a sequence"),
+])
+def test_conflicting_or_impossible_options_are_refused_naming_the_option(run_file, tmp_path, capsys, argv, words):
+    argv = [run_file if a == "RUN" else str(tmp_path / "out") if a == "OUT" else a for a in argv]
+    try:
+        code = main([*argv, "--quiet"])
+    except SystemExit as exc:  # argparse's refusal of an option value
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err
+
+
+def test_subset_refuses_a_full_window_outside_the_run(run_file, tmp_path, capsys):
+    assert main(["subset", run_file, "--out", str(tmp_path / "s.h5"), "--full-window", "50:60", "--every", "2",
+                 "--quiet"]) == 2
+    _one_line(capsys, "no frame in the window [50, 60] revolutions; the run covers [0, 2]")
+    assert not (tmp_path / "s.h5").exists()
+
+
+# 13, 15 -------------------------------------------------------------------------------------
+def test_info_into_a_closed_pipe_exits_quietly(run_file):
+    import subprocess
+    import sys
+
+    proc = subprocess.run(f"{sys.executable} -m granalytics info {run_file} | head -1", shell=True,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.stdout.strip() == "file" and proc.stderr == ""
+
+
+def test_python_m_granalytics_datasets_gives_no_runpy_warning():
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-m", "granalytics.datasets", "list"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and "RuntimeWarning" not in proc.stderr and "lab-cg3" in proc.stdout
+
+
+def test_a_sweep_workers_warning_is_one_line(capsys, tmp_path):
+    import warnings
+
+    from granalytics.files import warnings_as_lines
+
+    with warnings_as_lines("sim sweep: p.h5"):
+        warnings.warn("took over the stale lock file\nof a dead writer", UserWarning)
+    err = capsys.readouterr().err
+    assert err == "sim sweep: p.h5: warning: took over the stale lock file of a dead writer\n"
+    import inspect
+
+    from sim.sweep import run_point
+
+    assert "warnings_as_lines" in inspect.getsource(run_point)
+
+
+def test_the_readme_says_how_to_reach_the_commands():
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    assert readme.split("```")[1].strip().splitlines() == [
+        "make demo    # identify granules and print granulation statistics on the demo run",
+        "make test    # create .venv, install the project with its test extras, run the test suite"]
+    assert ". .venv/bin/activate" in readme and ".venv/bin/granalytics" in readme

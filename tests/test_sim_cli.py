@@ -218,6 +218,8 @@ def test_the_settling_shows_a_progress_bar_and_the_end_says_what_was_written(cli
     assert main(["run", "--out", str(tmp_path / "r.h5"), *BASE, "--resume"]) == 0
     captured = capsys.readouterr()
     assert "finished already" in captured.err and "wrote" not in captured.out
+    # and says what the file holds: 5 frames, 0.004 revolutions (it said "4 frames" of the checkpoint's state)
+    assert f"{tmp_path / 'r.h5'}: 5 frames" in captured.out and "0.004 revolutions" in captured.out
 
 
 def test_an_interrupted_run_says_how_to_go_on(cli, tmp_path, monkeypatch):

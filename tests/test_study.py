@@ -250,7 +250,9 @@ def test_growth_figure_follows_the_paper_fig7_convention(table):
     assert "cohesion convention: bridge" in ax.get_title() and "CG2" in ax.get_title()
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert "Ω = 2 rad/s" in labels and "Ω = 3 rad/s" in labels
-    assert any(label.startswith("fit: β =") for label in labels)
+    # the synthetic sweep grows with an onset below its smallest γ: "no growth" by the one rule, no law drawn
+    assert any(label.startswith("no growth: the onset") for label in labels)
+    assert not any(label.startswith("fit: β =") for label in labels)
     assert f"paper: β ≈ {PAPER_BETA:g}, γ₁ ≈ {PAPER_GAMMA_1:g} N/m" in labels
     plt.close(fig)
 
@@ -315,3 +317,28 @@ def test_study_names_left_out_points_warns_on_extrapolation_and_keeps_the_sweep_
     assert "left out: " in capsys.readouterr().out
     assert study_cli([str(sweep_dir), "--out", str(sweep_dir / "manifest.csv"), "--overwrite", "--quiet"]) == 2
     assert "inside the sweep folder" in capsys.readouterr().err
+
+
+def test_one_rule_for_no_growth_reported_and_never_drawn():
+    """An onset outside the data or a slope interval that includes 0 is 'no growth': said in the
+    summary, not drawn as a law (it was drawn: β = 0.095, γ₁ = −29 N/m on lab-cg3)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    rng = np.random.default_rng(3)
+    gamma = np.repeat([0.01, 0.03, 0.06, 0.1, 0.2, 0.3, 0.44], 3)
+    flat = 3.0 + 0.02 * gamma + rng.normal(0, 0.2, gamma.size)  # no growth: noise around a constant
+    fit = fit_granule_growth(gamma, flat, np.full(gamma.size, 0.1))
+    assert not fit.shows_growth and fit.summary().startswith("no growth (")
+    assert fit.to_dict()["shows_growth"] is False
+    table = pd.DataFrame({"gamma": gamma, "omega": 2.0, "alpha": 2.0, "cohesion": "acting",
+                          "mean_volume_norm_mean": flat, "mean_volume_norm_sem": 0.1})
+    fig = growth_figure(table, fit, cohesion="acting")
+    labels = [line.get_label() for line in fig.axes[0].get_lines()]
+    assert not any(label.startswith("fit:") for label in labels) and any("no growth" in label for label in labels)
+    grows = fit_granule_growth(gamma, 50 * np.maximum(0, gamma - 0.03) + rng.normal(0, 0.05, gamma.size))
+    assert grows.shows_growth and not grows.summary().startswith("no growth")
+    with pytest.raises(ParameterError, match="sem must be >= 0, got -0.1"):
+        fit_granule_growth(gamma, flat, np.r_[-0.1, np.full(gamma.size - 1, 0.1)])
+    with pytest.warns(UserWarning, match="1 sem\\(s\\) zero or NaN at points with granules"):
+        fit_granule_growth(gamma, 50 * np.maximum(0, gamma - 0.03) + 1, np.r_[np.nan, np.full(gamma.size - 1, 0.1)])

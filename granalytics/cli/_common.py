@@ -22,7 +22,42 @@ def interval(text):
         raise argparse.ArgumentTypeError(f"expected START:STOP (two numbers), got {text!r}") from None
     if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
         raise argparse.ArgumentTypeError(f"expected START <= STOP, got {text!r}")
+    if not (math.isfinite(hi - lo) and abs(lo) < 1e15 and abs(hi) < 1e15):
+        raise argparse.ArgumentTypeError(f"expected a window of revolutions or seconds below 1e15 in size, got {text!r}")
     return lo, hi
+
+
+#: the largest frame stride an option accepts (a run has far fewer frames)
+MAX_EVERY = 10**9
+
+
+def every(text):
+    """Parse a frame stride N (keep one frame in N): a whole number in [1, MAX_EVERY]."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number of frames, got {text!r}") from None
+    if not 1 <= value <= MAX_EVERY:
+        raise argparse.ArgumentTypeError(f"expected a whole number in [1, {MAX_EVERY}], got {text}")
+    return value
+
+
+def threshold_options(args, method, defaults=(("c_agg", 0.6), ("a_agg_deg", 20.0))) -> dict:
+    """The thresholds ``--c-agg`` / ``--a-agg-deg`` for ``method``: the defaults where the method
+    takes them and none was given; a threshold given for a method that ignores it is refused
+    (``ParameterError`` naming the option), never silently dropped."""
+    from ..identify import method_parameters
+
+    accepted = method_parameters(method)
+    out = {}
+    for name, default in defaults:
+        value = getattr(args, name)
+        if name in accepted:
+            out[name] = default if value is None else value
+        elif value is not None:
+            raise ParameterError(f"--{name.replace('_', '-')} {value:g}: method {method!r} has no such threshold "
+                                 f"(it takes {', '.join(accepted)})")
+    return out
 
 
 #: most values a START:STOP:NUM grid may have (a sensitivity table has frames × C × A rows)

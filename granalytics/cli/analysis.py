@@ -9,13 +9,14 @@ import warnings
 
 import numpy as np
 
+from .._windows import window_mask
 from ..metrics import HEADLINE, METRICS
 from ..errors import GranalyticsError, ParameterError
 from ..files import WriterLock, staged_outputs, write_atomically
-from ..identify import DEFAULT_METHODS, accepted_params
+from ..identify import DEFAULT_METHODS
 from ..io import open_run
 from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
-from ._common import (add_cohesion_option, add_gna_options, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
+from ._common import (threshold_options, add_cohesion_option, add_gna_options, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
                       setting, window_axis, write_table)
 
 
@@ -46,9 +47,10 @@ def add_stats_parser(sub):
     p = sub.add_parser("stats", help="granulation time series and steady-state table",
                        description="Granule number, mean volume and yield per frame; steady-state averages over a revolution window.")
     p.add_argument("run", help="run file (.h5)")
-    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
-                   help="steady-state window in revolutions (default 3:6)")
+    p.add_argument("--window", type=interval, default=None, metavar="R0:R1",
+                   help="steady-state window in revolutions (default 3:6; not with --window-time)")
     p.add_argument("--out", help="time series table to write (.csv or .parquet)")
+    p.add_argument("--steady-out", help="steady-state table (mean, std, block s.e.m. per metric; .csv or .parquet)")
     p.add_argument("--sizes-out", help="particles-per-granule distribution over the window (.csv or .parquet)")
     p.add_argument("--plot", help="figure of the time series and size distribution (.png, .pdf, .svg)")
     p.add_argument("--window-time", type=interval, metavar="T0:T1",
@@ -97,6 +99,8 @@ def add_compare_methods_parser(sub):
     add_cohesion_option(p)
     p.add_argument("--window-rev", type=interval, default=None, metavar="R0:R1",
                    help="only frames within this revolution window (default: all frames)")
+    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
+                   help="steady-state window of the printed means, in revolutions (default 3:6)")
     p.add_argument("--out", help="pairwise comparison per frame (.csv or .parquet)")
     p.add_argument("--stats-out", help="statistics per frame and method (.csv or .parquet)")
     p.add_argument("--plot", help="figure (.png, .pdf, .svg)")
@@ -120,8 +124,10 @@ def add_compare_cg_parser(sub):
                    help="steady-state window in revolutions (default 3:6)")
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna, the paper's)")
-    p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
-    p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
+    p.add_argument("--c-agg", type=float, default=None,
+                   help="cohesion threshold C_agg (default 0.6; only for methods that take it)")
+    p.add_argument("--a-agg-deg", type=float, default=None,
+                   help="angle threshold A_agg in degrees (default 20; only for methods that take it)")
     p.add_argument("--set", action="append", type=lambda t: setting("method." + t)[1:], metavar="PARAM=VALUE",
                    help="another method parameter, e.g. radius=mean or eps_diameters=1.2 (repeatable)")
     add_cohesion_option(p)
@@ -210,9 +216,9 @@ def _write_labels(out, args, frames, identifier, n_frames, n):
 
 
 def cmd_stats(args):
-    check_outputs(args, tables=(args.out, args.sizes_out), plots=(args.plot,))  # before taking the locks
+    check_outputs(args, tables=(args.out, args.steady_out, args.sizes_out), plots=(args.plot,))  # before the locks
     with contextlib.ExitStack() as locks:  # one writer at a time on each output (OUT.lock), checked again under it
-        for path in (args.out, args.sizes_out, args.plot):
+        for path in (args.out, args.steady_out, args.sizes_out, args.plot):
             if path:
                 locks.enter_context(WriterLock(path))
         return _stats(args)
@@ -221,8 +227,11 @@ def cmd_stats(args):
 def _stats(args):
     import pandas as pd
 
-    check_outputs(args, tables=(args.out, args.sizes_out), plots=(args.plot,))
-    by, window = ("time_s", args.window_time) if args.window_time is not None else ("revolutions", args.window)
+    check_outputs(args, tables=(args.out, args.steady_out, args.sizes_out), plots=(args.plot,))
+    if args.window is not None and args.window_time is not None:
+        raise ParameterError("--window (revolutions) and --window-time (seconds) both given: give one steady-state window")
+    by, window = (("time_s", args.window_time) if args.window_time is not None
+                  else ("revolutions", args.window if args.window is not None else DEFAULT_WINDOW_REV))
     with open_run(args.run) as run:
         frames = selected_frames(run, args)
         # the window is checked on the frame times before the analysis (its warnings come with the table)
@@ -237,6 +246,8 @@ def _stats(args):
     with staged_outputs() as stage:  # every output, or none (a failing figure replaces no table)
         if args.out:
             write_table(ts, args.out, stage)
+        if args.steady_out:
+            write_table(steady.reset_index(), args.steady_out, stage)
         if args.sizes_out:
             write_table(dist, args.sizes_out, stage)
         if args.plot:
@@ -251,6 +262,8 @@ def _stats(args):
                 plt.close(fig)
     if args.out:
         print(f"wrote time series ({len(ts)} frames) to {args.out}")
+    if args.steady_out:
+        print(f"wrote the steady-state table to {args.steady_out}")
     if args.sizes_out:
         print(f"wrote size distribution to {args.sizes_out}")
     lo, hi = window
@@ -319,10 +332,19 @@ def cmd_compare(args):
         save_figure(comparison_figure(stats, pairs, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}"), args.plot)
     import pandas as pd
 
-    mean_stats = stats.groupby("method", sort=False)[["n_granules_norm", "yield_fraction", "mean_volume_norm"]].mean()
-    mean_pairs = pairs.groupby(["method_a", "method_b"], sort=False)[["ari", "d_n_granules_norm", "d_yield_fraction"]].mean()
+    # the printed means are steady-state means over --window, as in stats (the tables hold every frame)
+    lo, hi = args.window
+    inside = window_mask(stats["revolutions"].to_numpy(dtype=float), lo, hi)
+    if not inside.any():
+        warnings.warn(f"{args.run}: no compared frame in the window [{lo:g}, {hi:g}] revolutions: the means below "
+                      "are over every compared frame")
+        inside[:] = True
+    frames_in = set(stats["frame"][inside])
+    mean_stats = stats[inside].groupby("method", sort=False)[list(HEADLINE)].mean()
+    mean_pairs = pairs[pairs["frame"].isin(frames_in)].groupby(["method_a", "method_b"], sort=False)[
+        ["ari", "d_n_granules_norm", "d_yield_fraction"]].mean()
     with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
-        print(f"means over {len(frames)} frames")
+        print(f"means over the {len(frames_in)} frames in the window [{lo:g}, {hi:g}] revolutions")
         print(mean_stats.to_string())
         print(mean_pairs.to_string())
     return 0
@@ -332,7 +354,7 @@ def cmd_compare_cg(args):
     from ..cg import CGComparison, compare_cg
 
     labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
-    params = accepted_params(args.method, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg)
+    params = threshold_options(args, args.method)
     for param, value in args.set or []:
         params[param] = value
     CGComparison.check_outputs(args.out, overwrite=args.overwrite)  # before minutes of analysis

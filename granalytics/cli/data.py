@@ -10,7 +10,8 @@ from ..errors import ParameterError
 from ..files import check_apart, output_folder, regular_input
 from ..io.readers import READERS
 from ..io import open_run
-from ._common import (add_gna_options, check_new_file, interval, selected_frames)
+from ..stats import check_window
+from ._common import add_gna_options, check_new_file, every, interval, selected_frames
 
 
 def add_subset_parser(sub):
@@ -20,7 +21,7 @@ def add_subset_parser(sub):
                                    "--full-window; --float32 stores floating-point data in single precision.")
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--out", required=True, help="run file to write (.h5)")
-    p.add_argument("--every", type=int, default=1, help="keep every N-th frame (default 1: all)")
+    p.add_argument("--every", type=every, default=1, help="keep every N-th frame (default 1: all)")
     p.add_argument("--full-window", type=interval, metavar="R0:R1",
                    help="keep every frame within this revolution window")
     p.add_argument("--float32", action="store_true", help="store floats as float32 (read back as float64)")
@@ -76,6 +77,8 @@ def cmd_subset(args):
     with open_run(args.run) as run:
         n_frames = len(run)
         # revolutions only where a window of them is asked for (a static run has none)
+        if args.full_window is not None:
+            check_window(run.revolutions, args.full_window, source=args.run)  # warns when the run does not cover it
         frames = thinned_frames(run.times if args.full_window is None else run.revolutions, args.every,
                                 args.full_window)
     subset_run(args.run, args.out, frames, float_dtype="float32" if args.float32 else "float64",

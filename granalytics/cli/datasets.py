@@ -9,7 +9,7 @@ import argparse
 
 from .. import datasets
 from ..errors import GranalyticsError
-from ._common import interval
+from ._common import every, interval
 
 
 def main(argv=None, prog="python -m granalytics.datasets") -> int:
@@ -28,7 +28,7 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
     b.add_argument("src", help="sweep folder written by python -m sim sweep")
     b.add_argument("dst", help="folder to write")
     b.add_argument("--overwrite", action="store_true", help="replace dst if it exists")
-    b.add_argument("--every", type=int, default=1, help="keep one frame in N outside --full-window (default 1: all)")
+    b.add_argument("--every", type=every, default=1, help="keep one frame in N outside --full-window (default 1: all)")
     b.add_argument("--full-window", type=interval, default=None, metavar="R0:R1",
                    help="revolutions in which every frame is kept (with --every)")
     args = parser.parse_args(argv)

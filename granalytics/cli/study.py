@@ -121,12 +121,6 @@ def cmd_study(args) -> int:
         try:
             fits[conv] = _fit_from_table(table, conv, model=args.model)
             print(f"growth fit ({label}): {fits[conv].summary()}")
-            fit, swept = fits[conv], table["gamma"]
-            if fit.model == "hinge" and not swept.min() <= fit.gamma_1 <= swept.max():
-                print(f"  note: the onset γ₁ = {fit.gamma_1:.3g} N/m lies outside the swept γ "
-                      f"[{swept.min():g}, {swept.max():g}] N/m: the data show no onset")
-            if fit.beta_ci[0] <= 0 <= fit.beta_ci[1]:
-                print("  note: β's interval includes 0: no significant growth with γ")
         except ParameterError as exc:
             print(f"growth fit ({label}): not possible: {exc}")
         try:

@@ -11,7 +11,7 @@ from ..identify import DEFAULT_METHODS, accepted_params
 from ..io import open_run
 from ..plot import tracking_figure
 from ..tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
-from ._common import add_cohesion_option, interval, save_figure, write_table
+from ._common import add_cohesion_option, interval, save_figure, threshold_options, write_table
 
 _OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
 
@@ -35,10 +35,12 @@ def add_track_parser(sub):
                    help="output folder: events.csv, tracks.csv, rates.csv, kernel.csv, breakage.csv, tracking.png")
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna)")
-    p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
-    p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
+    p.add_argument("--c-agg", type=float, default=None,
+                   help="cohesion threshold C_agg (default 0.6; only for methods that take it)")
+    p.add_argument("--a-agg-deg", type=float, default=None,
+                   help="angle threshold A_agg in degrees (default 20; only for methods that take it)")
     add_cohesion_option(p)
-    p.add_argument("--window", type=interval, default=None, metavar="R0:R1",
+    p.add_argument("--window-rev", "--window", dest="window", type=interval, default=None, metavar="R0:R1",
                    help="only frames within this revolution window (default: all frames)")
     p.add_argument("--min-fragment", type=int, default=2,
                    help="fewest particles that count as a fragment in a coalescence or breakage (default 2)")
@@ -64,7 +66,7 @@ def cmd_track(args):
         existing = [p for p in paths.values() if os.path.exists(p)]
         if existing and not args.overwrite:
             raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
-        params = accepted_params(args.method, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, cohesion=args.cohesion)
+        params = {**threshold_options(args, args.method), **accepted_params(args.method, cohesion=args.cohesion)}
         with open_run(args.run) as run:
             omega = run.meta.drum_omega
             frames = run if args.window is None else run.select(revolutions=args.window)

@@ -94,4 +94,10 @@ def identify(snapshot, method="gna", **params) -> IdentificationResult:
     >>> result = identify(snapshot, c_agg=0.6, a_agg_deg=20)    # doctest: +SKIP
     >>> result.labels, result.granules                          # doctest: +SKIP
     """
+    from ..snapshot import Snapshot
+
+    if not isinstance(snapshot, Snapshot):
+        hint = " (open the run with granalytics.open_run and pass one frame, e.g. run[0])" if isinstance(
+            snapshot, (str, bytes)) or hasattr(snapshot, "__fspath__") else ""
+        raise ParameterError(f"identify: snapshot must be a granalytics Snapshot, got {type(snapshot).__name__}{hint}")
     return make_identifier(method, **params).identify(snapshot)

@@ -96,7 +96,13 @@ class VirtualSieve(Identifier):
 
     def _apertures(self, snapshot, widths):
         if self.apertures_m is not None:
-            apertures = np.sort(np.asarray(self.apertures_m, dtype=float))
+            value = self.apertures_m
+            if isinstance(value, (str, bytes)) or not np.iterable(value):
+                raise ParameterError(f"sieve: apertures_m must be a sequence of sieve apertures in metres, got {value!r}")
+            try:
+                apertures = np.sort(np.asarray(value, dtype=float))
+            except (TypeError, ValueError):
+                raise ParameterError(f"sieve: apertures_m must be numbers (metres), got {value!r}") from None
             if apertures.size == 0 or not (np.isfinite(apertures).all() and (apertures > 0).all()):
                 raise ParameterError("apertures_m must be positive finite numbers")
             return apertures

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -122,7 +123,20 @@ class _FrameSequence(Sequence):
             raise IndexError("no frames")
         values = self.times if time is not None else self.revolutions
         target = time if time is not None else revolutions
-        return self[int(np.argmin(np.abs(values - target)))]
+        name = "time" if time is not None else "revolutions"
+        try:
+            target = float(target)
+        except (TypeError, ValueError):
+            raise ParameterError(f"nearest: {name} must be a number, got {target!r}") from None
+        if not math.isfinite(target):
+            raise ParameterError(f"nearest: {name} must be a finite number, got {target!r}")
+        k = int(np.argmin(np.abs(values - target)))
+        spacing = float(np.min(np.diff(values))) if len(values) > 1 else 0.0
+        if abs(values[k] - target) > max(spacing, 0.0):
+            unit = " s" if time is not None else " revolutions"
+            warnings.warn(f"nearest: no frame near {name}={target:g}: the frames span {values[0]:g}–{values[-1]:g}"
+                          f"{unit}; returning frame {k} at {values[k]:g}{unit}", stacklevel=2)
+        return self[k]
 
 
 class Run(_HDF5Handle, _FrameSequence):

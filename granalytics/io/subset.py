@@ -97,7 +97,7 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
     raw = np.asarray(frames)
     if raw.dtype.kind == "f" and not np.array_equal(raw, np.round(raw)):
         bad = raw[raw != np.round(raw)][0]
-        raise ValidationError("frames", f"must be whole frame indices, got {bad!r}")
+        raise ValidationError("frames", f"must be whole frame indices, got {float(bad)!r}")
     if raw.dtype.kind not in "iuf" and raw.size:
         raise ValidationError("frames", f"must be whole frame indices, got {raw.dtype} values")
     frames = raw.astype(np.int64)

@@ -41,7 +41,7 @@ import uuid
 from dataclasses import dataclass, field
 
 from granalytics import ParameterError, WriterLock
-from granalytics.files import one_line, regular_input
+from granalytics.files import one_line, regular_input, warnings_as_lines
 from granalytics.manifest import (MANIFEST_COLUMNS, NAMED_PARAMETERS, manifest_path, manifest_rows, read_manifest,
                                   write_manifest)
 
@@ -283,12 +283,20 @@ def run_point(task: PointTask) -> dict:
     """
     import numba
 
-    from granalytics import configure_threading, open_run
-
-    from ..run import Simulation
+    from granalytics import configure_threading
 
     configure_threading()  # before numba starts its threads: OpenMP, not TBB (tens of times slower here)
     numba.set_num_threads(max(1, min(task.threads, numba.config.NUMBA_NUM_THREADS)))
+    # a worker's warnings (e.g. a stale lock of the point file taken over) as one line each, naming the point
+    with warnings_as_lines(f"sim sweep: {os.path.basename(task.out)}"):
+        return _run_point(task)
+
+
+def _run_point(task: PointTask) -> dict:
+    from granalytics import open_run
+
+    from ..run import Simulation
+
     original, params = task.sim_params()
     frame_every = frame_interval_steps(task.revolutions, task.frame_every_rev, params)
     ckpt = f"{task.out}.ckpt.npz"
