@@ -32,6 +32,46 @@ def pm(mean, sem, digits):
     return f"{mean:.{digits}f} ± {sem:.{digits}f}"
 
 
+def bed_table():
+    """Is every bundled run a 3-D bed? The settled bed (recorded by the simulator) and the flowing
+    bed (mean over the steady window's frames)."""
+    print("| dataset | settled: crossing | settled: ⟨n_z²⟩ | settled: coordination | settled: solid fraction "
+          "| flowing: crossing | flowing: ⟨|v_z|⟩/⟨|v_xy|⟩ | flowing: coordination |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for name in DATASETS:
+        with ga.open_run(dataset_path(name)) as run:
+            settled = run.meta.provenance.get("settled_bed") or {}
+            frames = run.select(revolutions=WINDOWS[name])
+            beds = [ga.bed_structure(s) for s in frames]
+        cells = [f"{settled[k]:.3f}" if k in settled else "—"
+                 for k in ("crossing_fraction", "axial_fabric", "coordination", "solid_fraction")]
+        flowing = [sum(getattr(b, k) for b in beds) / len(beds)
+                   for k in ("crossing_fraction", "axial_speed_ratio", "coordination")]
+        print(f"| {name} | {' | '.join(cells)} | {flowing[0]:.3f} | {flowing[1]:.3f} | {flowing[2]:.2f} |")
+
+
+def gamma_check_table(paths, window=(2, 3)):
+    """The paper's drum at CG3 at several γ (runs not bundled: build/runs/paper-cg3-gamma*.h5 and the
+    bundled paper-cg3 at γ = 0.1095 N/m), beside the paper's law β(γ − γ₁)."""
+    from granalytics.study import PAPER_BETA, PAPER_GAMMA_1
+
+    print(f"\n**paper drum, CG3, γ check** (window {window[0]}–{window[1]} revolutions; γ of the original system)\n")
+    print("| γ [N/m] | run | cohesion | yield | ⟨V_g⟩/V_p | N_g/N | paper law ⟨V_g⟩/V_p |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for path in paths:
+        with ga.open_run(path) as run:
+            gamma = run.meta.sim_config["original"]["surface_tension"]
+            for cohesion in ga.COHESION_CONVENTIONS:
+                ts = ga.run_stats(run.select(revolutions=(0, window[1] + 0.01)), c_agg=C_AGG, a_agg_deg=A_AGG,
+                                  cohesion=cohesion)
+                s = ga.steady_state(ts, window=window)
+                law = PAPER_BETA * max(0.0, gamma - PAPER_GAMMA_1)
+                print(f"| {gamma:g} | {os.path.basename(path)} | {cohesion} | "
+                      f"{pm(s.loc['yield_fraction', 'mean'], s.loc['yield_fraction', 'sem'], 3)} | "
+                      f"{pm(s.loc['mean_volume_norm', 'mean'], s.loc['mean_volume_norm', 'sem'], 2)} | "
+                      f"{pm(s.loc['n_granules_norm', 'mean'], s.loc['n_granules_norm', 'sem'], 4)} | {law:.2f} |")
+
+
 def steady_table():
     print("| dataset | particles (α) | window [rev] | cohesion | yield | ⟨V_g⟩/V_p | N_g/N |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
@@ -102,7 +142,7 @@ def sweep_tables(figures=None):
     from scipy.stats import linregress
     from scipy.stats import t as student_t
 
-    from granalytics.study import growth_figure
+    from granalytics.plot import growth_figure
 
     for name in SWEEPS:
         table = ga.study_table(sweep_path(name), window=SWEEP_WINDOW, c_agg=C_AGG, a_agg_deg=A_AGG,
@@ -143,13 +183,22 @@ def sweep_tables(figures=None):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", help="folder for the CG figures (PNG)")
+    parser.add_argument("--gamma-runs", nargs="*", default=[],
+                        help="paper-cg3 runs at other γ (not bundled) for the γ check, e.g. build/runs/paper-cg3-gamma*.h5")
     args = parser.parse_args()
     if args.figures:
         os.makedirs(args.figures, exist_ok=True)
+    bed_table()
     steady_table()
     cg_tables(args.figures)
     kinetics_table()
     sweep_tables(args.figures)
+    if args.gamma_runs:
+        def gamma(path):
+            with ga.open_run(path) as run:
+                return run.meta.surface_tension
+
+        gamma_check_table(sorted([*args.gamma_runs, str(dataset_path("paper-cg3"))], key=gamma))
 
 
 if __name__ == "__main__":

@@ -52,10 +52,13 @@ def plot_size_distribution(dist, ax=None, label=None):
     import matplotlib.pyplot as plt
 
     ax = ax if ax is not None else plt.gca()
-    from matplotlib.ticker import NullFormatter
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
 
     shown = dist[dist["count"] > 0]
     ax.loglog(shown["size_center"], shown["density"], marker="o", ms=4, lw=1, label=label)
+    # granule sizes are small integers: label 2, 5, 10, 20, 50, … rather than powers of ten only
+    ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(ScalarFormatter())
     ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("particles per granule")
     ax.set_ylabel("probability density")
@@ -121,8 +124,8 @@ def comparison_figure(stats, pairs, title=None):
     for (a, b), part in pairs.groupby(["method_a", "method_b"], sort=False):
         plot_timeseries(part, "ari", ax=axes[2], label=f"{a} vs {b}", ylabel="adjusted Rand index")
     axes[2].set_ylim(-0.05, 1.05)
-    for ax in axes:
-        ax.legend(fontsize=8)
+    for ax in axes:  # below the panel, never over the curves
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, frameon=False)
     if title:
         fig.suptitle(title)
     return fig
@@ -153,13 +156,21 @@ def frame_figure(result, ax=None, max_colours=20):
     palette = plt.get_cmap("tab20")
     for g in range(min(result.n_granules, max_colours)):
         colours[result.labels == g] = palette(g % 20)
-    size = (s.radius / s.radius.max()) ** 2 * 30
+    lo, hi = s.position.min(axis=0) - s.radius.max(), s.position.max(axis=0) + s.radius.max()
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_aspect("equal")
+    # marker diameter = the particle's diameter on the axes' scale (points per metre from the axes'
+    # width and the longest data span; exact for the view straight along an axis)
+    width_pt = ax.get_position().width * ax.figure.get_figwidth() * 72
+    points_per_m = width_pt / float((hi - lo).max()) / 1.6  # a 3-D box fills ~1/1.6 of the axes' width
+    size = (2 * s.radius * points_per_m) ** 2
     ax.scatter(s.position[:, 0], s.position[:, 1], s.position[:, 2], c=colours, s=size, depthshade=False)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
     ax.set_title(f"t = {s.time:.3f} s: {result.n_granules} granules, yield {result.n_granulated / s.n_particles:.2f}")
-    ax.set_aspect("equal")
     return ax.figure
 
 
@@ -195,7 +206,7 @@ def cg_figures(comparison) -> dict:
         ax.set_xlabel("revolutions t·Ω/2π")
         ax.set_ylabel(ylabel)
         ax.set_title(f"Effect of CG on the {what}\n{subtitle}", fontsize=9)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=3, frameon=False)
         figures[name] = fig
     fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
     for k, (label, part) in enumerate(comparison.distributions.groupby("run", sort=False)):

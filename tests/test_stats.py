@@ -106,7 +106,7 @@ def test_steady_state_window_mean_std_and_block_sem():
     revs = np.arange(0, 7.01, 0.25)
     value = np.where(revs < 3, 0.0, 1.0 + np.floor(revs - 3) * 0.1)  # block means 1.0, 1.1, 1.2 (+1.2 at 6.0)
     ts = pd.DataFrame({"revolutions": revs, "yield_fraction": value})
-    out = ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"])
+    out = ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"], n_blocks=3)  # fixed blocks
     inside = value[(revs >= 3) & (revs <= 6)]
     row = out.loc["yield_fraction"]
     assert row["mean"] == pytest.approx(inside.mean()) and row["std"] == pytest.approx(inside.std(ddof=1))
@@ -132,7 +132,7 @@ def test_frames_a_rounding_away_from_a_window_edge_are_inside_it():
     early = exact * (1 - 2e-5)  # revolution 6 stamped 5.99988
     for revs in (exact, early):
         ts = pd.DataFrame({"revolutions": revs, "yield_fraction": np.floor(exact)})  # value = its revolution
-        row = ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"]).loc["yield_fraction"]
+        row = ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"], n_blocks=3).loc["yield_fraction"]
         assert row.n_frames == 61 and row.n_blocks == 3
         # block means 3, 4 and (20 × 5 + 6)/21: the frame of revolution 4 opens the second block
         blocks = np.array([3.0, 4.0, (20 * 5 + 6) / 21])
@@ -183,3 +183,32 @@ def test_a_window_tolerance_never_takes_in_a_neighbouring_frame():
     with pytest.raises(ParameterError, match="no frames with a finite time_s"):
         ga.steady_state(pd.DataFrame({"time_s": [np.nan, np.nan], "yield_fraction": [1.0, 2.0]}), window=(0, 1),
                         by="time_s", columns=["yield_fraction"])
+
+
+def test_blocking_sem_covers_correlated_frames():
+    """Frames correlated over many frames (an AR(1) series, as a granule population that changes
+    over a fraction of a revolution): short blocks give far too small an error; the blocking
+    (largest error over the merging levels) gives most of the true spread of the mean."""
+    from granalytics.stats import blocking_sem
+
+    rng = np.random.default_rng(0)
+    n, phi, runs = 240, 0.9, 300
+    means, blocked, naive = [], [], []
+    for _ in range(runs):
+        x = np.empty(n)
+        x[0] = rng.normal()
+        for k in range(1, n):
+            x[k] = phi * x[k - 1] + rng.normal()
+        means.append(x.mean())
+        sums, counts = x.reshape(48, 5).sum(axis=1), np.full(48, 5)
+        blocked.append(blocking_sem(sums, counts)[0])
+        naive.append((sums / counts).std(ddof=1) / math.sqrt(48))
+    true = np.std(means)
+    assert 0.7 < np.median(blocked) / true < 1.3
+    assert np.median(naive) / true < 0.6  # what fixed short blocks would report
+    # independent frames: about the plain standard error
+    ratios = []
+    for _ in range(runs):
+        x = rng.normal(size=240)
+        ratios.append(blocking_sem(x.reshape(48, 5).sum(axis=1), np.full(48, 5))[0] / (1 / math.sqrt(240)))
+    assert 0.9 < np.median(ratios) < 1.3
