@@ -2,7 +2,7 @@
 
 One module per command group, each adding its commands to the parser and running them:
 :mod:`.analysis` (info, identify, stats, sensitivity, compare-methods, compare-cg), :mod:`.data`
-(subset, export-vtk, convert, synthetic), :mod:`.tracking` (track), :mod:`.study` (study, sweep) and
+(subset, export-vtk, convert, synthetic, table), :mod:`.tracking` (track), :mod:`.study` (study, sweep) and
 :mod:`.datasets` (datasets); shared option and output helpers in :mod:`._common`. Library modules
 never import this package.
 
@@ -38,6 +38,7 @@ COMMANDS = {
     "convert": data.add_convert_parser,
     "datasets": datasets.add_datasets_parser,
     "synthetic": data.add_synthetic_parser,
+    "table": data.add_table_parser,
 }
 #: commands whose arguments are another program's command line (parsed there, --help included)
 _FORWARDED = {"sweep": study.sweep_main, "datasets": datasets.forwarded_main}
