@@ -32,7 +32,7 @@ demo: $(STAMP)
 		--out $(BUILD)/demo-timeseries.csv --sizes-out $(BUILD)/demo-sizes.csv \
 		--plot $(BUILD)/demo-stats.png --overwrite
 	$(VENV)/bin/granalytics compare-cg datasets/lab-cg1.h5 datasets/lab-cg2.h5 datasets/lab-cg3.h5 \
-		--window 2:3 --out $(BUILD)/demo-cg --overwrite
+		--window 3:6 --out $(BUILD)/demo-cg --overwrite
 
 ## datasets: regenerate every bundled dataset from its recipe (simulation, then subset; hours for the
 ## CG1 and paper runs; an interrupted simulation resumes from its checkpoint), DATASET_JOBS at a time

@@ -23,9 +23,9 @@ from granalytics.datasets import DATASETS, SWEEPS, dataset_path, sweep_path
 C_AGG, A_AGG = 0.6, 20.0
 #: steady-state window [revolutions] of each run: [3, 6] for 6-revolution runs (paper Fig 5),
 #: [2, 3] for the 3-revolution ones (growth vanishes after two revolutions, paper Fig 6)
-WINDOWS = {"lab-cg1": (2, 3), "lab-cg2": (3, 6), "lab-cg3": (3, 6), "paper-cg2": (2, 3), "paper-cg3": (3, 6)}
+WINDOWS = {"lab-cg1": (3, 6), "lab-cg2": (3, 6), "lab-cg3": (3, 6), "paper-cg2": (2, 3), "paper-cg3": (3, 6)}
 CG_SETS = {"lab drum": ["lab-cg1", "lab-cg2", "lab-cg3"], "paper drum": ["paper-cg2", "paper-cg3"]}
-CG_WINDOW = (2, 3)  # common to every run of a comparison (the CG1 / paper-cg2 runs have 3 revolutions)
+CG_WINDOW = (3, 6)  # common to every run of a comparison (every lab run has 6 revolutions since 2026-12-02)
 
 
 def pm(mean, sem, digits):
@@ -115,7 +115,7 @@ def cg_tables(figures=None):
                   f"{row.paper_speedup:.1f}× |")
 
 
-KINETICS_RUNS, KINETICS_WINDOW = ["lab-cg1", "lab-cg2", "lab-cg3"], (2, 3)
+KINETICS_RUNS, KINETICS_WINDOW = ["lab-cg1", "lab-cg2", "lab-cg3"], (3, 6)
 
 
 def kinetics_table():
