@@ -31,7 +31,7 @@ from ._version import __version__
 
 from ._threading import configure_threading
 from .errors import GranalyticsError, ParameterError, RunFileError, RunLockedError, ValidationError
-from .cg import CGComparison, compare_cg
+from .cg import CGComparison, compare_cg, compare_cg_thresholds
 from .cohesion import COHESION_CONVENTIONS, cohesive_force
 from .compare import compare_methods
 from .identify import (
@@ -61,14 +61,14 @@ from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_ra
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
-    "bed_structure", "BedStructure", "PLANAR_FRACTION", "particle_table", "PARTICLE_COLUMNS",
+    "bed_structure", "BedStructure", "PLANAR_FRACTION", "particle_table", "PARTICLE_COLUMNS", "table",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",
     "edges", "datasets", "files", "manifest",
     "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
-    "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "CGComparison",
+    "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
     "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
     "GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError", "configure_threading",

@@ -26,7 +26,7 @@ from .errors import ParameterError
 from .io import open_run
 from .stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 
-__all__ = ["compare_cg", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
+__all__ = ["compare_cg", "compare_cg_thresholds", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
 
 #: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
@@ -266,3 +266,65 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         table=pd.DataFrame(rows), sizes=sizes, reference=reference, window=(lo, hi), method=method,
         cohesion=cohesion, params=dict(params),
     )
+
+
+def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT_WINDOW_REV,
+                          cohesion=DEFAULT_COHESION, radius="pair", progress=False) -> pd.DataFrame:
+    """Does the CG agreement survive other thresholds? The deviation of each headline statistic
+    from the finest run (smallest α) at every (C_agg, A_agg) pair.
+
+    GNA's criterion is normalised by each system's own γ and R (f = F_coh/(2πγR)), so one threshold
+    pair means the same in every run; every run is analysed once per frame for the whole grid
+    (:func:`granalytics.sensitivity`).
+
+    Parameters
+    ----------
+    runs : sequence of paths
+        At least two runs of one system at several CG factors.
+    c_agg, a_agg_deg : sequence of float
+        The threshold grid (C_agg ≥ 0; A_agg in (0, 180] degrees).
+    labels, window, cohesion, radius, progress :
+        As for :func:`compare_cg`.
+
+    Returns
+    -------
+    DataFrame
+        One row per run and threshold pair: ``run``, ``alpha``, ``c_agg``, ``a_agg_deg``,
+        ``n_frames``, and for each headline metric ``<metric>_mean`` (over the window's frames)
+        and ``<metric>_rel_dev`` ((run − finest)/finest; 0 for the finest run, NaN where the
+        finest is 0).
+    """
+    from .sensitivity import sensitivity, sensitivity_summary
+
+    check_cohesion(cohesion)
+    runs = list(runs)
+    if len(runs) < 2:
+        raise ParameterError("compare_cg_thresholds needs at least two runs")
+    if labels is not None and len(labels) != len(runs):
+        raise ParameterError(f"{len(labels)} labels for {len(runs)} runs")
+    lo, hi = (float(w) for w in window)
+    rows = []
+    for k, path in enumerate(runs):
+        with open_run(path) as run:
+            label = labels[k] if labels is not None else _alpha_label(run.meta.alpha, run.meta.n_particles)
+            if any(label == r["run"].iloc[0] for r in rows):
+                raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels")
+            frames = run.select(revolutions=(lo, hi))
+            if not len(frames):
+                raise ParameterError(f"{run.path}: no frame in the window [{lo:g}, {hi:g}] revolutions")
+            table = sensitivity(frames, c_agg, a_agg_deg, radius=radius, cohesion=cohesion, progress=progress)
+            summary = sensitivity_summary(table)
+            summary.insert(0, "alpha", run.meta.alpha)
+            summary.insert(0, "run", label)
+            rows.append(summary)
+    out = pd.concat(rows, ignore_index=True)
+    finest = out.loc[out["alpha"] == out["alpha"].min(), "run"].iloc[0]
+    keys = ["a_agg_deg", "c_agg"]
+    ref = out[out["run"] == finest].set_index(keys)
+    for metric in BY_FIGURE:
+        base = ref.loc[pd.MultiIndex.from_frame(out[keys]), f"{metric}_mean"].to_numpy()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[f"{metric}_rel_dev"] = np.where(base != 0, (out[f"{metric}_mean"].to_numpy() - base) / base, np.nan)
+    columns = ["run", "alpha", "c_agg", "a_agg_deg", "n_frames"]
+    columns += [f"{m}_{s}" for m in BY_FIGURE for s in ("mean", "rel_dev")]
+    return out[columns].sort_values(["alpha", "a_agg_deg", "c_agg"]).reset_index(drop=True)

@@ -19,7 +19,7 @@ if typing.TYPE_CHECKING:
     from .tracking import GranuleTracks
 
 __all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure",
-           "frame_figure", "cg_figures", "tracking_figure", "growth_figure"]
+           "frame_figure", "cg_figures", "tracking_figure", "growth_figure", "cg_threshold_figures"]
 
 _TIMESERIES = tuple((name, METRICS[name].label) for name in STEADY if METRICS[name].headline)
 
@@ -372,3 +372,45 @@ def growth_figure(table, fit=None, cohesion="acting"):
                  fontsize=10)
     ax.legend(fontsize=8)
     return fig
+
+
+def cg_threshold_figures(table) -> dict:
+    """Heatmaps of :func:`~granalytics.compare_cg_thresholds`: one figure per headline statistic,
+    one panel per coarse-grained run, the relative deviation from the finest run at every
+    (C_agg, A_agg) in a diverging scale centred on 0 (red: the CG run gives more, blue: less),
+    each cell annotated in percent; grey cells: the finest run has a zero mean there (no granules),
+    so no relative deviation exists."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import TwoSlopeNorm
+
+    from .metrics import BY_FIGURE
+
+    finest = table.loc[table["alpha"].idxmin(), "run"]
+    runs = [r for r in table["run"].unique() if r != finest]
+    figures = {}
+    for metric in BY_FIGURE:
+        col = f"{metric}_rel_dev"
+        values = table.loc[table["run"].isin(runs), col].to_numpy(dtype=float)
+        span = np.nanmax(np.abs(values)) if np.isfinite(values).any() else 1.0
+        norm = TwoSlopeNorm(vcenter=0.0, vmin=-max(span, 1e-9), vmax=max(span, 1e-9))
+        fig, axes = plt.subplots(1, len(runs), figsize=(4.8 * len(runs), 3.8), layout="constrained", squeeze=False)
+        for ax, run in zip(axes[0], runs):
+            part = table[table["run"] == run].pivot(index="a_agg_deg", columns="c_agg", values=col)
+            c, a = part.columns.to_numpy(dtype=float), part.index.to_numpy(dtype=float)
+            grid = np.ma.masked_invalid(part.to_numpy(dtype=float))
+            ax.set_facecolor("0.8")
+            mesh = ax.pcolormesh(np.arange(c.size + 1), np.arange(a.size + 1), grid, cmap="RdBu_r", norm=norm)
+            for i in range(a.size):
+                for j in range(c.size):
+                    if not np.ma.is_masked(grid[i, j]):
+                        ax.text(j + 0.5, i + 0.5, f"{100 * grid[i, j]:+.0f}", ha="center", va="center", fontsize=7)
+            ax.set_xticks(np.arange(c.size) + 0.5, [f"{x:.3g}" for x in c], fontsize=7)
+            ax.set_yticks(np.arange(a.size) + 0.5, [f"{x:g}" for x in a], fontsize=7)
+            ax.set_xlabel("C_agg")
+            ax.set_ylabel("A_agg [deg]")
+            ax.set_title(f"{run} vs {finest}", fontsize=9)
+        fig.colorbar(mesh, ax=axes[0].tolist(), label="relative deviation (cells in %)")
+        fig.suptitle(f"CG deviation of {METRICS[metric].label} ({METRICS[metric].figure}) at every threshold pair\n"
+                     "grey: no granules in the finest run (no relative deviation)", fontsize=9)
+        figures[f"cg_thresholds_{metric}"] = fig
+    return figures

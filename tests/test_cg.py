@@ -153,3 +153,29 @@ def test_runs_of_different_systems_are_flagged(tmp_path, cg_runs):
     other = write_run(tmp_path / "other.h5", 100, 3.0, seed=5)  # 2 700 original particles, not 8 100
     with pytest.warns(UserWarning, match="not coarse-grained from one system.*original particle counts.*8100.*2700"):
         compare_cg([cg_runs[0], other], labels=["cg1", "other"], window=(2, 4))
+
+
+def test_cg_deviation_at_every_threshold_pair(tmp_path, cg_runs, capsys):
+    """compare_cg_thresholds: the finest run's row has zero deviation, the others (run − finest)/finest
+    at each pair, equal to what compare_cg gives at that single pair; the command writes a table and
+    one heatmap per statistic."""
+    from granalytics.cli import main
+
+    runs = [str(p) for p in cg_runs[:2]]
+    table = ga.compare_cg_thresholds(runs, [0.3, 0.6], [20.0, 45.0], window=(2, 4))
+    assert len(table) == len(runs) * 4
+    finest = table[table.alpha == table.alpha.min()]
+    assert (finest.filter(like="_rel_dev").fillna(0) == 0).all().all()
+    single = ga.compare_cg(runs, window=(2, 4), c_agg=0.6, a_agg_deg=45.0).table.set_index("alpha")
+    row = table[(table.c_agg == 0.6) & (table.a_agg_deg == 45.0)].set_index("alpha")
+    for alpha in row.index:
+        assert row.loc[alpha, "yield_fraction_mean"] == pytest.approx(single.loc[alpha, "yield_fraction_mean"])
+        assert row.loc[alpha, "yield_fraction_rel_dev"] == pytest.approx(single.loc[alpha, "yield_fraction_rel_dev"],
+                                                                         nan_ok=True)
+    out = tmp_path / "cg"
+    assert main(["compare-cg", *runs, "--window", "2:4", "--c-agg", "0.3,0.6", "--a-agg-deg", "20,45", "--out",
+                 str(out), "--quiet"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["cg_thresholds.csv", "cg_thresholds_mean_volume_norm.png",
+                                                     "cg_thresholds_n_granules_norm.png",
+                                                     "cg_thresholds_yield_fraction.png"]
+    assert "largest |deviation|" in capsys.readouterr().out

@@ -12,7 +12,7 @@ import numpy as np
 from .._windows import window_mask
 from ..metrics import HEADLINE, METRICS
 from ..errors import GranalyticsError, ParameterError
-from ..files import WriterLock, staged_outputs, write_atomically
+from ..files import WriterLock, output_folder, staged_outputs, write_atomically
 from ..identify import DEFAULT_METHODS
 from ..io import open_run
 from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
@@ -124,10 +124,11 @@ def add_compare_cg_parser(sub):
                    help="steady-state window in revolutions (default 3:6)")
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna, the paper's)")
-    p.add_argument("--c-agg", type=float, default=None,
-                   help="cohesion threshold C_agg (default 0.6; only for methods that take it)")
-    p.add_argument("--a-agg-deg", type=float, default=None,
-                   help="angle threshold A_agg in degrees (default 20; only for methods that take it)")
+    p.add_argument("--c-agg", type=grid, default=None, metavar="C",
+                   help="cohesion threshold C_agg (default 0.6; only for methods that take it); a grid "
+                        "(START:STOP:NUM or a list) compares the runs at every threshold pair instead")
+    p.add_argument("--a-agg-deg", type=grid, default=None, metavar="A",
+                   help="angle threshold A_agg in degrees (default 20); a grid (e.g. 10,20,45) as for --c-agg")
     p.add_argument("--set", action="append", type=lambda t: setting("method." + t)[1:], metavar="PARAM=VALUE",
                    help="another method parameter, e.g. radius=mean or eps_diameters=1.2 (repeatable)")
     add_cohesion_option(p)
@@ -354,6 +355,12 @@ def cmd_compare_cg(args):
     from ..cg import CGComparison, compare_cg
 
     labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
+    grids = [g for g in (args.c_agg, args.a_agg_deg) if g is not None]
+    if any(len(g) > 1 for g in grids):
+        return _compare_cg_thresholds(args, labels)
+    for name in ("c_agg", "a_agg_deg"):  # one value each: the standard comparison at that pair
+        if getattr(args, name) is not None:
+            setattr(args, name, float(getattr(args, name)[0]))
     params = threshold_options(args, args.method)
     for param, value in args.set or []:
         params[param] = value
@@ -363,6 +370,52 @@ def cmd_compare_cg(args):
     written = comparison.save(args.out, overwrite=args.overwrite)
     print(f"wrote {len(written)} files to {args.out}: " + ", ".join(os.path.basename(p) for p in written))
     print(format_cg_table(comparison))
+    return 0
+
+
+def _compare_cg_thresholds(args, labels) -> int:
+    """compare-cg with a grid of thresholds: the deviation table and one heatmap per statistic."""
+    import matplotlib.pyplot as plt
+
+    from ..cg import compare_cg_thresholds
+    from ..plot import cg_threshold_figures
+
+    if args.method != "gna":
+        raise ParameterError(f"--method {args.method}: a threshold grid is GNA's C_agg x A_agg (give --method gna)")
+    if args.set:
+        raise ParameterError("--set: a threshold grid runs GNA at its defaults otherwise; leave --set out")
+    c_agg = args.c_agg if args.c_agg is not None else np.array([0.6])
+    a_agg = args.a_agg_deg if args.a_agg_deg is not None else np.array([20.0])
+    if (c_agg < 0).any() or ((a_agg <= 0) | (a_agg > 180)).any():
+        raise ParameterError("--c-agg values must be >= 0 and --a-agg-deg values in (0, 180] degrees")
+    paths = {"table": os.path.join(args.out, "cg_thresholds.csv")}
+    from ..metrics import BY_FIGURE
+
+    paths.update({m: os.path.join(args.out, f"cg_thresholds_{m}.png") for m in BY_FIGURE})
+    existing = [p for p in paths.values() if os.path.exists(p)]
+    if existing and not args.overwrite:
+        raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
+    table = compare_cg_thresholds(args.runs, c_agg, a_agg, labels, window=args.window, cohesion=args.cohesion,
+                                  progress=not args.quiet)
+    figures = cg_threshold_figures(table)
+    try:
+        with output_folder(args.out), staged_outputs(args.out) as stage:
+            write_table(table, paths["table"], stage)
+            for name, fig in figures.items():
+                fig.savefig(stage(paths[name.removeprefix("cg_thresholds_")]), dpi=120)
+    finally:
+        for fig in figures.values():
+            plt.close(fig)
+    finest = table.loc[table["alpha"].idxmin(), "run"]
+    worst = table[table["run"] != finest]
+    print(f"wrote {len(paths)} files to {args.out}: the deviation from {finest} at {len(c_agg) * len(a_agg)} threshold "
+          f"pairs (window [{args.window[0]:g}, {args.window[1]:g}] revolutions, cohesion={args.cohesion})")
+    for metric in BY_FIGURE:
+        dev = worst[f"{metric}_rel_dev"].abs()
+        if dev.notna().any():
+            row = worst.loc[dev.idxmax()]
+            print(f"  {METRICS[metric].label}: largest |deviation| {100 * dev.max():.0f} % ({row['run']}, C_agg = "
+                  f"{row['c_agg']:g}, A_agg = {row['a_agg_deg']:g}°), median {100 * dev.median():.0f} %")
     return 0
 
 
