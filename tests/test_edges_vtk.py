@@ -77,3 +77,34 @@ def test_frame_figure_renders_granules(snapshot, tmp_path):
     fig = frame_figure(ga.identify(snapshot))
     fig.savefig(tmp_path / "f.png")
     assert (tmp_path / "f.png").stat().st_size > 10_000
+
+
+def test_export_carries_granule_track_ids_and_the_drum(tmp_path):
+    """granule_track: a granule that continues keeps its id (the tracker's); a run with the drum's
+    geometry gets a drum surface per frame at the angle Ω·t, listed in the .pvd as part 1."""
+    import math
+    import xml.etree.ElementTree as ET
+
+    import meshio
+
+    from granalytics.io.vtk import drum_mesh, export_vtk
+    from granalytics.synthetic import write_synthetic_run
+    from granalytics.table import granule_tracks
+
+    path = write_synthetic_run(tmp_path / "run.h5", n_particles=150, revolutions=0.5, frames_per_revolution=8, seed=2)
+    with ga.open_run(path) as run:
+        pvd = export_vtk(run, tmp_path / "vtk", c_agg=0.5)
+        labels, tracks = granule_tracks(run, c_agg=0.5)
+    for k in range(len(labels)):
+        mesh = meshio.read(tmp_path / "vtk" / f"frame_{k:05d}.vtu")
+        mapping = tracks.labels_to_tracks[k]
+        expected = np.where(labels[k] >= 0, mapping[np.maximum(labels[k], 0)], -1)
+        assert np.array_equal(mesh.point_data["granule_track"], expected)
+    parts = {d.get("part") for d in ET.parse(pvd).getroot().iter("DataSet")}
+    assert parts == {"0"}  # a synthetic run has no drum geometry
+    geometry = {"drum_radius": 0.1, "drum_length": 0.045, "n_baffles": 4, "baffle_height": 0.15, "drum_omega": 2.0}
+    drum = drum_mesh(geometry, time_s=math.pi / 4)  # Ω·t = 2 rad/s × π/4 s = 90°
+    baffle = drum.points[-16:-12]  # the first baffle's four corners
+    angle = math.atan2(baffle[1, 1], baffle[1, 0])
+    assert angle == pytest.approx(math.pi / 2) and np.hypot(*baffle[0, :2]) == pytest.approx(0.085)
+    assert drum.points[:, 2].max() == pytest.approx(0.045)

@@ -49,3 +49,15 @@ def test_table_command_writes_the_same_rows(run_file, tmp_path, capsys, suffix):
     pd.testing.assert_frame_equal(written, expected, check_dtype=False)
     assert main(["table", run_file, "--out", str(out), "--quiet"]) == 2  # exists, no --overwrite
     assert "exists" in capsys.readouterr().err
+
+
+def test_identify_writes_the_same_granule_track_ids(run_file, tmp_path):
+    import h5py
+
+    out = tmp_path / "labels.h5"
+    assert main(["identify", run_file, "--out", str(out), "--c-agg", "0.5", "--quiet"]) == 0
+    with ga.open_run(run_file) as run:
+        table = ga.particle_table(run, c_agg=0.5)
+    with h5py.File(out, "r") as f:
+        tracks = f["granule_track"][:]
+    assert np.array_equal(tracks.ravel(), table.granule_track.to_numpy())

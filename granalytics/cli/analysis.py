@@ -34,7 +34,7 @@ def add_identify_parser(sub):
     p = sub.add_parser("identify", help="granule labels per frame to a file",
                        description="Identify granules in every frame and write the labels (−1 = free particle) to an HDF5 file.")
     p.add_argument("run", help="run file (.h5)")
-    p.add_argument("--out", required=True, help="labels file to write (.h5): datasets labels, ids, time, frame_index, n_granules")
+    p.add_argument("--out", required=True, help="labels file to write (.h5): datasets labels, ids, granule_track, time, frame_index, n_granules")
     p.add_argument("--overwrite", action="store_true", help="replace an existing labels file")
     add_gna_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -195,7 +195,8 @@ def cmd_identify(args):
 
 
 def _write_labels(out, args, frames, identifier, n_frames, n):
-    """Fill an open labels file: attributes, frame index and time, labels and ids per frame."""
+    """Fill an open labels file: attributes, frame index and time, labels, ids and granule track
+    ids per frame."""
     from tqdm.auto import tqdm
 
     out.attrs["format"] = "granalytics-labels"
@@ -214,6 +215,14 @@ def _write_labels(out, args, frames, identifier, n_frames, n):
         labels[k] = result.labels
         ids[k] = snapshot.ids
         n_granules[k] = result.n_granules
+    # the granule track of every particle (-1 free): the id that a granule keeps while it lives
+    from ..tracking import track_granules
+
+    tracks = track_granules([labels[k] for k in range(n_frames)], [ids[k] for k in range(n_frames)], frames.times)
+    granule_track = out.create_dataset("granule_track", (n_frames, n), dtype=np.int64, **chunked)
+    for k in range(n_frames):
+        lab, mapping = labels[k], tracks.labels_to_tracks[k]
+        granule_track[k] = np.where(lab >= 0, mapping[np.maximum(lab, 0)] if mapping.size else -1, -1)
 
 
 def cmd_stats(args):
