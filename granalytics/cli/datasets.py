@@ -33,7 +33,7 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
                    help="revolutions in which every frame is kept (with --every)")
     args = parser.parse_args(argv)
     if args.command == "list":
-        for name, entry in {**datasets.DATASETS, **datasets.SWEEPS}.items():
+        for name, entry in {**datasets.DATASETS, **datasets.FOREIGN, **datasets.SWEEPS}.items():
             print(f"{name:<20} {entry.get('file', entry.get('dir')):<28} {entry['description']}")
             for command in entry["commands"]:
                 print(f"{'':<21}$ {command}")
@@ -46,7 +46,7 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
             print(f"{prog} bundle-sweep: error: {exc}", file=sys.stderr)
             return 2
         return 0
-    known = {**datasets.DATASETS, **datasets.SWEEPS}
+    known = {**datasets.DATASETS, **datasets.FOREIGN, **datasets.SWEEPS}
     unknown = [n for n in args.names if n not in known]
     if unknown:
         print(f"{prog}: error: unknown dataset {unknown[0]!r}; available: "
@@ -57,7 +57,7 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
         return 2
 
     def make(name):  # progress bars only when one recipe runs at a time (side by side they would interleave)
-        return (datasets.make_sweep if name in datasets.SWEEPS else datasets.make_dataset)(name, dry_run=args.dry_run, progress=args.jobs == 1)
+        return (datasets.make_sweep if name in datasets.SWEEPS else datasets.make_foreign if name in datasets.FOREIGN else datasets.make_dataset)(name, dry_run=args.dry_run, progress=args.jobs == 1)
 
     names = args.names or list(known)
     # the recipes' processes run side by side (or one after the other); a failed one does not stop

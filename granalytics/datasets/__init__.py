@@ -48,7 +48,7 @@ from pathlib import Path
 
 from ..errors import GranalyticsError
 
-__all__ = ["DATASETS", "NOT_BUNDLED", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path", "bundle_sweep",
+__all__ = ["DATASETS", "NOT_BUNDLED", "FOREIGN", "foreign_path", "make_foreign", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path", "bundle_sweep",
            "make_sweep"]
 
 DATASET_DIR = Path(__file__).resolve().parents[2] / "datasets"
@@ -117,6 +117,41 @@ NOT_BUNDLED = {
                 "run of physics version 2 took 2 h 57 min on 2 threads)",
         "why": "its physics version 2 run was a stack of planar monolayers (docs/results.md, 'Correction'); the 3-D "
                "remake did not fit the sitting of 2026-12-02 beside the other runs",
+    },
+}
+
+
+#: runs of the DEM codes our users come from, made by the real programs (their input scripts and raw
+#: output in ``folder``), converted by granalytics: name -> file, sha256, program, the program's
+#: commands (run in ``folder`` where the program is installed; the raw output kept otherwise), the
+#: conversion commands (from the repository root), description
+FOREIGN = {
+    "liggghts-wet-drum": {
+        "file": "liggghts-wet-drum.h5",
+        "sha256": "eb30661a848f38769ce58ffa0c27588147909441eb4855f1d2b8f64270506abb",
+        "program": "liggghts",
+        "folder": "tests/data/liggghts_wet_drum",
+        "program_commands": ["python3 make_drum_stl.py", "liggghts -in in.wetdrum -echo none -log none",
+                             "gzip -9f atoms.*.dump pairs.*.dump"],
+        "commands": ["granalytics convert tests/data/liggghts_wet_drum/atoms.5000.dump.gz tests/data/liggghts_wet_drum/atoms.10000.dump.gz tests/data/liggghts_wet_drum/atoms.15000.dump.gz tests/data/liggghts_wet_drum/atoms.20000.dump.gz --contacts tests/data/liggghts_wet_drum/pairs.5000.dump.gz tests/data/liggghts_wet_drum/pairs.10000.dump.gz tests/data/liggghts_wet_drum/pairs.15000.dump.gz tests/data/liggghts_wet_drum/pairs.20000.dump.gz --mapping tests/data/liggghts_wet_drum/mapping.toml --dt-s 2e-6 "
+                     "--out datasets/liggghts-wet-drum.h5 --overwrite --quiet"],
+        "description": "LIGGGHTS 3.8.0 wet drum: 300 spheres of 1.5 mm, Hertz contacts, cohesion easo/capillary/viscous, "
+                       "R = 20 mm, 4 baffles, 2 rad/s; 4 frames (tests/data/liggghts_wet_drum/README.md)",
+    },
+    "yade-wet-drum": {
+        "file": "yade-wet-drum.h5",
+        "sha256": "3e5faa6c19a49a7bc45155c10314896bd2d2e4e59c3cca15346da48f87d8a1cd",
+        "program": "yade",
+        "folder": "tests/data/yade_wet_drum",
+        "program_commands": ["yade -n -x wetdrum_yade.py", "cp out/frame_particles_000012000.csv out/"
+                             "frame_particles_000016000.csv out/frame_contacts_000012000.csv "
+                             "out/frame_contacts_000016000.csv . && gzip -9f frame_*.csv && rm -r out"],
+        "commands": ["granalytics convert tests/data/yade_wet_drum/frame_particles_000012000.csv.gz tests/data/yade_wet_drum/frame_particles_000016000.csv.gz --from yade --contacts tests/data/yade_wet_drum/frame_contacts_000012000.csv.gz tests/data/yade_wet_drum/frame_contacts_000016000.csv.gz --mapping tests/data/yade_wet_drum/meta.toml "
+                     "--out datasets/yade-wet-drum.h5 --overwrite --quiet"],
+        "description": "YADE 2023.02a ViscElCapMat wet drum exported with docs/yade_export.py: about 300 spheres, "
+                       "Willett bridges, R = 20 mm, 2 rad/s; 2 frames (tests/data/yade_wet_drum/README.md). YADE's "
+                       "output differs in its last digits from run to run (checked 2026-12-02: LIGGGHTS remade its "
+                       "dumps byte for byte, YADE not), so a remake gives a new sum",
     },
 }
 
@@ -245,6 +280,44 @@ def make_dataset(name: str, *, dry_run=False, progress=False) -> str:
     digest = _sha256(DATASET_DIR / entry["file"])
     _say(name, f"sha256 {digest}")
     return digest
+
+
+def make_foreign(name: str, *, dry_run=False, progress=False) -> str:
+    """Remake a run of another DEM code (:data:`FOREIGN`): its program's commands where the program
+    is installed (said so, and the raw output in the folder kept, where not), then the conversion;
+    returns the converted file's sha256."""
+    import shutil
+
+    entry = FOREIGN[name]
+    folder = DATASET_DIR.parent / entry["folder"]
+    if shutil.which(entry["program"]) is None:
+        _say(name, f"{entry['program']} is not installed: the raw output in {entry['folder']} is kept "
+                   f"(apt-get install {entry['program']} to remake it)")
+    else:
+        for command in entry["program_commands"]:
+            _say(name, f"$ (cd {entry['folder']} && {command})")
+            if not dry_run:
+                subprocess.run(command, shell=True, cwd=folder, check=True)  # registry constants, never user input
+    _run_recipe(entry["commands"], dry_run, name, progress)
+    if dry_run:
+        return ""
+    digest = _sha256(DATASET_DIR / entry["file"])
+    _say(name, f"sha256 {digest}")
+    return digest
+
+
+def foreign_path(name: str) -> Path:
+    """Path of a converted run of another code (:data:`FOREIGN`) after checking its sha256."""
+    try:
+        entry = FOREIGN[name]
+    except KeyError:
+        raise GranalyticsError(f"unknown run {name!r}; available: {', '.join(FOREIGN)}") from None
+    path = DATASET_DIR / entry["file"]
+    if not path.exists():
+        raise GranalyticsError(f"{path}: missing (made by: {' && '.join(entry['commands'])})")
+    if _sha256(path) != entry["sha256"]:
+        raise GranalyticsError(f"{path}: sha256 {_sha256(path)} does not match the registry ({entry['sha256']})")
+    return path
 
 
 def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_window=None) -> Path:
