@@ -72,6 +72,29 @@ def gamma_check_table(paths, window=(2, 3)):
                       f"{pm(s.loc['n_granules_norm', 'mean'], s.loc['n_granules_norm', 'sem'], 4)} | {law:.2f} |")
 
 
+def replica_table(paths):
+    """Replicas (seeds 0, 1, 2) of the lab runs: the steady state over replicas with the replica
+    standard error beside the block s.e.m. (seed 0 bundled, seeds 1 and 2 in build/runs, not bundled)."""
+    from collections import defaultdict
+
+    groups = defaultdict(list)
+    for path in paths:
+        base = os.path.basename(path).split("-seed")[0].removesuffix(".h5")
+        groups[base].append(path)
+    print("\n**replicas** (seeds 0, 1, 2; window 3–6 revolutions, acting cohesion)\n")
+    print("| run | replicas | yield | replica s.e. | block s.e.m. | ⟨V_g⟩/V_p | replica s.e. | block s.e.m. |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for base, extra in sorted(groups.items()):
+        series = []
+        for path in [str(dataset_path(base)), *sorted(extra)]:
+            with ga.open_run(path) as run:
+                series.append(ga.run_stats(run, c_agg=C_AGG, a_agg_deg=A_AGG))
+        r = ga.replica_steady_state(series, window=(3, 6))
+        y, v = r.loc["yield_fraction"], r.loc["mean_volume_norm"]
+        print(f"| {base} | {int(y.n_replicas)} | {y['mean']:.3f} | {y.replica_sem:.3f} | {y.block_sem:.3f} | "
+              f"{v['mean']:.2f} | {v.replica_sem:.2f} | {v.block_sem:.2f} |")
+
+
 def steady_table():
     print("| dataset | particles (α) | window [rev] | cohesion | yield | ⟨V_g⟩/V_p | N_g/N |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
@@ -183,6 +206,8 @@ def sweep_tables(figures=None):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", help="folder for the CG figures (PNG)")
+    parser.add_argument("--replica-runs", nargs="*", default=[],
+                        help="replicas of bundled runs at other seeds (not bundled), e.g. build/runs/lab-cg3-seed*.h5")
     parser.add_argument("--gamma-runs", nargs="*", default=[],
                         help="paper-cg3 runs at other γ (not bundled) for the γ check, e.g. build/runs/paper-cg3-gamma*.h5")
     args = parser.parse_args()
@@ -193,6 +218,8 @@ def main():
     cg_tables(args.figures)
     kinetics_table()
     sweep_tables(args.figures)
+    if args.replica_runs:
+        replica_table(args.replica_runs)
     if args.gamma_runs:
         def gamma(path):
             with ga.open_run(path) as run:

@@ -54,7 +54,7 @@ from .snapshot import RunMeta, Snapshot
 from .bed import PLANAR_FRACTION, BedStructure, bed_structure
 from . import table  # the tidy per-particle table
 from .table import PARTICLE_COLUMNS, particle_table
-from .stats import frame_stats, granule_table, run_stats, size_distribution, steady_state
+from .stats import frame_stats, granule_table, replica_steady_state, run_stats, size_distribution, steady_state
 from .study import GrowthFit, Surrogate, fit_granule_growth, fit_surrogate, study_table
 from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates, track_granules, track_run
 
@@ -66,7 +66,7 @@ __all__ = [
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",
     "edges", "datasets", "files", "manifest",
-    "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
+    "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
     "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",

@@ -274,6 +274,45 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     return table.astype({"n_frames": int, "n_blocks": int})
 
 
+def replica_steady_state(timeseries, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS, *, by="revolutions",
+                         source=None) -> pd.DataFrame:
+    """Steady state over replicas: runs of one system that differ only in their random seed.
+
+    A steady-state mean from one run hides the run-to-run spread; here every replica's
+    :func:`steady_state` is computed and the replicas' means are averaged.
+
+    Parameters
+    ----------
+    timeseries : sequence of DataFrame
+        One :func:`run_stats` time series per replica (at least two).
+    window, columns, by, source :
+        As for :func:`steady_state`.
+
+    Returns
+    -------
+    DataFrame indexed by metric: ``mean`` (over replicas of each replica's mean),
+    ``replica_sem`` (standard deviation of the replica means / √n, the run-to-run error),
+    ``block_sem`` (√(Σ sem_i²)/n, what the replicas' block errors say of the same mean),
+    ``replica_std`` (of the replica means), ``n_replicas``.
+    """
+    series = list(timeseries)
+    if len(series) < 2:
+        raise ParameterError(f"replica_steady_state needs at least two replicas, got {len(series)}")
+    tables = [steady_state(ts, window, columns, by=by, source=source) for ts in series]
+    means = pd.concat([t["mean"] for t in tables], axis=1)
+    sems = pd.concat([t["sem"] for t in tables], axis=1)
+    n = len(tables)
+    out = pd.DataFrame({
+        "mean": means.mean(axis=1),
+        "replica_sem": means.std(axis=1, ddof=1) / math.sqrt(n),
+        "block_sem": np.sqrt((sems**2).sum(axis=1, min_count=n)) / n,
+        "replica_std": means.std(axis=1, ddof=1),
+        "n_replicas": n,
+    })
+    out.index.name = "metric"
+    return out
+
+
 def blocking_sem(block_sums, block_counts, *, min_blocks=4) -> tuple:
     """Standard error of a mean over correlated, time-ordered blocks (Flyvbjerg & Petersen's blocking).
 

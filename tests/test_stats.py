@@ -212,3 +212,19 @@ def test_blocking_sem_covers_correlated_frames():
         x = rng.normal(size=240)
         ratios.append(blocking_sem(x.reshape(48, 5).sum(axis=1), np.full(48, 5))[0] / (1 / math.sqrt(240)))
     assert 0.9 < np.median(ratios) < 1.3
+
+
+def test_replica_steady_state_reports_the_run_to_run_error():
+    """Replicas whose levels differ by more than their frames scatter: the replica error shows it,
+    the block error of each run does not."""
+    rng = np.random.default_rng(5)
+    revs = np.round(np.arange(0, 121) * 0.05, 10)
+    levels = [0.40, 0.48, 0.44, 0.52]
+    series = [pd.DataFrame({"revolutions": revs, "yield_fraction": level + rng.normal(0, 0.005, revs.size)})
+              for level in levels]
+    out = ga.replica_steady_state(series, window=(3, 6), columns=["yield_fraction"]).loc["yield_fraction"]
+    assert out["mean"] == pytest.approx(np.mean(levels), abs=2e-3)
+    assert out["replica_sem"] == pytest.approx(np.std(levels, ddof=1) / 2, rel=0.1)
+    assert out["block_sem"] < out["replica_sem"] / 5 and out["n_replicas"] == 4
+    with pytest.raises(ParameterError, match="at least two replicas"):
+        ga.replica_steady_state(series[:1])
