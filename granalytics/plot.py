@@ -107,6 +107,9 @@ def sensitivity_figure(summary, title=None):
         ax.set_ylabel(label)
     axes[3].set_yscale("log")
     axes[2].legend(fontsize=8)
+    fig.text(0.5, -0.02, "heatmaps: mean over the window's frames; white cells: no granules at that pair (⟨V_g⟩ "
+             "undefined); line plots: mean ± standard deviation over the frames (frame-to-frame spread, not an "
+             "error of the mean)", ha="center", va="top", fontsize=8)
     if title:
         fig.suptitle(title)
     return fig
@@ -265,8 +268,11 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
         life = (tr["last_frame"] - tr["first_frame"]).to_numpy()
         biggest = np.fromiter((max(s) for s in tr["sizes"]), dtype=np.int64, count=len(tr))
         chosen = np.lexsort((-biggest, -life))[:n_histories]
+        # the same abscissa as the rates beside it: revolutions when the rates are per revolution
+        scale = (rates["rev_end"] - rates["rev_start"]).max() / (rates["time_end_s"] - rates["time_start_s"]).max() \
+            if per_rev else 1.0
         for row in tr.iloc[np.sort(chosen)].itertuples():
-            times = tracks.times_s[row.first_frame:row.last_frame + 1]
+            times = tracks.times_s[row.first_frame:row.last_frame + 1] * scale
             ax.plot(times, row.sizes, marker=".", ms=3, lw=1, label=f"track {row.track} ({row.origin} → {row.end})")
         ax.legend(fontsize=7)
     ax.set_yscale("log")
@@ -275,7 +281,7 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
     ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
     for axis_formatter in (ax.yaxis.set_major_formatter, ax.yaxis.set_minor_formatter):
         axis_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    ax.set_xlabel("time [s]")
+    ax.set_xlabel("revolutions t·Ω/2π" if per_rev else "time [s]")
     ax.set_ylabel("particles per granule")
     ax.set_title(f"size histories ({tracks.n_tracks} tracks)", fontsize=10)
 

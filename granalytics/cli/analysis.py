@@ -339,7 +339,9 @@ def cmd_compare(args):
     if args.plot:
         from ..plot import comparison_figure
 
-        save_figure(comparison_figure(stats, pairs, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}"), args.plot)
+        uses = [m for m in methods if m != "dbscan" or methods[m][1].get("bridged_only")]  # DBSCAN on positions has no F_coh
+        save_figure(comparison_figure(stats, pairs, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion} "
+                                                          f"(for {', '.join(uses) or 'no method'})"), args.plot)
     import pandas as pd
 
     # the printed means are steady-state means over --window, as in stats (the tables hold every frame)
