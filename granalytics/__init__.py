@@ -53,7 +53,7 @@ from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
 from .bed import PLANAR_FRACTION, BedStructure, bed_structure
 from . import table  # the tidy per-particle table
-from .table import PARTICLE_COLUMNS, particle_table
+from .table import PARTICLE_COLUMNS, granule_track_table, particle_table
 from .stats import frame_stats, granule_table, replica_steady_state, run_stats, size_distribution, steady_state
 from .study import GrowthFit, Surrogate, fit_granule_growth, fit_surrogate, study_table
 from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates, track_granules, track_run
@@ -61,7 +61,7 @@ from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_ra
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
-    "bed_structure", "BedStructure", "PLANAR_FRACTION", "particle_table", "PARTICLE_COLUMNS", "table",
+    "bed_structure", "BedStructure", "PLANAR_FRACTION", "particle_table", "granule_track_table", "PARTICLE_COLUMNS", "table",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",

@@ -15,7 +15,7 @@ from tqdm.auto import tqdm
 from .errors import ParameterError
 from .identify import make_identifier
 
-__all__ = ["PARTICLE_COLUMNS", "particle_frames", "particle_table", "granule_tracks"]
+__all__ = ["PARTICLE_COLUMNS", "particle_frames", "particle_table", "granule_tracks", "granule_track_table"]
 
 #: columns of :func:`particle_table`, with units
 PARTICLE_COLUMNS = {
@@ -98,4 +98,23 @@ def particle_table(frames, method="gna", *, min_fragment=2, progress=False, **pa
         frame of its life; ``granule`` is renumbered per frame.
     """
     parts = list(particle_frames(frames, method, min_fragment=min_fragment, progress=progress, **params))
+    return pd.concat(parts, ignore_index=True)
+
+
+def granule_track_table(frames, method="gna", *, min_fragment=2, progress=False, **params) -> pd.DataFrame:
+    """One row per granule and frame: :func:`granalytics.granule_table`'s columns (size, volume,
+    centre of mass, radius of gyration, liquid) with ``frame``, ``time_s`` and ``granule_track``,
+    the id the granule keeps while it lives (the same as :func:`particle_table`'s)."""
+    from .granules import granule_table
+
+    labels, tracks = granule_tracks(frames, method, min_fragment=min_fragment, progress=progress, **params)
+    indices = _frame_indices(frames)
+    parts = []
+    for k, snapshot in enumerate(frames):
+        table = granule_table(snapshot, labels[k]).reset_index()
+        mapping = tracks.labels_to_tracks[k]
+        table.insert(0, "granule_track", mapping[table["granule"].to_numpy()] if len(table) else np.zeros(0, np.int64))
+        table.insert(0, "time_s", snapshot.time)
+        table.insert(0, "frame", int(indices[k]))
+        parts.append(table)
     return pd.concat(parts, ignore_index=True)

@@ -61,3 +61,15 @@ def test_identify_writes_the_same_granule_track_ids(run_file, tmp_path):
     with h5py.File(out, "r") as f:
         tracks = f["granule_track"][:]
     assert np.array_equal(tracks.ravel(), table.granule_track.to_numpy())
+
+
+def test_granule_table_carries_the_same_track_ids(run_file):
+    with ga.open_run(run_file) as run:
+        particles = ga.particle_table(run, c_agg=0.5)
+        granules = ga.granule_track_table(run, c_agg=0.5)
+    members = particles[particles.granule >= 0].groupby(["frame", "granule"]).agg(
+        track=("granule_track", "first"), size=("id", "size"))
+    joined = granules.set_index(["frame", "granule"]).join(members)
+    assert (joined["granule_track"] == joined["track"]).all() and len(joined) == len(members)
+    size_column = "size" if "size" in granules else "n_particles"
+    assert (joined[size_column].to_numpy() == joined.iloc[:, -1].to_numpy()).all()
