@@ -167,7 +167,7 @@ SWEEPS = {
             "python -m sim sweep datasets/sweeps/gamma-omega-lab-cg3.toml --out build/sweeps/gamma-omega-lab-cg3 "
             "--workers 2",
             "python -m granalytics.datasets bundle-sweep build/sweeps/gamma-omega-lab-cg3 "
-            "datasets/sweeps/gamma-omega-lab-cg3 --overwrite",
+            "datasets/sweeps/gamma-omega-lab-cg3 --every 2 --overwrite",
         ],
         "code_version": "45abfd1df9e3f72e543969e86bef509989750190",
         "wall_time": "21 min 11 s on 2 workers (points 56 s to 3 min 18 s, sum 42 min), the first 15 minutes beside "
