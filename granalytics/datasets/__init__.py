@@ -161,7 +161,7 @@ FOREIGN = {
 SWEEPS = {
     "gamma-omega-lab-cg3": {
         "dir": "sweeps/gamma-omega-lab-cg3",
-        "manifest_sha256": "509b9c5a9b15f86bc6910ef3d2778aef87c4a343e58039dc84dcd7ea782d89f3",
+        "manifest_sha256": "a8f8b503dec0470f4378da5ca33065f1169c1d677ce2b6a02f9ded495e73a906",
         "spec": "sweeps/gamma-omega-lab-cg3.toml",
         "commands": [
             "python -m sim sweep datasets/sweeps/gamma-omega-lab-cg3.toml --out build/sweeps/gamma-omega-lab-cg3 "
@@ -169,11 +169,10 @@ SWEEPS = {
             "python -m granalytics.datasets bundle-sweep build/sweeps/gamma-omega-lab-cg3 "
             "datasets/sweeps/gamma-omega-lab-cg3 --every 2 --overwrite",
         ],
-        "code_version": "45abfd1df9e3f72e543969e86bef509989750190",
-        "wall_time": "21 min 11 s on 2 workers (points 56 s to 3 min 18 s, sum 42 min), the first 15 minutes beside "
-                     "the paper-cg3 run",
+        "code_version": _SIM_V3,
+        "wall_time": "16 min on 1 worker (about 46 s per point), beside the CG2 sweep on the other core",
         "description": "lab drum at CG3 (111 particles), γ = 0.01, 0.03, 0.06, 0.1095, 0.2, 0.3, 0.444 N/m (original "
-                       "system) × Ω = 1.5, 2, 3 rad/s, 6 revolutions, every frame (0.05 revolution) as float32",
+                       "system) × Ω = 1.5, 2, 3 rad/s, 6 revolutions, every second frame (0.1 revolution) as float32",
     },
     "gamma-omega-lab-cg2": {
         "dir": "sweeps/gamma-omega-lab-cg2",
