@@ -367,7 +367,7 @@ def growth_figure(table, fit=None, cohesion="acting"):
                 label=f"fit: β = {fit.beta:.3g} [{fit.beta_ci[0]:.3g}, {fit.beta_ci[1]:.3g}], "
                       f"γ₁ = {fit.gamma_1:.3g} [{fit.gamma_1_ci[0]:.3g}, {fit.gamma_1_ci[1]:.3g}] N/m")
     elif fit is not None:  # the data show no growth: no law is drawn (GrowthFit.shows_growth)
-        ax.plot([], [], ls="none", label=f"no growth: {fit.no_growth_reason()}")
+        ax.plot([], [], ls="none", label=f"no growth law: {fit.no_growth_reason()}")
     ax.plot(grid, PAPER_BETA * np.maximum(0.0, grid - PAPER_GAMMA_1), color="0.5", ls="--", lw=1,
             label=f"paper: β ≈ {PAPER_BETA:g}, γ₁ ≈ {PAPER_GAMMA_1:g} N/m")
     ax.set_xlabel("γ of the original system [N/m] (paper Fig 7 convention)")

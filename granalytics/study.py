@@ -193,7 +193,7 @@ class GrowthFit:
 
     One rule decides whether the data show growth (:attr:`shows_growth`): the slope's interval
     lies above zero and, for the hinge, the onset γ₁ lies within the γ given. A fit that fails it
-    is reported as "no growth" (:meth:`summary`, the ``study`` command) and never drawn as a law
+    is reported as "no growth law" (:meth:`summary`, the ``study`` command) and never drawn as a law
     (:func:`granalytics.plot.growth_figure`); its numbers stay available for inspection.
     """
 
@@ -239,10 +239,10 @@ class GrowthFit:
         return self.beta * np.maximum(0.0, np.asarray(gamma, dtype=float) - self.gamma_1)
 
     def summary(self) -> str:
-        """One line: β and γ₁ with their intervals beside the paper's values ("no growth: …" first
+        """One line: β and γ₁ with their intervals beside the paper's values ("no growth law: …" first
         when the data show none, :attr:`shows_growth`)."""
         pct = f"{100 * self.confidence:g} %"
-        verdict = "" if self.shows_growth else f"no growth ({self.no_growth_reason()}); the fit, not a law: "
+        verdict = "" if self.shows_growth else f"no growth law ({self.no_growth_reason()}); the fit, not a law: "
         return (f"{verdict}⟨V_g⟩/V_p = β(γ − γ₁), {self.model} model: β = {self.beta:.4g} "
                 f"[{self.beta_ci[0]:.4g}, {self.beta_ci[1]:.4g}] (paper ≈ {self.paper_beta:g}), "
                 f"γ₁ = {self.gamma_1:.4g} [{self.gamma_1_ci[0]:.4g}, {self.gamma_1_ci[1]:.4g}] N/m "

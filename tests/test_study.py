@@ -251,7 +251,7 @@ def test_growth_figure_follows_the_paper_fig7_convention(table):
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert "Ω = 2 rad/s" in labels and "Ω = 3 rad/s" in labels
     # the synthetic sweep grows with an onset below its smallest γ: "no growth" by the one rule, no law drawn
-    assert any(label.startswith("no growth: the onset") for label in labels)
+    assert any(label.startswith("no growth law: the onset") for label in labels)
     assert not any(label.startswith("fit: β =") for label in labels)
     assert f"paper: β ≈ {PAPER_BETA:g}, γ₁ ≈ {PAPER_GAMMA_1:g} N/m" in labels
     plt.close(fig)
@@ -329,7 +329,7 @@ def test_one_rule_for_no_growth_reported_and_never_drawn():
     gamma = np.repeat([0.01, 0.03, 0.06, 0.1, 0.2, 0.3, 0.44], 3)
     flat = 3.0 + 0.02 * gamma + rng.normal(0, 0.2, gamma.size)  # no growth: noise around a constant
     fit = fit_granule_growth(gamma, flat, np.full(gamma.size, 0.1))
-    assert not fit.shows_growth and fit.summary().startswith("no growth (")
+    assert not fit.shows_growth and fit.summary().startswith("no growth law (")
     assert fit.to_dict()["shows_growth"] is False
     table = pd.DataFrame({"gamma": gamma, "omega": 2.0, "alpha": 2.0, "cohesion": "acting",
                           "mean_volume_norm_mean": flat, "mean_volume_norm_sem": 0.1})
