@@ -176,7 +176,7 @@ SWEEPS = {
     },
     "gamma-omega-lab-cg2": {
         "dir": "sweeps/gamma-omega-lab-cg2",
-        "manifest_sha256": "225a865d6ea222de8ab0f7a6a70437d3bb840719932f1c19a6e0319f3b69e667",
+        "manifest_sha256": "a5d79efb93b129e42d55d80dadbe1a24b0f01d71f2fd5b94a928f01f6964fc94",
         "spec": "sweeps/gamma-omega-lab-cg2.toml",
         "commands": [
             "python -m sim sweep datasets/sweeps/gamma-omega-lab-cg2.toml --out build/sweeps/gamma-omega-lab-cg2 "
@@ -184,9 +184,9 @@ SWEEPS = {
             "python -m granalytics.datasets bundle-sweep build/sweeps/gamma-omega-lab-cg2 "
             "datasets/sweeps/gamma-omega-lab-cg2 --every 3 --overwrite",
         ],
-        "code_version": "8c8cca641fbda3cc35cfe82d8f0badb9d715c42c",
-        "wall_time": "42 min 9 s on 2 workers (points 2 min 28 s to 5 min 27 s, sum 82 min), the machine otherwise "
-                     "idle",
+        "code_version": _SIM_V3,
+        "wall_time": "about 1 h 15 min: 15 points on one worker beside other runs (3.5-7 min a point), the last six as "
+                     "two single-worker sweeps of gamma = 0.3 and 0.444 side by side (12 min), merged into the folder",
         "description": "lab drum at CG2 (375 particles), the same γ × Ω grid as gamma-omega-lab-cg3, 6 revolutions, "
                        "every third frame (0.15 revolution) as float32",
     },
