@@ -36,7 +36,7 @@ def bed_table():
     """Is every bundled run a 3-D bed? The settled bed (recorded by the simulator) and the flowing
     bed (mean over the steady window's frames)."""
     print("| dataset | settled: crossing | settled: ⟨n_z²⟩ | settled: coordination | settled: solid fraction "
-          "| flowing: crossing | flowing: ⟨|v_z|⟩/⟨|v_xy|⟩ | flowing: coordination |")
+          "| flowing: crossing | flowing: ⟨\\|v_z\\|⟩/⟨\\|v_xy\\|⟩ | flowing: coordination |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for name in DATASETS:
         with ga.open_run(dataset_path(name)) as run:
