@@ -5,7 +5,6 @@ import hashlib
 import os
 import shutil
 
-import numpy as np
 import pandas as pd
 import pytest
 

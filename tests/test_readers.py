@@ -2,7 +2,6 @@
 converts its example files (real output of the code, tests/data/) into valid, ordered frames that
 granalytics analyses, through the registry and through ``granalytics convert --from NAME``."""
 
-import shutil
 from pathlib import Path
 
 import numpy as np
