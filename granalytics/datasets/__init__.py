@@ -151,7 +151,9 @@ FOREIGN = {
         "description": "YADE 2023.02a ViscElCapMat wet drum exported with docs/yade_export.py: about 300 spheres, "
                        "Willett bridges, R = 20 mm, 2 rad/s; 2 frames (tests/data/yade_wet_drum/README.md). YADE's "
                        "output differs in its last digits from run to run (checked 2026-12-02: LIGGGHTS remade its "
-                       "dumps byte for byte, YADE not), so a remake gives a new sum",
+                       "dumps byte for byte, YADE not), so a remake gives a new sum. Quasi-planar: wetdrum_yade.py fills the old simple cubic lattice (axial "
+                       "spacing above every diameter), so only 35 % of its touching contacts cross axial layers (<n_z²> "
+                       "0.04); a reader fixture, not a 3-D bed (to be remade with the 3-D lattice of benchmarks/_bench.py)",
     },
 }
 
