@@ -18,7 +18,7 @@ CONTACTS = sorted(DATA.glob("frame_contacts_*.csv.gz"))
 
 def test_yade_fixture_reads_and_analyses(tmp_path, capsys):
     snapshots, meta = read_yade_csv(PARTICLES, CONTACTS, DATA / "meta.toml")
-    assert [s.step for s in snapshots] == [12000, 16000] and meta.n_particles == 303
+    assert [s.step for s in snapshots] == [12000, 16000] and meta.n_particles == 246
     s = snapshots[-1]
     assert s.time == pytest.approx(16000 * 3e-6)
     active = s.f_cap > 0

@@ -140,7 +140,7 @@ FOREIGN = {
     },
     "yade-wet-drum": {
         "file": "yade-wet-drum.h5",
-        "sha256": "3e5faa6c19a49a7bc45155c10314896bd2d2e4e59c3cca15346da48f87d8a1cd",
+        "sha256": "42ec776aa3b41488f95a7a7c8cbe8077a95e681d0ae1e2280580266ad0b1ca52",
         "program": "yade",
         "folder": "tests/data/yade_wet_drum",
         "program_commands": ["yade -n -x wetdrum_yade.py", "cp out/frame_particles_000012000.csv out/"
@@ -148,12 +148,11 @@ FOREIGN = {
                              "out/frame_contacts_000016000.csv . && gzip -9f frame_*.csv && rm -r out"],
         "commands": ["granalytics convert tests/data/yade_wet_drum/frame_particles_000012000.csv.gz tests/data/yade_wet_drum/frame_particles_000016000.csv.gz --from yade --contacts tests/data/yade_wet_drum/frame_contacts_000012000.csv.gz tests/data/yade_wet_drum/frame_contacts_000016000.csv.gz --mapping tests/data/yade_wet_drum/meta.toml "
                      "--out datasets/yade-wet-drum.h5 --overwrite --quiet"],
-        "description": "YADE 2023.02a ViscElCapMat wet drum exported with docs/yade_export.py: about 300 spheres, "
+        "description": "YADE 2023.02a ViscElCapMat wet drum exported with docs/yade_export.py: about 250 spheres, "
                        "Willett bridges, R = 20 mm, 2 rad/s; 2 frames (tests/data/yade_wet_drum/README.md). YADE's "
                        "output differs in its last digits from run to run (checked 2026-12-02: LIGGGHTS remade its "
-                       "dumps byte for byte, YADE not), so a remake gives a new sum. Quasi-planar: wetdrum_yade.py fills the old simple cubic lattice (axial "
-                       "spacing above every diameter), so only 35 % of its touching contacts cross axial layers (<n_z²> "
-                       "0.04); a reader fixture, not a 3-D bed (to be remade with the 3-D lattice of benchmarks/_bench.py)",
+                       "dumps byte for byte, YADE not), so a remake gives a new sum. Remade 2026-12-02 on the 3-D lattice of "
+                       "benchmarks/_bench.py (246 spheres; 90 % of touching contacts cross axial layers, 35 % before)",
     },
 }
 

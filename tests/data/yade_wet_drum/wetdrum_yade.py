@@ -10,17 +10,24 @@ drum = geom.facetCylinder((0, 0, L / 2), RD, L, segmentsNumber=48, wallMask=7, m
 fids = O.bodies.append(drum)
 random.seed(1)
 a = 1.85e-3
-x = -RD + a
-while x < RD - a:
-    y = -RD + a
-    while y < -0.2 * RD:
-        z = a
+# a 3-D lattice (benchmarks/_bench.py::drum_lattice): every other row nested into the one below, random offsets
+y = -RD + a
+row = 0
+while y < -0.2 * RD:
+    shift = 0.5 * a * (row % 2)
+    x = -RD + a + shift
+    while x < RD - a:
+        z = a + shift
         while z < L - a:
             if math.hypot(x, y) < RD - 1.2 * a:
-                O.bodies.append(sphere((x, y, z), 0.75e-3 * random.uniform(0.8, 1.2), material=mat))
+                r = 0.75e-3 * random.uniform(0.8, 1.2)
+                d = [random.gauss(0, 1) for _ in range(3)]
+                s = (0.5 * a - r) * random.random() ** (1 / 3) / math.sqrt(sum(c * c for c in d))
+                O.bodies.append(sphere((x + s * d[0], y + s * d[1], z + s * d[2]), r, material=mat))
             z += a
-        y += a
-    x += a
+        x += a
+    y += a
+    row += 1
 import os
 os.makedirs("out", exist_ok=True)
 O.engines = [ForceResetter(),
