@@ -26,7 +26,7 @@ from .errors import ParameterError
 from .io import open_run
 from .stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 
-__all__ = ["compare_cg", "compare_cg_thresholds", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
+__all__ = ["compare_cg", "compare_cg_thresholds", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
 
 #: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
@@ -147,8 +147,74 @@ def _paper_speedup(alpha) -> float:
     return 1.0 if alpha == 1 else PAPER_SPEEDUP.get(float(alpha), math.nan)
 
 
-def _alpha_label(alpha, n_particles):
-    return f"CG{alpha:g} ({n_particles} particles)"
+def _alpha_label(alpha, n_particles, n_replicas=1):
+    replicas = f", {n_replicas} replicas" if n_replicas > 1 else ""
+    return f"CG{alpha:g} ({n_particles} particles{replicas})"
+
+
+def _replica_group(item) -> list:
+    """A ``runs`` entry of :func:`compare_cg` as a list of replicas (a single run: a list of one)."""
+    if isinstance(item, (list, tuple)):
+        if not item:
+            raise ParameterError("compare_cg: an empty group of replicas")
+        return list(item)
+    return [item]
+
+
+def group_replicas(paths) -> list:
+    """Group run files into replicas of one system: runs with equal α and particle count (and
+    original system) are replicas (they differ in their seed). Returns a list of groups (lists of
+    paths) in the order of each group's first run, for :func:`compare_cg`."""
+    groups = {}
+    for path in paths:
+        with open_run(path) as run:
+            meta = run.meta
+            key = (float(meta.alpha), int(meta.n_particles), int(meta.n_particles_original))
+        groups.setdefault(key, []).append(path)
+    return list(groups.values())
+
+
+def _seed(meta):
+    """The simulator's filling seed of a run (None when the run does not say: other codes)."""
+    return ((meta.sim_config or {}).get("params") or {}).get("seed")
+
+
+def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
+    """One run of a comparison: its time series, steady state, pooled window sizes and provenance."""
+    lo, hi = window
+    run = open_run(item) if isinstance(item, (str, os.PathLike)) else item
+    try:
+        meta = run.meta
+        if len(run) == 0:
+            raise ParameterError(f"{run.path}: the run has no frames")
+        ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
+        steady = steady_state(ts, window=(lo, hi), source=os.fspath(run.path))
+        revs = ts["revolutions"].to_numpy()
+        inside = window_mask(revs, lo, hi)
+        pooled = np.concatenate([s for s, keep in zip(frame_sizes, inside) if keep] or [np.zeros(0, np.int64)])
+        provenance = meta.provenance
+        info = {
+            "path": os.fspath(run.path), "alpha": meta.alpha, "n_particles": meta.n_particles,
+            "n_particles_original": meta.n_particles_original, "mean_radius_original": meta.mean_radius_original,
+            "revolutions_last": float(revs[-1]),
+            "wall_time_s": float(provenance.get("wall_time_s", math.nan)),
+            "wall_time_per_simulated_s": float(provenance.get("wall_time_per_simulated_s", math.nan)),
+            "physics_version": provenance.get("physics_version"),
+            "seed": _seed(meta),
+        }
+    finally:
+        if run is not item:
+            run.close()
+    return {"info": info, "timeseries": ts, "steady": steady, "sizes": pooled}
+
+
+def _relative_deviation(mean, se, ref_mean, ref_se):
+    """(mean − ref)/ref and its standard error from the two standard errors (NaN where ref is 0)."""
+    if not ref_mean:
+        return math.nan, math.nan
+    ratio = mean / ref_mean
+    se_ratio = abs(ratio) * math.hypot(se / mean if mean else math.nan, ref_se / ref_mean)
+    return ratio - 1.0, se_ratio
 
 
 def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", cohesion=DEFAULT_COHESION,
@@ -157,10 +223,14 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
 
     Parameters
     ----------
-    runs : sequence of paths (or :class:`~granalytics.Run`)
-        At least two runs; their metadata give α, the particle counts and the wall time.
+    runs : sequence of paths (or :class:`~granalytics.Run`), or of groups of them
+        At least two systems; their metadata give α, the particle counts and the wall time. An
+        entry that is a list or tuple of runs is a group of **replicas** (runs of one system that
+        differ in their seed, e.g. from :func:`group_replicas`): its statistics are the mean over
+        the replicas, with the replica standard error beside the block s.e.m.
     labels : sequence of str, optional
-        Display names; default ``"CG<α> (<N> particles)"``.
+        Display names, one per entry of ``runs``; default ``"CG<α> (<N> particles)"`` (with the
+        number of replicas for a group).
     window : (float, float), default (3, 6)
         Steady-state window [revolutions]: statistics, block s.e.m., pooled size distributions.
     method : str, default "gna"
@@ -175,51 +245,65 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     Returns
     -------
     CGComparison
+        Its table has, per metric, ``_mean`` (over the replicas of a group), ``_std`` (over
+        frames, averaged over replicas), ``_sem`` (block s.e.m., combined over replicas as
+        √(Σ sem²)/n), ``_replica_sem`` (standard deviation of the replica means / √n; NaN for a
+        single run), ``_rel_dev`` and ``_rel_dev_se`` (its standard error, from the replica
+        errors where both sides have replicas, else the block s.e.m.), and ``n_replicas``.
     """
     from scipy.stats import ks_2samp, wasserstein_distance
 
+    from .stats import combine_replicas
+
     check_cohesion(cohesion)
-    runs = list(runs)
-    if len(runs) < 2:
+    groups = [_replica_group(item) for item in runs]
+    if len(groups) < 2:
         raise ParameterError("compare_cg needs at least two runs")
-    if labels is not None and len(labels) != len(runs):
-        raise ParameterError(f"{len(labels)} labels for {len(runs)} runs")
+    if labels is not None and len(labels) != len(groups):
+        raise ParameterError(f"{len(labels)} labels for {len(groups)} runs")
     lo, hi = (float(w) for w in window)
     infos, series, dists, steady, sizes = [], [], [], {}, {}
-    for k, item in enumerate(runs):
-        run = open_run(item) if isinstance(item, (str, os.PathLike)) else item
-        try:
-            meta = run.meta
-            label = labels[k] if labels is not None else _alpha_label(meta.alpha, meta.n_particles)
-            if label in sizes:
-                raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels")
-            if len(run) == 0:
-                raise ParameterError(f"{run.path}: the run has no frames")
-            ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
-            table = steady_state(ts, window=(lo, hi), source=os.fspath(run.path))
-            revs = ts["revolutions"].to_numpy()
-            inside = window_mask(revs, lo, hi)
-            pooled = np.concatenate([s for s, keep in zip(frame_sizes, inside) if keep] or [np.zeros(0, np.int64)])
-            provenance = meta.provenance
-            infos.append({
-                "run": label, "path": os.fspath(run.path), "alpha": meta.alpha, "n_particles": meta.n_particles,
-                "n_particles_original": meta.n_particles_original, "mean_radius_original": meta.mean_radius_original,
-                "revolutions_last": float(revs[-1]),
-                "wall_time_s": float(provenance.get("wall_time_s", math.nan)),
-                "wall_time_per_simulated_s": float(provenance.get("wall_time_per_simulated_s", math.nan)),
-                "physics_version": provenance.get("physics_version"),
-            })
-        finally:
-            if run is not item:
-                run.close()
-        ts.insert(0, "alpha", meta.alpha)
-        ts.insert(0, "run", label)
-        series.append(ts)
-        dist = size_distribution(pooled) if pooled.size else size_distribution(np.zeros(0, np.int64))
-        dist.insert(0, "alpha", meta.alpha)
+    for k, group in enumerate(groups):
+        members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
+        first = members[0]["info"]
+        for member in members[1:]:
+            other = member["info"]
+            if (other["alpha"], other["n_particles"]) != (first["alpha"], first["n_particles"]):
+                raise ParameterError(f"{other['path']}: not a replica of {first['path']} (α = {other['alpha']:g} with "
+                                     f"{other['n_particles']} particles against α = {first['alpha']:g} with "
+                                     f"{first['n_particles']})")
+        n = len(members)
+        if labels is not None:
+            label = labels[k]
+        else:
+            label = _alpha_label(first["alpha"], first["n_particles"], n)
+        if label in sizes:
+            raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels, or group replicas "
+                                 "(granalytics compare-cg --replicas)")
+        tables = [m["steady"] for m in members]
+        combined = combine_replicas(pd.concat([t["mean"] for t in tables], axis=1),
+                                    pd.concat([t["sem"] for t in tables], axis=1))
+        combined["std"] = pd.concat([t["std"] for t in tables], axis=1).mean(axis=1)
+        combined["n_frames"] = sum(t["n_frames"] for t in tables)
+        info = {"run": label, **first, "path": "; ".join(m["info"]["path"] for m in members), "n_replicas": n,
+                "seeds": ", ".join(str(m["info"]["seed"]) for m in members)}
+        for key in ("wall_time_s", "wall_time_per_simulated_s"):
+            info[key] = float(np.mean([m["info"][key] for m in members]))
+        info["revolutions_last"] = min(m["info"]["revolutions_last"] for m in members)
+        del info["seed"]
+        infos.append(info)
+        for r, member in enumerate(members):
+            ts = member["timeseries"]
+            ts.insert(0, "replica", r)
+            ts.insert(0, "alpha", first["alpha"])
+            ts.insert(0, "run", label)
+            series.append(ts)
+        pooled = np.concatenate([m["sizes"] for m in members])
+        dist = size_distribution(pooled)
+        dist.insert(0, "alpha", first["alpha"])
         dist.insert(0, "run", label)
         dists.append(dist)
-        steady[label] = table
+        steady[label] = combined
         sizes[label] = pooled
     for key, what in (("n_particles_original", "original particle counts"), ("mean_radius_original", "original mean radii")):
         values = [i[key] for i in infos]
@@ -235,19 +319,26 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     info = pd.DataFrame(infos)
     reference = info.loc[info["alpha"].idxmin(), "run"]
     ref = steady[reference]
-    ref_wall = info.set_index("run").loc[reference, "wall_time_per_simulated_s"]
-    ref_alpha = info.set_index("run").loc[reference, "alpha"]
+    ref_row = info.set_index("run").loc[reference]
     rows = []
     for row in info.itertuples():
         table = steady[row.run]
-        out = {"run": row.run, "alpha": row.alpha, "n_particles": row.n_particles}
+        out = {"run": row.run, "alpha": row.alpha, "n_particles": row.n_particles, "n_replicas": row.n_replicas}
+        replicated = row.n_replicas > 1 and ref_row["n_replicas"] > 1
         for metric in CG_METRICS:
             mean = table.loc[metric, "mean"]
             out[f"{metric}_mean"] = mean
             out[f"{metric}_std"] = table.loc[metric, "std"]
-            out[f"{metric}_sem"] = table.loc[metric, "sem"]
-            ref_mean = ref.loc[metric, "mean"]
-            out[f"{metric}_rel_dev"] = (mean - ref_mean) / ref_mean if ref_mean else math.nan
+            out[f"{metric}_sem"] = table.loc[metric, "block_sem"]
+            out[f"{metric}_replica_sem"] = table.loc[metric, "replica_sem"]
+            error = "replica_sem" if replicated else "block_sem"
+            if row.run == reference:
+                dev, dev_se = (0.0, math.nan) if ref.loc[metric, "mean"] else (math.nan, math.nan)
+            else:
+                dev, dev_se = _relative_deviation(mean, table.loc[metric, error], ref.loc[metric, "mean"],
+                                                  ref.loc[metric, error])
+            out[f"{metric}_rel_dev"] = dev
+            out[f"{metric}_rel_dev_se"] = dev_se
         a, b = sizes[row.run], sizes[reference]
         both = a.size and b.size
         out["ks_distance"] = ks_2samp(a, b).statistic if both else math.nan
@@ -255,8 +346,8 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         out["n_frames"] = int(table.loc["yield_fraction", "n_frames"])
         out["n_granules_pooled"] = int(a.size)
         out["wall_time_per_simulated_s"] = row.wall_time_per_simulated_s
-        out["speedup"] = ref_wall / row.wall_time_per_simulated_s
-        out["paper_speedup"] = _paper_speedup(row.alpha) / _paper_speedup(ref_alpha)
+        out["speedup"] = ref_row["wall_time_per_simulated_s"] / row.wall_time_per_simulated_s
+        out["paper_speedup"] = _paper_speedup(row.alpha) / _paper_speedup(ref_row["alpha"])
         out["method"] = method
         out["cohesion"] = cohesion
         out["window"] = f"{lo:g}:{hi:g}"

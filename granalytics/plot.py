@@ -177,10 +177,20 @@ def frame_figure(result, ax=None, max_colours=20):
     return ax.figure
 
 
+def _replica_spread(part, column) -> pd.DataFrame:
+    """Mean, min and max over replicas of ``column`` at the frames every replica has (revolutions
+    matched to 1e-6), indexed by revolutions."""
+    keyed = part.assign(_rev=part["revolutions"].round(6))
+    wide = keyed.pivot_table(index="_rev", columns="replica", values=column, aggfunc="first").dropna()
+    return pd.DataFrame({"mean": wide.mean(axis=1), "min": wide.min(axis=1), "max": wide.max(axis=1)})
+
+
 def cg_figures(comparison) -> dict:
     """The paper's Figs 3–6 for a :class:`~granalytics.cg.CGComparison`: ⟨V_g⟩/V_p, N_g/N and
     yield against revolutions (one curve per run, the steady-state window shaded, its mean ± s.e.m.
     as a band) and the particles-per-granule distribution pooled over the window (log axes).
+    A group of replicas is drawn as the replicas' mean at their common frames with their range
+    (min–max) as a band, and its steady-state mean ± the replica standard error.
 
     Returns
     -------
@@ -198,9 +208,18 @@ def cg_figures(comparison) -> dict:
         fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
         for k, (label, part) in enumerate(comparison.timeseries.groupby("run", sort=False)):
             colour = f"C{k}"
-            ax.plot(part["revolutions"], part[column], lw=1, marker=".", ms=3, color=colour, label=label)
             row = comparison.table[comparison.table["run"] == label].iloc[0]
-            mean, sem = row[f"{column}_mean"], row[f"{column}_sem"]
+            replicas = part["replica"].nunique() if "replica" in part else 1
+            if replicas > 1:  # the replicas' mean at their common frames, and their range as a band
+                spread = _replica_spread(part, column)
+                ax.plot(spread.index, spread["mean"], lw=1, marker=".", ms=3, color=colour,
+                        label=f"{label}: mean, range")
+                ax.fill_between(spread.index, spread["min"], spread["max"], color=colour, alpha=0.2, lw=0)
+                sem = row.get(f"{column}_replica_sem", math.nan)
+            else:
+                ax.plot(part["revolutions"], part[column], lw=1, marker=".", ms=3, color=colour, label=label)
+                sem = row[f"{column}_sem"]
+            mean = row[f"{column}_mean"]
             lo, hi = comparison.window
             ax.hlines(mean, lo, hi, color=colour, lw=2, alpha=0.8)
             if np.isfinite(sem):
@@ -314,12 +333,30 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
     return fig
 
 
+def _points_over_replicas(group) -> pd.DataFrame:
+    """Rows of one Ω grouped by γ (replicas: several seeds, or rows already combined by
+    ``study_table(replicas=...)``): mean ⟨V_g⟩/V_p ``v``, ``block_sem``, ``replica_sem``
+    (:func:`~granalytics.stats.combine_replicas`; from the rows' own replica s.e. where they carry
+    one), ``none`` (no granules in any)."""
+    from .stats import combine_replicas
+
+    rows = {}
+    for gamma, g in group.groupby("gamma", sort=True):
+        c = combine_replicas(g[["_v"]].T, g[["_sem"]].T.fillna(0.0)).iloc[0]
+        rsem = c["replica_sem"] if len(g) > 1 else g["_rsem"].iloc[0]
+        rows[gamma] = {"v": c["mean"], "block_sem": c["block_sem"], "replica_sem": rsem, "none": g["_none"].all()}
+    return pd.DataFrame.from_dict(rows, orient="index")
+
+
 def growth_figure(table, fit=None, cohesion="acting"):
     """The paper's Fig 7: ⟨V_g⟩/V_p against γ of the original system, one curve per Ω (error
-    bars: s.e.m.), the fitted law and the paper's β = 70, γ₁ = 0.027 N/m for reference.
+    bars: block s.e.m.; band: the replica standard error where there are replicas), the fitted law
+    and the paper's β = 70, γ₁ = 0.027 N/m for reference.
 
-    Points of one (Ω, γ) (e.g. several seeds) are averaged, their sems combined as
-    √(Σ sem²)/n; points without granules are drawn at 0 with open markers.
+    Points of one (Ω, γ) (e.g. several seeds) are averaged (:func:`~granalytics.stats.combine_replicas`:
+    block sems combined as √(Σ sem²)/n, the replicas' spread as the band); rows that
+    ``study_table(replicas=...)`` already combined bring their replica s.e.; points without
+    granules are drawn at 0 with open markers.
 
     Parameters
     ----------
@@ -347,19 +384,26 @@ def growth_figure(table, fit=None, cohesion="acting"):
             fit = None
     part["_v"] = part["mean_volume_norm_mean"].fillna(0.0)
     part["_none"] = part["mean_volume_norm_mean"].isna() | (part["mean_volume_norm_mean"] == 0)
-    sem_col = part["mean_volume_norm_sem"] if "mean_volume_norm_sem" in part else pd.Series(np.nan, index=part.index)
-    part["_s2"] = sem_col.fillna(0.0) ** 2
+    nan = pd.Series(np.nan, index=part.index)
+    part["_sem"] = part.get("mean_volume_norm_sem", nan)
+    part["_rsem"] = part.get("mean_volume_norm_replica_sem", nan)
     fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    drew_band = False
     for k, (omega, group) in enumerate(part.groupby("omega", sort=True)):
-        agg = group.groupby("gamma", sort=True).agg(v=("_v", "mean"), s2=("_s2", "sum"), n=("_v", "size"),
-                                                     none=("_none", "all"))
-        sem = np.sqrt(agg["s2"]) / agg["n"]
+        agg = _points_over_replicas(group)
         colour = f"C{k}"
-        ax.errorbar(agg.index, agg["v"], yerr=sem, color=colour, marker="o", ms=5, lw=1, capsize=3,
+        ax.errorbar(agg.index, agg["v"], yerr=agg["block_sem"], color=colour, marker="o", ms=5, lw=1, capsize=3,
                     label=f"Ω = {omega:g} rad/s")
+        band = agg["replica_sem"].notna()
+        if band.any():
+            ax.fill_between(agg.index[band], (agg["v"] - agg["replica_sem"])[band],
+                            (agg["v"] + agg["replica_sem"])[band], color=colour, alpha=0.2, lw=0)
+            drew_band = True
         if agg["none"].any():
             ax.plot(agg.index[agg["none"]], agg["v"][agg["none"]], ls="none", marker="o", ms=5, mfc="white",
                     color=colour)
+    if drew_band:
+        ax.fill_between([], [], [], color="0.6", alpha=0.3, lw=0, label="band: replica s.e.; bars: block s.e.m.")
     gmin, gmax = float(part["gamma"].min()), float(part["gamma"].max())
     grid = np.linspace(min(gmin, PAPER_GAMMA_1 * 0.5), gmax, 200)
     if fit is not None and fit.shows_growth:

@@ -23,8 +23,8 @@ from .identify.result import IdentificationResult
 from .snapshot import Snapshot
 
 __all__ = [
-    "granule_table", "frame_stats", "run_stats", "steady_state", "size_distribution",
-    "DEFAULT_WINDOW_REV",
+    "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "combine_replicas",
+    "size_distribution", "DEFAULT_WINDOW_REV",
 ]
 
 #: Default steady-state window [revolutions] (Fig. 5 of the paper).
@@ -299,18 +299,44 @@ def replica_steady_state(timeseries, window=DEFAULT_WINDOW_REV, columns=_STEADY_
     if len(series) < 2:
         raise ParameterError(f"replica_steady_state needs at least two replicas, got {len(series)}")
     tables = [steady_state(ts, window, columns, by=by, source=source) for ts in series]
-    means = pd.concat([t["mean"] for t in tables], axis=1)
-    sems = pd.concat([t["sem"] for t in tables], axis=1)
-    n = len(tables)
-    out = pd.DataFrame({
-        "mean": means.mean(axis=1),
-        "replica_sem": means.std(axis=1, ddof=1) / math.sqrt(n),
-        "block_sem": np.sqrt((sems**2).sum(axis=1, min_count=n)) / n,
-        "replica_std": means.std(axis=1, ddof=1),
-        "n_replicas": n,
-    })
+    out = combine_replicas(pd.concat([t["mean"] for t in tables], axis=1),
+                           pd.concat([t["sem"] for t in tables], axis=1))
     out.index.name = "metric"
     return out
+
+
+def combine_replicas(means, sems) -> pd.DataFrame:
+    """Combine the steady-state means of replicas (one column per replica, one row per metric).
+
+    The one rule every replica statistic of granalytics uses (:func:`replica_steady_state`,
+    :func:`~granalytics.compare_cg` with replica groups, :func:`~granalytics.study_table` with
+    ``replicas=``, the replica bands of the figures).
+
+    Parameters
+    ----------
+    means, sems : DataFrame or 2-D array (metrics × replicas)
+        Each replica's steady-state mean and block s.e.m. (NaN where it has none).
+
+    Returns
+    -------
+    DataFrame (index of ``means``) with ``mean`` (over replicas), ``replica_sem`` (standard
+    deviation of the replica means / √n: the run-to-run error; NaN for one replica),
+    ``block_sem`` (√(Σ sem_i²)/n: what the replicas' block errors say of the same mean; NaN when
+    a replica has none), ``replica_std`` and ``n_replicas``.
+    """
+    means, sems = pd.DataFrame(means), pd.DataFrame(sems)
+    n = means.shape[1]
+    if n < 1 or sems.shape != means.shape:
+        raise ParameterError(f"combine_replicas: means {means.shape} and sems {sems.shape} must be metrics × replicas, "
+                             "with at least one replica")
+    std = means.std(axis=1, ddof=1) if n > 1 else pd.Series(math.nan, index=means.index)
+    return pd.DataFrame({
+        "mean": means.mean(axis=1),
+        "replica_sem": std / math.sqrt(n),
+        "block_sem": np.sqrt((sems.to_numpy(dtype=float) ** 2).sum(axis=1)) / n,
+        "replica_std": std,
+        "n_replicas": n,
+    }, index=means.index)
 
 
 def blocking_sem(block_sums, block_counts, *, min_blocks=4) -> tuple:

@@ -62,7 +62,7 @@ def _original_values(meta):
 
 
 def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("acting", "bridge"), *,
-                progress=False, **params) -> pd.DataFrame:
+                replicas=None, progress=False, **params) -> pd.DataFrame:
     """Steady-state statistics of every finished point of a sweep.
 
     Parameters
@@ -77,6 +77,13 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     cohesion : str or sequence of str, default ("acting", "bridge")
         Cohesion conventions (:mod:`granalytics.cohesion`); one row per point and convention.
         Ignored (one row per point, ``cohesion`` None) for methods without a convention.
+    replicas : str, optional
+        A grid column that tells replicas apart (``"seed"``): points equal in every other
+        parameter are combined into one row (:func:`~granalytics.stats.combine_replicas`):
+        ``<metric>_mean`` over the replicas, ``_sem`` their block s.e.m. combined (√(Σ sem²)/n),
+        ``_replica_sem`` (standard deviation of the replica means / √n), ``_replica_std``,
+        ``n_replicas``; ``point`` and ``file`` list the replicas joined by ``"; "``, the
+        ``replicas`` column their values.
     progress : bool
         A progress bar over points.
 
@@ -143,7 +150,39 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
                 row["window"] = f"{lo:g}:{hi:g}"
                 row["file"] = record["file"]
                 rows.append(row)
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    return table if replicas is None else _combine_replica_rows(table, replicas, sweep_dir)
+
+
+def _combine_replica_rows(table, replicas, sweep_dir) -> pd.DataFrame:
+    """Rows of :func:`study_table` that differ only in the ``replicas`` column, combined."""
+    from .stats import combine_replicas
+
+    if replicas not in table:
+        raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: no grid column {replicas!r} "
+                             f"to tell replicas apart (it has {', '.join(map(str, table.columns))})")
+    stats = [f"{m}_{s}" for m in STUDY_METRICS for s in ("mean", "std", "sem")]
+    joined = ("point", "file", replicas)
+    keys = [c for c in table.columns if c not in (*stats, *joined, "n_frames")]
+    rows = []
+    for _, group in table.groupby(keys, sort=False, dropna=False):
+        row = group.iloc[0][keys].to_dict()
+        for col in joined:
+            row[col] = "; ".join(str(v) for v in group[col])
+        means = group[[f"{m}_mean" for m in STUDY_METRICS]].T.set_axis(STUDY_METRICS)
+        sems = group[[f"{m}_sem" for m in STUDY_METRICS]].T.set_axis(STUDY_METRICS)
+        combined = combine_replicas(means, sems)
+        for metric in STUDY_METRICS:
+            row[f"{metric}_mean"] = combined.loc[metric, "mean"]
+            row[f"{metric}_std"] = float(group[f"{metric}_std"].mean())
+            row[f"{metric}_sem"] = combined.loc[metric, "block_sem"]
+            row[f"{metric}_replica_sem"] = combined.loc[metric, "replica_sem"]
+            row[f"{metric}_replica_std"] = combined.loc[metric, "replica_std"]
+        row["n_replicas"] = len(group)
+        row["n_frames"] = int(group["n_frames"].sum())
+        rows.append(row)
+    return pd.DataFrame(rows)[[*table.columns, *(f"{m}_{s}" for m in STUDY_METRICS
+                                                  for s in ("replica_sem", "replica_std")), "n_replicas"]]
 
 
 def _select_cohesion(table, cohesion):
@@ -419,6 +458,8 @@ def _fit_from_table(table, cohesion="acting", **kwargs) -> GrowthFit:
         if col not in part:
             raise ParameterError(f"the table has no column {col!r} (use study_table)")
     sem = part["mean_volume_norm_sem"] if "mean_volume_norm_sem" in part else None
+    if "mean_volume_norm_replica_sem" in part:  # rows over replicas: the run-to-run error where it exists
+        sem = part["mean_volume_norm_replica_sem"].fillna(sem if sem is not None else np.nan)
     return fit_granule_growth(part["gamma"], part["mean_volume_norm_mean"], sem, **kwargs)
 
 

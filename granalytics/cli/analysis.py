@@ -120,6 +120,9 @@ def add_compare_cg_parser(sub):
     p.add_argument("runs", nargs="+", help="run files (.h5), at least two")
     p.add_argument("--out", required=True, help="output folder: cg_table.csv, cg_timeseries.csv, cg_sizes.csv, fig3–fig6 .png/.pdf")
     p.add_argument("--labels", help="comma-separated run names (default: CG<α> (<N> particles))")
+    p.add_argument("--replicas", action="store_true",
+                   help="runs with equal α and particle count are replicas (other seeds) of one system: compare "
+                        "their mean, with the replica standard error beside the block s.e.m. (one label per group)")
     p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
                    help="steady-state window in revolutions (default 3:6)")
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
@@ -363,11 +366,13 @@ def cmd_compare(args):
 
 
 def cmd_compare_cg(args):
-    from ..cg import CGComparison, compare_cg
+    from ..cg import CGComparison, compare_cg, group_replicas
 
     labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
     grids = [g for g in (args.c_agg, args.a_agg_deg) if g is not None]
     if any(len(g) > 1 for g in grids):
+        if args.replicas:
+            raise ParameterError("--replicas: a threshold grid compares single runs; leave --replicas out")
         return _compare_cg_thresholds(args, labels)
     for name in ("c_agg", "a_agg_deg"):  # one value each: the standard comparison at that pair
         if getattr(args, name) is not None:
@@ -376,7 +381,8 @@ def cmd_compare_cg(args):
     for param, value in args.set or []:
         params[param] = value
     CGComparison.check_outputs(args.out, overwrite=args.overwrite)  # before minutes of analysis
-    comparison = compare_cg(args.runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
+    runs = group_replicas(args.runs) if args.replicas else args.runs
+    comparison = compare_cg(runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
                             progress=not args.quiet, **params)
     written = comparison.save(args.out, overwrite=args.overwrite)
     print(f"wrote {len(written)} files to {args.out}: " + ", ".join(os.path.basename(p) for p in written))
@@ -434,7 +440,8 @@ def format_cg_table(comparison) -> str:
     """The CG table as text: steady-state mean ± s.e.m. of each metric, its deviation from the
     reference run, the KS distance of the size distributions and the speed-ups."""
     lines = [f"CG comparison, {comparison.description}; deviations from {comparison.reference}"]
-    header = (f"{'run':<26} {'yield':>19} {'<V_g>/V_p':>21} {'N_g/N':>23} {'KS D':>6} "
+    width = max(26, comparison.table["run"].str.len().max())
+    header = (f"{'run':<{width}} {'yield':>19} {'<V_g>/V_p':>21} {'N_g/N':>23} {'KS D':>6} "
               f"{'speed-up*':>9} {'paper':>6}")
     lines.append(header)
     for row in comparison.table.itertuples():
@@ -442,8 +449,19 @@ def format_cg_table(comparison) -> str:
         for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
             mean, sem, dev = (getattr(row, f"{metric}_{x}") for x in ("mean", "sem", "rel_dev"))
             cells.append(f"{mean:{fmt}} ± {sem:{fmt}} ({dev:+.0%})")
-        lines.append(f"{row.run:<26} {cells[0]:>19} {cells[1]:>21} {cells[2]:>23} {row.ks_distance:>6.3f} "
+        lines.append(f"{row.run:<{width}} {cells[0]:>19} {cells[1]:>21} {cells[2]:>23} {row.ks_distance:>6.3f} "
                      f"{row.speedup:>8.1f}× {row.paper_speedup:>5.1f}×")
     lines.append("* wall time per simulated second recorded by the simulator in each run; runs that shared the "
                  "machine unevenly give unfair ratios (benchmarks/cg_speedup.py measures them side by side)")
+    replicated = comparison.table[comparison.table["n_replicas"] > 1]
+    if len(replicated):
+        lines.append("replicas: mean over the replicas ± replica s.e. [block s.e.m.]; deviation ± its s.e.")
+        for row in replicated.itertuples():
+            cells = []
+            for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
+                mean, rsem, sem, dev, dev_se = (getattr(row, f"{metric}_{x}")
+                                                for x in ("mean", "replica_sem", "sem", "rel_dev", "rel_dev_se"))
+                cells.append(f"{METRICS[metric].label} {mean:{fmt}} ± {rsem:{fmt}} [{sem:{fmt}}] "
+                             f"({dev:+.0%} ± {dev_se:.0%})")
+            lines.append(f"  {row.run}: " + "; ".join(cells))
     return "\n".join(lines)

@@ -72,6 +72,9 @@ def add_study_parser(sub):
     p.add_argument("--model", choices=("hinge", "linear"), default="hinge",
                    help="growth fit: hinge β·max(0, γ−γ₁) over all points (default) or a line through the points "
                         "with granules")
+    p.add_argument("--replicas", metavar="COLUMN",
+                   help="grid column that tells replicas apart (e.g. seed): points equal in every other parameter "
+                        "are combined (mean, replica s.e. beside the block s.e.m.)")
     p.add_argument("--out", help="study table to write (.csv or .parquet)")
     p.add_argument("--plot", help="Fig 7 figure to write (.png, .pdf, .svg)")
     p.add_argument("--predict", action="append", metavar="gamma=G,omega=W",
@@ -97,9 +100,9 @@ def cmd_study(args) -> int:
     params = accepted_params(args.method, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg)
     manifest = read_manifest(args.sweep)
     table = study_table(args.sweep, window=args.window, method=args.method, cohesion=conventions,
-                        progress=not args.quiet, **params)
+                        replicas=args.replicas, progress=not args.quiet, **params)
     shown_params = ", ".join(f"{k}={v:g}" for k, v in params.items())
-    print(f"study of {args.sweep}: {table['point'].nunique()} finished points of {len(manifest)} in the manifest; "
+    print(f"study of {args.sweep}: {int((manifest['status'] == 'done').sum())} finished points of {len(manifest)} in the manifest; "
           f"window [{args.window[0]:g}, {args.window[1]:g}] rev, {args.method} ({shown_params})")
     left = manifest[manifest["status"] != "done"]
     for row in left.itertuples():
@@ -110,6 +113,10 @@ def cmd_study(args) -> int:
     cells = table[[c for c in columns if c in table]].copy()
     for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
         cells[metric] = [f"{m:{fmt}} ± {s:{fmt}}" for m, s in zip(table[f"{metric}_mean"], table[f"{metric}_sem"])]
+        if args.replicas:
+            cells[f"{metric} replica s.e."] = [f"{r:{fmt}}" for r in table[f"{metric}_replica_sem"]]
+    if args.replicas:
+        cells.insert(1, "n_replicas", table["n_replicas"])
     with pd.option_context("display.width", 160, "display.max_rows", 200, "display.max_colwidth", 60):
         print(cells.to_string(index=False))
     if args.out:

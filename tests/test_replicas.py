@@ -1,0 +1,151 @@
+"""Replica statistics (issue 25, item 4): groups of runs that differ only in their seed give the
+mean over replicas with the replica standard error beside the block s.e.m., in
+:func:`combine_replicas`, :func:`compare_cg`, :func:`study_table` and their figures and commands."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import granalytics as ga
+from granalytics.cg import compare_cg, group_replicas
+from granalytics.cli import main
+from granalytics.errors import ParameterError
+from granalytics.plot import growth_figure
+from granalytics.stats import combine_replicas
+from granalytics.study import study_table
+from test_cg import write_run
+from test_study import write_point
+
+
+def test_combine_replicas_follows_its_closed_form():
+    means = pd.DataFrame([[1.0, 2.0, 4.0], [0.5, 0.5, 0.5]], index=["a", "b"])
+    sems = pd.DataFrame([[0.1, 0.2, 0.2], [0.3, np.nan, 0.3]], index=["a", "b"])
+    out = combine_replicas(means, sems)
+    assert out.loc["a", "mean"] == pytest.approx(7 / 3)
+    assert out.loc["a", "replica_std"] == pytest.approx(np.std([1, 2, 4], ddof=1))
+    assert out.loc["a", "replica_sem"] == pytest.approx(np.std([1, 2, 4], ddof=1) / math.sqrt(3))
+    assert out.loc["a", "block_sem"] == pytest.approx(math.sqrt(0.01 + 0.04 + 0.04) / 3)
+    assert out.loc["b", "replica_sem"] == 0 and math.isnan(out.loc["b", "block_sem"])  # a replica without error
+    assert (out["n_replicas"] == 3).all()
+    single = combine_replicas(means[[0]], sems[[0]])  # one replica: no run-to-run error, its own block error
+    assert math.isnan(single.loc["a", "replica_sem"]) and single.loc["a", "block_sem"] == pytest.approx(0.1)
+    with pytest.raises(ParameterError, match="metrics × replicas"):
+        combine_replicas(means, sems[[0, 1]])
+
+
+@pytest.fixture(scope="module")
+def replica_runs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("replicas")
+    cg1 = write_run(d / "cg1.h5", 8100, 1.0, wall_per_sim_s=40.0, seed=1)
+    cg3 = [write_run(d / f"cg3-{k}.h5", 300, 3.0, final_fraction=f, wall_per_sim_s=2.0, seed=10 + k)
+           for k, f in enumerate((0.45, 0.55, 0.65))]
+    return cg1, cg3
+
+
+def test_a_group_of_replicas_is_compared_by_its_mean_with_the_replica_error(replica_runs):
+    cg1, cg3 = replica_runs
+    grouped = compare_cg([cg1, cg3], window=(2, 4), c_agg=0.6, a_agg_deg=20)
+    singles = [compare_cg([cg1, run], window=(2, 4), c_agg=0.6, a_agg_deg=20) for run in cg3]
+    row = grouped.table.iloc[1]
+    levels = [s.table.iloc[1]["yield_fraction_mean"] for s in singles]
+    sems = [s.table.iloc[1]["yield_fraction_sem"] for s in singles]
+    assert row["run"] == "CG3 (300 particles, 3 replicas)" and row["n_replicas"] == 3
+    assert row["yield_fraction_mean"] == pytest.approx(np.mean(levels))
+    assert row["yield_fraction_replica_sem"] == pytest.approx(np.std(levels, ddof=1) / math.sqrt(3))
+    assert row["yield_fraction_sem"] == pytest.approx(math.sqrt(sum(s * s for s in sems)) / 3)
+    # the planted levels (0.45, 0.55, 0.65) differ by far more than the frames scatter
+    assert row["yield_fraction_replica_sem"] > 3 * row["yield_fraction_sem"]
+    ref = grouped.table.iloc[0]
+    assert ref["n_replicas"] == 1 and math.isnan(ref["yield_fraction_replica_sem"])
+    assert row["yield_fraction_rel_dev"] == pytest.approx(np.mean(levels) / ref["yield_fraction_mean"] - 1)
+    assert 0 < row["yield_fraction_rel_dev_se"] < 0.2
+    # the pooled sizes and the time series keep every replica
+    assert grouped.sizes[row["run"]].size == sum(s.sizes[s.table.iloc[1]["run"]].size for s in singles)
+    ts = grouped.timeseries[grouped.timeseries["run"] == row["run"]]
+    assert sorted(ts["replica"].unique()) == [0, 1, 2]
+    assert grouped.runs.iloc[1]["path"].count(";") == 2
+
+
+def test_replica_bands_are_drawn_and_bad_groups_are_refused(replica_runs):
+    import matplotlib.pyplot as plt
+
+    cg1, cg3 = replica_runs
+    grouped = compare_cg([cg1, cg3], window=(2, 4), c_agg=0.6, a_agg_deg=20)
+    single = compare_cg([cg1, cg3[0]], window=(2, 4), c_agg=0.6, a_agg_deg=20)
+    bands = {}
+    for name, comp in (("grouped", grouped), ("single", single)):
+        fig = comp.figures()["fig6_yield"]
+        bands[name] = len(fig.axes[0].collections)
+        if name == "grouped":
+            labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+            assert any("mean, range" in label for label in labels)
+        plt.close("all")
+    assert bands["grouped"] > bands["single"]  # the replicas' range over time is a band of its own
+    with pytest.raises(ParameterError, match="not a replica"):
+        compare_cg([cg1, [cg3[0], cg1]], window=(2, 4))
+    with pytest.raises(ParameterError, match="empty group"):
+        compare_cg([cg1, []], window=(2, 4))
+    with pytest.raises(ParameterError, match="--replicas"):
+        compare_cg([cg1, cg3[0], cg3[1]], window=(2, 4))
+
+
+def test_group_replicas_and_the_command(replica_runs, tmp_path, capsys):
+    cg1, cg3 = replica_runs
+    groups = group_replicas([cg3[0], cg1, cg3[1], cg3[2]])
+    assert groups == [[cg3[0], cg3[1], cg3[2]], [cg1]]
+    out = tmp_path / "cg"
+    assert main(["compare-cg", str(cg1), *map(str, cg3), "--replicas", "--window", "2:4", "--out", str(out),
+                 "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "  CG3 (300 particles, 3 replicas): yield" in text and "[" in text
+    table = pd.read_csv(out / "cg_table.csv")
+    assert list(table["n_replicas"]) == [1, 3] and "yield_fraction_replica_sem" in table
+    assert main(["compare-cg", str(cg1), *map(str, cg3), "--replicas", "--c-agg", "0.4,0.6", "--out",
+                 str(tmp_path / "grid"), "--quiet"]) != 0
+
+
+@pytest.fixture(scope="module")
+def replica_sweep(tmp_path_factory):
+    """Two γ × three seeds at one Ω: fake points (see test_study.write_point)."""
+    root = tmp_path_factory.mktemp("replica-sweep") / "sweep"
+    (root / "points").mkdir(parents=True)
+    rows = []
+    for gamma in (0.06, 0.24):
+        for seed in (0, 1, 2):
+            name = f"gamma={gamma:g}_omega=2_seed={seed}"
+            write_point(root / "points" / f"{name}.h5", gamma, 2.0, seed=seed + 7)
+            rows.append({"point": name, "status": "done", "gamma": gamma, "omega": 2.0, "seed": seed,
+                         "file": f"points/{name}.h5"})
+    pd.DataFrame(rows).to_csv(root / "manifest.csv", index=False)
+    return root
+
+
+def test_study_table_combines_replicas_and_the_figure_draws_their_band(replica_sweep):
+    import matplotlib.pyplot as plt
+
+    single = study_table(replica_sweep, window=(3, 6), cohesion="acting")
+    combined = study_table(replica_sweep, window=(3, 6), cohesion="acting", replicas="seed")
+    assert len(single) == 6 and len(combined) == 2
+    for row in combined.itertuples():
+        part = single[single["gamma"] == row.gamma]
+        values = part["mean_volume_norm_mean"].to_numpy()
+        assert row.n_replicas == 3 and row.seed == "0; 1; 2" and row.point.count(";") == 2
+        assert row.mean_volume_norm_mean == pytest.approx(values.mean())
+        assert row.mean_volume_norm_replica_sem == pytest.approx(values.std(ddof=1) / math.sqrt(3))
+        assert row.mean_volume_norm_sem == pytest.approx(np.sqrt((part["mean_volume_norm_sem"] ** 2).sum()) / 3)
+        assert row.n_frames == part["n_frames"].sum()
+    for table in (single, combined):  # the same band whether the table was combined first or not
+        fig = growth_figure(table, cohesion="acting")
+        labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+        assert any("replica s.e." in label for label in labels)
+        plt.close(fig)
+    with pytest.raises(ParameterError, match="no grid column 'replica'"):
+        study_table(replica_sweep, window=(3, 6), cohesion="acting", replicas="replica")
+
+
+def test_study_command_with_replicas(replica_sweep, capsys):
+    assert main(["study", str(replica_sweep), "--replicas", "seed", "--cohesion", "acting", "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "6 finished points of 6" in text and "replica s.e." in text and "n_replicas" in text
