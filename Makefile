@@ -24,15 +24,18 @@ test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow"
 
 ## demo: the main job on the bundled datasets (made by sim; see datasets/README.md): statistics of lab-cg3,
-## then the CG comparison of lab-cg1/2/3 (table and the paper's Figs 3-6 in build/demo-cg/)
+## then the CG comparison of lab-cg1/2/3, lab-cg2 and lab-cg3 with their replicas (seeds 1, 2) (table and the
+## paper's Figs 3-6 in build/demo-cg/)
 demo: $(STAMP)
 	@mkdir -p $(BUILD)
 	$(VENV)/bin/granalytics info datasets/lab-cg3.h5
 	$(VENV)/bin/granalytics stats datasets/lab-cg3.h5 --window 3:6 \
 		--out $(BUILD)/demo-timeseries.csv --sizes-out $(BUILD)/demo-sizes.csv \
 		--plot $(BUILD)/demo-stats.png --overwrite
-	$(VENV)/bin/granalytics compare-cg datasets/lab-cg1.h5 datasets/lab-cg2.h5 datasets/lab-cg3.h5 \
-		--window 3:6 --out $(BUILD)/demo-cg --overwrite
+	$(VENV)/bin/granalytics compare-cg datasets/lab-cg1.h5 \
+		datasets/lab-cg2.h5 datasets/lab-cg2-seed1.h5 datasets/lab-cg2-seed2.h5 \
+		datasets/lab-cg3.h5 datasets/lab-cg3-seed1.h5 datasets/lab-cg3-seed2.h5 \
+		--replicas --window 3:6 --out $(BUILD)/demo-cg --overwrite
 
 ## datasets: regenerate every bundled dataset from its recipe (simulation, then subset; hours for the
 ## CG1 and paper runs; an interrupted simulation resumes from its checkpoint), DATASET_JOBS at a time

@@ -18,7 +18,7 @@ import argparse
 import os
 
 import granalytics as ga
-from granalytics.datasets import DATASETS, SWEEPS, dataset_path, sweep_path
+from granalytics.datasets import DATASETS, REPLICAS, SWEEPS, dataset_path, replica_paths, sweep_path
 
 C_AGG, A_AGG = 0.6, 20.0
 #: steady-state window [revolutions] of each run: [3, 6] for 6-revolution runs (paper Fig 5),
@@ -26,6 +26,8 @@ C_AGG, A_AGG = 0.6, 20.0
 WINDOWS = {"lab-cg1": (3, 6), "lab-cg2": (3, 6), "lab-cg3": (3, 6), "paper-cg2": (2, 3), "paper-cg3": (3, 6)}
 CG_SETS = {"lab drum": ["lab-cg1", "lab-cg2", "lab-cg3"], "paper drum": ["paper-cg2", "paper-cg3"]}
 CG_WINDOW = (3, 6)  # common to every run of a comparison (every lab run has 6 revolutions since 2026-12-02)
+#: the bundled runs that are not replicas of another one (the replicas are in the replica tables)
+MAIN_RUNS = [n for n in DATASETS if not any(n in names[1:] for names in REPLICAS.values())]
 
 
 def pm(mean, sem, digits):
@@ -41,7 +43,8 @@ def bed_table():
     for name in DATASETS:
         with ga.open_run(dataset_path(name)) as run:
             settled = run.meta.provenance.get("settled_bed") or {}
-            frames = run.select(revolutions=WINDOWS[name])
+            base = next((b for b, names in REPLICAS.items() if name in names), name)
+            frames = run.select(revolutions=WINDOWS[base])
             beds = [ga.bed_structure(s) for s in frames]
         cells = [f"{settled[k]:.3f}" if k in settled else "—"
                  for k in ("crossing_fraction", "axial_fabric", "coordination", "solid_fraction")]
@@ -104,33 +107,43 @@ def cg_threshold_table(figures=None):
             plt.close(fig)
 
 
-def replica_table(paths):
-    """Replicas (seeds 0, 1, 2) of the lab runs: the steady state over replicas with the replica
-    standard error beside the block s.e.m. (seed 0 bundled, seeds 1 and 2 in build/runs, not bundled)."""
-    from collections import defaultdict
-
-    groups = defaultdict(list)
-    for path in paths:
-        base = os.path.basename(path).split("-seed")[0].removesuffix(".h5")
-        groups[base].append(path)
-    print("\n**replicas** (seeds 0, 1, 2; window 3–6 revolutions, acting cohesion)\n")
-    print("| run | replicas | yield | replica s.e. | block s.e.m. | ⟨V_g⟩/V_p | replica s.e. | block s.e.m. |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    for base, extra in sorted(groups.items()):
+def replica_table():
+    """The bundled replica sets (seeds 0, 1, 2): the steady state over replicas with the replica
+    standard error beside the block s.e.m., then the lab CG comparison with replica groups."""
+    print(f"\n**replicas** (seeds 0, 1, 2; window {CG_WINDOW[0]}–{CG_WINDOW[1]} revolutions, acting cohesion)\n")
+    print("| run | replicas | yield | replica s.e. | block s.e.m. | ⟨V_g⟩/V_p | replica s.e. | block s.e.m. "
+          "| N_g/N | replica s.e. | block s.e.m. |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for base in REPLICAS:
         series = []
-        for path in [str(dataset_path(base)), *sorted(extra)]:
+        for path in replica_paths(base):
             with ga.open_run(path) as run:
                 series.append(ga.run_stats(run, c_agg=C_AGG, a_agg_deg=A_AGG))
-        r = ga.replica_steady_state(series, window=(3, 6))
-        y, v = r.loc["yield_fraction"], r.loc["mean_volume_norm"]
-        print(f"| {base} | {int(y.n_replicas)} | {y['mean']:.3f} | {y.replica_sem:.3f} | {y.block_sem:.3f} | "
-              f"{v['mean']:.2f} | {v.replica_sem:.2f} | {v.block_sem:.2f} |")
+        r = ga.replica_steady_state(series, window=CG_WINDOW)
+        cells = [f"{r.loc[m, 'mean']:.{d}f} | {r.loc[m, 'replica_sem']:.{d}f} | {r.loc[m, 'block_sem']:.{d}f}"
+                 for m, d in (("yield_fraction", 3), ("mean_volume_norm", 2), ("n_granules_norm", 4))]
+        print(f"| {base} | {int(r['n_replicas'].iloc[0])} | {' | '.join(cells)} |")
+    names = CG_SETS["lab drum"]
+    groups = [replica_paths(n) if n in REPLICAS else dataset_path(n) for n in names]
+    print(f"\n**lab drum, CG deviations with replicas** (lab-cg1: one run; lab-cg2, lab-cg3: three seeds each; "
+          f"deviation ± its standard error from the replica errors of the CG run and the block s.e.m. of lab-cg1)\n")
+    print("| run | cohesion | yield (dev.) | ⟨V_g⟩/V_p (dev.) | N_g/N (dev.) | KS D |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for cohesion in ga.COHESION_CONVENTIONS:
+        cmp = ga.compare_cg(groups, labels=names, window=CG_WINDOW, c_agg=C_AGG, a_agg_deg=A_AGG, cohesion=cohesion)
+        for row in cmp.table.itertuples():
+            cells = []
+            for m, d in (("yield_fraction", 3), ("mean_volume_norm", 2), ("n_granules_norm", 4)):
+                mean, rsem, dev, dse = (getattr(row, f"{m}_{x}") for x in ("mean", "replica_sem", "rel_dev", "rel_dev_se"))
+                err = f" ± {rsem:.{d}f}" if row.n_replicas > 1 else ""
+                cells.append(f"{mean:.{d}f}{err} ({dev:+.0%}" + (f" ± {dse:.0%})" if row.run != names[0] else ")"))
+            print(f"| {row.run} | {cohesion} | {' | '.join(cells)} | {row.ks_distance:.3f} |")
 
 
 def steady_table():
     print("| dataset | particles (α) | window [rev] | cohesion | yield | ⟨V_g⟩/V_p | N_g/N |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
-    for name in DATASETS:
+    for name in MAIN_RUNS:
         window = WINDOWS[name]
         with ga.open_run(dataset_path(name)) as run:
             for cohesion in ga.COHESION_CONVENTIONS:
@@ -239,8 +252,6 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", help="folder for the CG figures (PNG)")
     parser.add_argument("--parts", default="runs,sweeps", help="which tables: runs, sweeps or both (default)")
-    parser.add_argument("--replica-runs", nargs="*", default=[],
-                        help="replicas of bundled runs at other seeds (not bundled), e.g. build/runs/lab-cg3-seed*.h5")
     parser.add_argument("--gamma-runs", nargs="*", default=[],
                         help="paper-cg3 runs at other γ (not bundled) for the γ check, e.g. build/runs/paper-cg3-gamma*.h5")
     args = parser.parse_args()
@@ -253,10 +264,9 @@ def main():
         cg_tables(args.figures)
         cg_threshold_table(args.figures)
         kinetics_table()
+        replica_table()
     if "sweeps" in parts:
         sweep_tables(args.figures)
-    if args.replica_runs:
-        replica_table(args.replica_runs)
     if args.gamma_runs:
         def gamma(path):
             with ga.open_run(path) as run:

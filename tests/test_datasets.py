@@ -7,7 +7,7 @@ import granalytics as ga
 from granalytics import GranalyticsError
 from granalytics.cli.datasets import main as _main
 from granalytics.datasets import DATASETS, dataset_path, make_dataset, open_dataset
-from sim.params import PHYSICS_VERSION
+from sim.params import PHYSICS_VERSION, SimParams
 
 
 def _option(command, name):
@@ -23,16 +23,18 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
     with open_dataset(name) as run:
         meta = run.meta
         assert meta.sim_config["params"]["alpha"] == meta.alpha
-        assert f"--preset {name}" in sim_command and meta.provenance["code"] == "sim"
+        preset, seed = _option(sim_command, "--preset"), int(_option(sim_command, "--seed"))
+        assert name == (preset if seed == 0 else f"{preset}-seed{seed}") and meta.provenance["code"] == "sim"
+        assert meta.sim_config["params"]["seed"] == seed  # a replica is the preset at another seed
         revolutions = float(_option(sim_command, "--revolutions"))
         assert run.revolutions[-1] == pytest.approx(revolutions, abs=1e-3)  # the whole run, last frame included
         assert meta.provenance["physics_version"] == PHYSICS_VERSION  # every dataset of today's force laws
         assert meta.provenance["wall_time_s"] > 0  # the simulator's wall time, for CG speed-ups
         kept = meta.provenance["subset_of"]["frames_kept"]
         assert len(run) == len(kept)
-        window = _option(subset_command, "--full-window")
-        if window is None:  # every frame of the run, 0.05 revolution apart
-            assert np.allclose(np.diff(run.revolutions), 0.05, atol=1e-3)
+        window, every = _option(subset_command, "--full-window"), _option(subset_command, "--every")
+        if window is None:  # every frame of the run, 0.05 revolution apart, or every N-th
+            assert np.allclose(np.diff(run.revolutions), 0.05 * int(every or 1), atol=1e-3)
         else:  # every frame inside the window, every fourth before it
             lo, hi = map(float, window.split(":"))
             inside = run.revolutions >= lo - 1e-9
@@ -40,6 +42,24 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
             assert np.allclose(np.diff(run.revolutions[~inside]), 0.2, atol=1e-3)
         assert run[len(run) // 2].n_contacts > 0
     assert path.name == entry["file"]
+
+
+def test_replica_sets_are_one_system_at_different_seeds():
+    from granalytics.datasets import REPLICAS, replica_paths
+
+    for name, members in REPLICAS.items():
+        metas = []
+        for path in replica_paths(name):
+            with ga.open_run(path) as run:
+                metas.append(run.meta)
+        seeds = [m.sim_config["params"]["seed"] for m in metas]
+        assert len(set(seeds)) == len(seeds) == len(members) and seeds[0] == 0
+        # the same system otherwise (runs made before SimParams had contact_law used its default)
+        default = {"contact_law": SimParams.__dataclass_fields__["contact_law"].default}
+        params = [{**default, **{k: v for k, v in m.sim_config["params"].items() if k != "seed"}} for m in metas]
+        assert all(p == params[0] for p in params)
+    with pytest.raises(GranalyticsError, match="unknown replica set"):
+        replica_paths("paper-cg3")
 
 
 def test_unknown_or_corrupt_dataset_is_an_error(tmp_path, monkeypatch):

@@ -21,6 +21,9 @@ lab-cg1, lab-cg2, lab-cg3
 paper-cg3
     The paper's drum (R_d = 0.1 m, L = 0.045 m, 120 000 original particles) at CG3 (4 444
     particles, 6 revolutions), seed 0.
+lab-cg2-seed1, lab-cg2-seed2, lab-cg3-seed1, lab-cg3-seed2
+    Replicas of lab-cg2 and lab-cg3 (seeds 1 and 2: other random fillings), every fourth frame:
+    with seed 0 the replica sets :data:`REPLICAS` (:func:`replica_paths`) for the run-to-run error.
 
 Not bundled (:data:`NOT_BUNDLED`, recipe kept): paper-cg2, the paper's drum at CG2.
 
@@ -48,20 +51,23 @@ from pathlib import Path
 
 from ..errors import GranalyticsError
 
-__all__ = ["DATASETS", "NOT_BUNDLED", "FOREIGN", "foreign_path", "make_foreign", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path", "bundle_sweep",
+__all__ = ["DATASETS", "REPLICAS", "replica_paths", "NOT_BUNDLED", "FOREIGN", "foreign_path", "make_foreign", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path", "bundle_sweep",
            "make_sweep"]
 
 DATASET_DIR = Path(__file__).resolve().parents[2] / "datasets"
 _RAW_DIR = "build/runs"  # full-resolution simulator output (not bundled), relative to the repository root
 
 
-def _recipe(preset, revolutions, full_window=None):
-    raw = f"{_RAW_DIR}/{preset}.h5"
-    sim = (f"python -m sim run --preset {preset} --revolutions {revolutions:g} --seed 0 --threads 1 "
+def _recipe(preset, revolutions, full_window=None, *, seed=0, every=None):
+    name = preset if seed == 0 else f"{preset}-seed{seed}"
+    raw = f"{_RAW_DIR}/{name}.h5"
+    sim = (f"python -m sim run --preset {preset} --revolutions {revolutions:g} --seed {seed} --threads 1 "
            f"--checkpoint-every 2 --quiet --out {raw}")
-    subset = f"granalytics subset {raw} --out datasets/{preset}.h5 --float32 --overwrite"
+    subset = f"granalytics subset {raw} --out datasets/{name}.h5 --float32 --overwrite"
     if full_window is not None:
         subset += f" --full-window {full_window} --every 4"
+    elif every is not None:
+        subset += f" --every {every}"
     return [sim, subset]
 
 
@@ -108,6 +114,42 @@ DATASETS = {
                        "6 revolutions; every frame in [3, 6], every fourth before (76 of 121 frames)",
     },
 }
+#: the commit whose simulator (physics version 3, unchanged since :data:`_SIM_V3`) made the replicas
+_SIM_V3_REPLICAS = "26c578892af9126f8c24468ddcaaab0c85dd2ab2"
+#: replica -> (sha256, simulator wall time)
+_REPLICA_RUNS = {
+    "lab-cg3-seed1": ("508acaafa50f60b066e94c8b55247f750944599ec72f720fa85f4f98f174689f", "2 min 16 s (numba compiling)"),
+    "lab-cg3-seed2": ("3f1751de45a70bdf66927a5adb8d49697faecf98e22ca2d341e1cd0b5cd22b8e", "59 s"),
+    "lab-cg2-seed1": ("048e5a6b7963e12cbf1c07492011bea02067ecc31dc18afe7bff56a30d7dc9f4", "4 min 24 s"),
+    "lab-cg2-seed2": ("99c02d50db38aa924592782950999d46eb86659d2da4d81d1d6b691e09902dc3", "4 min 30 s"),
+}
+for _preset, _n in (("lab-cg3", 111), ("lab-cg2", 375)):
+    for _seed in (1, 2):
+        _sha, _wall = _REPLICA_RUNS[f"{_preset}-seed{_seed}"]
+        DATASETS[f"{_preset}-seed{_seed}"] = {
+            "file": f"{_preset}-seed{_seed}.h5",
+            "sha256": _sha,
+            "commands": _recipe(_preset, 6, seed=_seed, every=4),
+            "code_version": _SIM_V3_REPLICAS,
+            "wall_time": f"{_wall} (1 thread, beside another run on the other core)",
+            "description": f"replica of {_preset} (seed {_seed} instead of 0: another random filling), "
+                           f"{_n} particles, 6 revolutions; every fourth frame (0.2 revolution, 31 of 121 frames)",
+        }
+
+#: replica sets: name -> the datasets that are runs of one system differing only in their seed
+#: (seed 0 first), for ``compare_cg`` groups and :func:`~granalytics.replica_steady_state`
+REPLICAS = {preset: (preset, f"{preset}-seed1", f"{preset}-seed2") for preset in ("lab-cg2", "lab-cg3")}
+
+
+def replica_paths(name: str) -> list:
+    """Paths of a replica set (:data:`REPLICAS`), each checked as :func:`dataset_path` does."""
+    try:
+        names = REPLICAS[name]
+    except KeyError:
+        raise GranalyticsError(f"unknown replica set {name!r}; available: {', '.join(REPLICAS)}") from None
+    return [dataset_path(n) for n in names]
+
+
 #: runs whose recipe is kept but which are not bundled (not remade with the current simulator yet):
 #: name -> the recipe, what it costs, why it is missing
 NOT_BUNDLED = {
