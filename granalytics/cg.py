@@ -85,6 +85,7 @@ class CGComparison:
     def description(self) -> str:
         """One line naming the identification: method, thresholds, cohesion convention, window."""
         shown = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.params.items())
+        shown = shown or "its default parameters"
         return (f"{self.method} ({shown}), cohesion={self.cohesion}, "
                 f"window [{self.window[0]:g}, {self.window[1]:g}] rev")
 

@@ -213,7 +213,7 @@ def cg_figures(comparison) -> dict:
             if replicas > 1:  # the replicas' mean at their common frames, and their range as a band
                 spread = _replica_spread(part, column)
                 ax.plot(spread.index, spread["mean"], lw=1, marker=".", ms=3, color=colour,
-                        label=f"{label}: mean, range")
+                        label=f"{label}: replica mean, range")
                 ax.fill_between(spread.index, spread["min"], spread["max"], color=colour, alpha=0.2, lw=0)
                 sem = row.get(f"{column}_replica_sem", math.nan)
             else:
@@ -228,7 +228,9 @@ def cg_figures(comparison) -> dict:
         ax.set_xlabel("revolutions t·Ω/2π")
         ax.set_ylabel(ylabel)
         ax.set_title(f"Effect of CG on the {what}\n{subtitle}", fontsize=9)
-        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=3, frameon=False)
+        labels = ax.get_legend_handles_labels()[1]
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.18), frameon=False,
+                  ncol=3 if max(map(len, labels)) <= 24 else 1)  # long labels (replica groups): one per line
         figures[name] = fig
     fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
     for k, (label, part) in enumerate(comparison.distributions.groupby("run", sort=False)):

@@ -80,7 +80,7 @@ def test_replica_bands_are_drawn_and_bad_groups_are_refused(replica_runs):
         bands[name] = len(fig.axes[0].collections)
         if name == "grouped":
             labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
-            assert any("mean, range" in label for label in labels)
+            assert any("replica mean, range" in label for label in labels)
         plt.close("all")
     assert bands["grouped"] > bands["single"]  # the replicas' range over time is a band of its own
     with pytest.raises(ParameterError, match="not a replica"):
