@@ -249,8 +249,8 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         Its table has, per metric, ``_mean`` (over the replicas of a group), ``_std`` (over
         frames, averaged over replicas), ``_sem`` (block s.e.m., combined over replicas as
         √(Σ sem²)/n), ``_replica_sem`` (standard deviation of the replica means / √n; NaN for a
-        single run), ``_rel_dev`` and ``_rel_dev_se`` (its standard error, from the replica
-        errors where both sides have replicas, else the block s.e.m.), and ``n_replicas``.
+        single run), ``_rel_dev`` and ``_rel_dev_se`` (its standard error, from each side's replica
+        s.e. where it has replicas and its block s.e.m. where not), and ``n_replicas``.
     """
     from scipy.stats import ks_2samp, wasserstein_distance
 
@@ -325,19 +325,19 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     for row in info.itertuples():
         table = steady[row.run]
         out = {"run": row.run, "alpha": row.alpha, "n_particles": row.n_particles, "n_replicas": row.n_replicas}
-        replicated = row.n_replicas > 1 and ref_row["n_replicas"] > 1
+        error = "replica_sem" if row.n_replicas > 1 else "block_sem"  # each side its run-to-run error where it has one
+        ref_error = "replica_sem" if ref_row["n_replicas"] > 1 else "block_sem"
         for metric in CG_METRICS:
             mean = table.loc[metric, "mean"]
             out[f"{metric}_mean"] = mean
             out[f"{metric}_std"] = table.loc[metric, "std"]
             out[f"{metric}_sem"] = table.loc[metric, "block_sem"]
             out[f"{metric}_replica_sem"] = table.loc[metric, "replica_sem"]
-            error = "replica_sem" if replicated else "block_sem"
             if row.run == reference:
                 dev, dev_se = (0.0, math.nan) if ref.loc[metric, "mean"] else (math.nan, math.nan)
             else:
                 dev, dev_se = _relative_deviation(mean, table.loc[metric, error], ref.loc[metric, "mean"],
-                                                  ref.loc[metric, error])
+                                                  ref.loc[metric, ref_error])
             out[f"{metric}_rel_dev"] = dev
             out[f"{metric}_rel_dev_se"] = dev_se
         a, b = sizes[row.run], sizes[reference]

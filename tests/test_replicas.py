@@ -60,7 +60,10 @@ def test_a_group_of_replicas_is_compared_by_its_mean_with_the_replica_error(repl
     ref = grouped.table.iloc[0]
     assert ref["n_replicas"] == 1 and math.isnan(ref["yield_fraction_replica_sem"])
     assert row["yield_fraction_rel_dev"] == pytest.approx(np.mean(levels) / ref["yield_fraction_mean"] - 1)
-    assert 0 < row["yield_fraction_rel_dev_se"] < 0.2
+    # its error: the group's replica s.e. and the single reference run's block s.e.m.
+    ratio = row["yield_fraction_mean"] / ref["yield_fraction_mean"]
+    assert row["yield_fraction_rel_dev_se"] == pytest.approx(ratio * math.hypot(
+        row["yield_fraction_replica_sem"] / row["yield_fraction_mean"], ref["yield_fraction_sem"] / ref["yield_fraction_mean"]))
     # the pooled sizes and the time series keep every replica
     assert grouped.sizes[row["run"]].size == sum(s.sizes[s.table.iloc[1]["run"]].size for s in singles)
     ts = grouped.timeseries[grouped.timeseries["run"] == row["run"]]
