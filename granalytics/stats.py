@@ -194,8 +194,11 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
 
     Parameters
     ----------
-    timeseries : DataFrame
-        Output of :func:`run_stats` (needs the ``by`` column).
+    timeseries : DataFrame, or list of DataFrame
+        Output of :func:`run_stats` (needs the ``by`` column). A list (of at least two) is a
+        set of replicas (runs of one system at other seeds): the result is then
+        :func:`replica_steady_state`'s (mean over the replicas, ``replica_sem`` beside
+        ``block_sem``).
     window : (float, float), default (3, 6)
         Closed interval, in revolutions, or in seconds with ``by="time_s"``; a frame within a
         tenth of the smallest frame spacing of an edge counts as inside (frames lie on whole time steps, so the
@@ -224,6 +227,8 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     """
     if by not in ("revolutions", "time_s"):
         raise ParameterError(f"by must be 'revolutions' or 'time_s', got {by!r}")
+    if isinstance(timeseries, (list, tuple)) and n_blocks is None:
+        return replica_steady_state(timeseries, window, columns, by=by, source=source)
     if not isinstance(timeseries, pd.DataFrame):
         raise ParameterError(f"steady_state: timeseries must be a DataFrame (run_stats' result), got {type(timeseries).__name__}")
     lo, hi = _window_pair(window, "steady_state: window")

@@ -152,3 +152,22 @@ def test_study_command_with_replicas(replica_sweep, capsys):
     assert main(["study", str(replica_sweep), "--replicas", "seed", "--cohesion", "acting", "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "6 finished points of 6" in text and "replica s.e." in text and "n_replicas" in text
+
+
+def test_steady_state_of_a_list_is_over_replicas_and_the_stats_command_takes_replicas(replica_runs, capsys):
+    _, cg3 = replica_runs
+    series = []
+    for path in cg3:
+        with ga.open_run(path) as run:
+            series.append(ga.run_stats(run))
+    over = ga.steady_state(series, window=(2, 4))
+    assert over.equals(ga.replica_steady_state(series, window=(2, 4)))
+    assert over.loc["yield_fraction", "n_replicas"] == 3
+    with pytest.raises(ParameterError, match="at least two replicas"):
+        ga.steady_state(series[:1], window=(2, 4))
+    assert main(["stats", str(cg3[0]), "--replica", str(cg3[1]), "--replica", str(cg3[2]), "--window", "2:4",
+                 "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "and 2 replica(s)" in text and "replica_sem" in text
+    line = next(line for line in text.splitlines() if line.startswith("yield_fraction"))
+    assert float(line.split()[1]) == pytest.approx(over.loc["yield_fraction", "mean"], rel=1e-4)

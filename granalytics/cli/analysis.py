@@ -15,7 +15,7 @@ from ..errors import GranalyticsError, ParameterError
 from ..files import WriterLock, output_folder, staged_outputs, write_atomically
 from ..identify import DEFAULT_METHODS
 from ..io import open_run
-from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
+from ..stats import DEFAULT_WINDOW_REV, check_window, replica_steady_state, run_stats, size_distribution, steady_state
 from ._common import (threshold_options, add_cohesion_option, add_gna_options, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
                       setting, window_axis, write_table)
 
@@ -55,6 +55,9 @@ def add_stats_parser(sub):
     p.add_argument("--plot", help="figure of the time series and size distribution (.png, .pdf, .svg)")
     p.add_argument("--window-time", type=interval, metavar="T0:T1",
                    help="steady-state window in seconds instead of revolutions (any run, also without a rotating drum)")
+    p.add_argument("--replica", action="append", default=[], metavar="RUN",
+                   help="a replica of RUN (the same system at another seed; repeatable): the steady state is then "
+                        "the mean over the replicas with the replica s.e. beside the block s.e.m. (also in --steady-out)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     add_gna_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -255,6 +258,14 @@ def _stats(args):
             cohesion=args.cohesion,
         )
     steady = steady_state(ts, window=window, by=by, source=args.run)
+    if args.replica:
+        series = [ts]
+        for path in args.replica:
+            with open_run(path) as replica:
+                series.append(run_stats(selected_frames(replica, args), "gna", progress=progress(args),
+                                        c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius,
+                                        backend=args.backend, cohesion=args.cohesion))
+        steady = replica_steady_state(series, window=window, by=by, source=args.run)
     dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
     with staged_outputs() as stage:  # every output, or none (a failing figure replaces no table)
         if args.out:
@@ -281,7 +292,8 @@ def _stats(args):
         print(f"wrote size distribution to {args.sizes_out}")
     lo, hi = window
     print(f"steady state over {'revolutions' if by == 'revolutions' else 'time [s]'} [{lo:g}, {hi:g}] "
-          f"(C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°, cohesion={args.cohesion}):")
+          f"(C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°, cohesion={args.cohesion})"
+          + (f", mean over {args.run} and {len(args.replica)} replica(s):" if args.replica else ":"))
     with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
         print(steady.to_string())
     return 0
