@@ -28,7 +28,7 @@ import pandas as pd
 from .metrics import HEADLINE
 from .cohesion import check_cohesion
 from .errors import ParameterError
-from .manifest import read_manifest
+from .manifest import MANIFEST_COLUMNS, read_manifest
 from .stats import DEFAULT_WINDOW_REV
 
 __all__ = [
@@ -44,9 +44,9 @@ PAPER_GAMMA_1 = 0.027
 #: steady-state metrics of the study table
 STUDY_METRICS = HEADLINE
 
-#: manifest columns that are bookkeeping, not point parameters
-_BOOKKEEPING = ("status", "preset", "revolutions", "frame_every_rev", "wall_time_s", "resumed", "file", "sha256",
-                "error", "finished_utc")
+#: manifest columns that are bookkeeping, not point parameters (the schema's, and the bundled copy's
+#: ``source_sha256``, :func:`granalytics.datasets.bundle_sweep`)
+_BOOKKEEPING = ("status", *MANIFEST_COLUMNS, "source_sha256")
 
 _DEFAULT_OUTPUTS = ("yield_fraction_mean", "mean_volume_norm_mean", "n_granules_norm_mean")
 
@@ -67,8 +67,9 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
 
     Parameters
     ----------
-    sweep_dir : path
-        Folder with ``manifest.csv`` and the run files it names (relative to the folder).
+    sweep_dir : path, or list of paths
+        Folder with ``manifest.csv`` and the run files it names (relative to the folder); several
+        folders are analysed as one table (e.g. a sweep and its replicas at other seeds, run later).
     window : (float, float), default (3, 6)
         Steady-state window [revolutions] (:func:`~granalytics.steady_state`; block s.e.m. over
         revolutions).
@@ -101,6 +102,13 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     from tqdm.auto import tqdm
 
     from .identify import METHODS, method_parameters
+
+    if isinstance(sweep_dir, (list, tuple)):  # several folders analysed as one (e.g. replicas run later)
+        if not sweep_dir:
+            raise ParameterError("study_table: no sweep folder given")
+        table = pd.concat([study_table(d, window, method, cohesion, progress=progress, **params) for d in sweep_dir],
+                          ignore_index=True)
+        return table if replicas is None else _combine_replica_rows(table, replicas, sweep_dir[0])
     from .io import open_run
     from .stats import run_stats, steady_state
 

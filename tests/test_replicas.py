@@ -120,7 +120,8 @@ def replica_sweep(tmp_path_factory):
             name = f"gamma={gamma:g}_omega=2_seed={seed}"
             write_point(root / "points" / f"{name}.h5", gamma, 2.0, seed=seed + 7)
             rows.append({"point": name, "status": "done", "gamma": gamma, "omega": 2.0, "seed": seed,
-                         "file": f"points/{name}.h5"})
+                         "physics_version": 3, "file": f"points/{name}.h5", "sha256": f"{seed}" * 64,
+                         "source_sha256": f"{seed + 1}" * 64})  # bookkeeping differs per point, as in a bundle
     pd.DataFrame(rows).to_csv(root / "manifest.csv", index=False)
     return root
 
@@ -171,3 +172,21 @@ def test_steady_state_of_a_list_is_over_replicas_and_the_stats_command_takes_rep
     assert "and 2 replica(s)" in text and "replica_sem" in text
     line = next(line for line in text.splitlines() if line.startswith("yield_fraction"))
     assert float(line.split()[1]) == pytest.approx(over.loc["yield_fraction", "mean"], rel=1e-4)
+
+
+def test_a_sweep_and_its_replicas_in_another_folder_are_one_table(replica_sweep, tmp_path):
+    import shutil
+
+    manifest = pd.read_csv(replica_sweep / "manifest.csv")
+    parts = []
+    for name, seeds in (("seed0", [0]), ("later", [1, 2])):
+        folder = tmp_path / name
+        shutil.copytree(replica_sweep / "points", folder / "points")
+        manifest[manifest.seed.isin(seeds)].to_csv(folder / "manifest.csv", index=False)
+        parts.append(folder)
+    together = study_table(parts, window=(3, 6), cohesion="acting", replicas="seed")
+    whole = study_table(replica_sweep, window=(3, 6), cohesion="acting", replicas="seed")
+    columns = ["gamma", "n_replicas", "mean_volume_norm_mean", "mean_volume_norm_replica_sem", "yield_fraction_sem"]
+    pd.testing.assert_frame_equal(together[columns], whole[columns])
+    with pytest.raises(ParameterError, match="no sweep folder"):
+        study_table([], cohesion="acting")
