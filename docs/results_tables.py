@@ -248,10 +248,48 @@ def sweep_tables(figures=None):
                 plt.close(fig)
 
 
+def replica_sweep_table(folder, figures=None):
+    """The Ω = 2 rad/s row of gamma-omega-lab-cg3 (seed 0, bundled) with its replicas at seeds 1
+    and 2 (``folder``, made by ``python -m sim sweep datasets/sweeps/gamma-lab-cg3-replicas.toml``,
+    not bundled): the replica s.e. of each Fig 7 point beside its block s.e.m., and the growth
+    fit weighted by the replica errors."""
+    table = ga.study_table([sweep_path("gamma-omega-lab-cg3"), folder], window=SWEEP_WINDOW, c_agg=C_AGG,
+                           a_agg_deg=A_AGG, cohesion=ga.COHESION_CONVENTIONS, replicas="seed")
+    table = table[(table.omega == 2.0) & (table.n_replicas > 1)].sort_values(["cohesion", "gamma"])
+    print(f"\n**Fig 7 points with replicas** (lab drum, CG3, Ω = 2 rad/s, seeds 0, 1, 2; window "
+          f"{SWEEP_WINDOW[0]}–{SWEEP_WINDOW[1]} revolutions)\n")
+    print("| γ [N/m] | cohesion | yield | replica s.e. | block s.e.m. | ⟨V_g⟩/V_p | replica s.e. | block s.e.m. |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for row in table.itertuples():
+        print(f"| {row.gamma:g} | {row.cohesion} | {row.yield_fraction_mean:.3f} | {row.yield_fraction_replica_sem:.3f} | "
+              f"{row.yield_fraction_sem:.3f} | {row.mean_volume_norm_mean:.2f} | {row.mean_volume_norm_replica_sem:.2f} | "
+              f"{row.mean_volume_norm_sem:.2f} |")
+    for cohesion in ga.COHESION_CONVENTIONS:
+        part = table[table.cohesion == cohesion]
+        ratio = (part.mean_volume_norm_replica_sem / part.mean_volume_norm_sem).median()
+        try:
+            fit = ga.fit_granule_growth(part.gamma, part.mean_volume_norm_mean, part.mean_volume_norm_replica_sem)
+            summary = fit.summary()
+        except ga.GranalyticsError as exc:
+            fit, summary = None, f"none: {exc}"
+        print(f"\n{cohesion}: median replica s.e. / block s.e.m. of ⟨V_g⟩/V_p = {ratio:.2f}; growth fit weighted by "
+              f"the replica errors: {summary}")
+        if figures:
+            import matplotlib.pyplot as plt
+
+            from granalytics.plot import growth_figure
+
+            fig = growth_figure(part, fit=fit, cohesion=cohesion)
+            fig.savefig(os.path.join(figures, f"fig7-lab-cg3-replicas-{cohesion}.png"), dpi=120)
+            plt.close(fig)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", help="folder for the CG figures (PNG)")
     parser.add_argument("--parts", default="runs,sweeps", help="which tables: runs, sweeps or both (default)")
+    parser.add_argument("--replica-sweep", metavar="DIR",
+                        help="the replicas of the CG3 sweep's Ω = 2 row (not bundled), e.g. build/sweeps/gamma-lab-cg3-replicas")
     parser.add_argument("--gamma-runs", nargs="*", default=[],
                         help="paper-cg3 runs at other γ (not bundled) for the γ check, e.g. build/runs/paper-cg3-gamma*.h5")
     args = parser.parse_args()
@@ -267,6 +305,8 @@ def main():
         replica_table()
     if "sweeps" in parts:
         sweep_tables(args.figures)
+    if args.replica_sweep:
+        replica_sweep_table(args.replica_sweep, args.figures)
     if args.gamma_runs:
         def gamma(path):
             with ga.open_run(path) as run:
