@@ -42,18 +42,21 @@ class CGComparison:
     Attributes
     ----------
     runs : DataFrame
-        One row per run: ``run`` (label), ``path``, ``alpha``, ``n_particles``,
-        ``n_particles_original``, ``revolutions_last``, ``wall_time_s`` and
-        ``wall_time_per_simulated_s`` (from the run's provenance; NaN when it does not say).
+        One row per run or group of replicas: ``run`` (label), ``path`` (a group's paths joined by
+        ``"; "``), ``alpha``, ``n_particles``, ``n_particles_original``, ``revolutions_last``,
+        ``wall_time_s`` and ``wall_time_per_simulated_s`` (from the run's provenance, a group's
+        mean; NaN when it does not say), ``n_replicas``, ``seeds``.
     timeseries : DataFrame
-        :func:`~granalytics.run_stats` rows of every run, with ``run`` and ``alpha``.
+        :func:`~granalytics.run_stats` rows of every run, with ``run``, ``alpha`` and ``replica``
+        (0, 1, … within a group).
     distributions : DataFrame
         :func:`~granalytics.size_distribution` of the granule sizes pooled over the window, per
         run, with ``run`` and ``alpha``.
     table : DataFrame
-        One row per run: for each metric of :data:`CG_METRICS` ``<metric>_mean``, ``_std``
-        (over frames), ``_sem`` (per-revolution blocks) and ``_rel_dev`` (relative deviation of
-        the mean from the reference run's); ``ks_distance`` (Kolmogorov–Smirnov D between the
+        One row per run or group: for each metric of :data:`CG_METRICS` ``<metric>_mean``,
+        ``_std`` (over frames), ``_sem`` (blocking), ``_replica_sem`` (a group's run-to-run
+        error; NaN for one run), ``_rel_dev`` (relative deviation of the mean from the reference
+        run's) and ``_rel_dev_se`` (its standard error); ``n_replicas``; ``ks_distance`` (Kolmogorov–Smirnov D between the
         pooled granule sizes of the run and of the reference) and ``w1_log10_size``
         (Wasserstein-1 distance of log10 sizes); ``n_frames``, ``n_granules_pooled``;
         ``speedup`` (reference wall time per simulated second over this run's) and

@@ -102,6 +102,8 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     from tqdm.auto import tqdm
 
     from .identify import METHODS, method_parameters
+    from .io import open_run
+    from .stats import run_stats, steady_state
 
     if isinstance(sweep_dir, (list, tuple)):  # several folders analysed as one (e.g. replicas run later)
         if not sweep_dir:
@@ -109,8 +111,6 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
         table = pd.concat([study_table(d, window, method, cohesion, progress=progress, **params) for d in sweep_dir],
                           ignore_index=True)
         return table if replicas is None else _combine_replica_rows(table, replicas, sweep_dir[0])
-    from .io import open_run
-    from .stats import run_stats, steady_state
 
     if method not in METHODS:
         raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}")
