@@ -95,7 +95,13 @@ def mechanical_force(u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, 
 @njit(cache=True, inline="always")
 def contact_force(law, u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, mu, dt):
     """The contact law ``law`` (a value of :data:`CONTACT_LAWS`): the arguments and results of
-    :func:`mechanical_force`, the linear viscoelastic law with Coulomb friction (law 0)."""
-    if law == 0:
-        return mechanical_force(u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, mu, dt)
-    raise ValueError("unknown contact law id")
+    :func:`mechanical_force`, the linear viscoelastic law with Coulomb friction (law 0).
+
+    A new law is a new branch before the last line. The id is checked where it is chosen
+    (:class:`sim.params.SimParams` refuses an unknown ``contact_law``), never here: this function
+    is inlined into the parallel force loop, and a ``raise`` in it gives the loop a second exit,
+    which makes numba run the loop on one thread (the pair forces lost their two-thread speed-up
+    that way once; ``tests/test_sim_physics.py`` checks that every parallel loop stays parallel).
+    """
+    # law 0 (and, ids being checked in SimParams, nothing else reaches here yet)
+    return mechanical_force(u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, mu, dt)

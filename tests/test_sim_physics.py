@@ -276,3 +276,36 @@ def test_contact_law_dispatcher_and_registry():
     assert contact_force(CONTACT_LAWS["linear_coulomb"], *args) == mechanical_force(*args)
     with pytest.raises(ValueError, match="contact_law must be one of"):
         dataclasses.replace(SimParams(), contact_law="hertz")
+
+
+@pytest.mark.slow
+def test_every_parallel_loop_of_the_step_is_compiled_parallel(tmp_path):
+    """A prange loop that numba cannot parallelise (a second exit, e.g. a ``raise`` in an inlined
+    function) runs on one thread with only a NumbaPerformanceWarning at compile time; the trajectory
+    stays the same, so nothing else notices. Compile every kernel afresh (an empty cache) in a child
+    process, run a small wet drum, and require that numba warned about no loop."""
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent("""
+        import warnings
+        from numba.core.errors import NumbaPerformanceWarning
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            from sim.params import SimParams
+            from sim.run import Simulation
+            p = SimParams(n_particles=2, n_baffles=4, drum_radius=0.02, drum_length=0.01, initial_film=0.01)
+            s = Simulation.from_particles(p, [[0, -0.015, 0.005], [0.0016, -0.015, 0.005]], [7.5e-4, 7.5e-4])
+            s.advance(20)
+        for w in caught:
+            if issubclass(w.category, NumbaPerformanceWarning):
+                print("NOT PARALLEL:", str(w.message).splitlines()[0], w.filename, w.lineno)
+        print("checked")
+    """)
+    env = {**__import__("os").environ, "NUMBA_CACHE_DIR": str(tmp_path), "NUMBA_NUM_THREADS": "2"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600,
+                         cwd=__import__("os").path.dirname(__import__("os").path.dirname(__file__)))
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "checked" in out.stdout
+    assert "NOT PARALLEL" not in out.stdout, out.stdout
