@@ -1,15 +1,18 @@
 """Print the tables of docs/results.md from the bundled datasets (Markdown on stdout).
 
-Usage: python docs/results_tables.py [--figures DIR]
+Usage: python docs/results_tables.py [--figures DIR] [--parts runs,sweeps] [--replica-sweep DIR]
+       [--gamma-runs RUN ...]
 
 Every number in docs/results.md comes from this script: steady-state yield, ⟨V_g⟩/V_p and N_g/N
 of every bundled run under both cohesion conventions (GNA, C_agg = 0.6, A_agg = 20°), the CG
 comparisons (deviation from the finest run, Kolmogorov–Smirnov distance of the size
 distributions) and the measured speed-ups, the granule kinetics of the lab runs (tracked events
-per particle per revolution), and the γ × Ω study of every bundled sweep (steady
+per particle per revolution), the replica sets (replica standard error beside the block s.e.m.,
+and the CG deviations with replica errors), and the γ × Ω study of every bundled sweep (steady
 state per point, the growth-law fit beside the paper's β and γ₁, the surrogate's leave-one-out
 error). With ``--figures DIR`` it also writes the CG figures (the paper's Figs 3–6) of the lab
-and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR.
+and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR. ``--replica-sweep`` and
+``--gamma-runs`` add runs that are not bundled (docs/results.md says how they were made).
 """
 
 from __future__ import annotations
