@@ -1,7 +1,7 @@
 """Print the tables of docs/results.md from the bundled datasets (Markdown on stdout).
 
 Usage: python docs/results_tables.py [--figures DIR] [--parts runs,sweeps] [--replica-sweep DIR]
-       [--gamma-runs RUN ...]
+       [--gamma-runs RUN ...] [--paper-cg2 RUN]
 
 Every number in docs/results.md comes from this script: steady-state yield, ⟨V_g⟩/V_p and N_g/N
 of every bundled run under both cohesion conventions (GNA, C_agg = 0.6, A_agg = 20°), the CG
@@ -11,8 +11,8 @@ per particle per revolution), the replica sets (replica standard error beside th
 and the CG deviations with replica errors), and the γ × Ω study of every bundled sweep (steady
 state per point, the growth-law fit beside the paper's β and γ₁, the surrogate's leave-one-out
 error). With ``--figures DIR`` it also writes the CG figures (the paper's Figs 3–6) of the lab
-and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR. ``--replica-sweep`` and
-``--gamma-runs`` add runs that are not bundled (docs/results.md says how they were made).
+and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR. ``--replica-sweep``,
+``--gamma-runs`` and ``--paper-cg2`` add runs that are not bundled (docs/results.md says how they were made).
 """
 
 from __future__ import annotations
@@ -287,12 +287,41 @@ def replica_sweep_table(folder, figures=None):
             plt.close(fig)
 
 
+def paper_drum_table(path, window=(2, 3)):
+    """The paper's drum at CG2 (``path``: a run of the recipe in ``NOT_BUNDLED["paper-cg2"]``, not
+    bundled) against the bundled paper-cg3 over ``window`` (paper-cg2 has three revolutions): its
+    bed structure, steady state and the CG3-against-CG2 deviations under both conventions."""
+    with ga.open_run(path) as run:
+        settled = run.meta.provenance.get("settled_bed") or {}
+        beds = [ga.bed_structure(s) for s in run.select(revolutions=window)]
+        print(f"\n**paper drum at CG2** ({os.path.basename(path)}, {run.meta.n_particles} particles, "
+              f"{run.meta.provenance.get('threads')} threads, {run.meta.provenance.get('wall_time_s', float('nan')) / 60:.0f} "
+              f"min; window {window[0]}–{window[1]} revolutions)\n")
+    print(f"settled: crossing {settled.get('crossing_fraction', float('nan')):.3f}, ⟨n_z²⟩ "
+          f"{settled.get('axial_fabric', float('nan')):.3f}, coordination {settled.get('coordination', float('nan')):.2f}, "
+          f"solid fraction {settled.get('solid_fraction', float('nan')):.3f}; flowing: crossing "
+          f"{sum(b.crossing_fraction for b in beds) / len(beds):.3f}, ⟨|v_z|⟩/⟨|v_xy|⟩ "
+          f"{sum(b.axial_speed_ratio for b in beds) / len(beds):.3f}, coordination "
+          f"{sum(b.coordination for b in beds) / len(beds):.2f}\n")
+    print("| run | cohesion | yield (dev.) | ⟨V_g⟩/V_p (dev.) | N_g/N (dev.) | KS D |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for cohesion in ga.COHESION_CONVENTIONS:
+        cmp = ga.compare_cg([path, dataset_path("paper-cg3")], labels=["paper-cg2", "paper-cg3"], window=window,
+                            c_agg=C_AGG, a_agg_deg=A_AGG, cohesion=cohesion)
+        for row in cmp.table.itertuples():
+            cells = [f"{pm(getattr(row, f'{m}_mean'), getattr(row, f'{m}_sem'), d)} ({getattr(row, f'{m}_rel_dev'):+.0%})"
+                     for m, d in (("yield_fraction", 3), ("mean_volume_norm", 2), ("n_granules_norm", 4))]
+            print(f"| {row.run} | {cohesion} | {' | '.join(cells)} | {row.ks_distance:.3f} |")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", help="folder for the CG figures (PNG)")
     parser.add_argument("--parts", default="runs,sweeps", help="which tables: runs, sweeps or both (default)")
     parser.add_argument("--replica-sweep", metavar="DIR",
                         help="the replicas of the CG3 sweep's Ω = 2 row (not bundled), e.g. build/sweeps/gamma-lab-cg3-replicas")
+    parser.add_argument("--paper-cg2", metavar="RUN",
+                        help="a paper-cg2 run (not bundled), e.g. build/runs/paper-cg2.h5, against the bundled paper-cg3")
     parser.add_argument("--gamma-runs", nargs="*", default=[],
                         help="paper-cg3 runs at other γ (not bundled) for the γ check, e.g. build/runs/paper-cg3-gamma*.h5")
     args = parser.parse_args()
@@ -310,6 +339,8 @@ def main():
         sweep_tables(args.figures)
     if args.replica_sweep:
         replica_sweep_table(args.replica_sweep, args.figures)
+    if args.paper_cg2:
+        paper_drum_table(args.paper_cg2)
     if args.gamma_runs:
         def gamma(path):
             with ga.open_run(path) as run:
