@@ -155,9 +155,9 @@ def replica_paths(name: str) -> list:
 NOT_BUNDLED = {
     "paper-cg2": {
         "commands": _recipe("paper-cg2", 3, full_window="2:3"),
-        "cost": "about 70 min on both cores of the development machine, 2 h on one (2.4e10 particle-steps at the "
-                "3-D rates of docs/performance.md; the planar run of physics version 2 took 2 h 57 min on 2 threads, "
-                "before the force loop's two-thread repair); about 40 MB thinned like paper-cg3",
+        "cost": "about 95 min on both cores of the development machine (2.4e10 particle-steps; measured 2026-12-02: "
+                "82 % of the run, 1.28 million of 1.57 million steps, in 74 min on 2 threads beside light work, stopped "
+                "at the end of the sitting); about 40 MB thinned like paper-cg3",
         "why": "its physics version 2 run was a stack of planar monolayers (docs/results.md, 'Correction'); the 3-D "
                "remake did not fit the sittings of 2026-12-02 beside the other runs, nor its file the 100 MB of "
                "bundled data",
