@@ -15,7 +15,7 @@ from ..errors import GranalyticsError, ParameterError
 from ..files import WriterLock, output_folder, staged_outputs, write_atomically
 from ..identify import DEFAULT_METHODS
 from ..io import open_run
-from ..stats import DEFAULT_WINDOW_REV, check_window, replica_steady_state, run_stats, size_distribution, steady_state
+from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
 from ._common import (threshold_options, add_cohesion_option, add_gna_options, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
                       setting, window_axis, write_table)
 
@@ -248,24 +248,18 @@ def _stats(args):
         raise ParameterError("--window (revolutions) and --window-time (seconds) both given: give one steady-state window")
     by, window = (("time_s", args.window_time) if args.window_time is not None
                   else ("revolutions", args.window if args.window is not None else DEFAULT_WINDOW_REV))
+    params = dict(c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+                  cohesion=args.cohesion)
     with open_run(args.run) as run:
         frames = selected_frames(run, args)
         # the window is checked on the frame times before the analysis (its warnings come with the table)
         in_window, _ = check_window(window_axis(frames, by), window, by=by, source=args.run, warn=False)
-        ts, sizes = run_stats(
-            frames, "gna", progress=progress(args), return_sizes=True,
-            c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
-            cohesion=args.cohesion,
-        )
-    steady = steady_state(ts, window=window, by=by, source=args.run)
-    if args.replica:
-        series = [ts]
-        for path in args.replica:
-            with open_run(path) as replica:
-                series.append(run_stats(selected_frames(replica, args), "gna", progress=progress(args),
-                                        c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius,
-                                        backend=args.backend, cohesion=args.cohesion))
-        steady = replica_steady_state(series, window=window, by=by, source=args.run)
+        ts, sizes = run_stats(frames, "gna", progress=progress(args), return_sizes=True, **params)
+    series = [ts]
+    for path in args.replica:  # replicas: the steady state is over all of them (steady_state of a list)
+        with open_run(path) as replica:
+            series.append(run_stats(selected_frames(replica, args), "gna", progress=progress(args), **params))
+    steady = steady_state(series if args.replica else ts, window=window, by=by, source=args.run)
     dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
     with staged_outputs() as stage:  # every output, or none (a failing figure replaces no table)
         if args.out:
