@@ -1,7 +1,7 @@
 """Print the tables of docs/results.md from the bundled datasets (Markdown on stdout).
 
 Usage: python docs/results_tables.py [--figures DIR] [--parts runs,sweeps] [--replica-sweep DIR]
-       [--gamma-runs RUN ...] [--paper-cg2 RUN]
+       [--gamma-runs RUN ...]
 
 Every number in docs/results.md comes from this script: steady-state yield, ⟨V_g⟩/V_p and N_g/N
 of every bundled run under both cohesion conventions (GNA, C_agg = 0.6, A_agg = 20°), the CG
@@ -11,8 +11,8 @@ per particle per revolution), the replica sets (replica standard error beside th
 and the CG deviations with replica errors), and the γ × Ω study of every bundled sweep (steady
 state per point, the growth-law fit beside the paper's β and γ₁, the surrogate's leave-one-out
 error). With ``--figures DIR`` it also writes the CG figures (the paper's Figs 3–6) of the lab
-and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR. ``--replica-sweep``,
-``--gamma-runs`` and ``--paper-cg2`` add runs that are not bundled (docs/results.md says how they were made).
+and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR. ``--replica-sweep`` and
+``--gamma-runs`` add runs that are not bundled (docs/results.md says how they were made).
 """
 
 from __future__ import annotations
@@ -28,7 +28,10 @@ C_AGG, A_AGG = 0.6, 20.0
 #: [2, 3] for the 3-revolution ones (growth vanishes after two revolutions, paper Fig 6)
 WINDOWS = {"lab-cg1": (3, 6), "lab-cg2": (3, 6), "lab-cg3": (3, 6), "paper-cg2": (2, 3), "paper-cg3": (3, 6)}
 CG_SETS = {"lab drum": ["lab-cg1", "lab-cg2", "lab-cg3"], "paper drum": ["paper-cg2", "paper-cg3"]}
-CG_WINDOW = (3, 6)  # common to every run of a comparison (every lab run has 6 revolutions since 2026-12-02)
+#: the window common to every run of a comparison: [3, 6] on the lab drum (every lab run has 6
+#: revolutions), [2, 3] on the paper's drum (paper-cg2 has 3)
+CG_WINDOWS = {"lab drum": (3, 6), "paper drum": (2, 3)}
+CG_WINDOW = CG_WINDOWS["lab drum"]
 #: the bundled runs that are not replicas of another one (the replicas are in the replica tables)
 MAIN_RUNS = [n for n in DATASETS if not any(n in names[1:] for names in REPLICAS.values())]
 
@@ -160,30 +163,32 @@ def steady_table():
 
 def cg_tables(figures=None):
     for title, names in CG_SETS.items():
-        names = [n for n in names if n in DATASETS]
-        if len(names) < 2:
-            print(f"\n{title}: fewer than two bundled runs, no comparison\n")
-            continue
-        print(f"\n**{title}** ({', '.join(names)}; window {CG_WINDOW[0]}–{CG_WINDOW[1]} revolutions; "
-              f"deviation from {names[0]})\n")
+        window = CG_WINDOWS[title]
+        print(f"\n**{title}** ({', '.join(names)}; window {window[0]}–{window[1]} revolutions; "
+              f"deviation from {names[0]}; ± the block s.e.m.)\n")
         print("| run | cohesion | yield (dev.) | ⟨V_g⟩/V_p (dev.) | N_g/N (dev.) | KS D | W1(log10 n) |")
         print("| --- | --- | --- | --- | --- | --- | --- |")
         for cohesion in ga.COHESION_CONVENTIONS:
-            cmp = ga.compare_cg([dataset_path(n) for n in names], labels=names, window=CG_WINDOW,
+            cmp = ga.compare_cg([dataset_path(n) for n in names], labels=names, window=window,
                                 c_agg=C_AGG, a_agg_deg=A_AGG, cohesion=cohesion)
             for row in cmp.table.itertuples():
-                print(f"| {row.run} | {cohesion} | {row.yield_fraction_mean:.3f} ({row.yield_fraction_rel_dev:+.0%}) | "
-                      f"{row.mean_volume_norm_mean:.2f} ({row.mean_volume_norm_rel_dev:+.0%}) | "
-                      f"{row.n_granules_norm_mean:.4f} ({row.n_granules_norm_rel_dev:+.0%}) | "
-                      f"{row.ks_distance:.3f} | {row.w1_log10_size:.3f} |")
+                cells = [f"{pm(getattr(row, f'{m}_mean'), getattr(row, f'{m}_sem'), d)} "
+                         f"({getattr(row, f'{m}_rel_dev'):+.0%})"
+                         for m, d in (("yield_fraction", 3), ("mean_volume_norm", 2), ("n_granules_norm", 4))]
+                print(f"| {row.run} | {cohesion} | {' | '.join(cells)} | {row.ks_distance:.3f} | {row.w1_log10_size:.3f} |")
             if figures and cohesion == "acting":
                 cmp.save(os.path.join(figures, title.replace(" ", "-")), overwrite=True, formats=("png",))
-        print(f"\nSpeed-ups ({title}, simulator wall time per simulated second, from the runs' metadata):\n")
-        print("| run | particles | wall s per simulated s | speed-up | paper |")
-        print("| --- | --- | --- | --- | --- |")
+        threads = {}
+        for n in names:
+            with ga.open_run(dataset_path(n)) as run:
+                threads[n] = run.meta.provenance.get("threads")
+        print(f"\nSpeed-ups ({title}, simulator wall time per simulated second, from the runs' metadata; "
+              f"fair only between runs on the same number of threads):\n")
+        print("| run | particles | threads | wall s per simulated s | speed-up | paper |")
+        print("| --- | --- | --- | --- | --- | --- |")
         for row in cmp.table.itertuples():
-            print(f"| {row.run} | {row.n_particles} | {row.wall_time_per_simulated_s:.1f} | {row.speedup:.1f}× | "
-                  f"{row.paper_speedup:.1f}× |")
+            print(f"| {row.run} | {row.n_particles} | {threads[row.run]} | {row.wall_time_per_simulated_s:.1f} | "
+                  f"{row.speedup:.1f}× | {row.paper_speedup:.1f}× |")
 
 
 KINETICS_RUNS, KINETICS_WINDOW = ["lab-cg1", "lab-cg2", "lab-cg3"], (3, 6)
@@ -287,41 +292,12 @@ def replica_sweep_table(folder, figures=None):
             plt.close(fig)
 
 
-def paper_drum_table(path, window=(2, 3)):
-    """The paper's drum at CG2 (``path``: a run of the recipe in ``NOT_BUNDLED["paper-cg2"]``, not
-    bundled) against the bundled paper-cg3 over ``window`` (paper-cg2 has three revolutions): its
-    bed structure, steady state and the CG3-against-CG2 deviations under both conventions."""
-    with ga.open_run(path) as run:
-        settled = run.meta.provenance.get("settled_bed") or {}
-        beds = [ga.bed_structure(s) for s in run.select(revolutions=window)]
-        print(f"\n**paper drum at CG2** ({os.path.basename(path)}, {run.meta.n_particles} particles, "
-              f"{run.meta.provenance.get('threads')} threads, {run.meta.provenance.get('wall_time_s', float('nan')) / 60:.0f} "
-              f"min; window {window[0]}–{window[1]} revolutions)\n")
-    print(f"settled: crossing {settled.get('crossing_fraction', float('nan')):.3f}, ⟨n_z²⟩ "
-          f"{settled.get('axial_fabric', float('nan')):.3f}, coordination {settled.get('coordination', float('nan')):.2f}, "
-          f"solid fraction {settled.get('solid_fraction', float('nan')):.3f}; flowing: crossing "
-          f"{sum(b.crossing_fraction for b in beds) / len(beds):.3f}, ⟨|v_z|⟩/⟨|v_xy|⟩ "
-          f"{sum(b.axial_speed_ratio for b in beds) / len(beds):.3f}, coordination "
-          f"{sum(b.coordination for b in beds) / len(beds):.2f}\n")
-    print("| run | cohesion | yield (dev.) | ⟨V_g⟩/V_p (dev.) | N_g/N (dev.) | KS D |")
-    print("| --- | --- | --- | --- | --- | --- |")
-    for cohesion in ga.COHESION_CONVENTIONS:
-        cmp = ga.compare_cg([path, dataset_path("paper-cg3")], labels=["paper-cg2", "paper-cg3"], window=window,
-                            c_agg=C_AGG, a_agg_deg=A_AGG, cohesion=cohesion)
-        for row in cmp.table.itertuples():
-            cells = [f"{pm(getattr(row, f'{m}_mean'), getattr(row, f'{m}_sem'), d)} ({getattr(row, f'{m}_rel_dev'):+.0%})"
-                     for m, d in (("yield_fraction", 3), ("mean_volume_norm", 2), ("n_granules_norm", 4))]
-            print(f"| {row.run} | {cohesion} | {' | '.join(cells)} | {row.ks_distance:.3f} |")
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", help="folder for the CG figures (PNG)")
     parser.add_argument("--parts", default="runs,sweeps", help="which tables: runs, sweeps or both (default)")
     parser.add_argument("--replica-sweep", metavar="DIR",
                         help="the replicas of the CG3 sweep's Ω = 2 row (not bundled), e.g. build/sweeps/gamma-lab-cg3-replicas")
-    parser.add_argument("--paper-cg2", metavar="RUN",
-                        help="a paper-cg2 run (not bundled), e.g. build/runs/paper-cg2.h5, against the bundled paper-cg3")
     parser.add_argument("--gamma-runs", nargs="*", default=[],
                         help="paper-cg3 runs at other γ (not bundled) for the γ check, e.g. build/runs/paper-cg3-gamma*.h5")
     args = parser.parse_args()
@@ -339,8 +315,6 @@ def main():
         sweep_tables(args.figures)
     if args.replica_sweep:
         replica_sweep_table(args.replica_sweep, args.figures)
-    if args.paper_cg2:
-        paper_drum_table(args.paper_cg2)
     if args.gamma_runs:
         def gamma(path):
             with ga.open_run(path) as run:

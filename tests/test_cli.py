@@ -221,6 +221,28 @@ def test_subset_every_works_on_a_run_whose_drum_does_not_turn(tmp_path, capsys):
         assert list(run.times) == pytest.approx([0.0, 0.2, 0.4])
 
 
+def test_subset_window_every_thins_the_full_window(tmp_path, capsys):
+    import math
+
+    from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+    from granalytics import RunWriter
+
+    meta = synthetic_meta(30, drum_omega=2 * math.pi)  # one revolution per second
+    src = tmp_path / "turning.h5"
+    with RunWriter(src, meta) as writer:
+        for k in range(25):
+            writer.append(synthetic_snapshot(30, time=0.125 * k, step=k, seed=k, meta=meta))
+    out = tmp_path / "thin.h5"
+    assert main(["subset", str(src), "--out", str(out), "--every", "8", "--full-window", "2:3",
+                 "--window-every", "2", "--quiet"]) == 0
+    with open_run(out) as run:
+        assert list(run.revolutions) == pytest.approx([0.0, 1.0, 2.0, 2.25, 2.5, 2.75, 3.0])
+    capsys.readouterr()
+    assert main(["subset", str(src), "--out", str(tmp_path / "no.h5"), "--window-every", "2", "--quiet"]) == 2
+    assert "--window-every 2 thins --full-window" in capsys.readouterr().err
+    assert not (tmp_path / "no.h5").exists()
+
+
 def test_info_json_is_valid_json_for_an_empty_run(tmp_path, capsys):
     from granalytics.synthetic import synthetic_meta
     from granalytics import RunWriter

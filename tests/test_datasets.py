@@ -35,13 +35,23 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
         window, every = _option(subset_command, "--full-window"), _option(subset_command, "--every")
         if window is None:  # every frame of the run, 0.05 revolution apart, or every N-th
             assert np.allclose(np.diff(run.revolutions), 0.05 * int(every or 1), atol=1e-3)
-        else:  # every frame inside the window, every fourth before it
+        else:  # every (--window-every-th) frame inside the window, every N-th before it
             lo, hi = map(float, window.split(":"))
-            inside = run.revolutions >= lo - 1e-9
-            assert np.allclose(np.diff(run.revolutions[inside]), 0.05, atol=1e-3)
-            assert np.allclose(np.diff(run.revolutions[~inside]), 0.2, atol=1e-3)
+            inside = run.revolutions >= lo - 0.005  # a tenth of a frame spacing: 2.99995 is in [3, 6]
+            window_every = int(_option(subset_command, "--window-every") or 1)
+            assert np.allclose(np.diff(run.revolutions[inside]), 0.05 * window_every, atol=1e-3)
+            assert np.allclose(np.diff(run.revolutions[~inside]), 0.05 * int(every), atol=1e-3)
+            assert run.revolutions[inside][0] == pytest.approx(lo, abs=1e-3)  # the window whole, from its start
+        assert meta.provenance["threads"] == int(_option(sim_command, "--threads"))  # bit-identical per thread count
         assert run[len(run) // 2].n_contacts > 0
     assert path.name == entry["file"]
+
+
+def test_bundled_data_stay_within_the_100_mb_budget():
+    from granalytics.datasets import DATASET_DIR
+
+    total = sum(p.stat().st_size for p in DATASET_DIR.rglob("*") if p.is_file())
+    assert 50e6 < total <= 100e6, f"datasets/ holds {total} bytes"
 
 
 def test_replica_sets_are_one_system_at_different_seeds():
@@ -161,6 +171,28 @@ def test_thinned_frames_keeps_the_window_and_every_nth_frame():
         ga.io.thinned_frames(revs, 0)
     with pytest.raises(GranalyticsError, match="full_window"):
         ga.io.thinned_frames(revs, 2, (2.0, 1.0))
+
+
+def test_thinned_frames_thins_the_window_by_its_own_stride():
+    revs = np.arange(25) * 0.125
+    assert list(ga.io.thinned_frames(revs, 8, (2.0, 3.0), window_every=2)) == [0, 8, 16, 18, 20, 22, 24]
+    assert list(ga.io.thinned_frames(revs, 8, (2.0, 3.0), window_every=4)) == [0, 8, 16, 20, 24]
+    with pytest.raises(GranalyticsError, match="window_every"):
+        ga.io.thinned_frames(revs, 2, None, window_every=2)
+    with pytest.raises(GranalyticsError, match="window_every"):
+        ga.io.thinned_frames(revs, 2, (1.0, 2.0), window_every=0)
+
+
+def test_thinning_a_thinned_copy_keeps_the_frames_one_thinning_would():
+    """A bundled sweep kept every 2nd raw frame; thinning that copy with every 4 outside the window
+    keeps the frames that every 8 outside, every 2 inside would keep from the raw run."""
+    raw = np.arange(121) * 0.05 * (1 - 1e-5)  # stamped just before the nominal times, as the simulator's are
+    direct = ga.io.thinned_frames(raw, 8, (3.0, 6.0), window_every=2)
+    copy = ga.io.thinned_frames(raw, 2)
+    again = copy[ga.io.thinned_frames(raw[copy], 4, (3.0, 6.0))]
+    assert list(again) == list(direct)
+    assert len(direct) == 8 + 31 and raw[60] < 3.0 and 60 in direct  # the frame at 2.99997 is in [3, 6]
+
 
 
 @pytest.mark.parametrize("name", sorted(__import__("granalytics.datasets", fromlist=["SWEEPS"]).SWEEPS))

@@ -18,12 +18,15 @@ def add_subset_parser(sub):
     """Add the ``subset`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
     p = sub.add_parser("subset", help="copy some frames of a run, optionally as float32",
                        description="Write a smaller copy of a run: every --every-th frame, plus every frame inside "
-                                   "--full-window; --float32 stores floating-point data in single precision.")
+                                   "--full-window (every --window-every-th); --float32 stores floating-point data in "
+                                   "single precision.")
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--out", required=True, help="run file to write (.h5)")
     p.add_argument("--every", type=every, default=1, help="keep every N-th frame (default 1: all)")
     p.add_argument("--full-window", type=interval, metavar="R0:R1",
                    help="keep every frame within this revolution window")
+    p.add_argument("--window-every", type=every, default=1, metavar="K",
+                   help="inside --full-window keep only the frames whose index is a multiple of K (default 1: all)")
     p.add_argument("--float32", action="store_true", help="store floats as float32 (read back as float64)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -70,6 +73,8 @@ def cmd_subset(args):
 
     if args.every < 1:
         raise ParameterError(f"--every must be >= 1, got {args.every}")
+    if args.window_every != 1 and args.full_window is None:
+        raise ParameterError(f"--window-every {args.window_every} thins --full-window; give one")
     if os.path.abspath(args.out) == os.path.abspath(args.run):
         raise ParameterError(f"{args.out}: --out is the input run")
     if os.path.exists(args.out) and not args.overwrite:
@@ -80,7 +85,7 @@ def cmd_subset(args):
         if args.full_window is not None:
             check_window(run.revolutions, args.full_window, source=args.run)  # warns when the run does not cover it
         frames = thinned_frames(run.times if args.full_window is None else run.revolutions, args.every,
-                                args.full_window)
+                                args.full_window, args.window_every)
     subset_run(args.run, args.out, frames, float_dtype="float32" if args.float32 else "float64",
                overwrite=args.overwrite, progress=not args.quiet)
     print(f"wrote {args.out}: {len(frames)} of {n_frames} frames"

@@ -31,6 +31,8 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
     b.add_argument("--every", type=every, default=1, help="keep one frame in N outside --full-window (default 1: all)")
     b.add_argument("--full-window", type=interval, default=None, metavar="R0:R1",
                    help="revolutions in which every frame is kept (with --every)")
+    b.add_argument("--window-every", type=every, default=1, metavar="K",
+                   help="inside --full-window keep only the frames whose index is a multiple of K (default 1: all)")
     args = parser.parse_args(argv)
     if args.command == "list":
         for name, entry in {**datasets.DATASETS, **datasets.FOREIGN, **datasets.SWEEPS}.items():
@@ -41,7 +43,7 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
     if args.command == "bundle-sweep":
         try:
             print(datasets.bundle_sweep(args.src, args.dst, overwrite=args.overwrite, every=args.every,
-                               full_window=args.full_window))
+                                                full_window=args.full_window, window_every=args.window_every))
         except (GranalyticsError, OSError) as exc:
             print(f"{prog} bundle-sweep: error: {exc}", file=sys.stderr)
             return 2

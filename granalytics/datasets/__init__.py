@@ -25,7 +25,9 @@ lab-cg2-seed1, lab-cg2-seed2, lab-cg3-seed1, lab-cg3-seed2
     Replicas of lab-cg2 and lab-cg3 (seeds 1 and 2: other random fillings), every fourth frame:
     with seed 0 the replica sets :data:`REPLICAS` (:func:`replica_paths`) for the run-to-run error.
 
-Not bundled (:data:`NOT_BUNDLED`, recipe kept): paper-cg2, the paper's drum at CG2.
+paper-cg2
+    The paper's drum at CG2 (15 000 particles, 3 revolutions, 2 threads), seed 0; every fourth
+    frame of the window [2, 3] (the paper-drum CG comparison with paper-cg3).
 
 Every dataset is of physics version 3 (the 3-D initial packing; docs/simulator.md, "Physics
 versions"), recorded in each run's provenance with the settled bed's structure; the sweeps too.
@@ -35,7 +37,8 @@ Sweeps
 gamma-omega-lab-cg3
     Surface tension × drum speed on the lab drum at CG3 (the paper's Fig 7 study): 7 values of γ
     from 0.01 to 0.444 N/m × Ω = 1.5, 2, 3 rad/s, 6 revolutions each, made by ``python -m sim
-    sweep`` and bundled by :func:`bundle_sweep` (every frame, float32). :func:`sweep_path`
+    sweep`` and bundled by :func:`bundle_sweep` (float32; every second frame of the steady window
+    [3, 6], every eighth before). :func:`sweep_path`
     returns its folder (manifest and point files checked), for ``granalytics study``.
 """
 
@@ -58,14 +61,16 @@ DATASET_DIR = Path(__file__).resolve().parents[2] / "datasets"
 _RAW_DIR = "build/runs"  # full-resolution simulator output (not bundled), relative to the repository root
 
 
-def _recipe(preset, revolutions, full_window=None, *, seed=0, every=None):
+def _recipe(preset, revolutions, full_window=None, *, seed=0, every=None, threads=1, window_every=1):
     name = preset if seed == 0 else f"{preset}-seed{seed}"
     raw = f"{_RAW_DIR}/{name}.h5"
-    sim = (f"python -m sim run --preset {preset} --revolutions {revolutions:g} --seed {seed} --threads 1 "
+    sim = (f"python -m sim run --preset {preset} --revolutions {revolutions:g} --seed {seed} --threads {threads} "
            f"--checkpoint-every 2 --quiet --out {raw}")
     subset = f"granalytics subset {raw} --out datasets/{name}.h5 --float32 --overwrite"
     if full_window is not None:
-        subset += f" --full-window {full_window} --every 4"
+        subset += f" --full-window {full_window} --every {every or 4}"
+        if window_every != 1:
+            subset += f" --window-every {window_every}"
     elif every is not None:
         subset += f" --every {every}"
     return [sim, subset]
@@ -74,6 +79,9 @@ def _recipe(preset, revolutions, full_window=None, *, seed=0, every=None):
 #: the commit whose simulator (physics version 3, the 3-D packing) made the datasets and sweeps of 2026-12-02
 _SIM_V3 = "733e5744cb9a46aae3bdb1334874dffa436e9345"
 
+#: the commit whose simulator made paper-cg2: physics version 3 with the two-thread force loop repaired
+#: (sim/ unchanged from there to c81f4a7, which resumed the run); bit-reproducible on 2 threads
+_SIM_V3_PAPER_CG2 = "37454f848582e8c4653def71b64d8197ae5ddb88"
 #: name -> file, sha256, the commands that made it (from the repository root, in order), the
 #: code version (git commit) and simulator wall time, description
 DATASETS = {
@@ -103,6 +111,18 @@ DATASETS = {
         "wall_time": "39 s (1 thread, beside the lab-cg1 run on the other core)",
         "description": "lab drum, CG3: 111 particles of 4.5 mm standing for 3 000 of 1.5 mm, 6 revolutions, "
                        "every frame (0.05 revolution, 121 frames)",
+    },
+    "paper-cg2": {
+        "file": "paper-cg2.h5",
+        "sha256": "fb2c9b950cc7320380ca9528a7691f51880b3a60df716639ee54a90c06c4c262",
+        "commands": _recipe("paper-cg2", 3, full_window="2:3", threads=2, every=12, window_every=4),
+        "code_version": _SIM_V3_PAPER_CG2,
+        "wall_time": "1 h 25 min on 2 threads (5 093 s recorded in its provenance; 74 min in one sitting beside light "
+                     "work, the last 18 % resumed from its checkpoint in the next, 17 min; the raw file, 153 MB, has "
+                     "sha256 74d077cfcd9945b238319fbc69486a2f71b78a6943bb8803a2bd6690276f515b)",
+        "description": "the paper's drum, CG2: 15 000 particles of 3 mm standing for 120 000 of 1.5 mm, 3 revolutions; "
+                       "every fourth frame in [2, 3] (0.2 revolution, as paper-cg3 there), every twelfth before "
+                       "(0.6 revolution): 10 of 61 frames",
     },
     "paper-cg3": {
         "file": "paper-cg3.h5",
@@ -151,18 +171,8 @@ def replica_paths(name: str) -> list:
 
 
 #: runs whose recipe is kept but which are not bundled (not remade with the current simulator yet):
-#: name -> the recipe, what it costs, why it is missing
-NOT_BUNDLED = {
-    "paper-cg2": {
-        "commands": _recipe("paper-cg2", 3, full_window="2:3"),
-        "cost": "about 95 min on both cores of the development machine (2.4e10 particle-steps; measured 2026-12-02: "
-                "82 % of the run, 1.28 million of 1.57 million steps, in 74 min on 2 threads beside light work, stopped "
-                "at the end of the sitting); about 40 MB thinned like paper-cg3",
-        "why": "its physics version 2 run was a stack of planar monolayers (docs/results.md, 'Correction'); the 3-D "
-               "remake did not fit the sittings of 2026-12-02 beside the other runs, nor its file the 100 MB of "
-               "bundled data",
-    },
-}
+#: name -> {"commands", "cost", "why"}; empty since paper-cg2 was remade in 3-D (2026-12-02)
+NOT_BUNDLED: dict = {}
 
 
 #: runs of the DEM codes our users come from, made by the real programs (their input scripts and raw
@@ -206,34 +216,38 @@ FOREIGN = {
 SWEEPS = {
     "gamma-omega-lab-cg3": {
         "dir": "sweeps/gamma-omega-lab-cg3",
-        "manifest_sha256": "a8f8b503dec0470f4378da5ca33065f1169c1d677ce2b6a02f9ded495e73a906",
+        "manifest_sha256": "2ce1a2a2b21358af287695247280777daa671041a2126e69bd5f26c1e9f6b949",
         "spec": "sweeps/gamma-omega-lab-cg3.toml",
         "commands": [
             "python -m sim sweep datasets/sweeps/gamma-omega-lab-cg3.toml --out build/sweeps/gamma-omega-lab-cg3 "
             "--workers 2",
             "python -m granalytics.datasets bundle-sweep build/sweeps/gamma-omega-lab-cg3 "
-            "datasets/sweeps/gamma-omega-lab-cg3 --every 2 --overwrite",
+            "datasets/sweeps/gamma-omega-lab-cg3 --every 8 --full-window 3:6 --window-every 2 --overwrite",
         ],
         "code_version": _SIM_V3,
         "wall_time": "16 min on 1 worker (about 46 s per point), beside the CG2 sweep on the other core",
         "description": "lab drum at CG3 (111 particles), γ = 0.01, 0.03, 0.06, 0.1095, 0.2, 0.3, 0.444 N/m (original "
-                       "system) × Ω = 1.5, 2, 3 rad/s, 6 revolutions, every second frame (0.1 revolution) as float32",
+                       "system) × Ω = 1.5, 2, 3 rad/s, 6 revolutions, every second frame in [3, 6] (0.1 revolution), every "
+                       "eighth before (0.4 revolution), as float32 (thinned before the window on 2026-12-02 from the "
+                       "bundled copy of every second frame, to make room for paper-cg2: the same frames and values as "
+                       "the command from the raw sweep, which was not kept; source_sha256 is the raw points' sum)",
     },
     "gamma-omega-lab-cg2": {
         "dir": "sweeps/gamma-omega-lab-cg2",
-        "manifest_sha256": "a5d79efb93b129e42d55d80dadbe1a24b0f01d71f2fd5b94a928f01f6964fc94",
+        "manifest_sha256": "d09f31784b0ab2935be3ad8546283287c444f9cbfe51ddbab8ac3608fab05d21",
         "spec": "sweeps/gamma-omega-lab-cg2.toml",
         "commands": [
             "python -m sim sweep datasets/sweeps/gamma-omega-lab-cg2.toml --out build/sweeps/gamma-omega-lab-cg2 "
             "--workers 2",
             "python -m granalytics.datasets bundle-sweep build/sweeps/gamma-omega-lab-cg2 "
-            "datasets/sweeps/gamma-omega-lab-cg2 --every 3 --overwrite",
+            "datasets/sweeps/gamma-omega-lab-cg2 --every 12 --full-window 3:6 --window-every 3 --overwrite",
         ],
         "code_version": _SIM_V3,
         "wall_time": "about 1 h 15 min: 15 points on one worker beside other runs (3.5-7 min a point), the last six as "
                      "two single-worker sweeps of gamma = 0.3 and 0.444 side by side (12 min), merged into the folder",
         "description": "lab drum at CG2 (375 particles), the same γ × Ω grid as gamma-omega-lab-cg3, 6 revolutions, "
-                       "every third frame (0.15 revolution) as float32",
+                       "every third frame in [3, 6] (0.15 revolution), every twelfth before (0.6 revolution), as float32 "
+                       "(thinned before the window from the bundled copy on 2026-12-02, as gamma-omega-lab-cg3)",
     },
 }
 
@@ -364,16 +378,16 @@ def foreign_path(name: str) -> Path:
     return path
 
 
-def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_window=None) -> Path:
+def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_window=None, window_every=1) -> Path:
     """Copy the finished points of sweep folder ``src`` (``python -m sim sweep``) into ``dst``
     for bundling: the frames of every point as float32 (:func:`granalytics.io.subset_run`), and
     the manifest with the finished rows only, ``sha256`` the bundled file's sum and
     ``source_sha256`` the simulator's file's. Points not finished are left out (and named).
 
-    Every frame is kept by default; ``every`` and ``full_window`` (revolutions (r0, r1)) thin the
-    points as ``granalytics subset --every N --full-window R0:R1`` does
-    (:func:`granalytics.io.thinned_frames`): every frame inside the window, one in ``every``
-    outside it.
+    Every frame is kept by default; ``every``, ``full_window`` (revolutions (r0, r1)) and
+    ``window_every`` thin the points as ``granalytics subset --every N --full-window R0:R1
+    --window-every K`` does (:func:`granalytics.io.thinned_frames`): one frame in ``window_every``
+    inside the window (all by default), one in ``every`` outside it.
 
     Raises
     ------
@@ -421,7 +435,7 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
                 iterator = tqdm(done.file, desc="bundle-sweep", unit="point")
             for rel in iterator:
                 with open_run(src / rel) as run:
-                    frames = thinned_frames(run.revolutions, every, full_window)
+                    frames = thinned_frames(run.revolutions, every, full_window, window_every)
                 subset_run(src / rel, tmp / rel, frames, float_dtype="float32")
                 sums.append(_sha256(tmp / rel))
             done["source_sha256"] = done["sha256"]

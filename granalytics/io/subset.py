@@ -7,6 +7,7 @@ import os
 
 import numpy as np
 
+from .._windows import window_mask
 from ..files import WriterLock, check_apart, replaced_atomically
 from .reader import open_run
 from .writer import RunWriter
@@ -15,9 +16,10 @@ from ..snapshot import RunMeta
 
 
 
-def thinned_frames(revolutions, every=1, full_window=None) -> np.ndarray:
+def thinned_frames(revolutions, every=1, full_window=None, window_every=1) -> np.ndarray:
     """Indices of the frames to keep when thinning a run: every ``every``-th frame (the first
-    included), and every frame whose time in revolutions lies in ``full_window`` = (r0, r1).
+    included), and every ``window_every``-th frame whose time in revolutions lies in
+    ``full_window`` = (r0, r1) (all of them by default).
 
     Parameters
     ----------
@@ -28,15 +30,25 @@ def thinned_frames(revolutions, every=1, full_window=None) -> np.ndarray:
     every : int
         Keep one frame in ``every`` outside the window (>= 1; 1 keeps all).
     full_window : (float, float), optional
-        Revolutions [r0, r1] in which every frame is kept.
+        Revolutions [r0, r1] in which every frame (every ``window_every``-th) is kept; a frame
+        within a tenth of a frame spacing of an edge counts as inside, as in every analysis
+        (:func:`granalytics.steady_state`).
+    window_every : int
+        Keep the frames of the window whose index is a multiple of ``window_every`` (>= 1; 1 keeps
+        all; counted from the run's first frame, as ``every`` is, so that thinning a thinned copy
+        by the same rule keeps the same frames). Only with ``full_window``.
 
     Raises
     ------
     ValidationError
-        ``every`` below 1 or ``full_window`` not two increasing numbers.
+        ``every`` or ``window_every`` below 1, ``full_window`` not two increasing numbers, or
+        ``window_every`` other than 1 without a window.
     """
-    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
-        raise ValidationError("every", f"must be an integer >= 1, got {every!r}")
+    for name, value in (("every", every), ("window_every", window_every)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValidationError(name, f"must be an integer >= 1, got {value!r}")
+    if window_every != 1 and full_window is None:
+        raise ValidationError("window_every", f"thins the full window; got {window_every!r} without one")
     revs = np.asarray(revolutions, dtype=float)
     index = np.arange(revs.size)
     keep = index % every == 0
@@ -44,7 +56,9 @@ def thinned_frames(revolutions, every=1, full_window=None) -> np.ndarray:
         r0, r1 = full_window
         if not r0 <= r1:
             raise ValidationError("full_window", f"must be (r0, r1) with r0 <= r1, got {full_window!r}")
-        keep |= (revs >= r0) & (revs <= r1)  # exact, as when the bundled datasets were thinned
+        # the analyses' window rule (edges widened by a tenth of a frame spacing), so that a frame
+        # stamped at 2.99997 revolutions belongs to [3, 6] here as in every steady state
+        keep |= window_mask(revs, r0, r1) & (index % window_every == 0)
     return index[keep]
 
 
