@@ -22,8 +22,8 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
     p.add_argument("names", nargs="*", help="datasets (default: all)")
     p.add_argument("--dry-run", action="store_true", help="print the commands only")
     p.add_argument("--jobs", "-j", type=int, default=1,
-                   help="recipes run at the same time (default 1; each simulation uses one thread, the sweep its "
-                        "own workers)")
+                   help="recipes run at the same time (default 1; each simulation uses the threads its recipe "
+                        "names, one or, for paper-cg2, two; the sweep its own workers)")
     b = sub.add_parser("bundle-sweep", help="copy a sweep folder's finished points as float32 for bundling")
     b.add_argument("src", help="sweep folder written by python -m sim sweep")
     b.add_argument("dst", help="folder to write")
