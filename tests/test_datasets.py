@@ -140,6 +140,15 @@ def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_
     with pytest.raises(SystemExit) as refused:  # argparse refuses the option value, exit status 2
         _main(["bundle-sweep", str(src), str(tmp_path / "bad"), "--every", "0"])
     assert refused.value.code == 2
+    capsys.readouterr()
+    assert _main(["bundle-sweep", str(src), str(tmp_path / "bad"), "--window-every", "2"]) == 2  # no window
+    assert "window_every" in capsys.readouterr().err and not (tmp_path / "bad").exists()
+    thinner = tmp_path / "thinner"
+    assert _main(["bundle-sweep", str(src), str(thinner), "--every", "4", "--full-window",
+                  f"{window[0]!r}:{window[1]!r}", "--window-every", "2"]) == 0
+    with ga.open_run(thinner / rel) as run:
+        assert run.meta.provenance["subset_of"]["frames_kept"] == [
+            k for k in range(len(revs)) if k % 4 == 0 or (k % 2 == 0 and window[0] <= revs[k] <= window[1])]
     # the bundle is a normal folder (mkdtemp made it private), and a file as the target is one line
     import os
     import stat

@@ -43,7 +43,7 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
     if args.command == "bundle-sweep":
         try:
             print(datasets.bundle_sweep(args.src, args.dst, overwrite=args.overwrite, every=args.every,
-                                                full_window=args.full_window, window_every=args.window_every))
+                                        full_window=args.full_window, window_every=args.window_every))
         except (GranalyticsError, OSError) as exc:
             print(f"{prog} bundle-sweep: error: {exc}", file=sys.stderr)
             return 2

@@ -403,6 +403,7 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     from ..files import check_apart
 
     src, dst = Path(src), Path(dst)
+    thinned_frames([], every, full_window, window_every)  # refuses bad thinning options before any work
     check_apart(dst, [src], "bundle folder")  # --overwrite must never delete the sweep it copies
     dst.parent.mkdir(parents=True, exist_ok=True)
     with WriterLock(dst):  # DST.lock beside it: one bundling at a time, dst checked under the lock
