@@ -7,7 +7,8 @@ frames, the frames of the steady window [3, 6] of a run written every 0.05 revol
 frames of ``--window``: the rows, the DataFrame's own size (``memory_usage(deep=True)``), the peak
 of Python-traced memory while :func:`particle_table` builds it (numpy and pandas allocations
 included; ``tracemalloc``), the same peak for the streamed path of ``granalytics table``
-(:func:`granalytics.table.particle_frames`, one frame's table at a time, written to Parquet), and
+(:func:`granalytics.table.particle_frames`, one frame's table at a time, written to Parquet by
+:func:`granalytics.table.write_frames`), and
 the wall time of each. Prints a table.
 """
 
@@ -25,7 +26,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 import granalytics as ga  # noqa: E402
 from granalytics.synthetic import write_synthetic_run  # noqa: E402
-from granalytics.table import particle_frames  # noqa: E402
+from granalytics.table import particle_frames, write_frames  # noqa: E402
 
 
 def measure(build):
@@ -39,20 +40,6 @@ def measure(build):
     return result, peak, wall
 
 
-def streamed(frames, out):
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    writer, rows = None, 0
-    for piece in particle_frames(frames):
-        batch = pa.Table.from_pandas(piece, preserve_index=False)
-        writer = writer or pq.ParquetWriter(out, batch.schema)
-        writer.write_table(batch)
-        rows += len(piece)
-    writer.close()
-    return rows
-
-
 def row(label, path, window, tmp):
     with ga.open_run(path) as run:
         frames = run.select(revolutions=window)
@@ -62,7 +49,7 @@ def row(label, path, window, tmp):
         rows = len(table)
         del table
         out = os.path.join(tmp, "particles.parquet")
-        _, peak_stream, wall_stream = measure(lambda: streamed(frames, out))
+        _, peak_stream, wall_stream = measure(lambda: write_frames(particle_frames(frames), out))
         disk = os.path.getsize(out)
     mb = 1e-6
     print(f"| {label} | {n} | {len(frames)} | {rows} | {size * mb:.1f} | {size / rows:.0f} | {peak * mb:.1f} | "

@@ -59,8 +59,7 @@ def main():
             ax.scatter(part.x[mine], part.y[mine], part.z[mine], s=40, c="C3", depthshade=False)
             ax.set_title(f"rev {part.revolutions.iloc[0]:.2f}: track {track}, {int(mine.sum())} particles", fontsize=8)
             ax.set_xticks([]), ax.set_yticks([]), ax.set_zticks([])
-            for axis, column in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), ("x", "y", "z")):
-                c = part.loc[mine, column].mean()
+            for axis, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):  # the granule's centre
                 axis(c - 4 * part.radius.max(), c + 4 * part.radius.max())
         fig.suptitle(f"{args.dataset}: one granule keeps its track id (GNA, C_agg = 0.6, A_agg = 20°, acting)",
                      fontsize=10)

@@ -303,11 +303,16 @@ def replica_steady_state(timeseries, window=DEFAULT_WINDOW_REV, columns=_STEADY_
     series = list(timeseries)
     if len(series) < 2:
         raise ParameterError(f"replica_steady_state needs at least two replicas, got {len(series)}")
-    tables = [steady_state(ts, window, columns, by=by, source=source) for ts in series]
-    out = combine_replicas(pd.concat([t["mean"] for t in tables], axis=1),
-                           pd.concat([t["sem"] for t in tables], axis=1))
+    out = _combine_steady_states([steady_state(ts, window, columns, by=by, source=source) for ts in series])
     out.index.name = "metric"
     return out
+
+
+def _combine_steady_states(tables) -> pd.DataFrame:
+    """:func:`combine_replicas` of the :func:`steady_state` tables of replicas (their ``mean``
+    and ``sem`` columns, one table per replica)."""
+    return combine_replicas(pd.concat([t["mean"] for t in tables], axis=1),
+                            pd.concat([t["sem"] for t in tables], axis=1))
 
 
 def combine_replicas(means, sems) -> pd.DataFrame:

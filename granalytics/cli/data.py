@@ -175,33 +175,15 @@ def add_table_parser(sub):
 
 
 def cmd_table(args) -> int:
-    from ..table import particle_frames
+    from ..table import particle_frames, write_frames
 
     check_outputs(args, tables=(args.out,))
     with WriterLock(args.out), open_run(args.run) as run, staged_outputs() as stage:
         check_outputs(args, tables=(args.out,))
         frames = selected_frames(run, args)
-        tmp, rows = stage(args.out), 0
         pieces = particle_frames(frames, "gna", progress=not args.quiet, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg,
                                  radius=args.radius, backend=args.backend, cohesion=args.cohesion)
-        if table_format(args.out) == "csv":
-            for k, piece in enumerate(pieces):
-                piece.to_csv(tmp, mode="a", header=k == 0, index=False)
-                rows += len(piece)
-        else:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-
-            writer = None
-            try:
-                for piece in pieces:
-                    batch = pa.Table.from_pandas(piece, preserve_index=False)
-                    writer = writer or pq.ParquetWriter(tmp, batch.schema)
-                    writer.write_table(batch)
-                    rows += len(piece)
-            finally:
-                if writer is not None:
-                    writer.close()
+        rows = write_frames(pieces, stage(args.out), table_format(args.out))
     print(f"wrote {args.out}: {rows} rows ({len(frames)} frames of {run.n_particles} particles)")
     return 0
 
