@@ -51,7 +51,8 @@ from .identify import CustomEdges
 from .io import Run, RunSlice, RunWriter, WriterLock, open_run, subset_run
 from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
-from .bed import PLANAR_FRACTION, BedStructure, bed_structure
+from .bed import (FILL_PACKING, PLANAR_FRACTION, BedStructure, DrumConfinement, bed_structure, confinement, run_confinement,
+                  wall_touching)
 from . import table  # the tidy per-particle table
 from .table import PARTICLE_COLUMNS, granule_track_table, particle_table
 from .stats import frame_stats, granule_table, replica_steady_state, run_stats, size_distribution, steady_state
@@ -61,7 +62,8 @@ from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_ra
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
-    "bed_structure", "BedStructure", "PLANAR_FRACTION", "particle_table", "granule_track_table", "PARTICLE_COLUMNS", "table",
+    "bed_structure", "BedStructure", "PLANAR_FRACTION", "DrumConfinement", "confinement", "run_confinement",
+    "wall_touching", "FILL_PACKING", "particle_table", "granule_track_table", "PARTICLE_COLUMNS", "table",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",

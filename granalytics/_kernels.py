@@ -90,6 +90,29 @@ def co_moving(ci, cj, vel, omega, cos_a):
     return out
 
 
+@njit(cache=True, nogil=True)
+def rigid_residual(ci, cj, pos, vel, omega):
+    """Non-rigid relative velocity of every contact [m/s]: |v_j − v_i − ω̄ × (r_j − r_i)| with
+    ω̄ = (ω_i + ω_j)/2; 0 for two particles moving as one rigid body (in particular the drum's
+    solid-body rotation)."""
+    m = ci.shape[0]
+    out = np.empty(m)
+    for k in range(m):
+        i = ci[k]
+        j = cj[k]
+        dx = pos[j, 0] - pos[i, 0]
+        dy = pos[j, 1] - pos[i, 1]
+        dz = pos[j, 2] - pos[i, 2]
+        wx = 0.5 * (omega[i, 0] + omega[j, 0])
+        wy = 0.5 * (omega[i, 1] + omega[j, 1])
+        wz = 0.5 * (omega[i, 2] + omega[j, 2])
+        ux = vel[j, 0] - vel[i, 0] - (wy * dz - wz * dy)
+        uy = vel[j, 1] - vel[i, 1] - (wz * dx - wx * dz)
+        uz = vel[j, 2] - vel[i, 2] - (wx * dy - wy * dx)
+        out[k] = np.sqrt(ux * ux + uy * uy + uz * uz)
+    return out
+
+
 @njit(cache=True, inline="always")
 def _find(parent, i):
     """Root of i, with path halving."""
@@ -187,7 +210,7 @@ def union_find_membership(n, ei, ej):
 
 
 @njit(cache=True)
-def _merge_and_label(n, ci, cj, keep):
+def merge_and_label(n, ci, cj, keep):
     """Union-find over the kept contacts, in contact order, then the labels and sizes of
     :func:`canonical_labels` in two passes over the particles."""
     parent = np.arange(n)
@@ -239,7 +262,7 @@ def gna_fused(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, m
         Contacts that passed both criteria.
     """
     keep = gna_contact_mask(ci, cj, f_cap, gap, all_count, radius, vel, omega, two_pi_gamma, mean_radius, c_agg, cos_a)
-    labels, sizes = _merge_and_label(radius.shape[0], ci, cj, keep)
+    labels, sizes = merge_and_label(radius.shape[0], ci, cj, keep)
     return labels, sizes, keep
 
 
@@ -304,7 +327,7 @@ def _group_order(membership, n_groups):
 
 
 @njit(cache=True, nogil=True)
-def threshold_sweep(ci, cj, f, passes, particle_volume, thresholds_desc):
+def threshold_sweep(ci, cj, f, passes, particle_volume, thresholds_desc, min_size=2):
     """Granule statistics at every cohesion threshold in one pass (Newman & Ziff 2000).
 
     Contacts that pass the angle criterion are merged with union-find in decreasing order of
@@ -318,6 +341,7 @@ def threshold_sweep(ci, cj, f, passes, particle_volume, thresholds_desc):
     passes : bool per contact, the co-motion criterion
     particle_volume : (N,) [m³]
     thresholds_desc : C_agg values in decreasing order
+    min_size : fewest particles of a counted granule (>= 2)
 
     Returns
     -------
@@ -349,11 +373,11 @@ def threshold_sweep(ci, cj, f, passes, particle_volume, thresholds_desc):
                 continue
             sa, sb = size[a], size[b]
             va, vb = vol[a], vol[b]
-            if sa >= 2:
+            if sa >= min_size:
                 granules -= 1
                 members -= sa
                 volume -= va
-            if sb >= 2:
+            if sb >= min_size:
                 granules -= 1
                 members -= sb
                 volume -= vb
@@ -365,9 +389,10 @@ def threshold_sweep(ci, cj, f, passes, particle_volume, thresholds_desc):
                 root = b
             size[root] = sa + sb
             vol[root] = va + vb
-            granules += 1
-            members += sa + sb
-            volume += va + vb
+            if sa + sb >= min_size:
+                granules += 1
+                members += sa + sb
+                volume += va + vb
         n_gran[t] = granules
         n_in[t] = members
         v_in[t] = volume

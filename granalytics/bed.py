@@ -19,10 +19,11 @@ import math
 
 import numpy as np
 
-from .errors import ParameterError
+from .errors import ParameterError, ValidationError
 from .snapshot import Snapshot
 
-__all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN"]
+__all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "confinement",
+           "run_confinement", "wall_touching", "FILL_PACKING"]
 
 #: a contact crosses axial layers when its unit normal has |n_axis| above this
 AXIAL_NORMAL_MIN = 0.1
@@ -117,3 +118,143 @@ def bed_structure(snapshot: Snapshot, axis: int = 2) -> BedStructure:
     return BedStructure(n_particles=n, n_touching=int(touching.sum()), crossing_fraction=crossing,
                         axial_fabric=fabric, coordination=2 * int(touching.sum()) / n if n else math.nan,
                         axial_speed_ratio=ratio, axial_layers=layers)
+
+
+# ----------------------------------------------------------------------------- the drum's confinement
+#: packing fraction at which the simulator's drums are filled (the nominal bed depth assumes it)
+FILL_PACKING = 0.6
+
+
+@dataclasses.dataclass(frozen=True)
+class DrumConfinement:
+    """How confined a drum's bed is: the drum against its particles.
+
+    Attributes
+    ----------
+    drum_ratio : float
+        D/d: drum diameter over the mean particle diameter.
+    length_ratio : float
+        L/d: axial drum length over the mean particle diameter.
+    bed_depth_ratio : float
+        Nominal bed depth over d: the depth of the circular segment that holds the particles at
+        packing :data:`FILL_PACKING` (volume N·πd³/6 over the drum length), the bed at rest.
+    fill_fraction : float
+        That bed's share of the drum's cross-section.
+    """
+
+    drum_ratio: float
+    length_ratio: float
+    bed_depth_ratio: float
+    fill_fraction: float
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def describe(self) -> str:
+        """One line for a command's output."""
+        return (f"D/d = {self.drum_ratio:.1f}, L/d = {self.length_ratio:.1f}, bed depth/d = {self.bed_depth_ratio:.1f} "
+                f"(nominal, fill {100 * self.fill_fraction:.0f} % at packing {FILL_PACKING:g})")
+
+
+def _segment_depth(fraction: float) -> float:
+    """Depth over radius of the circular segment that covers ``fraction`` of a circle's area:
+    solves (θ − sin θ)/(2π) = fraction for the central angle θ, depth = 1 − cos(θ/2)."""
+    from scipy.optimize import brentq
+
+    if fraction <= 0:
+        return 0.0
+    if fraction >= 1:
+        return 2.0
+    theta = brentq(lambda t: (t - math.sin(t)) / (2 * math.pi) - fraction, 0.0, 2 * math.pi, xtol=1e-14)
+    return 1.0 - math.cos(theta / 2)
+
+
+def confinement(drum_radius: float, drum_length: float, d_mean: float, n_particles: int) -> DrumConfinement:
+    """The confinement of ``n_particles`` spheres of mean diameter ``d_mean`` [m] in a drum of
+    radius ``drum_radius`` [m] and length ``drum_length`` [m] (:class:`DrumConfinement`)."""
+    for name, value in (("drum_radius", drum_radius), ("drum_length", drum_length), ("d_mean", d_mean)):
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0):
+            raise ParameterError(f"confinement: {name} must be a finite number > 0 [m], got {value!r}")
+    if not (isinstance(n_particles, (int, np.integer)) and not isinstance(n_particles, bool) and n_particles > 0):
+        raise ParameterError(f"confinement: n_particles must be a positive integer, got {n_particles!r}")
+    bed_area = n_particles * math.pi * d_mean**3 / 6 / FILL_PACKING / drum_length
+    fill = bed_area / (math.pi * drum_radius**2)
+    return DrumConfinement(drum_ratio=2 * drum_radius / d_mean, length_ratio=drum_length / d_mean,
+                           bed_depth_ratio=_segment_depth(fill) * drum_radius / d_mean, fill_fraction=min(fill, 1.0))
+
+
+def _drum_params(meta):
+    """The simulated system's parameters in a run's ``sim_config`` (a dict), or None."""
+    params = meta.sim_config.get("params") if isinstance(meta.sim_config, dict) else None
+    return params if isinstance(params, dict) else None
+
+
+def run_confinement(meta) -> DrumConfinement | None:
+    """The confinement of a run's drum from its metadata (a :class:`RunMeta`): the values the
+    simulator recorded in ``sim_config["confinement"]``, or computed from ``sim_config["params"]``
+    (drum_radius, drum_length, d_mean [m]) for older runs; None for a run without a drum
+    description (converted from another code).
+
+    Raises
+    ------
+    ValidationError
+        The recorded values are not numbers.
+    """
+    recorded = meta.sim_config.get("confinement") if isinstance(meta.sim_config, dict) else None
+    if recorded is not None:
+        try:
+            return DrumConfinement(**{f.name: float(recorded[f.name]) for f in dataclasses.fields(DrumConfinement)})
+        except (KeyError, TypeError, ValueError):
+            raise ValidationError("sim_config.confinement", f"must hold the numbers of DrumConfinement, got {recorded!r}") from None
+    params = _drum_params(meta)
+    if params is None or not all(k in params for k in ("drum_radius", "drum_length", "d_mean")):
+        return None
+    try:
+        return confinement(params["drum_radius"], params["drum_length"], params["d_mean"], meta.n_particles)
+    except ParameterError as exc:
+        raise ValidationError("sim_config.params", str(exc)) from None
+
+
+def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> np.ndarray:
+    """Which particles of ``snapshot`` touch a wall of the simulator's drum: the cylinder
+    (radius R_d about z), a baffle (a radial plate of height baffle_height·R_d, turned to the
+    drum angle Ω·t) or an end plate (z = 0, z = L), from the geometry in ``meta.sim_config``.
+
+    Parameters
+    ----------
+    snapshot : Snapshot
+    meta : RunMeta
+        The run's metadata with ``sim_config["params"]`` (drum_radius, drum_length [m],
+        n_baffles, baffle_height, drum_omega [rad/s]).
+    overlap_tolerance : float, default 0
+        A particle counts as touching when its overlap with a wall exceeds
+        −overlap_tolerance·radius (0: a true overlap).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (N,)
+
+    Raises
+    ------
+    ParameterError
+        The run has no drum description.
+    """
+    params = _drum_params(meta)
+    needed = ("drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega")
+    if params is None or not all(k in params for k in needed):
+        raise ParameterError("wall_touching: the run's metadata has no drum geometry (sim_config.params with "
+                             f"{', '.join(needed)}); only runs of the simulator have one")
+    x, y, z = snapshot.position.T
+    r = snapshot.radius
+    slack = -overlap_tolerance * r
+    radius, length = float(params["drum_radius"]), float(params["drum_length"])
+    touching = (np.hypot(x, y) + r - radius > slack) | (r - z > slack) | (r - (length - z) > slack)
+    n_baffles, inner = int(params["n_baffles"]), radius * (1 - float(params["baffle_height"]))
+    angle = float(params["drum_omega"]) * snapshot.time
+    for b in range(n_baffles):
+        phi = angle + 2 * math.pi * b / n_baffles
+        ex, ey = math.cos(phi), math.sin(phi)
+        a, side = x * ex + y * ey, -x * ey + y * ex  # along the plate, across it
+        dist = np.where(a >= inner, np.abs(side), np.hypot(x - inner * ex, y - inner * ey))
+        touching |= r - dist > slack
+    return touching

@@ -84,25 +84,30 @@ def stats_figure(ts, dist=None, window=None, title=None, x="revolutions"):
 
 
 def sensitivity_figure(summary, title=None):
-    """Heatmaps of yield and mean granule volume over (C_agg, A_agg), and yield and mean volume
-    against C_agg for every A_agg (:func:`~granalytics.sensitivity_summary` output)."""
+    """Heatmaps of yield and mean granule volume over (C_agg, A_agg) (or (C_agg, rigid_tol)), and
+    yield and mean volume against C_agg for every co-motion threshold
+    (:func:`~granalytics.sensitivity_summary` output)."""
     import matplotlib.pyplot as plt
 
+    from .sensitivity import comotion_column
+
+    column = comotion_column(summary)
+    name, unit = ("A_agg", "°") if column == "a_agg_deg" else ("rigid_tol", "")
     fig, axes = plt.subplots(1, 4, figsize=(17, 3.8), layout="constrained")
     c_values = np.sort(summary["c_agg"].unique())
-    a_values = np.sort(summary["a_agg_deg"].unique())
+    a_values = np.sort(summary[column].unique())
     for ax, (metric, label) in zip(axes[:2], (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩ / V_p"))):
-        grid = summary.pivot(index="a_agg_deg", columns="c_agg", values=f"{metric}_mean").loc[a_values, c_values]
+        grid = summary.pivot(index=column, columns="c_agg", values=f"{metric}_mean").loc[a_values, c_values]
         mesh = ax.pcolormesh(_edges(c_values), np.arange(len(a_values) + 1), grid.to_numpy(), shading="flat")
         ax.set_yticks(np.arange(len(a_values)) + 0.5, [f"{a:g}" for a in a_values])
         ax.set_xlabel("C_agg")
-        ax.set_ylabel("A_agg [°]")
+        ax.set_ylabel(f"{name} [{unit}]" if unit else name)
         fig.colorbar(mesh, ax=ax, label=label)
     for ax, (metric, label) in zip(axes[2:], (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩ / V_p"))):
         for a in a_values:
-            part = summary[summary["a_agg_deg"] == a].sort_values("c_agg")
+            part = summary[summary[column] == a].sort_values("c_agg")
             ax.errorbar(part["c_agg"], part[f"{metric}_mean"], yerr=part[f"{metric}_std"], marker=".",
-                        ms=3, lw=1, capsize=2, label=f"A_agg = {a:g}°")
+                        ms=3, lw=1, capsize=2, label=f"{name} = {a:g}{unit}")
         ax.set_xlabel("C_agg")
         ax.set_ylabel(label)
     axes[3].set_yscale("log")

@@ -21,7 +21,8 @@ import sys
 from granalytics.files import check_output_folder, one_line, warnings_as_lines
 from granalytics.manifest import manifest_path
 
-from .params import MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original
+from .params import (MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,
+                     sized_drum)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -66,6 +67,12 @@ def build_parser():
     p.add_argument("--omega", type=float, help="drum angular velocity [rad/s], not 0")
     p.add_argument("--particles", type=int,
                    help=f"particle count of the original system (scaled by 1/α³, at least {MIN_PARTICLES} after scaling)")
+    p.add_argument("--drum-ratio", type=float, metavar="D/d",
+                   help="size the preset's drum (same fill, L/R_d, r_s/R_d, baffles) for this drum-to-particle "
+                        "diameter ratio D/d of the simulated particles; the particle count follows (replaces "
+                        "--particles)")
+    p.add_argument("--drum-particles", type=int, metavar="N",
+                   help="size the preset's drum for N simulated particles (N·α³ original ones) by the same rule")
     p.add_argument("--seed", type=int, help="random seed of the filling (>= 0)")
     p.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     p.add_argument("--frame-every-rev", type=float, default=0.05,
@@ -85,6 +92,10 @@ def _params(args):
     changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles}
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha
+    if args.particles is not None and (args.drum_ratio is not None or args.drum_particles is not None):
+        raise ValueError("--particles keeps the preset's drum; --drum-ratio and --drum-particles size the drum and "
+                         "set the count: give one of them")
+    original = sized_drum(args.preset, original, alpha, drum_ratio=args.drum_ratio, drum_particles=args.drum_particles)
     check_cg_particle_count(original.n_particles, alpha,
                             f"--particles {args.particles}" if args.particles is not None else None)
     return original, (original if alpha == 1 else cg_scale(original, alpha))

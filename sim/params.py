@@ -14,7 +14,8 @@ from .capillary import CAPILLARY_MODELS
 from .contact import CONTACT_LAWS
 
 __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHYSICS_VERSION", "MIN_PARTICLES",
-           "check_cg_particle_count", "frame_interval_steps"]
+           "check_cg_particle_count", "frame_interval_steps", "sized_drum", "DrumRule",
+           "FILL_FRACTION", "FILL_PACKING"]
 
 #: The simulator's physics version, raised by every change that alters trajectories on purpose
 #: (recorded in checkpoints, in the runs' provenance and in sweep manifests; a run is never
@@ -275,14 +276,56 @@ def frame_interval_steps(revolutions: float, frame_every_rev: float, params: Sim
     return int(round(steps))
 
 
+#: the bed's packing fraction the fill rule assumes
+FILL_PACKING = 0.6
+#: bed volume (at FILL_PACKING) / drum volume of every preset drum
+FILL_FRACTION = 0.25
+
+
+@dataclass(frozen=True)
+class DrumRule:
+    """How a preset's drum is sized for its particles: the same fill, aspect and spray zone at
+    any size (the drum's confinement, D/d, is then set by the particle count).
+
+    Attributes
+    ----------
+    aspect : float
+        Axial length over radius, L/R_d.
+    spray_fraction : float
+        Spray radius over drum radius, r_s/R_d.
+    """
+
+    aspect: float
+    spray_fraction: float = 0.63
+
+    def radius_for(self, n_particles: float, d_mean: float) -> float:
+        """Drum radius R_d [m] that ``n_particles`` spheres of mean diameter ``d_mean`` [m] fill to
+        :data:`FILL_FRACTION` at packing :data:`FILL_PACKING`."""
+        bed_volume = n_particles * math.pi * d_mean**3 / 6 / FILL_PACKING
+        return (bed_volume / (FILL_FRACTION * math.pi * self.aspect)) ** (1 / 3)
+
+    def particles_for(self, radius: float, d_mean: float) -> float:
+        """Inverse of :meth:`radius_for`: the (fractional) particle count that fills a drum of
+        radius ``radius`` [m]."""
+        return FILL_FRACTION * math.pi * self.aspect * radius**3 * FILL_PACKING / (math.pi * d_mean**3 / 6)
+
+    def drum(self, original: SimParams, radius: float, n_original: int) -> SimParams:
+        """``original`` in a drum of ``radius`` [m] with ``n_original`` particles (length and spray
+        zone from the rule; baffles, Ω and physics unchanged)."""
+        return dataclasses.replace(original, n_particles=n_original, drum_radius=radius,
+                                   drum_length=self.aspect * radius, spray_radius=self.spray_fraction * radius)
+
+
+#: the lab drum: the paper's fill and r_s/R_d, axial length L = 0.7 R_d (the paper's drum has
+#: 0.45; longer here so that the largest CG3 particles, 5.4 mm, still span more than three
+#: diameters)
+_DRUM_RULES = {"lab": DrumRule(aspect=0.7), "paper": DrumRule(aspect=0.45)}
+
+
 def _lab(n_particles):
-    """A smaller drum with the paper's physics: same fill (about 25 % at packing 0.6), axial
-    length L = 0.7 R_d (the paper's drum has 0.45; longer here so that the largest CG3 particles,
-    5.4 mm, still span more than three diameters), spray radius at the paper's r_s/R_d = 0.63."""
-    aspect = 0.7
-    bed_volume = n_particles * math.pi * 1.5e-3**3 / 6 / 0.6
-    radius = (bed_volume / (0.25 * math.pi * aspect)) ** (1 / 3)
-    return SimParams(n_particles=n_particles, drum_radius=radius, drum_length=aspect * radius, spray_radius=0.63 * radius)
+    """The lab drum (:data:`_DRUM_RULES`) holding ``n_particles`` original particles of 1.5 mm."""
+    rule = _DRUM_RULES["lab"]
+    return rule.drum(SimParams(n_particles=n_particles), rule.radius_for(n_particles, 1.5e-3), n_particles)
 
 
 #: original (α = 1) parameter sets; the CG presets derive from them with cg_scale.
@@ -294,6 +337,60 @@ _ORIGINALS = {
     # sitting beside the paper-drum runs; lab-cg2 = 375, lab-cg3 = 111 particles.
     "lab": _lab(3_000),
 }
+
+
+def sized_drum(preset_name: str, original: SimParams, alpha: float, *, drum_ratio: float | None = None,
+               drum_particles: int | None = None) -> SimParams:
+    """The original (α = 1) system of a preset in a drum of the preset's geometry rule
+    (:class:`DrumRule`: fill, L/R_d, r_s/R_d, baffles) sized for a confinement or a particle count.
+
+    Parameters
+    ----------
+    preset_name : str
+        A name of :data:`PRESETS`; its base (``lab`` or ``paper``) picks the rule.
+    original : SimParams
+        The original parameters (other overrides already applied); its ``d_mean`` is the
+        original particles' diameter.
+    alpha : float
+        The CG factor the run will be coarse-grained by.
+    drum_ratio : float, optional
+        D/d of the *simulated* system: drum diameter over the mean diameter of the (CG)
+        particles, 2·R_d / (α·d_mean). The drum's radius is exactly this; the particle count
+        is rounded to the nearest whole number of simulated particles.
+    drum_particles : int, optional
+        Particle count of the *simulated* system; the original holds round(α³·N) particles and
+        the drum is sized for them.
+
+    Returns
+    -------
+    SimParams
+        ``original`` unchanged when neither is given.
+
+    Raises
+    ------
+    ValueError
+        Both given, a value out of range, or too few particles after coarse-graining.
+    """
+    if drum_ratio is None and drum_particles is None:
+        return original
+    if drum_ratio is not None and drum_particles is not None:
+        raise ValueError("give the drum's size by drum_ratio (D/d) or by drum_particles, not both")
+    rule = _DRUM_RULES[preset_name.rsplit("-cg", 1)[0]]
+    d = original.d_mean
+    if drum_ratio is not None:
+        if not (isinstance(drum_ratio, (int, float)) and math.isfinite(drum_ratio) and drum_ratio >= 4):
+            raise ValueError(f"drum_ratio (D/d) must be a finite number >= 4, got {drum_ratio!r}")
+        radius = drum_ratio * alpha * d / 2
+        n_simulated = max(1, round(rule.particles_for(radius, alpha * d)))
+    else:
+        if not (isinstance(drum_particles, int) and not isinstance(drum_particles, bool) and drum_particles >= MIN_PARTICLES):
+            raise ValueError(f"drum_particles must be a whole number >= {MIN_PARTICLES}, got {drum_particles!r}")
+        n_simulated = drum_particles
+        radius = rule.radius_for(n_simulated, alpha * d)
+    n_original = round(n_simulated * alpha**3)
+    check_cg_particle_count(n_original, alpha, f"a drum of D/d = {2 * radius / (alpha * d):.3g}")
+    return rule.drum(original, radius, n_original)
+
 
 PRESETS = tuple(f"{base}-cg{a}" for base in _ORIGINALS for a in (1, 2, 3))
 

@@ -17,7 +17,7 @@ import warnings
 
 import numpy as np
 
-from granalytics import RunMeta, RunWriter, Snapshot, __version__, configure_threading
+from granalytics import RunMeta, RunWriter, Snapshot, __version__, configure_threading, confinement
 
 from . import _kernels
 from .capillary import pair_capillary_force
@@ -181,7 +181,8 @@ class Simulation:
             contact_angle=p.contact_angle, gravity=tuple(p.gravity), capillary_in_contact=p.capillary_in_contact,
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
-                        "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L"},
+                        "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L",
+                        "confinement": confinement(p.drum_radius, p.drum_length, p.d_mean, p.n_particles).to_dict()},
             provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION,
                         **({"settled_bed": self.settled_bed} if getattr(self, "settled_bed", None) else {})},
         )

@@ -112,11 +112,44 @@ def add_cohesion_option(parser):
                              "'bridge' = the bridge force of every wet pair, touching or not (default acting)")
 
 
+def add_criterion_options(parser, grid_tol=False):
+    """The co-motion test and the granule size floor of GNA (:func:`criterion_params` reads them);
+    ``grid_tol``: ``--rigid-tol`` takes a grid (the sensitivity pass)."""
+    from ..contacts import COMOTION_TESTS, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, RIGID_SCALES
+
+    parser.add_argument("--comotion", choices=COMOTION_TESTS, default=DEFAULT_COMOTION,
+                        help="co-motion test: 'angle' = the paper's (velocities or angular velocities within A_agg), "
+                             "'rigid' = the pair moves as one rigid body, |v_j - v_i - w x (r_j - r_i)| < "
+                             f"rigid_tol·V (default {DEFAULT_COMOTION})")
+    if grid_tol:
+        parser.add_argument("--rigid-tol", type=grid, default=grid("0.05,0.1,0.2,0.4,0.8"), metavar="GRID",
+                            help="tolerances of the rigid test, with --comotion rigid (default 0.05,0.1,0.2,0.4,0.8)")
+    else:
+        parser.add_argument("--rigid-tol", type=float, default=DEFAULT_RIGID_TOL,
+                            help=f"tolerance of the rigid test (default {DEFAULT_RIGID_TOL:g})")
+    parser.add_argument("--rigid-scale", choices=RIGID_SCALES, default=DEFAULT_RIGID_SCALE,
+                        help="V of the rigid test: 'granular' = sqrt(g·d) of each pair (d = R_i + R_j), 'drum' = the "
+                             f"rim speed Ω·R_d (default {DEFAULT_RIGID_SCALE})")
+    parser.add_argument("--min-size", type=int, default=2,
+                        help="fewest particles of a granule; smaller groups count as free particles (default 2)")
+
+
+def criterion_params(args) -> dict:
+    """GNA's co-motion and size-floor parameters from :func:`add_criterion_options`' options
+    (only those that differ from the defaults with ``--comotion angle``, so a method without them
+    is not handed them)."""
+    out = {"comotion": args.comotion, "min_size": args.min_size}
+    if args.comotion == "rigid":
+        out.update(rigid_tol=args.rigid_tol, rigid_scale=args.rigid_scale)
+    return out
+
+
 def add_gna_options(parser):
     group = parser.add_argument_group("granule identification (graph network analysis, paper §2.2)")
     add_cohesion_option(group)
     group.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold: keep F_coh >= C_agg·2πγR (default 0.6)")
     group.add_argument("--a-agg-deg", type=float, default=20.0, help="co-motion threshold angle A_agg in degrees (default 20)")
+    add_criterion_options(group)
     group.add_argument("--radius", choices=("pair", "mean"), default="pair",
                        help="R in 2πγR: pair effective radius 2RiRj/(Ri+Rj) or the run's mean radius (default pair)")
     group.add_argument("--backend", choices=sorted(BACKENDS), default="fast", help="connected-components backend (default fast)")
@@ -127,7 +160,7 @@ def add_gna_options(parser):
 def gna_identifier(args):
     return make_identifier(
         "gna", c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
-        cohesion=args.cohesion,
+        cohesion=args.cohesion, **criterion_params(args),
     )
 
 

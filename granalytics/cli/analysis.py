@@ -13,10 +13,10 @@ from .._windows import window_mask
 from ..metrics import HEADLINE, METRICS
 from ..errors import GranalyticsError, ParameterError
 from ..files import WriterLock, output_folder, staged_outputs, write_atomically
-from ..identify import DEFAULT_METHODS
+from ..identify import DEFAULT_METHODS, accepted_params
 from ..io import open_run
 from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
-from ._common import (threshold_options, add_cohesion_option, add_gna_options, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
+from ._common import (threshold_options, add_cohesion_option, add_criterion_options, add_gna_options, criterion_params, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
                       setting, window_axis, write_table)
 
 
@@ -79,6 +79,7 @@ def add_sensitivity_parser(sub):
                    help="revolution window (default 3:6)")
     p.add_argument("--radius", choices=("pair", "mean"), default="pair", help="R in 2πγR (default pair)")
     add_cohesion_option(p)
+    add_criterion_options(p, grid_tol=True)
     p.add_argument("--jobs", type=int, default=1, help="worker threads over frames (default 1)")
     p.add_argument("--out", help="summary table over the window (.csv or .parquet)")
     p.add_argument("--frames-out", help="per-frame table (.csv or .parquet)")
@@ -138,6 +139,7 @@ def add_compare_cg_parser(sub):
     p.add_argument("--set", action="append", type=lambda t: setting("method." + t)[1:], metavar="PARAM=VALUE",
                    help="another method parameter, e.g. radius=mean or eps_diameters=1.2 (repeatable)")
     add_cohesion_option(p)
+    add_criterion_options(p)
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare_cg)
@@ -249,7 +251,7 @@ def _stats(args):
     by, window = (("time_s", args.window_time) if args.window_time is not None
                   else ("revolutions", args.window if args.window is not None else DEFAULT_WINDOW_REV))
     params = dict(c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
-                  cohesion=args.cohesion)
+                  cohesion=args.cohesion, **criterion_params(args))
     with open_run(args.run) as run:
         frames = selected_frames(run, args)
         # the window is checked on the frame times before the analysis (its warnings come with the table)
@@ -302,11 +304,16 @@ def cmd_sensitivity(args):
     bad = [a for a in args.a_agg_deg if not 0 < a <= 180]
     if bad:
         raise ParameterError(f"--a-agg-deg values must be in (0, 180] degrees, got {bad[0]:g}")
+    if (args.rigid_tol <= 0).any():
+        raise ParameterError(f"--rigid-tol values must be > 0, got min {args.rigid_tol.min():g}")
+    rigid = args.comotion == "rigid"
+    thresholds = dict(a_agg_deg=None if rigid else args.a_agg_deg, rigid_tol=args.rigid_tol if rigid else None,
+                      comotion=args.comotion, rigid_scale=args.rigid_scale, min_size=args.min_size)
     with open_run(args.run) as run:
         check_window(window_axis(run), args.window, source=args.run)  # refuses an empty window, warns for an uncovered one
         frames = run.select(revolutions=args.window)
-        table = sensitivity(frames, args.c_agg, args.a_agg_deg, radius=args.radius, cohesion=args.cohesion,
-                            jobs=args.jobs, progress=not args.quiet)
+        table = sensitivity(frames, args.c_agg, radius=args.radius, cohesion=args.cohesion, jobs=args.jobs,
+                            progress=not args.quiet, **thresholds)
     summary = sensitivity_summary(table)
     if args.frames_out:
         write_table(table, args.frames_out)
@@ -321,7 +328,8 @@ def cmd_sensitivity(args):
                                  f"[{args.window[0]:g}, {args.window[1]:g}], cohesion={args.cohesion}"), args.plot)
     import pandas as pd
 
-    shown = summary[["a_agg_deg", "c_agg", "yield_fraction_mean", "n_granules_norm_mean", "mean_volume_norm_mean"]]
+    shown = summary[["rigid_tol" if rigid else "a_agg_deg", "c_agg", "yield_fraction_mean", "n_granules_norm_mean",
+                     "mean_volume_norm_mean"]]
     with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120, "display.max_rows", 40):
         print(shown.to_string(index=False))
     return 0
@@ -384,6 +392,10 @@ def cmd_compare_cg(args):
         if getattr(args, name) is not None:
             setattr(args, name, float(getattr(args, name)[0]))
     params = threshold_options(args, args.method)
+    criterion = criterion_params(args)
+    if args.method != "gna" and criterion != {"comotion": "angle", "min_size": 2}:
+        raise ParameterError(f"--comotion / --min-size: method {args.method!r} has no such parameters (GNA's)")
+    params.update(accepted_params(args.method, **criterion))
     for param, value in args.set or []:
         params[param] = value
     CGComparison.check_outputs(args.out, overwrite=args.overwrite)  # before minutes of analysis
@@ -407,6 +419,9 @@ def _compare_cg_thresholds(args, labels) -> int:
         raise ParameterError(f"--method {args.method}: a threshold grid is GNA's C_agg x A_agg (give --method gna)")
     if args.set:
         raise ParameterError("--set: a threshold grid runs GNA at its defaults otherwise; leave --set out")
+    if criterion_params(args) != {"comotion": "angle", "min_size": 2}:
+        raise ParameterError("--comotion rigid / --min-size: a threshold grid is the paper's C_agg x A_agg at "
+                             "min_size 2; compare with one threshold pair, or use granalytics sensitivity")
     c_agg = args.c_agg if args.c_agg is not None else np.array([0.6])
     a_agg = args.a_agg_deg if args.a_agg_deg is not None else np.array([20.0])
     if (c_agg < 0).any() or ((a_agg <= 0) | (a_agg > 180)).any():

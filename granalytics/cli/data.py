@@ -11,7 +11,7 @@ from ..files import WriterLock, check_apart, output_folder, regular_input, stage
 from ..io.readers import READERS
 from ..io import open_run
 from ..stats import check_window
-from ._common import add_gna_options, check_new_file, check_outputs, every, interval, selected_frames, table_format
+from ._common import add_gna_options, criterion_params, check_new_file, check_outputs, every, interval, selected_frames, table_format
 
 
 def add_subset_parser(sub):
@@ -111,7 +111,7 @@ def cmd_export_vtk(args):
                                  f"in {args.out})")
         pvd = export_vtk(frames, args.out, "gna", progress=not args.quiet, c_agg=args.c_agg,
                          a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
-                         cohesion=args.cohesion)
+                         cohesion=args.cohesion, **criterion_params(args))
     print(f"wrote {len(frames)} frames and {pvd} (open it in ParaView)")
     return 0
 
@@ -182,7 +182,8 @@ def cmd_table(args) -> int:
         check_outputs(args, tables=(args.out,))
         frames = selected_frames(run, args)
         pieces = particle_frames(frames, "gna", progress=not args.quiet, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg,
-                                 radius=args.radius, backend=args.backend, cohesion=args.cohesion)
+                                 radius=args.radius, backend=args.backend, cohesion=args.cohesion,
+                                 **criterion_params(args))
         rows = write_frames(pieces, stage(args.out), table_format(args.out))
     print(f"wrote {args.out}: {rows} rows ({len(frames)} frames of {run.n_particles} particles)")
     return 0

@@ -14,7 +14,7 @@ from .. import _kernels
 from ..contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
 from ..errors import ParameterError
 
-__all__ = ["Identifier", "check_c_agg", "check_angle", "check_radius_mode", "co_moving", "contact_strength",
+__all__ = ["Identifier", "check_c_agg", "check_min_size", "check_angle", "check_radius_mode", "co_moving", "contact_strength",
            "mean_radius", "surface_tension", "labels_from_clusters"]
 
 
@@ -57,6 +57,13 @@ def check_c_agg(c_agg) -> float:
     if not (math.isfinite(value) and value >= 0):
         raise ParameterError(f"c_agg must be finite and >= 0, got {c_agg!r}")
     return value
+
+
+def check_min_size(min_size) -> int:
+    """The fewest particles of a granule, a whole number >= 2."""
+    if isinstance(min_size, (bool, np.bool_)) or not isinstance(min_size, (int, np.integer)) or min_size < 2:
+        raise ParameterError(f"min_size must be a whole number of particles >= 2, got {min_size!r}")
+    return int(min_size)
 
 
 def labels_from_clusters(cluster) -> tuple[np.ndarray, np.ndarray]:

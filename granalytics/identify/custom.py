@@ -34,7 +34,7 @@ __all__ = ["CustomEdges", "COLUMNS", "FUNCTIONS", "compile_criterion", "evaluate
 
 #: the names a criterion may use: the columns of :func:`granalytics.edges.contact_table`
 COLUMNS = ("i", "j", "id_i", "id_j", "f_cap", "f_coh", "f_normal", "gap", "bridge_volume",
-           "f_norm", "angle_v_deg", "angle_w_deg")
+           "f_norm", "angle_v_deg", "angle_w_deg", "rigid_residual")
 
 #: function name -> (numpy function, number of arguments)
 FUNCTIONS = {
@@ -312,7 +312,7 @@ class CustomEdges(Identifier):
     criterion : str or callable
         An expression on the columns of :func:`~granalytics.edges.contact_table` (``i``,
         ``j``, ``id_i``, ``id_j``, ``f_cap``, ``f_coh``, ``f_normal``, ``gap``, ``bridge_volume``,
-        ``f_norm``, ``angle_v_deg``, ``angle_w_deg``), e.g.
+        ``f_norm``, ``angle_v_deg``, ``angle_w_deg``, ``rigid_residual`` [m/s]), e.g.
         ``"f_norm >= 0.5 and (angle_v_deg < 30 or angle_w_deg < 30)"``. It is parsed and
         evaluated by granalytics itself, never by ``eval``: only column names, int and float
         literals, comparisons (chained too), ``and``/``or``/``not`` (also ``&``/``|``/``~``),

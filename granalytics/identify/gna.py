@@ -8,11 +8,21 @@ A contact (i, j) is kept when both criteria hold:
    effective radius ``R* = 2RiRj/(Ri+Rj)`` (default, ``radius="pair"``) or the run's mean
    particle radius (``radius="mean"``). Because γ and R are those of the analysed system, a
    coarse-grained run (γ·α, R·α) gets ``F_agg,CG = α²·F_agg,o`` automatically (§3.1).
-2. co-motion: ``angle(v_i, v_j) < A_agg`` **or** ``angle(ω_i, ω_j) < A_agg``. A zero vector has
-   no direction, so an angle involving one never passes; the pair can still pass through the
-   other vector.
+2. co-motion, by one of two tests (``comotion``):
 
-Granules are the connected components of the kept contacts with at least two particles.
+   - ``"angle"`` (the paper's, default): ``angle(v_i, v_j) < A_agg`` **or** ``angle(ω_i, ω_j) < A_agg``.
+     A zero vector has no direction, so an angle involving one never passes; the pair can still
+     pass through the other vector. The drum's rotation alone puts an angle of about d/r between
+     neighbours' velocities (r the distance from the axis), so this test is harder to pass for
+     larger (coarse-grained) particles.
+   - ``"rigid"``: the pair moves as one rigid body to within ``rigid_tol``:
+     ``|v_j − v_i − ω̄ × (r_j − r_i)| < rigid_tol · V`` with ω̄ = (ω_i + ω_j)/2 and V the velocity
+     scale ``rigid_scale``: √(g·d), d = R_i + R_j (default), or the drum's rim speed Ω·R_d
+     (:func:`granalytics.contacts.co_moving_rigid`). A rigid granule passes exactly, whatever its
+     particles' size, and so does the drum's solid-body rotation.
+
+Granules are the connected components of the kept contacts with at least ``min_size`` particles
+(default 2: every bonded pair is a granule).
 """
 
 from __future__ import annotations
@@ -26,7 +36,9 @@ from .. import _kernels
 from ..cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts_all
 from ..errors import ParameterError
 from ..snapshot import Snapshot
-from .common import Identifier, check_angle, check_c_agg, check_radius_mode, mean_radius, surface_tension
+from ..contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, check_comotion, check_rigid_scale,
+                        check_rigid_tol, co_moving_rigid, contact_strength)
+from .common import Identifier, check_angle, check_c_agg, check_radius_mode, check_min_size, mean_radius, surface_tension
 from .result import IdentificationResult
 
 __all__ = ["GraphNetworkAnalysis", "BACKENDS"]
@@ -87,23 +99,46 @@ class GraphNetworkAnalysis(Identifier):
         γ [N/m]; defaults to the snapshot's ``meta.surface_tension``.
     cohesion : {"acting", "bridge"}, default "acting"
         Which force is F_coh (:mod:`granalytics.cohesion`).
+    comotion : {"angle", "rigid"}, default "angle"
+        The co-motion test (module docstring): the paper's angle test at ``a_agg_deg``, or the
+        rigid-pair test at ``rigid_tol``.
+    rigid_tol : float, default 0.2
+        Tolerance of the rigid test: non-rigid relative velocity below ``rigid_tol`` · V
+        (dimensionless, > 0); used with ``comotion="rigid"``.
+    rigid_scale : {"granular", "drum"}, default "granular"
+        V of the rigid test: √(|g|·(R_i + R_j)) per pair, or the drum's rim speed Ω·R_d.
+    speed_scale : float, optional
+        V [m/s] for every pair instead of ``rigid_scale`` (e.g. for a run without gravity or drum
+        radius in its metadata).
+    min_size : int, default 2
+        Fewest particles a granule has; smaller connected groups are free particles (−1).
     """
 
     method = "gna"
 
     def __init__(self, c_agg=0.6, a_agg_deg=20.0, *, radius="pair", backend="fast", surface_tension=None,
-                 cohesion=DEFAULT_COHESION):
+                 cohesion=DEFAULT_COHESION, comotion=DEFAULT_COMOTION, rigid_tol=DEFAULT_RIGID_TOL,
+                 rigid_scale=DEFAULT_RIGID_SCALE, speed_scale=None, min_size=2):
         self.c_agg = c_agg
         self.a_agg_deg = a_agg_deg
         self.radius = radius
         self.backend = backend
         self.surface_tension = surface_tension
         self.cohesion = cohesion
+        self.comotion = comotion
+        self.rigid_tol = rigid_tol
+        self.rigid_scale = rigid_scale
+        self.speed_scale = speed_scale
+        self.min_size = min_size
 
     def _check(self):
         c_agg, a_agg = check_c_agg(self.c_agg), check_angle(self.a_agg_deg)
         check_radius_mode(self.radius)
         check_cohesion(self.cohesion)
+        if check_comotion(self.comotion) == "rigid":
+            check_rigid_tol(self.rigid_tol)
+            check_rigid_scale(self.rigid_scale)
+        check_min_size(self.min_size)
         if self.backend not in BACKENDS:
             raise ParameterError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
         return c_agg, a_agg
@@ -119,7 +154,15 @@ class GraphNetworkAnalysis(Identifier):
     def contact_mask(self, snapshot: Snapshot) -> np.ndarray:
         """Boolean mask of the contacts that pass both criteria."""
         args = self.kernel_args(snapshot)
+        if self.comotion == "rigid":
+            return self._rigid_mask(snapshot, args[2])
         return _kernels.gna_contact_mask(*_contact_arrays(snapshot, self.cohesion), *args)
+
+    def _rigid_mask(self, snapshot, c_agg):
+        """Both criteria with the rigid co-motion test: f = F_coh/(2πγR) ≥ C_agg (the value the
+        angle kernels compare) and :func:`~granalytics.contacts.co_moving_rigid`."""
+        strength = contact_strength(snapshot, self.radius, self.surface_tension, self.cohesion)
+        return (strength >= c_agg) & co_moving_rigid(snapshot, self.rigid_tol, self.rigid_scale, self.speed_scale)
 
     def identify(self, snapshot: Snapshot) -> IdentificationResult:
         """Identify granules in one snapshot.
@@ -130,19 +173,33 @@ class GraphNetworkAnalysis(Identifier):
             ``labels`` (−1 = free), ``sizes``, and ``kept`` (the contacts that passed).
         """
         args = self.kernel_args(snapshot)
-        arrays = _contact_arrays(snapshot, self.cohesion)
-        if self.backend == "fast":
-            labels, sizes, kept = _kernels.gna_fused(*arrays, *args)
+        if self.backend == "fast" and self.comotion == "angle":
+            labels, sizes, kept = _kernels.gna_fused(*_contact_arrays(snapshot, self.cohesion), *args)
         else:
-            kept = _kernels.gna_contact_mask(*arrays, *args)
-            membership = BACKENDS[self.backend](
-                snapshot.n_particles, snapshot.contact_i[kept], snapshot.contact_j[kept]
-            )
-            labels, sizes = _kernels.canonical_labels(membership)
+            kept = self.contact_mask(snapshot)
+            if self.backend == "fast":
+                labels, sizes = _kernels.merge_and_label(snapshot.n_particles, snapshot.contact_i, snapshot.contact_j, kept)
+            else:
+                membership = BACKENDS[self.backend](
+                    snapshot.n_particles, snapshot.contact_i[kept], snapshot.contact_j[kept]
+                )
+                labels, sizes = _kernels.canonical_labels(membership)
+        labels, sizes = drop_small_granules(labels, sizes, self.min_size)
         return IdentificationResult(
             labels=labels, sizes=sizes, method=self.method, params=self.params(),
             snapshot=snapshot, kept=kept,
         )
+
+
+def drop_small_granules(labels, sizes, min_size):
+    """Canonical ``labels`` and ``sizes`` without the granules of fewer than ``min_size``
+    particles (their particles become free, −1); the others keep their numbers (sizes are
+    non-increasing, so the dropped granules are the last ones)."""
+    if min_size <= 2:
+        return labels, sizes
+    n_keep = int(np.count_nonzero(sizes >= min_size))
+    labels = np.where(labels >= n_keep, -1, labels)
+    return labels, sizes[:n_keep]
 
 
 def _contact_arrays(snapshot: Snapshot, cohesion) -> tuple:
