@@ -16,6 +16,10 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :func:`compare_methods`
 - cohesion conventions (which force is F_coh): :func:`cohesive_force`, :data:`COHESION_CONVENTIONS`
 - coarse-graining comparison (paper Figs 3–6): :func:`compare_cg`, :class:`CGComparison`
+- the drum's confinement (D/d, L/d, bed depth, wall contacts): :func:`drum_confinement`,
+  :func:`run_confinement`, :func:`wall_touching`; the confinement curve and the split of a CG
+  deviation into confinement and scaling rules: :func:`confinement_table`,
+  :func:`fit_confinement_curve`, :func:`decompose_cg`, :data:`CONFINEMENT_RULE`
 - run subsets (fewer frames, float32): :func:`subset_run`
 - granule life histories (tracking, coalescence and breakage events, population-balance rates):
   :func:`track_granules`, :func:`track_run`, :class:`GranuleTracks`, :func:`event_rates`,
@@ -51,8 +55,9 @@ from .identify import CustomEdges
 from .io import Run, RunSlice, RunWriter, WriterLock, open_run, subset_run
 from .sensitivity import sensitivity, sensitivity_summary
 from .snapshot import RunMeta, Snapshot
-from .bed import (FILL_PACKING, PLANAR_FRACTION, BedStructure, DrumConfinement, bed_structure, confinement, run_confinement,
+from .bed import (FILL_PACKING, PLANAR_FRACTION, BedStructure, DrumConfinement, bed_structure, drum_confinement, run_confinement,
                   wall_touching)
+from .confinement import CONFINEMENT_RULE, ConfinementFit, confinement_table, decompose_cg, fit_confinement_curve
 from . import table  # the tidy per-particle table
 from .table import PARTICLE_COLUMNS, granule_track_table, particle_table
 from .stats import frame_stats, granule_table, replica_steady_state, run_stats, size_distribution, steady_state
@@ -62,8 +67,9 @@ from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_ra
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
-    "bed_structure", "BedStructure", "PLANAR_FRACTION", "DrumConfinement", "confinement", "run_confinement",
-    "wall_touching", "FILL_PACKING", "particle_table", "granule_track_table", "PARTICLE_COLUMNS", "table",
+    "bed_structure", "BedStructure", "PLANAR_FRACTION", "DrumConfinement", "drum_confinement", "run_confinement",
+    "wall_touching", "FILL_PACKING", "confinement_table", "fit_confinement_curve", "ConfinementFit", "decompose_cg",
+    "CONFINEMENT_RULE", "particle_table", "granule_track_table", "PARTICLE_COLUMNS", "table",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",

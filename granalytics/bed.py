@@ -22,7 +22,7 @@ import numpy as np
 from .errors import ParameterError, ValidationError
 from .snapshot import Snapshot
 
-__all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "confinement",
+__all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "drum_confinement",
            "run_confinement", "wall_touching", "FILL_PACKING"]
 
 #: a contact crosses axial layers when its unit normal has |n_axis| above this
@@ -169,14 +169,14 @@ def _segment_depth(fraction: float) -> float:
     return 1.0 - math.cos(theta / 2)
 
 
-def confinement(drum_radius: float, drum_length: float, d_mean: float, n_particles: int) -> DrumConfinement:
+def drum_confinement(drum_radius: float, drum_length: float, d_mean: float, n_particles: int) -> DrumConfinement:
     """The confinement of ``n_particles`` spheres of mean diameter ``d_mean`` [m] in a drum of
     radius ``drum_radius`` [m] and length ``drum_length`` [m] (:class:`DrumConfinement`)."""
     for name, value in (("drum_radius", drum_radius), ("drum_length", drum_length), ("d_mean", d_mean)):
         if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0):
-            raise ParameterError(f"confinement: {name} must be a finite number > 0 [m], got {value!r}")
+            raise ParameterError(f"drum_confinement: {name} must be a finite number > 0 [m], got {value!r}")
     if not (isinstance(n_particles, (int, np.integer)) and not isinstance(n_particles, bool) and n_particles > 0):
-        raise ParameterError(f"confinement: n_particles must be a positive integer, got {n_particles!r}")
+        raise ParameterError(f"drum_confinement: n_particles must be a positive integer, got {n_particles!r}")
     bed_area = n_particles * math.pi * d_mean**3 / 6 / FILL_PACKING / drum_length
     fill = bed_area / (math.pi * drum_radius**2)
     return DrumConfinement(drum_ratio=2 * drum_radius / d_mean, length_ratio=drum_length / d_mean,
@@ -210,7 +210,7 @@ def run_confinement(meta) -> DrumConfinement | None:
     if params is None or not all(k in params for k in ("drum_radius", "drum_length", "d_mean")):
         return None
     try:
-        return confinement(params["drum_radius"], params["drum_length"], params["d_mean"], meta.n_particles)
+        return drum_confinement(params["drum_radius"], params["drum_length"], params["d_mean"], meta.n_particles)
     except ParameterError as exc:
         raise ValidationError("sim_config.params", str(exc)) from None
 

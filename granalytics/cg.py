@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from .bed import run_confinement
+from .confinement import confinement_warning
 from .files import staged_outputs
 from .metrics import BY_FIGURE, METRICS
 from ._windows import window_mask
@@ -191,6 +193,9 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
         meta = run.meta
         if len(run) == 0:
             raise ParameterError(f"{run.path}: the run has no frames")
+        drum = run_confinement(meta)
+        if drum is not None and (warning := confinement_warning(drum.drum_ratio)):
+            warnings.warn(f"{os.fspath(run.path)}: {warning}", stacklevel=3)
         ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
         steady = steady_state(ts, window=(lo, hi), source=os.fspath(run.path))
         revs = ts["revolutions"].to_numpy()

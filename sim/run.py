@@ -17,7 +17,7 @@ import warnings
 
 import numpy as np
 
-from granalytics import RunMeta, RunWriter, Snapshot, __version__, configure_threading, confinement
+from granalytics import RunMeta, RunWriter, Snapshot, __version__, configure_threading, drum_confinement
 
 from . import _kernels
 from .capillary import pair_capillary_force
@@ -182,7 +182,7 @@ class Simulation:
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L",
-                        "confinement": confinement(p.drum_radius, p.drum_length, p.d_mean, p.n_particles).to_dict()},
+                        "confinement": drum_confinement(p.drum_radius, p.drum_length, p.d_mean, p.n_particles).to_dict()},
             provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION,
                         **({"settled_bed": self.settled_bed} if getattr(self, "settled_bed", None) else {})},
         )

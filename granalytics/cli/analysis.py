@@ -147,18 +147,22 @@ def add_compare_cg_parser(sub):
 
 
 def cmd_info(args):
-    from ..bed import bed_structure
+    from ..bed import bed_structure, run_confinement
+    from ..confinement import confinement_warning
 
     with open_run(args.run) as run:
         info = run.info()
         meta = run.meta.to_dict()
         bed = bed_structure(run[len(run) - 1]) if len(run) else None
+        drum = run_confinement(run.meta)
     if bed is not None and bed.planar and meta.get("drum_omega"):
         warnings.warn(f"{args.run}: planar drum run, its granules and statistics are those of stacked 2-D monolayers: "
                       f"{bed.describe()} (last frame)")
+    if drum is not None and (warning := confinement_warning(drum.drum_ratio)):
+        warnings.warn(f"{args.run}: {warning}")
     if args.json:
-        print(json.dumps(json_safe({"file": info, "meta": meta, "bed_last_frame": bed.to_dict() if bed else None}),
-                         indent=2, default=str))
+        print(json.dumps(json_safe({"file": info, "meta": meta, "bed_last_frame": bed.to_dict() if bed else None,
+                                    "confinement": drum.to_dict() if drum else None}), indent=2, default=str))
         return 0
     width = max(len(k) for k in list(info) + list(meta))
     print("file")
@@ -166,6 +170,8 @@ def cmd_info(args):
         print(f"  {key:<{width}}  {value}")
     if bed is not None:
         print(f"  {'bed (last frame)':<{width}}  {bed.describe()}")
+    if drum is not None:
+        print(f"  {'drum':<{width}}  {drum.describe()}")
     print("run metadata (SI units; contact_angle in rad)")
     for key, value in meta.items():
         if key in ("sim_config", "provenance"):

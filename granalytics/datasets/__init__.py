@@ -54,7 +54,7 @@ from pathlib import Path
 
 from ..errors import GranalyticsError
 
-__all__ = ["DATASETS", "REPLICAS", "replica_paths", "NOT_BUNDLED", "FOREIGN", "foreign_path", "make_foreign", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path", "bundle_sweep",
+__all__ = ["DATASETS", "REPLICAS", "replica_paths", "CONFINEMENT", "confinement_groups", "NOT_BUNDLED", "FOREIGN", "foreign_path", "make_foreign", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path", "bundle_sweep",
            "make_sweep"]
 
 DATASET_DIR = Path(__file__).resolve().parents[2] / "datasets"
@@ -168,6 +168,64 @@ def replica_paths(name: str) -> list:
     except KeyError:
         raise GranalyticsError(f"unknown replica set {name!r}; available: {', '.join(REPLICAS)}") from None
     return [dataset_path(n) for n in names]
+
+
+#: the commit whose simulator (physics version 3, unchanged since :data:`_SIM_V3`; the drum sized by
+#: --drum-particles / --drum-ratio) made the confinement runs of 2026-12-03
+_SIM_V3_CONFINEMENT = "69c68602b9a4c21d9d6aec2d9e3b3e65fc1ad1de"
+#: the Froude-matched Ω of the α = 1 twins of lab-cg3 and lab-cg2: Ω·√(R_lab/R) = 2·√3, 2·√2 rad/s
+_FROUDE_OMEGA = {111: 3.4641016151377544, 375: 2.8284271247461903}
+
+
+def _confinement_recipe(name, size_option, revolutions, seed, *, omega=None, full_window="1:6"):
+    """Commands of a confinement run: the lab drum's rule sized by ``size_option`` at α = 1, then
+    a float32 subset keeping frame 0 and every fourth frame (0.2 revolution) of ``full_window``."""
+    raw = f"{_RAW_DIR}/confinement/{name}.h5"
+    sim = (f"python -m sim run --preset lab-cg1 {size_option} --revolutions {revolutions:g} --seed {seed} "
+           f"{f'--omega {omega!r} ' if omega else ''}--threads 1 --checkpoint-every 4 --quiet --out {raw}")
+    subset = (f"granalytics subset {raw} --out datasets/confinement/{name}.h5 --float32 --overwrite "
+              f"--full-window {full_window} --every 20 --window-every 4")
+    return [sim, subset]
+
+
+#: the α = 1 runs of the confinement curve (docs/results.md, "Confinement"): the lab drum's geometry
+#: rule sized for 111 and 375 particles (the D/d of lab-cg3 and lab-cg2), at Ω = 2 rad/s and at the
+#: Froude-matched Ω, seeds 0-2, and for D/d = 50 (9 844 particles, 2 revolutions, seed 0):
+#: name -> sha256, simulator wall time
+_CONFINEMENT_RUNS = {
+}
+CONFINEMENT = {}
+for _name, (_sha, _wall) in _CONFINEMENT_RUNS.items():
+    _base, _, _seed = _name.rpartition("-seed")
+    _froude = _base.endswith("-fr")
+    if _base.startswith("cg1-dd"):
+        _size, _revs, _window = f"--drum-ratio {_base.removeprefix('cg1-dd')}", 2, "1:2"
+        _what = f"the lab drum's rule at D/d = {_base.removeprefix('cg1-dd')} (9 844 particles of 1.5 mm), 2 revolutions"
+    else:
+        _n = int(_base.removeprefix("cg1-n").removesuffix("-fr"))
+        _size, _revs, _window = f"--drum-particles {_n}", 6, "1:6"
+        _what = (f"the lab drum's rule sized for {_n} particles of 1.5 mm (the D/d of "
+                 f"{'lab-cg3' if _n == 111 else 'lab-cg2'}), 6 revolutions"
+                 + (f", Ω = {_FROUDE_OMEGA[_n]:.4g} rad/s (the Froude number of the lab drum at 2 rad/s)" if _froude else ""))
+    CONFINEMENT[_name] = DATASETS[_name] = {
+        "file": f"confinement/{_name}.h5",
+        "sha256": _sha,
+        "commands": _confinement_recipe(_name, _size, _revs, int(_seed), omega=_FROUDE_OMEGA[_n] if _froude else None,
+                                        full_window=_window),
+        "code_version": _SIM_V3_CONFINEMENT,
+        "wall_time": f"{_wall} (1 thread, beside another run on the other core)",
+        "description": f"α = 1 confinement run, seed {_seed}: {_what}; frame 0 and every fourth frame of [{_window.replace(':', ', ')}]",
+    }
+
+
+def confinement_groups() -> dict:
+    """The bundled confinement runs as replica groups: label (``cg1-n111``, ``cg1-n111-fr``,
+    ``cg1-n375``, ``cg1-n375-fr``, ``cg1-dd50``) -> paths (checked as :func:`dataset_path` does),
+    seeds in order."""
+    groups: dict = {}
+    for name in CONFINEMENT:
+        groups.setdefault(name.rpartition("-seed")[0], []).append(dataset_path(name))
+    return groups
 
 
 #: runs whose recipe is kept but which are not bundled (not remade with the current simulator yet):

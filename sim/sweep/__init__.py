@@ -15,9 +15,14 @@ A sweep is a TOML file::
     alpha = [2.0]               # CG factor (default: the preset's)
     seed = [0, 1]               # filling seed
     particles = [3000]          # particle count of the ORIGINAL system (scaled by 1/alpha^3)
+    drum_ratio = [11.0, 17.0]   # or: the preset's drum sized for this D/d of the simulated particles
+    drum_particles = [375]      # or: the preset's drum sized for this many simulated particles
 
 ``gamma``, ``omega``, ``seed`` and ``particles`` apply to the original (α = 1) system, exactly
-like the options of ``python -m sim run``; the point is then coarse-grained by ``alpha``. Any
+like the options of ``python -m sim run``; the point is then coarse-grained by ``alpha``.
+``drum_ratio`` and ``drum_particles`` are ``--drum-ratio`` and ``--drum-particles``: the preset's
+drum geometry rule (fill, L/R_d, r_s/R_d, baffles) sized for a confinement D/d or a particle count
+at the point's α (:func:`sim.params.sized_drum`); neither goes with ``particles``. Any
 other scalar field of :class:`sim.params.SimParams` of the original system (``viscosity``,
 ``friction``, ``spray_dose``, ``settle_time``, …) may also be swept under its own name.
 
@@ -46,7 +51,7 @@ from granalytics.manifest import (MANIFEST_COLUMNS, NAMED_PARAMETERS, manifest_p
                                   write_manifest)
 
 from ..params import (PHYSICS_VERSION, PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps,
-                     preset_original)
+                     preset_original, sized_drum)
 
 __all__ = [
     "SweepSpec", "SweepPoint", "PointTask", "load_spec", "parse_spec", "point_name", "run_point", "run_sweep",
@@ -59,6 +64,8 @@ GRID_ALIASES = {"gamma": "surface_tension", "omega": "drum_omega", "seed": "seed
 _NAMED = NAMED_PARAMETERS
 #: SimParams fields that cannot be grid keys under their own name
 _NOT_FIELDS = {"alpha", "surface_tension", "drum_omega", "n_particles", "seed", "gravity"}
+#: grid keys that size the preset's drum (sim.params.sized_drum) -> python type
+_SIZING = {"drum_ratio": float, "drum_particles": int}
 _TOP_LEVEL = {"preset", "revolutions", "frame_every_rev", "checkpoint_every", "threads", "grid"}
 
 #: what every point of a folder shares (the simulator's physics version included: a finished
@@ -118,9 +125,14 @@ class PointTask:
 def _build_params(preset, overrides):
     """(original, params) of a point, refusing the particle counts ``python -m sim run`` refuses."""
     original, alpha = preset_original(preset)
-    changes = {k: v for k, v in overrides.items() if k != "alpha"}
+    changes = {k: v for k, v in overrides.items() if k != "alpha" and k not in _SIZING}
     original = dataclasses.replace(original, **changes)
     alpha = float(overrides.get("alpha", alpha))
+    sizing = {k: overrides[k] for k in _SIZING if k in overrides}
+    if sizing and "n_particles" in overrides:
+        raise ValueError("grid key 'particles' keeps the preset's drum; drum_ratio and drum_particles size the drum "
+                         "and set the count: give one of them")
+    original = sized_drum(preset, original, alpha, **sizing)
     check_cg_particle_count(original.n_particles, alpha)
     return original, (original if alpha == 1 else cg_scale(original, alpha))
 
@@ -152,6 +164,8 @@ def _expected_type(key):
         return float, "a number"
     if key in ("seed", "particles"):
         return int, "an integer"
+    if key in _SIZING:
+        return (float, "a number") if _SIZING[key] is float else (int, "an integer")
     default = _SIM_FIELDS[key].default
     if isinstance(default, bool):
         return bool, "true or false"
@@ -217,7 +231,7 @@ def parse_spec(spec: dict, path="<spec>") -> SweepSpec:
         raise ParameterError(f"{where}: a [grid] table is required (keys: parameters, values: lists)")
     if not grid:
         raise ParameterError(f"{where}: the [grid] table is empty")
-    known = set(_NAMED) | (set(_SIM_FIELDS) - _NOT_FIELDS)
+    known = set(_NAMED) | set(_SIZING) | (set(_SIM_FIELDS) - _NOT_FIELDS)
     values = {}
     for key, items in grid.items():
         if key not in known:
