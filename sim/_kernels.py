@@ -28,7 +28,7 @@ from .capillary import (
 )
 from .contact import CONTACT_LAWS, contact_force, rotate_spring
 from .drum import baffle_directions, wall_contact
-from .liquid import migrate_events, spray
+from .liquid import fill_new_bridges, migrate_events, spray
 from ._neighbour_kernels import _clear_output
 
 # ----------------------------------------------------------------------------- time steps
@@ -42,6 +42,7 @@ KernelParams = namedtuple("KernelParams", [
     "law", "k_n", "k_t", "c_n", "c_t", "mu",  # contact law (docs/physics.md, "Contact law"; sim.contact.CONTACT_LAWS)
     "gamma", "eta", "theta", "model", "viscous", "capillary_in_contact",  # "Liquid bridges", "Capillary models"
     "v_min",  # "Liquid migration"
+    "bridge_volume",  # the fixed-bridge-volume model's V_b [m³] (0: films, spray and migration)
     "spray_interval", "spray_dose", "spray_radius",  # "Spraying"
     "half_skin",  # half the Verlet skin [m]: rebuild trigger
 ])
@@ -70,7 +71,7 @@ def kernel_params(params, n_walls: int) -> KernelParams:
         law=int(CONTACT_LAWS[p.contact_law]), k_n=float(p.k_n), k_t=float(p.k_t), c_n=float(p.c_n), c_t=float(p.c_t), mu=float(p.friction),
         gamma=float(p.surface_tension), eta=float(p.viscosity), theta=float(p.contact_angle),
         model=int(CAPILLARY_MODELS[p.capillary_model]), viscous=bool(p.viscous),
-        capillary_in_contact=bool(p.capillary_in_contact), v_min=float(p.v_min),
+        capillary_in_contact=bool(p.capillary_in_contact), v_min=float(p.v_min), bridge_volume=float(p.bridge_volume),
         spray_interval=float(p.spray_interval), spray_dose=float(p.spray_dose), spray_radius=float(p.spray_radius),
         half_skin=float(p.skin / 2),
     )
@@ -113,6 +114,8 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     integrate (parallel over particles) → spray when t crosses the next spray time. Stops early,
     before a step, when a particle has moved more than half the Verlet skin since the last
     rebuild (the caller then rebuilds the lists and calls again). With ``settling`` the drum is at rest (Ω = 0, angle 0) and nothing is sprayed.
+    With ``kp.bridge_volume > 0`` (the fixed-bridge-volume model) every new bridge gets that
+    volume instead of migrating liquid (none while settling), and nothing is sprayed.
 
     Returns
     -------
@@ -148,6 +151,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     n = pos.shape[0]
     n_slots = pair_i.shape[0]
     omega_drum = 0.0 if settling else kp.drum_omega
+    fixed_volume = kp.bridge_volume
     sprayed = 0.0
     done = 0
     baffle_dir = np.empty((max(n_baffles, 1), 2))
@@ -176,11 +180,15 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
         _slot_forces(0, n_wall_blocks, baffle_dir, omega_drum, block_events, kp, arrays)  # wall slots
         _slot_forces(n_wall_blocks, n_wall_blocks + n_pair_blocks, baffle_dir, omega_drum, block_events, kp, arrays)
         m = event_ranges(block_events, n, n_walls, n_slots, range_lo, range_hi)
-        migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
-                       body_key, range_lo[:m], range_hi[:m])
+        if fixed_volume > 0.0:
+            if not settling:  # the bed settles dry in both liquid models
+                fill_new_bridges(v_b, created, fixed_volume, range_lo[:m], range_hi[:m])
+        else:
+            migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
+                           body_key, range_lo[:m], range_hi[:m])
         n_far = _gather_integrate(kp, arrays)
         done += 1
-        if not settling and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
+        if not settling and fixed_volume == 0.0 and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
             sprayed += spray(film, pos, radius, n, spray_radius, spray_dose)
             n_sprays += 1
     return done, n_sprays, sprayed

@@ -46,6 +46,8 @@ def _check_options(args) -> None:
         ("--alpha", args.alpha, args.alpha is None or (finite(args.alpha) and args.alpha >= 1), "a finite number >= 1"),
         ("--particles", args.particles, args.particles is None or args.particles >= 1, "a whole number >= 1"),
         ("--seed", args.seed, args.seed is None or args.seed >= 0, "a whole number >= 0"),
+        ("--bridge-volume", args.bridge_volume, args.bridge_volume is None or (finite(args.bridge_volume) and
+                                                                            args.bridge_volume > 0), "a finite volume > 0 [m³]"),
     ]
     for option, value, ok, requirement in checks:
         if not ok:
@@ -73,6 +75,10 @@ def build_parser():
                         "--particles)")
     p.add_argument("--drum-particles", type=int, metavar="N",
                    help="size the preset's drum for N simulated particles (N·α³ original ones) by the same rule")
+    p.add_argument("--bridge-volume", type=float, metavar="M3",
+                   help="fixed bridge volume V_b of the original system [m³] (scaled by α³): YADE's ViscElCapMat "
+                        "without LiqControl, every bridge has V_b from its touch to its rupture; no films, spraying "
+                        "or migration (default: films, spraying and migration)")
     p.add_argument("--seed", type=int, help="random seed of the filling (>= 0)")
     p.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     p.add_argument("--frame-every-rev", type=float, default=0.05,
@@ -89,7 +95,8 @@ def build_parser():
 
 def _params(args):
     original, alpha = preset_original(args.preset)
-    changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles}
+    changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles,
+               "bridge_volume": args.bridge_volume}
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha
     if args.particles is not None and (args.drum_ratio is not None or args.drum_particles is not None):

@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["migrate_liquid", "migrate_events", "spray", "total_liquid"]
+__all__ = ["migrate_liquid", "migrate_events", "fill_new_bridges", "spray", "total_liquid"]
 
 
 @njit(cache=True)
@@ -99,6 +99,19 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
     every_slot = np.array([0, pair_i.shape[0]], dtype=np.int64)
     migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_volume, body_start, body_slots,
                    v_min, body_key, every_slot[:1], every_slot[1:])
+
+
+@njit(cache=True)
+def fill_new_bridges(v_b, created, volume, range_lo, range_hi):
+    """The fixed-bridge-volume liquid model (YADE's ``ViscElCapMat`` without ``LiqControl``): every
+    slot created this step gets the bridge volume ``volume`` [m³]; films are not touched and a
+    ruptured bridge's volume is not returned anywhere (the volume is a constant of the material,
+    not a conserved liquid). Slots as in :func:`migrate_events`: the created ones lie in the
+    ranges [range_lo[r], range_hi[r])."""
+    for r in range(range_lo.shape[0]):
+        for k in range(range_lo[r], range_hi[r]):
+            if created[k]:
+                v_b[k] = volume
 
 
 @njit(cache=True)

@@ -22,8 +22,13 @@ def max_rupture_distance(params) -> float:
     """Upper bound of the rupture distance of any bridge [m]: s_crit at V_b = V_max.
 
     With V_max = c·min(R_i, R_j)³ and R_eff ≥ min(R_i, R_j):
-    s_crit ≤ (1 + θ/2)(c^(1/3) + 0.1·c^(2/3))·R_max, raised by 0.1 % against rounding.
+    s_crit ≤ (1 + θ/2)(c^(1/3) + 0.1·c^(2/3))·R_max, raised by 0.1 % against rounding. With a
+    fixed bridge volume V_b (``params.bridge_volume > 0``) and R_eff ≥ R_min, the smallest radius:
+    s_crit ≤ (1 + θ/2)(V_b^(1/3) + 0.1·V_b^(2/3)/R_min), raised likewise.
     """
+    if params.bridge_volume > 0:
+        v, r_min = params.bridge_volume, params.r_mean * (1 - params.d_spread)
+        return 1.001 * (1 + params.contact_angle / 2) * (v ** (1 / 3) + 0.1 * v ** (2 / 3) / r_min)
     c = params.v_max_coef
     return 1.001 * (1 + params.contact_angle / 2) * (c ** (1 / 3) + 0.1 * c ** (2 / 3)) * params.r_max
 

@@ -45,6 +45,10 @@ class SimParams:
         v_max_coef (V_max = coef·min(R)³), v_min (minimum film [m³]),
         spray_interval [s], spray_dose (fraction of V_p per spray), spray_radius r_s [m],
         initial_film (fraction of V_p at t = 0).
+        bridge_volume V_b [m³]: 0 (default) for films, spraying and migration; > 0 for the
+        fixed-bridge-volume model of YADE's ``ViscElCapMat`` without ``LiqControl``: every bridge
+        (particle or wall) has volume V_b from the moment it forms (pairs touching at the end of
+        the dry settling included) until it ruptures; no films, no spraying, no migration.
     Drum
         drum_radius R_d [m], drum_length L [m], n_baffles, baffle_height (fraction of R_d),
         drum_omega Ω [rad/s] about +z, gravity [m/s²], fill_fraction (bed volume / drum volume at
@@ -79,6 +83,7 @@ class SimParams:
     spray_dose: float = 0.01
     spray_radius: float = 0.063
     initial_film: float = 0.0
+    bridge_volume: float = 0.0
     drum_radius: float = 0.1
     drum_length: float = 0.045
     n_baffles: int = 4
@@ -99,7 +104,7 @@ class SimParams:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"parameter {name} must be a finite number > 0, got {value!r}")
         nonneg = ("c_n", "c_t", "friction", "viscosity", "v_min", "spray_dose", "spray_radius",
-                  "initial_film", "skin", "settle_time", "baffle_height")
+                  "initial_film", "skin", "settle_time", "baffle_height", "bridge_volume")
         for name in nonneg:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
@@ -194,7 +199,7 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
     Radii ×α, particle count ×1/α³ (rounded), γ ×α, η ×α, k_n and k_t ×α, c_n and c_t ×α²,
     Δt ×α (unless ``scale_dt=False``); volumes per particle follow the radius (same fractions of
     V_p, so V_max, spray dose and initial film coefficients are unchanged); drum, spray zone,
-    Ω, friction, contact angle, density unchanged. Forces then scale as α².
+    Ω, friction, contact angle, density unchanged; a fixed bridge volume V_b ×α³. Forces then scale as α².
 
     Raises
     ------
@@ -218,6 +223,7 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
         c_t=params.c_t * alpha**2,
         dt=params.dt * alpha if scale_dt else params.dt,
         skin=params.skin * alpha,
+        bridge_volume=params.bridge_volume * alpha**3,
     )
 
 

@@ -127,7 +127,10 @@ class Simulation:
         self.state.step = 0
         self.settled_bed = settled_bed_report(p, self.snapshot())
         check_settled_bed(self.settled_bed, p.settle_time)
-        self.state.film[:n] = p.initial_film * 4 / 3 * math.pi * self.state.radius**3
+        if p.bridge_volume > 0:  # the fixed-volume model: the touching pairs of the settled bed are wet
+            self.state.v_b[self.state.alive] = p.bridge_volume
+        else:
+            self.state.film[:n] = p.initial_film * 4 / 3 * math.pi * self.state.radius**3
         self.liquid_initial = self.state.total_liquid()
         return self.state
 
@@ -182,6 +185,7 @@ class Simulation:
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L",
+                        "liquid_model": "fixed_bridge_volume" if p.bridge_volume > 0 else "films_spray_migration",
                         "confinement": drum_confinement(p.drum_radius, p.drum_length, p.d_mean, p.n_particles).to_dict()},
             provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION,
                         **({"settled_bed": self.settled_bed} if getattr(self, "settled_bed", None) else {})},

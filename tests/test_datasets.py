@@ -15,6 +15,17 @@ def _option(command, name):
     return argv[argv.index(name) + 1] if name in argv else None
 
 
+def _expected_name(sim_command):
+    """A dataset's name from its simulation command: the preset (with -seedN for seeds > 0), or for
+    a drum sized by confinement cg1-n<N> / cg1-dd<D/d>, -fr when Ω is the Froude-matched one, -seedN."""
+    preset, seed = _option(sim_command, "--preset"), int(_option(sim_command, "--seed"))
+    particles, ratio = _option(sim_command, "--drum-particles"), _option(sim_command, "--drum-ratio")
+    if particles is None and ratio is None:
+        return preset if seed == 0 else f"{preset}-seed{seed}"
+    size = f"n{particles}" if particles is not None else f"dd{ratio}"
+    return f"{preset.removeprefix('lab-')}-{size}{'-fr' if _option(sim_command, '--omega') else ''}-seed{seed}"
+
+
 @pytest.mark.parametrize("name", sorted(DATASETS))
 def test_bundled_dataset_matches_registry_and_its_recipe(name):
     path = dataset_path(name)
@@ -24,7 +35,7 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
         meta = run.meta
         assert meta.sim_config["params"]["alpha"] == meta.alpha
         preset, seed = _option(sim_command, "--preset"), int(_option(sim_command, "--seed"))
-        assert name == (preset if seed == 0 else f"{preset}-seed{seed}") and meta.provenance["code"] == "sim"
+        assert name == _expected_name(sim_command) and meta.provenance["code"] == "sim"
         assert meta.sim_config["params"]["seed"] == seed  # a replica is the preset at another seed
         revolutions = float(_option(sim_command, "--revolutions"))
         assert run.revolutions[-1] == pytest.approx(revolutions, abs=1e-3)  # the whole run, last frame included
@@ -47,11 +58,30 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
     assert path.name == entry["file"]
 
 
-def test_bundled_data_stay_within_the_100_mb_budget():
+def test_bundled_data_stay_within_the_115_mb_budget():
     from granalytics.datasets import DATASET_DIR
 
     total = sum(p.stat().st_size for p in DATASET_DIR.rglob("*") if p.is_file())
-    assert 50e6 < total <= 100e6, f"datasets/ holds {total} bytes"
+    assert 50e6 < total <= 115e6, f"datasets/ holds {total} bytes"
+
+
+def test_confinement_runs_are_the_lab_rule_at_alpha_1_grouped_by_system():
+    from granalytics.datasets import CONFINEMENT, confinement_groups
+
+    groups = confinement_groups()
+    assert sum(len(paths) for paths in groups.values()) == len(CONFINEMENT) > 0
+    for label, paths in groups.items():
+        systems = set()
+        for path in paths:
+            with ga.open_run(path) as run:
+                params = dict(run.meta.sim_config["params"])
+                assert run.meta.alpha == 1 and params["drum_length"] / params["drum_radius"] == pytest.approx(0.7)
+                drum = ga.run_confinement(run.meta)
+                assert drum == ga.drum_confinement(params["drum_radius"], params["drum_length"], params["d_mean"],
+                                                   run.meta.n_particles)  # recorded = computed
+                params.pop("seed")
+                systems.add(repr(sorted(params.items())))
+        assert len(systems) == 1, f"{label}: its replicas differ in more than the seed"
 
 
 def test_replica_sets_are_one_system_at_different_seeds():

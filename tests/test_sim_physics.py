@@ -100,6 +100,53 @@ def test_bridge_forms_at_touch_pulls_while_stretched_and_ruptures_at_s_crit():
     assert s.film[:2] == pytest.approx([film - v_b / 2 + v_b / 2] * 2, rel=1e-12)
 
 
+def test_fixed_bridge_volume_forms_at_touch_with_v_b_and_ruptures_at_its_s_crit_without_films():
+    """The fixed-bridge-volume model (YADE's ViscElCapMat without LiqControl): the bridge has V_b
+    from the touch on, whatever the films; the force is Willett's at V_b; it ruptures at
+    s_crit(V_b) = (1 + θ/2)(V_b^⅓ + 0.1 V_b^⅔/R*); no liquid moves to or from the films."""
+    v_fixed = 0.05 * R**3  # above the film model's cap V_max = 0.03 R³: the fixed volume is not capped
+    p = dataclasses.replace(FREE, friction=0.0, bridge_volume=v_fixed)
+    sim = Simulation.from_particles(p, [[-R, 0, 0.025], [R + 1e-7, 0, 0.025]], [R, R],
+                                    velocity=[[1e-3, 0, 0], [-1e-3, 0, 0]])
+    s = sim.state
+    sim.advance(200)
+    live = np.flatnonzero(s.alive[2 * sim.n_walls:]) + 2 * sim.n_walls
+    assert live.size == 1 and s.v_b[live[0]] == v_fixed and not s.film.any()
+    s_crit = rupture_distance_scalar(v_fixed, R, 0.0)
+    assert s_crit == pytest.approx(v_fixed ** (1 / 3) + 0.1 * v_fixed ** (2 / 3) / R, rel=1e-12)
+    s.vel[:] = 0
+    s.vel[np.argsort(s.ids)] = [[-0.5, 0, 0], [0.5, 0, 0]]
+    model = CAPILLARY_MODELS["willett_numeric"]
+    gaps = []
+    for _ in range(600):
+        order = np.argsort(s.ids)
+        gaps.append(np.linalg.norm(s.pos[order[1]] - s.pos[order[0]]) - 2 * R)
+        sim.advance(1)
+        live = np.flatnonzero(s.alive[2 * sim.n_walls:]) + 2 * sim.n_walls
+        if not live.size:
+            break
+        assert s.v_b[live[0]] == v_fixed
+        expected = capillary_force_scalar(model, max(gaps[-1], 0.0), v_fixed, R, p.surface_tension, 0.0)
+        assert s.f_cap[live[0]] == pytest.approx(expected, rel=1e-12)
+    assert not s.alive[2 * sim.n_walls:].any()
+    assert gaps[-2] < s_crit <= gaps[-1]  # the Verlet reach covers the larger fixed-volume bridge
+    assert max_rupture_distance(p) >= s_crit
+    assert not s.film.any()  # nothing returned to the films
+
+
+def test_fixed_bridge_volume_is_scaled_by_alpha_cubed_and_recorded_in_the_metadata():
+    original = dataclasses.replace(preset("lab-cg1"), bridge_volume=2e-12)
+    assert cg_scale(original, 2.0).bridge_volume == pytest.approx(16e-12, rel=1e-15)
+    sim = Simulation.from_particles(dataclasses.replace(FREE, bridge_volume=1e-12), [[0, 0, 0.02], [0.01, 0, 0.02]],
+                                    [R, R])
+    config = sim.run_meta().sim_config
+    assert config["liquid_model"] == "fixed_bridge_volume" and config["params"]["bridge_volume"] == 1e-12
+    assert Simulation.from_particles(FREE, [[0, 0, 0.02], [0.01, 0, 0.02]], [R, R]).run_meta().sim_config[
+        "liquid_model"] == "films_spray_migration"
+    with pytest.raises(ValueError, match="bridge_volume"):
+        dataclasses.replace(FREE, bridge_volume=-1.0)
+
+
 def test_verlet_list_equals_brute_force_and_covers_bridge_range():
     rng = np.random.default_rng(3)
     n = 400

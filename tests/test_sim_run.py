@@ -621,3 +621,15 @@ def test_resuming_a_finished_run_leaves_its_file_as_it_is(tmp_path, capsys):
                                resume=True)
     with ga.open_run(out) as run:
         assert len(run) == 7
+
+
+def test_fixed_bridge_volume_run_wets_the_settled_bed_and_never_sprays():
+    v_fixed = 0.02 * SMALL.r_mean**3
+    params = dataclasses.replace(SMALL, bridge_volume=v_fixed)
+    sim = Simulation(params, ORIGINAL)
+    s = sim.state
+    assert s.alive.any() and np.all(s.v_b[s.alive] == v_fixed)  # the touching pairs of the dry bed get V_b
+    assert not s.film.any()
+    sim.advance(int(3 * params.spray_interval / params.dt))  # past three spray times
+    assert not s.film.any() and s.sprayed_total == 0.0
+    assert np.all(s.v_b[s.alive] == v_fixed)  # every bridge, old or new, particle or wall

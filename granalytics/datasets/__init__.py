@@ -177,12 +177,14 @@ _SIM_V3_CONFINEMENT = "69c68602b9a4c21d9d6aec2d9e3b3e65fc1ad1de"
 _FROUDE_OMEGA = {111: 3.4641016151377544, 375: 2.8284271247461903}
 
 
-def _confinement_recipe(name, size_option, revolutions, seed, *, omega=None, full_window="1:6"):
+def _confinement_recipe(name, size_option, revolutions, seed, *, omega=None, full_window="1:6", threads=1,
+                        checkpoint_every=20):
     """Commands of a confinement run: the lab drum's rule sized by ``size_option`` at α = 1, then
     a float32 subset keeping frame 0 and every fourth frame (0.2 revolution) of ``full_window``."""
     raw = f"{_RAW_DIR}/confinement/{name}.h5"
     sim = (f"python -m sim run --preset lab-cg1 {size_option} --revolutions {revolutions:g} --seed {seed} "
-           f"{f'--omega {omega!r} ' if omega else ''}--threads 1 --checkpoint-every 4 --quiet --out {raw}")
+           f"{f'--omega {omega!r} ' if omega else ''}--threads {threads} --checkpoint-every {checkpoint_every} "
+           f"--quiet --out {raw}")
     subset = (f"granalytics subset {raw} --out datasets/confinement/{name}.h5 --float32 --overwrite "
               f"--full-window {full_window} --every 20 --window-every 4")
     return [sim, subset]
@@ -199,11 +201,11 @@ for _name, (_sha, _wall) in _CONFINEMENT_RUNS.items():
     _base, _, _seed = _name.rpartition("-seed")
     _froude = _base.endswith("-fr")
     if _base.startswith("cg1-dd"):
-        _size, _revs, _window = f"--drum-ratio {_base.removeprefix('cg1-dd')}", 2, "1:2"
+        _size, _revs, _window, _threads, _every = f"--drum-ratio {_base.removeprefix('cg1-dd')}", 2, "1:2", 2, 4
         _what = f"the lab drum's rule at D/d = {_base.removeprefix('cg1-dd')} (9 844 particles of 1.5 mm), 2 revolutions"
     else:
         _n = int(_base.removeprefix("cg1-n").removesuffix("-fr"))
-        _size, _revs, _window = f"--drum-particles {_n}", 6, "1:6"
+        _size, _revs, _window, _threads, _every = f"--drum-particles {_n}", 6, "1:6", 1, 20
         _what = (f"the lab drum's rule sized for {_n} particles of 1.5 mm (the D/d of "
                  f"{'lab-cg3' if _n == 111 else 'lab-cg2'}), 6 revolutions"
                  + (f", Ω = {_FROUDE_OMEGA[_n]:.4g} rad/s (the Froude number of the lab drum at 2 rad/s)" if _froude else ""))
@@ -211,7 +213,7 @@ for _name, (_sha, _wall) in _CONFINEMENT_RUNS.items():
         "file": f"confinement/{_name}.h5",
         "sha256": _sha,
         "commands": _confinement_recipe(_name, _size, _revs, int(_seed), omega=_FROUDE_OMEGA[_n] if _froude else None,
-                                        full_window=_window),
+                                        full_window=_window, threads=_threads, checkpoint_every=_every),
         "code_version": _SIM_V3_CONFINEMENT,
         "wall_time": f"{_wall} (1 thread, beside another run on the other core)",
         "description": f"α = 1 confinement run, seed {_seed}: {_what}; frame 0 and every fourth frame of [{_window.replace(':', ', ')}]",
