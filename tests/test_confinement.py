@@ -280,3 +280,54 @@ def test_the_warning_names_the_threshold_it_falls_below():
     assert "5-10 %" in confinement_warning(33.0, rule)
     assert confinement_warning(60.0, rule) is None
     assert confinement_warning(11.0, {"within_5pc": (None, None), "within_10pc": (None, None)}) is None
+
+
+# ----------------------------------------------------------------------------- the command line, the warnings
+def test_info_prints_the_confinement_and_warns_below_the_rule(monkeypatch, capsys):
+    import granalytics.confinement as confinement
+    from granalytics.cli import main
+    from granalytics.datasets import dataset_path
+
+    path = str(dataset_path("lab-cg3"))
+    monkeypatch.setattr(confinement, "CONFINEMENT_RULE", {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)})
+    assert main(["info", path]) == 0
+    captured = capsys.readouterr()
+    assert "D/d = 11.2, L/d = 3.9" in captured.out
+    warned = [line for line in captured.err.splitlines() if "D/d = 11.2 is below 25" in line]
+    assert len(warned) == 1 and path in warned[0]
+
+
+def test_compare_cg_warns_for_each_run_below_the_rule(monkeypatch):
+    import granalytics.confinement as confinement
+    from granalytics.datasets import dataset_path
+
+    monkeypatch.setattr(confinement, "CONFINEMENT_RULE", {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)})
+    runs = [dataset_path("lab-cg1"), dataset_path("lab-cg3")]
+    with pytest.warns(UserWarning, match=r"lab-cg3.h5: D/d = 11.2 is below 25") as caught:
+        ga.compare_cg(runs, window=(3.0, 3.5))
+    assert any("lab-cg1.h5: D/d = 33.6 is below 50" in str(w.message) for w in caught)
+
+
+def test_the_command_line_runs_the_rigid_test_and_the_size_floor(tmp_path, capsys):
+    import pandas as pd
+
+    from granalytics.cli import main
+    from granalytics.datasets import dataset_path
+
+    path = str(dataset_path("lab-cg3"))
+    tables = {}
+    for name, options in {"angle": [], "rigid": ["--comotion", "rigid", "--rigid-tol", "0.3"],
+                          "floor": ["--min-size", "5"]}.items():
+        out = tmp_path / f"{name}.csv"
+        assert main(["stats", path, "--window", "3:3.5", "--window-rev", "3:3.5", "--out", str(out), "--quiet"]
+                    + options) == 0
+        tables[name] = pd.read_csv(out)
+    with ga.open_run(path) as run:
+        frame = run.frame(int(tables["rigid"]["frame"][0]))
+    expected = ga.frame_stats(frame, ga.identify(frame, comotion="rigid", rigid_tol=0.3)).iloc[0]
+    assert tables["rigid"]["yield_fraction"][0] == pytest.approx(expected.yield_fraction)
+    assert (tables["floor"]["yield_fraction"] <= tables["angle"]["yield_fraction"]).all()
+    assert (tables["floor"]["yield_fraction"] < tables["angle"]["yield_fraction"]).any()
+    assert main(["sensitivity", path, "--window", "3:3.5", "--comotion", "rigid", "--rigid-tol", "0.1,0.4",
+                 "--c-agg", "0.6", "--quiet"]) == 0
+    assert "rigid_tol" in capsys.readouterr().out
