@@ -44,7 +44,7 @@ __all__ = ["CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", 
 #: at the paper's thresholds is within 5 % and within 10 % of its large-drum value y∞, with the
 #: standard error from the fit's covariance; measured on the α = 1 confinement curve of the lab
 #: drum family (docs/results.md, "Confinement"; docs/confinement_study.py regenerates it)
-CONFINEMENT_RULE = {"within_5pc": (None, None), "within_10pc": (None, None)}
+CONFINEMENT_RULE = {"within_5pc": (53.0, 9.0), "within_10pc": (27.0, 5.0)}
 
 #: per-frame bed columns of :func:`confinement_timeseries` beside the headline metrics
 BED_COLUMNS = ("wall_share", "coordination")

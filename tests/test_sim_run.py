@@ -201,7 +201,7 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
                "n_baffles": p.n_baffles, "baffle_height": 0.14, "drum_omega": 2.5, "gx": 0.1, "gy": -9.7, "gz": 0.2,
                "law": 0, "k_n": 101.0, "k_t": 102.0, "c_n": 0.0103, "c_t": 0.0104, "mu": 0.45, "gamma": 0.31,
                "eta": 0.0027, "theta": 0.21, "model": CAPILLARY_MODELS["lambert"], "viscous": False,
-               "capillary_in_contact": True, "v_min": 1e-15, "spray_interval": 0.011, "spray_dose": 0.012,
+               "capillary_in_contact": True, "v_min": 1e-15, "bridge_volume": 0.0, "spray_interval": 0.011, "spray_dose": 0.012,
                "spray_radius": 0.013, "half_skin": 0.45e-3}
     assert kp._asdict() == by_name
     assert [type(v) for v in kp] == [type(by_name[k]) for k in kp._fields]

@@ -172,7 +172,7 @@ def replica_paths(name: str) -> list:
 
 #: the commit whose simulator (physics version 3, unchanged since :data:`_SIM_V3`; the drum sized by
 #: --drum-particles / --drum-ratio) made the confinement runs of 2026-12-03
-_SIM_V3_CONFINEMENT = "69c68602b9a4c21d9d6aec2d9e3b3e65fc1ad1de"
+_SIM_V3_CONFINEMENT = "69c6860a6f22f7180e1a4e4daabd5032b3844d5a"
 #: the Froude-matched Ω of the α = 1 twins of lab-cg3 and lab-cg2: Ω·√(R_lab/R) = 2·√3, 2·√2 rad/s
 _FROUDE_OMEGA = {111: 3.4641016151377544, 375: 2.8284271247461903}
 
@@ -195,6 +195,19 @@ def _confinement_recipe(name, size_option, revolutions, seed, *, omega=None, ful
 #: Froude-matched Ω, seeds 0-2, and for D/d = 50 (9 844 particles, 2 revolutions, seed 0):
 #: name -> sha256, simulator wall time
 _CONFINEMENT_RUNS = {
+    "cg1-n111-seed0": ("bb5b70a9fcdcba1ab4c065148522d479c1ca822cf00bec267707c8210f10a843", "3 min 14 s"),
+    "cg1-n111-seed1": ("3c8a3dbea584045e22227ad10812f4bef1e1a1a4294a2c7da0bb3b3e68f56ba5", "3 min 57 s"),
+    "cg1-n111-seed2": ("87d7177c03caf045fcc10373004e3c9a05c7fb6b4e1f384bba7afd4c4de04973", "3 min 47 s"),
+    "cg1-n375-seed0": ("d09ab44fb03582d466788a702a5e7d24879761072a2eb5b5de799f66cffb0cf2", "14 min 50 s"),
+    "cg1-n375-seed1": ("8cc6d50c857f9decdd64ff2d7405b07cf30cc9b07d2fdca9e6d57897abf7e32e", "11 min 27 s"),
+    "cg1-n375-seed2": ("e0fe5322dfbc3020a0f1788a07f8e95832397557392c5457844e4296f3651055", "11 min 12 s"),
+    "cg1-n111-fr-seed0": ("e8ac07f29b1e5a5e198b727514fe2db2d604862f08abea363e79aedca60b7291", "1 min 46 s"),
+    "cg1-n111-fr-seed1": ("2fd421c9b44eb55c06a4cbdb1ee6af47c0898c45cee63fe4fdde58020baa5edf", "1 min 55 s"),
+    "cg1-n111-fr-seed2": ("c7e1d668a18761bc84ace2ee05c9b61644861c42beb348731c3aef97ca4e97b0", "2 min 2 s"),
+    "cg1-dd50-seed0": ("4470f73502b8625d8daab0ec705d4eeb10521ece7d178bcc43d0c3507ef2249d",
+                       "2 h 0 min (7 220 s in its provenance): frames 0-16 on 1 thread beside the other runs (started "
+                       "with --revolutions 4 --threads 1, stopped after the checkpoint of frame 16), the rest resumed on 2 "
+                       "threads with the recipe's options (bit-identical for any thread count)"),
 }
 CONFINEMENT = {}
 for _name, (_sha, _wall) in _CONFINEMENT_RUNS.items():
@@ -215,7 +228,7 @@ for _name, (_sha, _wall) in _CONFINEMENT_RUNS.items():
         "commands": _confinement_recipe(_name, _size, _revs, int(_seed), omega=_FROUDE_OMEGA[_n] if _froude else None,
                                         full_window=_window, threads=_threads, checkpoint_every=_every),
         "code_version": _SIM_V3_CONFINEMENT,
-        "wall_time": f"{_wall} (1 thread, beside another run on the other core)",
+        "wall_time": _wall if _base.startswith("cg1-dd") else f"{_wall} (1 thread, beside another run on the other core)",
         "description": f"α = 1 confinement run, seed {_seed}: {_what}; frame 0 and every fourth frame of [{_window.replace(':', ', ')}]",
     }
 
