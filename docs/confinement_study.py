@@ -4,8 +4,8 @@ Usage: python docs/confinement_study.py [--figures DIR] [--parts table,decomposi
 
 Every run on the α = 1 confinement curve is a run of the lab drum's geometry rule sized for a
 particle count (``python -m sim run --preset lab-cg1 --drum-particles N``) or a D/d
-(``--drum-ratio``); the bundled copies are in datasets/confinement/ (commands in the registry,
-``granalytics.datasets.CONFINEMENT``). Prints Markdown tables; with --figures writes
+(``--drum-ratio``); the runs are not bundled (the 100 MB budget): build/runs/confinement/, made by the registry's
+recipes, ``granalytics.datasets.CONFINEMENT``). Prints Markdown tables; with --figures writes
 confinement_yield.png (yield, ⟨V_g⟩/V_p and N_g/N against D/d, one marker per α, replica bars, the
 fitted finite-size law).
 """

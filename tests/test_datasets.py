@@ -58,17 +58,29 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
     assert path.relative_to(DATASET_DIR).as_posix() == entry["file"]
 
 
-def test_bundled_data_stay_within_the_115_mb_budget():
+def test_bundled_data_stay_within_the_100_mb_budget():
     from granalytics.datasets import DATASET_DIR
 
     total = sum(p.stat().st_size for p in DATASET_DIR.rglob("*") if p.is_file())
-    assert 50e6 < total <= 115e6, f"datasets/ holds {total} bytes"
+    assert 50e6 < total <= 100e6, f"datasets/ holds {total} bytes"
+
+
+def test_confinement_recipes_name_their_runs():
+    from granalytics.datasets import CONFINEMENT
+
+    assert len(CONFINEMENT) == 10
+    for name, entry in CONFINEMENT.items():
+        assert _expected_name(entry["commands"][0]) == name
+        assert name not in DATASETS
 
 
 def test_confinement_runs_are_the_lab_rule_at_alpha_1_grouped_by_system():
     from granalytics.datasets import CONFINEMENT, confinement_groups
 
-    groups = confinement_groups()
+    try:
+        groups = confinement_groups()
+    except GranalyticsError as exc:
+        pytest.skip(f"the confinement runs are not bundled and not made here: {exc}")
     assert sum(len(paths) for paths in groups.values()) == len(CONFINEMENT) > 0
     for label, paths in groups.items():
         systems = set()

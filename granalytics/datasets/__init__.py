@@ -222,9 +222,9 @@ for _name, (_sha, _wall) in _CONFINEMENT_RUNS.items():
         _what = (f"the lab drum's rule sized for {_n} particles of 1.5 mm (the D/d of "
                  f"{'lab-cg3' if _n == 111 else 'lab-cg2'}), 6 revolutions"
                  + (f", Ω = {_FROUDE_OMEGA[_n]:.4g} rad/s (the Froude number of the lab drum at 2 rad/s)" if _froude else ""))
-    CONFINEMENT[_name] = DATASETS[_name] = {
-        "file": f"confinement/{_name}.h5",
-        "sha256": _sha,
+    CONFINEMENT[_name] = {  # not bundled (the 100 MB budget): the raw runs, made by the recipe's first command
+        "file": f"{_RAW_DIR}/confinement/{_name}.h5",
+        "subset_sha256": _sha,
         "commands": _confinement_recipe(_name, _size, _revs, int(_seed), omega=_FROUDE_OMEGA[_n] if _froude else None,
                                         full_window=_window, threads=_threads, checkpoint_every=_every),
         "code_version": _SIM_V3_CONFINEMENT,
@@ -233,13 +233,25 @@ for _name, (_sha, _wall) in _CONFINEMENT_RUNS.items():
     }
 
 
-def confinement_groups() -> dict:
-    """The bundled confinement runs as replica groups: label (``cg1-n111``, ``cg1-n111-fr``,
-    ``cg1-n375``, ``cg1-n375-fr``, ``cg1-dd50``) -> paths (checked as :func:`dataset_path` does),
-    seeds in order."""
+def confinement_groups(root=None) -> dict:
+    """The confinement runs as replica groups: label (``cg1-n111``, ``cg1-n111-fr``, ``cg1-n375``,
+    ``cg1-dd50``) -> paths of the raw runs under ``root`` (default: the repository root), seeds in
+    order. They are not bundled (the 100 MB budget of datasets/); each is made by the first
+    command of its recipe (about 4 h on one core in all; ``subset_sha256`` is the sum of the
+    float32 subset its second command writes).
+
+    Raises
+    ------
+    GranalyticsError
+        A run is missing, naming the command that makes it.
+    """
+    root = Path(root) if root is not None else DATASET_DIR.parent
     groups: dict = {}
-    for name in CONFINEMENT:
-        groups.setdefault(name.rpartition("-seed")[0], []).append(dataset_path(name))
+    for name, entry in CONFINEMENT.items():
+        path = root / entry["file"]
+        if not path.exists():
+            raise GranalyticsError(f"{path}: confinement run missing (not bundled; made by: {entry['commands'][0]})")
+        groups.setdefault(name.rpartition("-seed")[0], []).append(path)
     return groups
 
 
