@@ -63,6 +63,30 @@ def test_sphere_sliding_on_a_wall_ends_rolling_at_five_sevenths():
     assert w[1] * R == pytest.approx(v[0], rel=2e-3)  # rolling without slip: ω_y·R = v_x
 
 
+def _pull_apart(sim, v_b, max_steps):
+    """Pull a bridged pair apart (fast enough to beat the bridge) until it ruptures, checking at
+    every step that the bridge keeps volume ``v_b``, its gap and Willett's force at that gap;
+    returns the gaps at the start of each step."""
+    s = sim.state
+    s.vel[:] = 0
+    s.vel[np.argsort(s.ids)] = [[-0.5, 0, 0], [0.5, 0, 0]]
+    model = CAPILLARY_MODELS["willett_numeric"]
+    gaps = []
+    for _ in range(max_steps):
+        order = np.argsort(s.ids)
+        gaps.append(np.linalg.norm(s.pos[order[1]] - s.pos[order[0]]) - 2 * R)
+        sim.advance(1)
+        live = np.flatnonzero(s.alive[2 * sim.n_walls:]) + 2 * sim.n_walls
+        if not live.size:
+            break
+        k = live[0]
+        assert s.v_b[k] == v_b
+        assert s.gap[k] == pytest.approx(gaps[-1], rel=1e-9, abs=1e-18)
+        expected = capillary_force_scalar(model, max(gaps[-1], 0.0), v_b, R, sim.params.surface_tension, 0.0)
+        assert s.f_cap[k] == pytest.approx(expected, rel=1e-12)
+    return gaps
+
+
 def test_bridge_forms_at_touch_pulls_while_stretched_and_ruptures_at_s_crit():
     film = 2e-12
     p = dataclasses.replace(FREE, friction=0.0)
@@ -77,22 +101,7 @@ def test_bridge_forms_at_touch_pulls_while_stretched_and_ruptures_at_s_crit():
     assert s.film[:2].sum() + s.v_b[live[0]] == pytest.approx(2 * film, rel=1e-12)
     v_b = s.v_b[live[0]]
     s_crit = rupture_distance_scalar(v_b, R, 0.0)
-    # pull the pair apart (fast enough to beat the bridge); record the capillary force on the way
-    s.vel[:] = 0
-    s.vel[np.argsort(s.ids)] = [[-0.5, 0, 0], [0.5, 0, 0]]
-    model = CAPILLARY_MODELS["willett_numeric"]
-    gaps = []
-    for _ in range(400):
-        order = np.argsort(s.ids)
-        gaps.append(np.linalg.norm(s.pos[order[1]] - s.pos[order[0]]) - 2 * R)
-        sim.advance(1)
-        live = np.flatnonzero(s.alive[2 * sim.n_walls:]) + 2 * sim.n_walls
-        if not live.size:
-            break
-        k = live[0]
-        assert s.gap[k] == pytest.approx(gaps[-1], rel=1e-9, abs=1e-18)
-        expected = capillary_force_scalar(model, max(gaps[-1], 0.0), v_b, R, p.surface_tension, 0.0)
-        assert s.f_cap[k] == pytest.approx(expected, rel=1e-12)
+    gaps = _pull_apart(sim, v_b, 400)
     # it ruptured in the first step that started with s >= s_crit
     assert not s.alive[2 * sim.n_walls:].any()
     assert gaps[-2] < s_crit <= gaps[-1]
@@ -114,20 +123,7 @@ def test_fixed_bridge_volume_forms_at_touch_with_v_b_and_ruptures_at_its_s_crit_
     assert live.size == 1 and s.v_b[live[0]] == v_fixed and not s.film.any()
     s_crit = rupture_distance_scalar(v_fixed, R, 0.0)
     assert s_crit == pytest.approx(v_fixed ** (1 / 3) + 0.1 * v_fixed ** (2 / 3) / R, rel=1e-12)
-    s.vel[:] = 0
-    s.vel[np.argsort(s.ids)] = [[-0.5, 0, 0], [0.5, 0, 0]]
-    model = CAPILLARY_MODELS["willett_numeric"]
-    gaps = []
-    for _ in range(600):
-        order = np.argsort(s.ids)
-        gaps.append(np.linalg.norm(s.pos[order[1]] - s.pos[order[0]]) - 2 * R)
-        sim.advance(1)
-        live = np.flatnonzero(s.alive[2 * sim.n_walls:]) + 2 * sim.n_walls
-        if not live.size:
-            break
-        assert s.v_b[live[0]] == v_fixed
-        expected = capillary_force_scalar(model, max(gaps[-1], 0.0), v_fixed, R, p.surface_tension, 0.0)
-        assert s.f_cap[live[0]] == pytest.approx(expected, rel=1e-12)
+    gaps = _pull_apart(sim, v_fixed, 600)
     assert not s.alive[2 * sim.n_walls:].any()
     assert gaps[-2] < s_crit <= gaps[-1]  # the Verlet reach covers the larger fixed-volume bridge
     assert max_rupture_distance(p) >= s_crit

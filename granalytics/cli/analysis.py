@@ -385,6 +385,11 @@ def cmd_compare(args):
     return 0
 
 
+def _paper_criterion(args) -> bool:
+    """Whether the co-motion and size-floor options are the paper's (angle test, pairs count)."""
+    return criterion_params(args) == {"comotion": "angle", "min_size": 2}
+
+
 def cmd_compare_cg(args):
     from ..cg import CGComparison, compare_cg, group_replicas
 
@@ -399,7 +404,7 @@ def cmd_compare_cg(args):
             setattr(args, name, float(getattr(args, name)[0]))
     params = threshold_options(args, args.method)
     criterion = criterion_params(args)
-    if args.method != "gna" and criterion != {"comotion": "angle", "min_size": 2}:
+    if args.method != "gna" and not _paper_criterion(args):
         raise ParameterError(f"--comotion / --min-size: method {args.method!r} has no such parameters (GNA's)")
     params.update(accepted_params(args.method, **criterion))
     for param, value in args.set or []:
@@ -425,7 +430,7 @@ def _compare_cg_thresholds(args, labels) -> int:
         raise ParameterError(f"--method {args.method}: a threshold grid is GNA's C_agg x A_agg (give --method gna)")
     if args.set:
         raise ParameterError("--set: a threshold grid runs GNA at its defaults otherwise; leave --set out")
-    if criterion_params(args) != {"comotion": "angle", "min_size": 2}:
+    if not _paper_criterion(args):
         raise ParameterError("--comotion rigid / --min-size: a threshold grid is the paper's C_agg x A_agg at "
                              "min_size 2; compare with one threshold pair, or use granalytics sensitivity")
     c_agg = args.c_agg if args.c_agg is not None else np.array([0.6])
