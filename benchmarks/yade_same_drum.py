@@ -6,8 +6,11 @@ Three steps, from the repository root:
 1. Our run, with the fixed-bridge-volume model (YADE's ViscElCapMat without LiqControl) and no
    viscous force, e.g. the lab drum at CG2::
 
-       python -m sim run --preset lab-cg2 --bridge-volume 8e-12 --gamma 0.1095 --seed 0 --revolutions 6 \\
-           --threads 1 --quiet --out build/yade/sim-g0.1095-s0.h5          # (viscous: see below)
+       python -m sim run --preset lab-cg2 --bridge-volume 1e-12 --no-viscous --gamma 0.1095 --seed 0 \\
+           --revolutions 6 --threads 1 --quiet --out build/yade/sim-g0.1095-s0.h5
+
+   (``--bridge-volume`` is the original system's V_b, scaled by α³: 8e-12 m³ at CG2; YADE's
+   ViscElCapMat has no lubrication force, hence ``--no-viscous``)
 
 2. ``python benchmarks/yade_same_drum.py prepare build/yade/sim-g0.1095-s0.h5 build/yade/g0.1095-s0``
    writes the run's settled bed (frame 0: positions [m], radii [m]) as ``bed.csv`` and the

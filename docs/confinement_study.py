@@ -190,13 +190,14 @@ def figure(results, path):
                             ms=7, capsize=3, ls="none")
             f = fitted[metric]
             x = np.linspace(8, 140, 300)
-            ax.plot(x, f(x), "k-", lw=1, label=f"α = 1 fit: {f.y_inf:.3g}·(1 − {f.b:.2g}/(D/d))")
+            ax.plot(x, f(x), "k-", lw=1, label=f"α = 1 fit y∞·(1 − b/(D/d)): y∞ = {f.y_inf:.3g}, b = {f.b:.2g}, "
+                                               f"χ²/dof = {f.chi2:.0f}/{f.dof}")
             ax.fill_between(x, f(x) - f.error(x), f(x) + f.error(x), color="k", alpha=0.1, lw=0)
             ax.set_xscale("log")
             ax.set_xlabel("D/d (drum diameter / particle diameter)")
             ax.set_ylabel(label)
             ax.set_title(f"{label}, {criterion} co-motion test", fontsize=10)
-            ax.legend(fontsize=7, loc="lower right")
+            ax.legend(fontsize=7, loc="best")
     handles = [plt.Line2D([], [], marker=markers[a], color=f"C{int(a) - 1}", ls="none", label=f"lab drum, α = {a:g}")
                for a in (1.0, 2.0, 3.0)]
     handles += [plt.Line2D([], [], marker="o", color="C4", mfc="none", ls="none", label="α = 1, Froude-matched Ω"),

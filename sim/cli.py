@@ -79,6 +79,8 @@ def build_parser():
                    help="fixed bridge volume V_b of the original system [m³] (scaled by α³): YADE's ViscElCapMat "
                         "without LiqControl, every bridge has V_b from its touch to its rupture; no films, spraying "
                         "or migration (default: films, spraying and migration)")
+    p.add_argument("--no-viscous", action="store_true",
+                   help="switch off the viscous (lubrication) force of the bridges, as YADE's ViscElCapMat")
     p.add_argument("--seed", type=int, help="random seed of the filling (>= 0)")
     p.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     p.add_argument("--frame-every-rev", type=float, default=0.05,
@@ -96,7 +98,7 @@ def build_parser():
 def _params(args):
     original, alpha = preset_original(args.preset)
     changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles,
-               "bridge_volume": args.bridge_volume}
+               "bridge_volume": args.bridge_volume, "viscous": False if args.no_viscous else None}
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha
     if args.particles is not None and (args.drum_ratio is not None or args.drum_particles is not None):

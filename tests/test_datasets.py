@@ -286,3 +286,13 @@ def test_make_runs_recipes_side_by_side_and_reports_each_failure(monkeypatch, ca
     assert _main(["make", sweep, names[0]]) == 1
     assert ran == [names[0]] and f"{sweep}: recipe exited with status 1" in capsys.readouterr().err
     assert _main(["make", "--jobs", "0"]) == 2
+
+
+def test_the_list_prints_the_confinement_runs_with_their_commands(capsys):
+    from granalytics.cli.datasets import main
+    from granalytics.datasets import CONFINEMENT
+
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name, entry in CONFINEMENT.items():
+        assert f"$ {entry['commands'][0]}" in out and name in out

@@ -39,6 +39,12 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
             print(f"{name:<20} {entry.get('file', entry.get('dir')):<28} {entry['description']}")
             for command in entry["commands"]:
                 print(f"{'':<21}$ {command}")
+        print("\nnot bundled (the 100 MB budget): the confinement runs of docs/confinement_study.py; the first command "
+              "makes the raw run it reads")
+        for name, entry in datasets.CONFINEMENT.items():
+            print(f"{name:<20} {entry['file']:<28} {entry['description']} ({entry['wall_time']})")
+            for command in entry["commands"]:
+                print(f"{'':<21}$ {command}")
         return 0
     if args.command == "bundle-sweep":
         try:
