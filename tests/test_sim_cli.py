@@ -253,3 +253,12 @@ def test_an_interruption_while_settling_does_not_describe_an_earlier_run(cli, tm
     code, err = cli("r.h5", "--overwrite")
     assert code == 130 and err == ["sim: interrupted while settling; nothing was written"]
     assert files(tmp_path) == before
+
+
+@pytest.mark.parametrize("flag, viscous", [([], True), (["--no-viscous"], False)])
+def test_no_viscous_switches_off_the_bridges_lubrication_force(flag, viscous):
+    from sim.cli import _params, build_parser
+
+    args = build_parser().parse_args(["run", "--preset", "lab-cg2", "--revolutions", "1", "--out", "x.h5", *flag])
+    original, scaled = _params(args)
+    assert original.viscous is viscous and scaled.viscous is viscous
