@@ -13,6 +13,7 @@ fitted finite-size law).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import warnings
 
@@ -44,19 +45,29 @@ def cg_groups():
     }
 
 
+def run_window(path, window):
+    """``window`` where the run covers it; else the run's last complete revolution [R − 1, R]
+    (R = its revolutions rounded down: a run being extended keeps its window until it completes the
+    next revolution)."""
+    with ga.open_run(path) as run:
+        last = float(run.revolutions[-1])
+    if last >= window[1] - 0.01:
+        return window
+    whole = float(math.floor(last + 0.01))
+    return (whole - 1.0, whole)
+
+
 def tables(window):
     """The confinement table of every run (CG1 curve, its Froude-matched twins, the CG runs) under
     both criteria, in a window. A run that ends before the window's end is taken over its last
-    steady revolution [R − 1, R] (the D/d = 50 run, 2 revolutions: lab-cg1 gives the same yield
+    complete revolution [R − 1, R] (the D/d = 50 run: [2, 3] while it has three; lab-cg1 gives the same yield
     over [1, 2] as over [3, 6], 0.555 against 0.553); paper-cg2 (3 revolutions) over [2, 3]."""
     groups = {**confinement_groups(), **cg_groups()}
     out = {}
     for name, params in CRITERIA.items():
         rows = []
         for label, paths in groups.items():
-            with ga.open_run(paths[0]) as run:
-                last = float(run.revolutions[-1])
-            w = window if last >= window[1] - 0.01 else (round(last) - 1.0, float(round(last)))
+            w = run_window(paths[0], window)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # the confinement warning: this table is what it is about
                 rows.append(ga.confinement_table([paths], window=w, labels=[label], **params)
@@ -138,10 +149,8 @@ def pass_rates():
             "paper-cg2": dataset_path("paper-cg2"), "paper-cg3": dataset_path("paper-cg3"),
             **{k: v[0] for k, v in confinement_groups().items() if "-fr" not in k}}
     for label, path in runs.items():
+        window = run_window(path, (3.0, 4.0))
         with ga.open_run(path) as run:
-            window = (2.0, 3.0) if label == "paper-cg2" else (3.0, 4.0)
-            if run.revolutions[-1] < window[1] - 1e-6:
-                window = (1.0, 2.0)
             rates = []
             for s in run.select(revolutions=window):
                 strong = contact_strength(s) >= 0.6

@@ -31,38 +31,70 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :class:`RunLockedError`, :class:`ParameterError`
 """
 
+import importlib
+import sys
+import types
+
 from ._version import __version__
 
-from ._threading import configure_threading
-from .errors import GranalyticsError, ParameterError, RunFileError, RunLockedError, ValidationError
-from .cg import CGComparison, compare_cg, compare_cg_thresholds
-from .cohesion import COHESION_CONVENTIONS, cohesive_force
-from .compare import compare_methods
-from .identify import (
-    CommunityDetection,
-    DBSCANClustering,
-    DBSCANIdentifier,
-    GraphNetworkAnalysis,
-    IdentificationResult,
-    VirtualSieve,
-    identify,
-)
-from . import datasets  # the bundled runs and sweeps: granalytics.datasets.open_dataset(...), sweep_path(...)
-from . import files  # shared file helpers: atomic writes, the writer lock, one-line errors
-from . import manifest  # the sweep manifest's schema (sim.sweep writes it, study reads it)
-from . import edges  # the kept contact graph as tables, NetworkX and igraph graphs: granalytics.edges.*
-from .identify import CustomEdges
-from .io import Run, RunSlice, RunWriter, WriterLock, open_run, subset_run
-from .sensitivity import sensitivity, sensitivity_summary
-from .snapshot import RunMeta, Snapshot
-from .bed import (FILL_PACKING, PLANAR_FRACTION, BedStructure, DrumConfinement, bed_structure, drum_confinement, run_confinement,
-                  wall_touching)
-from .confinement import CONFINEMENT_RULE, ConfinementFit, confinement_table, decompose_cg, fit_confinement_curve
-from . import table  # the tidy per-particle table
-from .table import PARTICLE_COLUMNS, granule_track_table, particle_table
-from .stats import frame_stats, granule_table, replica_steady_state, run_stats, size_distribution, steady_state
-from .study import GrowthFit, Surrogate, fit_granule_growth, fit_surrogate, study_table
-from .tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates, track_granules, track_run
+#: public name -> the module that defines it (imported on first use, PEP 562: ``import granalytics``
+#: loads no analysis module, so that the simulator, which needs only :mod:`granalytics.core`,
+#: stays light; ``from granalytics import identify`` works as before)
+_EXPORTS = {
+    "configure_threading": "._threading",
+    **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".errors"),
+    **dict.fromkeys(("CGComparison", "compare_cg", "compare_cg_thresholds"), ".cg"),
+    **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".cohesion"),
+    "compare_methods": ".compare",
+    **dict.fromkeys(("CommunityDetection", "DBSCANClustering", "DBSCANIdentifier", "GraphNetworkAnalysis",
+                     "IdentificationResult", "VirtualSieve", "identify", "CustomEdges"), ".identify"),
+    **dict.fromkeys(("Run", "RunSlice", "RunWriter", "WriterLock", "open_run", "subset_run"), ".io"),
+    **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".sensitivity"),
+    **dict.fromkeys(("RunMeta", "Snapshot"), ".snapshot"),
+    **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
+                     "drum_confinement", "run_confinement", "wall_touching"), ".bed"),
+    **dict.fromkeys(("CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
+                     "fit_confinement_curve"), ".confinement"),
+    **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".table"),
+    **dict.fromkeys(("frame_stats", "granule_table", "replica_steady_state", "run_stats", "size_distribution",
+                     "steady_state"), ".stats"),
+    **dict.fromkeys(("GrowthFit", "Surrogate", "fit_granule_growth", "fit_surrogate", "study_table"), ".study"),
+    **dict.fromkeys(("GranuleTracks", "breakage_rate", "coalescence_kernel", "event_rates", "track_granules",
+                     "track_run"), ".tracking"),
+}
+#: public submodules: the bundled runs and sweeps (granalytics.datasets.open_dataset(...)), file
+#: helpers, the sweep manifest's schema, the kept contact graph, the per-particle table, the
+#: run-file contract
+_SUBMODULES = ("datasets", "files", "manifest", "edges", "table", "core")
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
+    elif name in _SUBMODULES:
+        value = importlib.import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module 'granalytics' has no attribute {name!r}")
+    globals()[name] = value  # once
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(types.ModuleType):
+    """The package's module type: importing a submodule named like a public function
+    (``granalytics.identify``, ``granalytics.sensitivity``) does not replace the function."""
+
+    def __setattr__(self, name, value):
+        if name in _EXPORTS and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
+
 
 __all__ = [
     "__version__",
@@ -73,7 +105,7 @@ __all__ = [
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",
-    "edges", "datasets", "files", "manifest",
+    "edges", "datasets", "files", "manifest", "core",
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",

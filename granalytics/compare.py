@@ -7,10 +7,10 @@ import itertools
 
 import numpy as np
 import pandas as pd
-from tqdm.auto import tqdm
 
 from .cohesion import DEFAULT_COHESION
 from .errors import ParameterError
+from .frames import map_frames
 from .identify import make_identifier
 from .stats import frame_stats
 
@@ -59,9 +59,8 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
         raise ParameterError("compare_methods needs at least two methods")
     identifiers = {name: make_identifier(method, **{"cohesion": cohesion, **params})
                    for name, (method, params) in methods.items()}
-    frame_ids = frames.frame_indices if hasattr(frames, "frame_indices") else np.arange(len(frames))
-    stats, pairs = [], []
-    for frame, snapshot in zip(frame_ids, tqdm(frames, disable=not progress, unit="frame", desc="compare")):
+
+    def one_frame(snapshot):
         labels, rows = {}, {}
         for name, identifier in identifiers.items():
             result = identifier.identify(snapshot)
@@ -69,16 +68,19 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
             row = frame_stats(snapshot, result)
             row.insert(0, "cohesion", identifier.cohesion)
             row.insert(0, "method", name)
+            rows[name] = row
+        pairs = [{"time_s": snapshot.time, "revolutions": snapshot.revolutions,
+                  "method_a": a, "method_b": b, "ari": adjusted_rand_score(labels[a], labels[b]),
+                  "d_n_granules_norm": rows[b].n_granules_norm.iloc[0] - rows[a].n_granules_norm.iloc[0],
+                  "d_yield_fraction": rows[b].yield_fraction.iloc[0] - rows[a].yield_fraction.iloc[0]}
+                 for a, b in itertools.combinations(identifiers, 2)]
+        return list(rows.values()), pairs
+
+    frame_ids, results = map_frames(frames, one_frame, progress=progress, desc="compare", what="compare")
+    stats, pairs = [], []
+    for frame, (rows, frame_pairs) in zip(frame_ids, results):
+        for row in rows:
             row.insert(0, "frame", int(frame))
-            rows[name] = row.iloc[0]
             stats.append(row)
-        for a, b in itertools.combinations(identifiers, 2):
-            pairs.append({
-                "frame": int(frame), "time_s": snapshot.time, "revolutions": snapshot.revolutions,
-                "method_a": a, "method_b": b, "ari": adjusted_rand_score(labels[a], labels[b]),
-                "d_n_granules_norm": rows[b].n_granules_norm - rows[a].n_granules_norm,
-                "d_yield_fraction": rows[b].yield_fraction - rows[a].yield_fraction,
-            })
-    if not stats:
-        raise ParameterError("no frames to compare (empty run or selection)")
+        pairs.extend({"frame": int(frame), **p} for p in frame_pairs)
     return pd.concat(stats, ignore_index=True), pd.DataFrame(pairs)

@@ -29,10 +29,10 @@ import math
 
 import numpy as np
 import pandas as pd
-from tqdm.auto import tqdm
 
 from .bed import bed_structure, run_confinement, wall_touching
 from .errors import ParameterError
+from .frames import map_frames
 from .identify import make_identifier
 from .io import open_run
 from .metrics import HEADLINE
@@ -45,7 +45,7 @@ __all__ = ["CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", 
 #: at the paper's thresholds is within 5 % and within 10 % of its large-drum value y∞, with the
 #: standard error from the fit's covariance; measured on the α = 1 confinement curve of the lab
 #: drum family (docs/results.md, "Confinement"; docs/confinement_study.py regenerates it)
-CONFINEMENT_RULE = {"within_5pc": (57.0, 7.0), "within_10pc": (28.0, 4.0)}
+CONFINEMENT_RULE = {"within_5pc": (62.0, 9.0), "within_10pc": (31.0, 4.0)}
 
 #: per-frame bed columns of :func:`confinement_timeseries` beside the headline metrics
 BED_COLUMNS = ("wall_share", "coordination")
@@ -83,16 +83,16 @@ def confinement_timeseries(frames, meta, method="gna", *, progress=False, **para
         The identification, as for :func:`~granalytics.run_stats`.
     """
     identifier = make_identifier(method, **params)
-    frame_ids = frames.frame_indices if hasattr(frames, "frame_indices") else range(len(frames))
-    rows = []
-    for k, snapshot in zip(frame_ids, tqdm(frames, disable=not progress, unit="frame", desc="frames")):
+
+    def one_frame(snapshot):
         row = frame_stats(snapshot, identifier.identify(snapshot))
-        row.insert(0, "frame", int(k))
         row["wall_share"] = float(wall_touching(snapshot, meta).mean())
         row["coordination"] = bed_structure(snapshot).coordination
-        rows.append(row)
-    if not rows:
-        raise ParameterError("no frames to analyse (empty run or selection)")
+        return row
+
+    frame_ids, rows = map_frames(frames, one_frame, progress=progress, desc="confinement")
+    for k, row in zip(frame_ids, rows):
+        row.insert(0, "frame", int(k))
     return pd.concat(rows, ignore_index=True)
 
 

@@ -12,17 +12,15 @@ GIL); frames are read from the file in the calling thread.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 import pandas as pd
-from tqdm.auto import tqdm
 
 from . import _kernels
 from .metrics import HEADLINE
 from ._windows import window_mask
 from .cohesion import DEFAULT_COHESION, check_cohesion
 from .errors import ParameterError
+from .frames import map_frames
 from .contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion, check_rigid_tol, comotion_mask,
                        contact_strength)
 from .identify.common import check_c_agg, check_min_size
@@ -120,25 +118,10 @@ def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension
     check_cohesion(cohesion)
     check_min_size(min_size)
     c_desc = np.unique(c)[::-1].copy()
-    frame_ids = frames.frame_indices if hasattr(frames, "frame_indices") else np.arange(len(frames))
-    if len(frame_ids) == 0:
-        raise ParameterError("no frames to analyse (empty run or selection)")
-    if int(jobs) < 1:
-        raise ParameterError(f"jobs must be >= 1, got {jobs!r}")
-    tables = []
-    bar = tqdm(total=len(frame_ids), disable=not progress, unit="frame", desc="sensitivity")
-    with ThreadPoolExecutor(max_workers=int(jobs)) as pool:
-        pending = []
-        for snapshot in frames:
-            pending.append(pool.submit(_frame_sweep, snapshot, c_desc, a_list, radius, surface_tension, cohesion,
-                                       comotion, rigid_scale, int(min_size)))
-            if len(pending) >= 2 * int(jobs):  # bound the frames held in memory
-                tables.append(pending.pop(0).result())
-                bar.update(1)
-        for job in pending:
-            tables.append(job.result())
-            bar.update(1)
-    bar.close()
+    frame_ids, tables = map_frames(
+        frames, lambda snapshot: _frame_sweep(snapshot, c_desc, a_list, radius, surface_tension, cohesion, comotion,
+                                              rigid_scale, int(min_size)),
+        progress=progress, desc="sensitivity", jobs=jobs)
     for frame, table in zip(frame_ids, tables):
         table.insert(0, "frame", int(frame))
     out = pd.concat(tables, ignore_index=True)

@@ -12,11 +12,11 @@ import warnings
 
 import numpy as np
 import pandas as pd
-from tqdm.auto import tqdm
 
 from .metrics import STEADY
 from ._windows import window_mask, window_tolerance
 from .errors import ParameterError
+from .frames import map_frames
 from .granules import granule_table
 from .identify import make_identifier
 from .identify.result import IdentificationResult
@@ -106,7 +106,7 @@ def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFram
     return pd.DataFrame([row])
 
 
-def run_stats(frames, method="gna", *, progress=False, return_sizes=False, **params):
+def run_stats(frames, method="gna", *, progress=False, return_sizes=False, jobs=1, **params):
     """Time series of :func:`frame_stats` over the frames of a run.
 
     Parameters
@@ -119,6 +119,8 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, **par
         Show a progress bar over frames.
     return_sizes : bool, default False
         Also return the granule sizes (particles per granule) of every frame.
+    jobs : int, default 1
+        Frames analysed at a time, in threads (:func:`granalytics.frames.map_frames`).
 
     Returns
     -------
@@ -128,16 +130,16 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, **par
         cohesion convention, None for methods without one); and, with ``return_sizes``, a list of int arrays, one per frame.
     """
     identifier = make_identifier(method, **params)
-    frame_ids = frames.frame_indices if hasattr(frames, "frame_indices") else range(len(frames))
-    rows, sizes = [], []
-    for k, snapshot in zip(frame_ids, tqdm(frames, disable=not progress, unit="frame", desc="frames")):
+
+    def one_frame(snapshot):
         result = identifier.identify(snapshot)
-        row = frame_stats(snapshot, result)
+        return frame_stats(snapshot, result), result.sizes
+
+    frame_ids, results = map_frames(frames, one_frame, progress=progress, desc="stats", jobs=jobs)
+    rows = [row for row, _ in results]
+    sizes = [s for _, s in results]
+    for k, row in zip(frame_ids, rows):
         row.insert(0, "frame", int(k))
-        rows.append(row)
-        sizes.append(result.sizes)
-    if not rows:
-        raise ParameterError("no frames to analyse (empty run or selection)")
     table = pd.concat(rows, ignore_index=True)
     table["method"] = method
     table["cohesion"] = getattr(identifier, "cohesion", None)

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from tqdm.auto import tqdm
 
 from .errors import ParameterError
-from .identify import make_identifier
+from .frames import frame_indices as _frame_indices
 
 __all__ = ["PARTICLE_COLUMNS", "particle_frames", "write_frames", "particle_table", "granule_tracks",
            "granule_track_table"]
@@ -27,10 +26,6 @@ PARTICLE_COLUMNS = {
 }
 
 
-def _frame_indices(frames):
-    return np.asarray(frames.frame_indices) if hasattr(frames, "frame_indices") else np.arange(len(frames))
-
-
 def granule_tracks(frames, method="gna", *, min_fragment=2, progress=False, **params):
     """Granule labels of every frame and the tracks that follow them.
 
@@ -42,19 +37,9 @@ def granule_tracks(frames, method="gna", *, min_fragment=2, progress=False, **pa
         :func:`granalytics.track_granules` of those labels; ``tracks.labels_to_tracks[k][label]``
         is the track id of granule ``label`` of frame k.
     """
-    from .tracking import track_granules
+    from .tracking import track_run
 
-    identifier = make_identifier(method, **params)
-    labels, ids, times = [], [], []
-    for snapshot in tqdm(frames, disable=not progress, unit="frame", desc="identify"):
-        labels.append(identifier.identify(snapshot).labels)
-        ids.append(snapshot.ids)
-        times.append(snapshot.time)
-    if not labels:
-        raise ParameterError("granule_tracks: no frames (empty run or selection)")
-    tracks = track_granules(labels, ids, np.asarray(times), min_fragment=min_fragment)
-    tracks.frame_indices = _frame_indices(frames)
-    return labels, tracks
+    return track_run(frames, method, progress=progress, min_fragment=min_fragment, return_labels=True, **params)
 
 
 def particle_frames(frames, method="gna", *, min_fragment=2, progress=False, **params):

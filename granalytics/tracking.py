@@ -421,7 +421,7 @@ def _tracks_table(times, labels_to_tracks, sizes_by_frame, n_tracks, origins, en
     }, columns=list(_TRACK_COLUMNS))
 
 
-def track_run(frames, method="gna", window=None, progress=False, *, min_fragment=2, **params) -> GranuleTracks:
+def track_run(frames, method="gna", window=None, progress=False, *, min_fragment=2, return_labels=False, **params):
     """Identify granules in every frame of a run and track them (:func:`track_granules`).
 
     Parameters
@@ -438,15 +438,17 @@ def track_run(frames, method="gna", window=None, progress=False, *, min_fragment
         Show a progress bar over frames.
     min_fragment : int, default 2
         See :func:`track_granules`.
+    return_labels : bool, default False
+        Also return the granule labels of every frame.
 
     Returns
     -------
     GranuleTracks
         With ``frame_indices`` set to the frames' indices in the run file (positions in the
-        sequence for a plain list of snapshots).
+        sequence for a plain list of snapshots); with ``return_labels``, ``(labels, tracks)``:
+        ``labels`` a list of (N,) int64 arrays, the granule of each particle in each frame (−1 free).
     """
-    from tqdm.auto import tqdm
-
+    from .frames import map_frames
     from .identify import make_identifier
 
     if window is not None:
@@ -454,18 +456,12 @@ def track_run(frames, method="gna", window=None, progress=False, *, min_fragment
             raise ParameterError("window needs a Run or RunSlice (open_run), not a plain sequence of snapshots")
         frames = frames.select(revolutions=tuple(window))
     identifier = make_identifier(method, **params)
-    labels, ids, times = [], [], []
-    for snapshot in tqdm(frames, disable=not progress, unit="frame", desc="identify"):
-        result = identifier.identify(snapshot)
-        labels.append(result.labels)
-        ids.append(snapshot.ids)
-        times.append(snapshot.time)
-    if not labels:
-        raise ParameterError("no frames to track (empty run or selection)")
+    indices, per_frame = map_frames(frames, lambda s: (identifier.identify(s).labels, s.ids, s.time),
+                                    progress=progress, desc="track", what="track")
+    labels, ids, times = (list(x) for x in zip(*per_frame))
     tracks = track_granules(labels, ids, times, min_fragment=min_fragment)
-    tracks.frame_indices = (np.asarray(frames.frame_indices) if hasattr(frames, "frame_indices")
-                            else np.arange(len(labels)))
-    return tracks
+    tracks.frame_indices = indices
+    return (labels, tracks) if return_labels else tracks
 
 
 # --------------------------------------------------------------------------------------------

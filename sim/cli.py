@@ -18,8 +18,7 @@ import math
 import os
 import sys
 
-from granalytics.files import check_output_folder, one_line, warnings_as_lines
-from granalytics.manifest import manifest_path
+from granalytics.core import check_output_folder, manifest_path, one_line, warnings_as_lines
 
 from .params import (MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,
                      sized_drum)
@@ -162,7 +161,7 @@ def _run(args) -> int:
             raise
         print(f"sim: interrupted; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 130
-    from granalytics import open_run
+    from granalytics.core import open_run
 
     with open_run(out, validate=False) as run:  # what the file holds (a finished run resumed is left as it was)
         n_frames, t_last = len(run), float(run.times[-1])

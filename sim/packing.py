@@ -21,7 +21,7 @@ import warnings
 
 import numpy as np
 
-from granalytics import PLANAR_FRACTION, Snapshot, bed_structure
+from granalytics.core import PLANAR_FRACTION, Snapshot, bed_structure
 
 __all__ = ["insertion_positions", "settled_solid_fraction", "check_settled_bed", "settled_bed_report"]
 

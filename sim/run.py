@@ -17,7 +17,7 @@ import warnings
 
 import numpy as np
 
-from granalytics import RunMeta, RunWriter, Snapshot, __version__, configure_threading, drum_confinement
+from granalytics.core import RunMeta, RunWriter, Snapshot, __version__, configure_threading, drum_confinement
 
 from . import _kernels
 from .capillary import pair_capillary_force
@@ -447,7 +447,7 @@ class Simulation:
         ValueError
             One line naming what does not match.
         """
-        from granalytics import open_run
+        from granalytics.core import open_run
 
         ckpt = f"{out}.ckpt.npz"
         frames, s = self._resume_frame, self.state

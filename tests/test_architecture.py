@@ -62,16 +62,41 @@ def test_granalytics_reaches_into_sim_only_through_the_lazy_sweep_command():
     assert not any(m == "sim" or m.startswith("sim.") for m in top_level)  # imported inside sweep_main only
 
 
-def test_sim_uses_granalytics_public_api_only():
-    import granalytics
-
-    public_modules = {"granalytics"} | {f"granalytics.{name}" for name in granalytics.__all__}
+def test_sim_uses_the_run_file_contract_only():
+    """sim imports granalytics through granalytics.core (the data model, run files, file helpers,
+    the manifest's schema) and nothing else."""
     offenders = [f"{name}:{line} imports {module}"
                  for name, path in _modules("sim")
                  for module, line in _imports(name, path)
-                 if module.startswith("granalytics") and module.rpartition(".")[0] not in public_modules
-                 and module not in public_modules]
+                 if module.startswith("granalytics") and module != "granalytics.core"]
     assert offenders == []
+
+
+def test_the_contract_and_the_simulator_load_no_analysis_library():
+    """`import sim.run` (and so granalytics.core) loads neither pandas, NetworkX, SciPy's sparse
+    graphs, scikit-learn, igraph, matplotlib nor any analysis module of granalytics."""
+    import subprocess
+    import sys
+
+    heavy = ("pandas", "networkx", "scipy.sparse", "sklearn", "igraph", "matplotlib", "dask",
+             "granalytics.stats", "granalytics.identify", "granalytics.contacts", "granalytics.cg")
+    code = f"import sys, sim.run; print(','.join(m for m in {heavy!r} if m in sys.modules))"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == ""
+
+
+def test_the_lazy_package_still_exports_every_public_name():
+    import granalytics
+
+    assert all(getattr(granalytics, name) is not None for name in granalytics.__all__)
+    assert set(granalytics.__all__) <= set(dir(granalytics))
+    import granalytics.identify  # noqa: F401  (submodules named like public functions)
+    import granalytics.sensitivity  # noqa: F401
+
+    assert callable(granalytics.identify) and callable(granalytics.sensitivity)
+    with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
+        granalytics.not_a_name  # noqa: B018
 
 
 @pytest.mark.parametrize("package", ["granalytics", "sim"])

@@ -25,10 +25,10 @@ def line(xs, **kw):
 
 def test_dbscan_eps_is_in_mean_diameters_and_cg_invariant():
     s = line([0, 1.0 * D, 2.05 * D, 3.5 * D, 4.4 * D, 9 * D])
-    assert ga.identify(s, method="dbscan", eps_diameters=1.1).labels.tolist() == [0, 0, 0, 1, 1, -1]
-    assert ga.identify(s, method="dbscan", eps_diameters=1.5).labels.tolist() == [0, 0, 0, 0, 0, -1]
+    assert ga.identify(s, method="dbscan", bridged_only=False, eps_diameters=1.1).labels.tolist() == [0, 0, 0, 1, 1, -1]
+    assert ga.identify(s, method="dbscan", bridged_only=False, eps_diameters=1.5).labels.tolist() == [0, 0, 0, 0, 0, -1]
     big = dataclasses.replace(s, position=s.position * 3, radius=s.radius * 3, meta=make_meta(6, alpha=3.0))
-    assert ga.identify(big, method="dbscan", eps_diameters=1.1).labels.tolist() == [0, 0, 0, 1, 1, -1]
+    assert ga.identify(big, method="dbscan", bridged_only=False, eps_diameters=1.1).labels.tolist() == [0, 0, 0, 1, 1, -1]
 
 
 def test_dbscan_with_min_samples_2_equals_components_of_the_eps_graph():
@@ -39,7 +39,7 @@ def test_dbscan_with_min_samples_2_equals_components_of_the_eps_graph():
     _, comp = connected_components(coo_matrix((np.ones(i.size), (i, j)), shape=(800, 800)), directed=False)
     expected = ga.identify(s, method="gna", c_agg=0.0, a_agg_deg=180.0)  # placeholder type for partition()
     expected.labels, expected.sizes = __import__("granalytics")._kernels.canonical_labels(comp.astype(np.int64))
-    got = ga.identify(s, method="dbscan", eps_diameters=1.05)
+    got = ga.identify(s, method="dbscan", bridged_only=False, eps_diameters=1.05)
     assert got.partition() == expected.partition() and got.n_granules > 0
 
 
@@ -52,11 +52,11 @@ def test_dbscan_bridged_only_and_velocity_features():
     touching = dataclasses.replace(s, gap=np.array([-1e-6, -1e-6]))
     assert ga.identify(touching, **bridged, cohesion="bridge").labels.tolist() == [0, 0, -1]
     assert ga.identify(touching, **bridged).labels.tolist() == [-1, -1, -1]
-    assert ga.identify(s, method="dbscan", eps_diameters=1.1).labels.tolist() == [0, 0, 0]
+    assert ga.identify(s, method="dbscan", bridged_only=False, eps_diameters=1.1).labels.tolist() == [0, 0, 0]
     # same places, particle 2 moving the other way: velocity features separate it
     v = np.array([[1.0, 0, 0], [1.0, 0, 0], [-1.0, 0, 0]])
     s = line([0, D, 2 * D], velocity=v)
-    assert ga.identify(s, method="dbscan", eps_diameters=1.1, velocity_weight=1.0).labels.tolist() == [0, 0, -1]
+    assert ga.identify(s, method="dbscan", bridged_only=False, eps_diameters=1.1, velocity_weight=1.0).labels.tolist() == [0, 0, -1]
     with pytest.raises(ParameterError, match="eps_diameters"):
         ga.identify(s, method="dbscan", eps_diameters=0)
 
@@ -117,3 +117,27 @@ def test_every_method_runs_through_identify_and_reports_its_parameters(method):
     r = ga.identify(s, method=method)
     assert r.method == method and isinstance(r.params, dict) and r.labels.shape == (500,)
     assert len(r.granules) == r.n_granules
+
+
+def test_the_command_line_and_the_library_run_every_method_at_the_same_meaningful_defaults(tmp_path):
+    """The README's `compare-methods RUN --methods gna,dbscan,sieve,community` gives the numbers of
+    ga.compare_methods with every method at its defaults, and those defaults are meaningful on a
+    wet drum bed: the sieve sieves GNA's granules, community splits them, DBSCAN is not one lump."""
+    import pandas as pd
+
+    from granalytics.cli import main
+    from granalytics.datasets import dataset_path
+
+    path = str(dataset_path("lab-cg3"))
+    out = tmp_path / "stats.csv"
+    assert main(["compare-methods", path, "--methods", "gna,dbscan,sieve,community", "--window-rev", "3:3.25",
+                 "--stats-out", str(out), "--quiet"]) == 0
+    cli = pd.read_csv(out)
+    with ga.open_run(path) as run:
+        api, _ = ga.compare_methods(run.select(revolutions=(3, 3.25)),
+                                    {m: (m, {}) for m in ("gna", "dbscan", "sieve", "community")})
+    for column in ("yield_fraction", "n_granules_norm", "mean_volume_norm"):
+        np.testing.assert_allclose(cli[column].to_numpy(), api[column].to_numpy(), rtol=1e-12)
+    mean = api.groupby("method")["yield_fraction"].mean()
+    assert mean["sieve"] == mean["gna"] and mean["community"] == pytest.approx(mean["gna"], abs=0.02)
+    assert 0.5 * mean["gna"] < mean["dbscan"] < 0.9  # not the whole bed

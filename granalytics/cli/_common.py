@@ -13,6 +13,7 @@ from ..cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
 from ..errors import GranalyticsError, ParameterError, ValidationError
 from ..files import check_output_folder, write_atomically
 from ..identify import BACKENDS, make_identifier
+from ..identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 
 def interval(text):
     """Parse ``A:B`` into a pair of floats."""
@@ -42,18 +43,20 @@ def every(text):
     return value
 
 
-def threshold_options(args, method, defaults=(("c_agg", 0.6), ("a_agg_deg", 20.0))) -> dict:
-    """The thresholds ``--c-agg`` / ``--a-agg-deg`` for ``method``: the defaults where the method
-    takes them and none was given; a threshold given for a method that ignores it is refused
-    (``ParameterError`` naming the option), never silently dropped."""
+def threshold_options(args, method, names=("c_agg", "a_agg_deg")) -> dict:
+    """The thresholds ``--c-agg`` / ``--a-agg-deg`` given for ``method``; one not given is left
+    to the method's own default (its constructor's, so the command line and the library agree).
+    A threshold given for a method that ignores it is refused (``ParameterError`` naming the
+    option), never silently dropped."""
     from ..identify import method_parameters
 
     accepted = method_parameters(method)
     out = {}
-    for name, default in defaults:
+    for name in names:
         value = getattr(args, name)
         if name in accepted:
-            out[name] = default if value is None else value
+            if value is not None:
+                out[name] = value
         elif value is not None:
             raise ParameterError(f"--{name.replace('_', '-')} {value:g}: method {method!r} has no such threshold "
                                  f"(it takes {', '.join(accepted)})")
@@ -147,8 +150,10 @@ def criterion_params(args) -> dict:
 def add_gna_options(parser):
     group = parser.add_argument_group("granule identification (graph network analysis, paper §2.2)")
     add_cohesion_option(group)
-    group.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold: keep F_coh >= C_agg·2πγR (default 0.6)")
-    group.add_argument("--a-agg-deg", type=float, default=20.0, help="co-motion threshold angle A_agg in degrees (default 20)")
+    group.add_argument("--c-agg", type=float, default=PAPER_C_AGG,
+                       help=f"cohesion threshold: keep F_coh >= C_agg·2πγR (default {PAPER_C_AGG:g})")
+    group.add_argument("--a-agg-deg", type=float, default=PAPER_A_AGG_DEG,
+                       help=f"co-motion threshold angle A_agg in degrees (default {PAPER_A_AGG_DEG:g})")
     add_criterion_options(group)
     group.add_argument("--radius", choices=("pair", "mean"), default="pair",
                        help="R in 2πγR: pair effective radius 2RiRj/(Ri+Rj) or the run's mean radius (default pair)")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import json
 import os
@@ -14,6 +15,7 @@ from ..metrics import HEADLINE, METRICS
 from ..errors import GranalyticsError, ParameterError
 from ..files import WriterLock, output_folder, staged_outputs, write_atomically
 from ..identify import DEFAULT_METHODS, accepted_params
+from ..identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from ..io import open_run
 from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
 from ._common import (threshold_options, add_cohesion_option, add_criterion_options, add_gna_options, criterion_params, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
@@ -211,7 +213,7 @@ def cmd_identify(args):
 def _write_labels(out, args, frames, identifier, n_frames, n):
     """Fill an open labels file: attributes, frame index and time, labels, ids and granule track
     ids per frame."""
-    from tqdm.auto import tqdm
+    from ..frames import map_frames
 
     out.attrs["format"] = "granalytics-labels"
     out.attrs["run"] = os.path.abspath(args.run)
@@ -224,11 +226,13 @@ def _write_labels(out, args, frames, identifier, n_frames, n):
     labels = out.create_dataset("labels", (n_frames, n), dtype=np.int32, **chunked)
     ids = out.create_dataset("ids", (n_frames, n), dtype=np.int64, **chunked)
     n_granules = out.create_dataset("n_granules", (n_frames,), dtype=np.int64)
-    for k, snapshot in enumerate(tqdm(frames, disable=not progress(args), unit="frame", desc="identify")):
-        result = identifier.identify(snapshot)
-        labels[k] = result.labels
-        ids[k] = snapshot.ids
-        n_granules[k] = result.n_granules
+    written = iter(range(n_frames))  # one thread: the frames come in order
+
+    def write_frame(snapshot):
+        k, result = next(written), identifier.identify(snapshot)
+        labels[k], ids[k], n_granules[k] = result.labels, snapshot.ids, result.n_granules
+
+    map_frames(frames, write_frame, progress=progress(args), desc="identify", what="identify")
     # the granule track of every particle (-1 free): the id that a granule keeps while it lives
     from ..tracking import track_granules
 
@@ -399,10 +403,10 @@ def cmd_compare_cg(args):
         if args.replicas:
             raise ParameterError("--replicas: a threshold grid compares single runs; leave --replicas out")
         return _compare_cg_thresholds(args, labels)
-    for name in ("c_agg", "a_agg_deg"):  # one value each: the standard comparison at that pair
-        if getattr(args, name) is not None:
-            setattr(args, name, float(getattr(args, name)[0]))
-    params = threshold_options(args, args.method)
+    # one value each: the standard comparison at that pair (args keep their grids)
+    single = argparse.Namespace(**{name: None if getattr(args, name) is None else float(getattr(args, name)[0])
+                                   for name in ("c_agg", "a_agg_deg")})
+    params = threshold_options(single, args.method)
     criterion = criterion_params(args)
     if args.method != "gna" and not _paper_criterion(args):
         raise ParameterError(f"--comotion / --min-size: method {args.method!r} has no such parameters (GNA's)")
@@ -433,8 +437,8 @@ def _compare_cg_thresholds(args, labels) -> int:
     if not _paper_criterion(args):
         raise ParameterError("--comotion rigid / --min-size: a threshold grid is the paper's C_agg x A_agg at "
                              "min_size 2; compare with one threshold pair, or use granalytics sensitivity")
-    c_agg = args.c_agg if args.c_agg is not None else np.array([0.6])
-    a_agg = args.a_agg_deg if args.a_agg_deg is not None else np.array([20.0])
+    c_agg = args.c_agg if args.c_agg is not None else np.array([PAPER_C_AGG])
+    a_agg = args.a_agg_deg if args.a_agg_deg is not None else np.array([PAPER_A_AGG_DEG])
     if (c_agg < 0).any() or ((a_agg <= 0) | (a_agg > 180)).any():
         raise ParameterError("--c-agg values must be >= 0 and --a-agg-deg values in (0, 180] degrees")
     paths = {"table": os.path.join(args.out, "cg_thresholds.csv")}

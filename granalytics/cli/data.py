@@ -95,7 +95,7 @@ def cmd_subset(args):
 
 def cmd_export_vtk(args):
     from ..io import WriterLock
-    from ..io.vtk import export_vtk
+    from ..export.vtk import export_vtk
 
     pvd_path = os.path.join(args.out, "run.pvd")
     # the folder made before the export (and removed again if the export fails and leaves it empty),

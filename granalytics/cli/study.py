@@ -10,13 +10,13 @@ import os
 import pandas as pd
 
 from ..metrics import HEADLINE, METRICS
-from ..identify import DEFAULT_METHODS, accepted_params
+from ..identify import DEFAULT_METHODS
 from ..errors import ParameterError
 from ..manifest import read_manifest
 from ..plot import growth_figure
 from ..stats import DEFAULT_WINDOW_REV
 from ..study import _fit_from_table, fit_surrogate, study_table
-from ._common import check_outputs, interval, save_figure, write_table
+from ._common import check_outputs, interval, save_figure, threshold_options, write_table
 
 def parse_predict(text, inputs=("gamma", "omega")) -> dict:
     """Parse ``"gamma=0.2,omega=3"`` into ``{"gamma": 0.2, "omega": 3.0}``.
@@ -64,8 +64,10 @@ def add_study_parser(sub):
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna; a custom criterion needs the Python API, "
                         "study_table(..., method='custom', criterion=...))")
-    p.add_argument("--c-agg", type=float, default=0.6, help="cohesion threshold C_agg (default 0.6)")
-    p.add_argument("--a-agg-deg", type=float, default=20.0, help="angle threshold A_agg in degrees (default 20)")
+    p.add_argument("--c-agg", type=float, default=None,
+                   help="cohesion threshold C_agg (default: the method's, 0.6; only for methods that take it)")
+    p.add_argument("--a-agg-deg", type=float, default=None,
+                   help="angle threshold A_agg in degrees (default: the method's, 20; only for methods that take it)")
     p.add_argument("--cohesion", choices=("acting", "bridge", "both"), default="both",
                    help="cohesion convention(s) of the table; fit and surrogate are reported for each, the plot "
                         "shows the first (default both: acting, bridge)")
@@ -97,7 +99,7 @@ def cmd_study(args) -> int:
             raise ParameterError(f"{path}: inside the sweep folder {args.sweep} (its manifest and points are the input)")
     check_outputs(args, tables=(args.out,), plots=(args.plot,))
     conventions = ["acting", "bridge"] if args.cohesion == "both" else [args.cohesion]
-    params = accepted_params(args.method, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg)
+    params = threshold_options(args, args.method)
     manifest = read_manifest(args.sweep)
     table = study_table(args.sweep, window=args.window, method=args.method, cohesion=conventions,
                         replicas=args.replicas, progress=not args.quiet, **params)

@@ -36,9 +36,9 @@ def add_track_parser(sub):
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna)")
     p.add_argument("--c-agg", type=float, default=None,
-                   help="cohesion threshold C_agg (default 0.6; only for methods that take it)")
+                   help="cohesion threshold C_agg (default: the method's, 0.6; only for methods that take it)")
     p.add_argument("--a-agg-deg", type=float, default=None,
-                   help="angle threshold A_agg in degrees (default 20; only for methods that take it)")
+                   help="angle threshold A_agg in degrees (default: the method's, 20; only for methods that take it)")
     add_cohesion_option(p)
     p.add_argument("--window-rev", "--window", dest="window", type=interval, default=None, metavar="R0:R1",
                    help="only frames within this revolution window (default: all frames)")

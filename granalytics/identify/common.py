@@ -14,7 +14,12 @@ from .. import _kernels
 from ..contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
 from ..errors import ParameterError
 
-__all__ = ["Identifier", "check_c_agg", "check_min_size", "check_angle", "check_radius_mode", "co_moving", "contact_strength",
+#: the paper's thresholds, the defaults of every method that filters contacts by them (GNA, the
+#: sieve over GNA granules, community detection): C_agg (F_coh ≥ C_agg·2πγR) and A_agg [deg]
+PAPER_C_AGG = 0.6
+PAPER_A_AGG_DEG = 20.0
+
+__all__ = ["PAPER_C_AGG", "PAPER_A_AGG_DEG", "Identifier", "check_c_agg", "check_min_size", "check_angle", "check_radius_mode", "co_moving", "contact_strength",
            "mean_radius", "surface_tension", "labels_from_clusters"]
 
 

@@ -24,7 +24,7 @@ from .. import _kernels
 from ..errors import ParameterError
 from ..snapshot import Snapshot
 from ..cohesion import DEFAULT_COHESION, check_cohesion
-from .common import Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
+from .common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
 from .result import IdentificationResult
 
 __all__ = ["CommunityDetection"]
@@ -35,10 +35,14 @@ class CommunityDetection(Identifier):
 
     Parameters
     ----------
-    c_agg : float, default 0
+    c_agg : float, default 0.6
         Split communities into the groups joined by contacts with F_coh ≥ c_agg·2πγR
-        (0: communities as Leiden finds them).
-    a_agg_deg : float or None, default None
+        (0: communities as Leiden finds them). The default is the paper's threshold: with 0, every
+        bridge is an edge and Leiden splits the wet bed into communities of its own choosing (yield
+        0.59 on lab-cg3 and 0.82 on lab-cg1, revolutions [3, 3.5], where GNA gives 0.40 and 0.56);
+        with the paper's thresholds the communities split GNA's granules (yield equal to GNA's,
+        adjusted Rand index 0.87 and 0.54 against it).
+    a_agg_deg : float or None, default 20
         Also require the GNA co-motion criterion with this angle [deg]; None: no angle filter.
     resolution : float, default 1
         Modularity resolution γ_res: larger values give smaller communities.
@@ -54,7 +58,7 @@ class CommunityDetection(Identifier):
 
     method = "community"
 
-    def __init__(self, c_agg=0.0, a_agg_deg=None, *, resolution=1.0, radius="pair", seed=0, surface_tension=None,
+    def __init__(self, c_agg=PAPER_C_AGG, a_agg_deg=PAPER_A_AGG_DEG, *, resolution=1.0, radius="pair", seed=0, surface_tension=None,
                  cohesion=DEFAULT_COHESION):
         self.c_agg = c_agg
         self.a_agg_deg = a_agg_deg

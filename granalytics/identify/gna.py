@@ -38,7 +38,7 @@ from ..errors import ParameterError
 from ..snapshot import Snapshot
 from ..contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, check_comotion, check_rigid_scale,
                         check_rigid_tol, co_moving_rigid, contact_strength)
-from .common import Identifier, check_angle, check_c_agg, check_radius_mode, check_min_size, mean_radius, surface_tension
+from .common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, check_min_size, mean_radius, surface_tension
 from .result import IdentificationResult
 
 __all__ = ["GraphNetworkAnalysis", "BACKENDS"]
@@ -116,7 +116,7 @@ class GraphNetworkAnalysis(Identifier):
 
     method = "gna"
 
-    def __init__(self, c_agg=0.6, a_agg_deg=20.0, *, radius="pair", backend="fast", surface_tension=None,
+    def __init__(self, c_agg=PAPER_C_AGG, a_agg_deg=PAPER_A_AGG_DEG, *, radius="pair", backend="fast", surface_tension=None,
                  cohesion=DEFAULT_COHESION, comotion=DEFAULT_COMOTION, rigid_tol=DEFAULT_RIGID_TOL,
                  rigid_scale=DEFAULT_RIGID_SCALE, speed_scale=None, min_size=2):
         self.c_agg = c_agg

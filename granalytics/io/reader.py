@@ -321,6 +321,11 @@ class RunSlice(_FrameSequence):
     def __repr__(self):
         return f"RunSlice({self._run.path!r}, frames={len(self)})"
 
+    @property
+    def path(self) -> str:
+        """The run file's path."""
+        return self._run.path
+
 
 def _make_snapshot(validate, **fields) -> Snapshot:
     if validate:

@@ -45,10 +45,8 @@ import time
 import uuid
 from dataclasses import dataclass, field
 
-from granalytics import ParameterError, WriterLock
-from granalytics.files import one_line, regular_input, warnings_as_lines
-from granalytics.manifest import (MANIFEST_COLUMNS, NAMED_PARAMETERS, manifest_path, manifest_rows, read_manifest,
-                                  write_manifest)
+from granalytics.core import (MANIFEST_COLUMNS, NAMED_PARAMETERS, ParameterError, WriterLock, manifest_path,
+                              manifest_rows, one_line, read_manifest, regular_input, warnings_as_lines, write_manifest)
 
 from ..params import (PHYSICS_VERSION, PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps,
                      preset_original, sized_drum)
@@ -297,7 +295,7 @@ def run_point(task: PointTask) -> dict:
     """
     import numba
 
-    from granalytics import configure_threading
+    from granalytics.core import configure_threading
 
     configure_threading()  # before numba starts its threads: OpenMP, not TBB (tens of times slower here)
     numba.set_num_threads(max(1, min(task.threads, numba.config.NUMBA_NUM_THREADS)))
@@ -307,7 +305,7 @@ def run_point(task: PointTask) -> dict:
 
 
 def _run_point(task: PointTask) -> dict:
-    from granalytics import open_run
+    from granalytics.core import open_run
 
     from ..run import Simulation
 
