@@ -119,9 +119,11 @@ def export_vtk(frames, out_dir, method="gna", *, progress=False, **params):
     identifier = make_identifier(method, **params)
     # one identification pass (labels, sizes and kept bonds of every frame; the track ids need
     # them all), then the files (a second pass over the frames, reading only)
-    frame_ids, found = map_frames(frames, lambda s: (identifier.identify(s), s.ids, s.time), progress=progress,
-                                  desc="identify", what="export")
-    found = [((r.labels, r.sizes, r.method, r.params, r.kept), ids, t) for r, ids, t in found]  # not the snapshots
+    def identified(snapshot):  # the result's arrays, not the snapshot (one frame in memory at a time)
+        r = identifier.identify(snapshot)
+        return (r.labels, r.sizes, r.method, r.params, r.kept), snapshot.ids, snapshot.time
+
+    frame_ids, found = map_frames(frames, identified, progress=progress, desc="identify", what="export")
     tracks = track_granules([f[0][0] for f in found], [f[1] for f in found], [f[2] for f in found])
     os.makedirs(out_dir, exist_ok=True)
     collection = ET.Element("VTKFile", type="Collection", version="0.1")
