@@ -3,7 +3,7 @@
 Usage: python benchmarks/identify.py [--particles 120000] [--contacts-per-particle 2.5]
 
 Each backend runs in a fresh child process that builds the same synthetic frame
-(granalytics.synthetic, physics-free, ~300 000 contacts for 120 000 particles), warms up the
+(granalytics.datasets.synthetic, physics-free, ~300 000 contacts for 120 000 particles), warms up the
 numba kernels on a tiny frame, resets the kernel's peak-RSS counter, then times
 ``identify(frame, backend=...)`` (filter + connected components + canonical labels + sizes).
 "peak MiB" is the peak resident memory of one more call above the level before it, measured after
@@ -35,7 +35,7 @@ def child(backend, threads, particles, contacts_per_particle, repeats):
     import numpy as np
 
     import granalytics as ga
-    from granalytics.synthetic import synthetic_snapshot
+    from granalytics.datasets.synthetic import synthetic_snapshot
 
     ga.configure_threading()  # as the command lines do, before numba starts its threads
     numba.set_num_threads(threads)

@@ -7,8 +7,8 @@ frames, the frames of the steady window [3, 6] of a run written every 0.05 revol
 frames of ``--window``: the rows, the DataFrame's own size (``memory_usage(deep=True)``), the peak
 of Python-traced memory while :func:`particle_table` builds it (numpy and pandas allocations
 included; ``tracemalloc``), the same peak for the streamed path of ``granalytics table``
-(:func:`granalytics.table.particle_frames`, one frame's table at a time, written to Parquet by
-:func:`granalytics.table.write_frames`), and
+(:func:`granalytics.analysis.table.particle_frames`, one frame's table at a time, written to Parquet by
+:func:`granalytics.analysis.table.write_frames`), and
 the wall time of each. Prints a table.
 """
 
@@ -25,8 +25,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
 import granalytics as ga  # noqa: E402
-from granalytics.synthetic import write_synthetic_run  # noqa: E402
-from granalytics.table import particle_frames, write_frames  # noqa: E402
+from granalytics.datasets.synthetic import write_synthetic_run  # noqa: E402
+from granalytics.analysis.table import particle_frames, write_frames  # noqa: E402
 
 
 def measure(build):

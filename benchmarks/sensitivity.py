@@ -2,7 +2,7 @@
 
 Usage: python benchmarks/sensitivity.py [--particles 120000] [--c-values 100]
 
-On the synthetic paper-scale frame (granalytics.synthetic, 120 000 particles, ~300 000 contacts):
+On the synthetic paper-scale frame (granalytics.datasets.synthetic, 120 000 particles, ~300 000 contacts):
 the one-pass sweep over 100 C_agg × 5 A_agg values, against 500 independent GNA
 identifications (fast backend) plus their frame statistics, in the same run. Both give the
 same statistics (checked here and in tests/test_sensitivity.py).
@@ -20,7 +20,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import granalytics as ga  # noqa: E402
-from granalytics.synthetic import synthetic_snapshot  # noqa: E402
+from granalytics.datasets.synthetic import synthetic_snapshot  # noqa: E402
 
 
 def main():

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 import granalytics as ga
-from granalytics.contacts import co_moving, co_moving_rigid, contact_strength
+from granalytics.identify.contacts import co_moving, co_moving_rigid, contact_strength
 from granalytics.datasets import confinement_groups, dataset_path, replica_paths
 
 #: the criteria compared: the paper's angle test and the rigid-pair test at its defaults

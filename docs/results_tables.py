@@ -62,7 +62,7 @@ def bed_table():
 def gamma_check_table(paths, window=(2, 3)):
     """The paper's drum at CG3 at several γ (runs not bundled: build/runs/paper-cg3-gamma*.h5 and the
     bundled paper-cg3 at γ = 0.1095 N/m), beside the paper's law β(γ − γ₁)."""
-    from granalytics.study import PAPER_BETA, PAPER_GAMMA_1
+    from granalytics.analysis.study import PAPER_BETA, PAPER_GAMMA_1
 
     print(f"\n**paper drum, CG3, γ check** (window {window[0]}–{window[1]} revolutions; γ of the original system)\n")
     print("| γ [N/m] | run | cohesion | yield | ⟨V_g⟩/V_p | N_g/N | paper law ⟨V_g⟩/V_p |")
@@ -84,7 +84,7 @@ def gamma_check_table(paths, window=(2, 3)):
 def cg_threshold_table(figures=None):
     """The lab CG comparison at every (C_agg, A_agg) of a grid (acting cohesion): the median and
     largest |deviation| from lab-cg1 of each headline statistic over the grid."""
-    from granalytics.metrics import BY_FIGURE, METRICS
+    from granalytics.analysis.metrics import BY_FIGURE, METRICS
     from granalytics.plot import cg_threshold_figures
 
     names = CG_SETS["lab drum"]

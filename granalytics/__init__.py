@@ -9,7 +9,7 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   ``"dbscan"`` (:class:`DBSCANClustering`), ``"sieve"`` (:class:`VirtualSieve`), ``"community"``
   (:class:`CommunityDetection`), ``"custom"`` (:class:`CustomEdges`, a user edge criterion), all
   returning :class:`IdentificationResult`; the kept contact graph as tables, NetworkX or igraph
-  graphs: :mod:`granalytics.edges`
+  graphs: :mod:`granalytics.identify.edges`
 - statistics: :func:`granule_table`, :func:`frame_stats`, :func:`run_stats`,
   :func:`steady_state`, :func:`size_distribution`
 - threshold sensitivity and method comparison: :func:`sensitivity`, :func:`sensitivity_summary`,
@@ -34,45 +34,60 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 import importlib
 import sys
 import types
+import warnings
 
-from ._version import __version__
+from granalytics import _moved
+from granalytics._version import __version__
+
+_moved.install()
 
 #: public name -> the module that defines it (imported on first use, PEP 562: ``import granalytics``
 #: loads no analysis module, so that the simulator, which needs only :mod:`granalytics.core`,
 #: stays light; ``from granalytics import identify`` works as before)
 _EXPORTS = {
-    "configure_threading": "._threading",
-    **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".errors"),
-    **dict.fromkeys(("CGComparison", "compare_cg", "compare_cg_thresholds"), ".cg"),
-    **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".cohesion"),
-    "compare_methods": ".compare",
+    "configure_threading": ".core._threading",
+    **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".core.errors"),
+    **dict.fromkeys(("CGComparison", "compare_cg", "compare_cg_thresholds"), ".analysis.cg"),
+    **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".identify.cohesion"),
+    "compare_methods": ".analysis.method_comparison",
     **dict.fromkeys(("CommunityDetection", "DBSCANClustering", "DBSCANIdentifier", "GraphNetworkAnalysis",
                      "IdentificationResult", "VirtualSieve", "identify", "CustomEdges"), ".identify"),
-    **dict.fromkeys(("Run", "RunSlice", "RunWriter", "WriterLock", "open_run", "subset_run"), ".io"),
-    **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".sensitivity"),
-    **dict.fromkeys(("RunMeta", "Snapshot"), ".snapshot"),
+    **dict.fromkeys(("Run", "RunSlice", "RunWriter", "WriterLock", "open_run", "subset_run"), ".core"),
+    **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".analysis.sensitivity"),
+    **dict.fromkeys(("RunMeta", "Snapshot"), ".core.snapshot"),
     **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
-                     "drum_confinement", "run_confinement", "wall_touching"), ".bed"),
+                     "drum_confinement", "run_confinement", "wall_touching"), ".core.bed"),
     **dict.fromkeys(("CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
-                     "fit_confinement_curve"), ".confinement"),
-    **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".table"),
+                     "fit_confinement_curve"), ".analysis.confinement"),
+    **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.table"),
     **dict.fromkeys(("frame_stats", "granule_table", "replica_steady_state", "run_stats", "size_distribution",
-                     "steady_state"), ".stats"),
-    **dict.fromkeys(("GrowthFit", "Surrogate", "fit_granule_growth", "fit_surrogate", "study_table"), ".study"),
+                     "steady_state"), ".analysis.stats"),
+    **dict.fromkeys(("GrowthFit", "Surrogate", "fit_granule_growth", "fit_surrogate", "study_table"), ".analysis.study"),
     **dict.fromkeys(("GranuleTracks", "breakage_rate", "coalescence_kernel", "event_rates", "track_granules",
-                     "track_run"), ".tracking"),
+                     "track_run"), ".analysis.tracking"),
+    **dict.fromkeys(("PBMPrediction", "PBMRates", "PopulationBalance", "distribution_summary", "fit_pbm_rates",
+                     "ks_distance", "pbm_from_run", "pbm_grid", "population_balance", "project_counts",
+                     "size_counts"), ".analysis.population_balance"),
 }
-#: public submodules: the bundled runs and sweeps (granalytics.datasets.open_dataset(...)), file
-#: helpers, the sweep manifest's schema, the kept contact graph, the per-particle table, the
-#: run-file contract
-_SUBMODULES = ("datasets", "files", "manifest", "edges", "table", "core")
+#: public submodules (``granalytics.datasets.open_dataset(...)``, ``granalytics.edges.edge_table(...)``):
+#: attribute name -> module. The layers themselves (core, identify, analysis, convert, export) are
+#: ordinary subpackages.
+_SUBMODULES = {
+    "datasets": ".datasets", "core": ".core", "convert": ".convert", "export": ".export",
+    "analysis": ".analysis", "edges": ".identify.edges", "table": ".analysis.table",
+}
+#: old public submodules, moved into the core layer: they still resolve, with a DeprecationWarning
+_MOVED_SUBMODULES = ("files", "manifest")
 
 
 def __getattr__(name):
     if name in _EXPORTS:
         value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
     elif name in _SUBMODULES:
-        value = importlib.import_module(f".{name}", __name__)
+        value = importlib.import_module(_SUBMODULES[name], __name__)
+    elif name in _MOVED_SUBMODULES:
+        warnings.warn(_moved.moved_warning(f"granalytics.{name}"), DeprecationWarning, stacklevel=2)
+        return importlib.import_module(_moved.MOVED[f"granalytics.{name}"])  # not cached: warns every time
     else:
         raise AttributeError(f"module 'granalytics' has no attribute {name!r}")
     globals()[name] = value  # once
@@ -85,7 +100,7 @@ def __dir__():
 
 class _Package(types.ModuleType):
     """The package's module type: importing a submodule named like a public function
-    (``granalytics.identify``, ``granalytics.sensitivity``) does not replace the function."""
+    (``granalytics.identify``, ``granalytics.analysis.sensitivity``) does not replace the function."""
 
     def __setattr__(self, name, value):
         if name in _EXPORTS and isinstance(value, types.ModuleType):
@@ -105,7 +120,7 @@ __all__ = [
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",
-    "edges", "datasets", "files", "manifest", "core",
+    "edges", "datasets", "core", "convert", "export", "analysis",
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",

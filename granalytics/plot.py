@@ -13,13 +13,14 @@ import typing
 import numpy as np
 import pandas as pd
 
-from .metrics import METRICS, STEADY
+from granalytics.analysis.metrics import METRICS, STEADY
 
 if typing.TYPE_CHECKING:
-    from .tracking import GranuleTracks
+    from granalytics.analysis.tracking import GranuleTracks
 
 __all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure",
-           "frame_figure", "cg_figures", "tracking_figure", "growth_figure", "cg_threshold_figures"]
+           "frame_figure", "cg_figures", "tracking_figure", "growth_figure", "cg_threshold_figures",
+           "pbm_figure"]
 
 _TIMESERIES = tuple((name, METRICS[name].label) for name in STEADY if METRICS[name].headline)
 
@@ -89,7 +90,7 @@ def sensitivity_figure(summary, title=None):
     (:func:`~granalytics.sensitivity_summary` output)."""
     import matplotlib.pyplot as plt
 
-    from .sensitivity import comotion_column
+    from granalytics.analysis.sensitivity import comotion_column
 
     column = comotion_column(summary)
     name, unit = ("A_agg", "°") if column == "a_agg_deg" else ("rigid_tol", "")
@@ -191,7 +192,7 @@ def _replica_spread(part, column) -> pd.DataFrame:
 
 
 def cg_figures(comparison) -> dict:
-    """The paper's Figs 3–6 for a :class:`~granalytics.cg.CGComparison`: ⟨V_g⟩/V_p, N_g/N and
+    """The paper's Figs 3–6 for a :class:`~granalytics.analysis.cg.CGComparison`: ⟨V_g⟩/V_p, N_g/N and
     yield against revolutions (one curve per run, the steady-state window shaded, its mean ± s.e.m.
     as a band) and the particles-per-granule distribution pooled over the window (log axes).
     A group of replicas is drawn as the replicas' mean at their common frames with their range
@@ -268,7 +269,7 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
     -------
     matplotlib.figure.Figure
     """
-    from .tracking import KINDS
+    from granalytics.analysis.tracking import KINDS
 
     import matplotlib.pyplot as plt
 
@@ -343,9 +344,9 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
 def _points_over_replicas(group) -> pd.DataFrame:
     """Rows of one Ω grouped by γ (replicas: several seeds, or rows already combined by
     ``study_table(replicas=...)``): mean ⟨V_g⟩/V_p ``v``, ``block_sem``, ``replica_sem``
-    (:func:`~granalytics.stats.combine_replicas`; from the rows' own replica s.e. where they carry
+    (:func:`~granalytics.analysis.stats.combine_replicas`; from the rows' own replica s.e. where they carry
     one), ``none`` (no granules in any)."""
-    from .stats import combine_replicas
+    from granalytics.analysis.stats import combine_replicas
 
     rows = {}
     for gamma, g in group.groupby("gamma", sort=True):
@@ -360,7 +361,7 @@ def growth_figure(table, fit=None, cohesion="acting"):
     bars: block s.e.m.; band: the replica standard error where there are replicas), the fitted law
     and the paper's β = 70, γ₁ = 0.027 N/m for reference.
 
-    Points of one (Ω, γ) (e.g. several seeds) are averaged (:func:`~granalytics.stats.combine_replicas`:
+    Points of one (Ω, γ) (e.g. several seeds) are averaged (:func:`~granalytics.analysis.stats.combine_replicas`:
     block sems combined as √(Σ sem²)/n, the replicas' spread as the band); rows that
     ``study_table(replicas=...)`` already combined bring their replica s.e.; points without
     granules are drawn at 0 with open markers.
@@ -378,15 +379,15 @@ def growth_figure(table, fit=None, cohesion="acting"):
     -------
     matplotlib Figure
     """
-    from .errors import ParameterError
-    from .study import PAPER_BETA, PAPER_GAMMA_1, _fit_from_table, _select_cohesion
+    from granalytics.core.errors import ParameterError
+    from granalytics.analysis.study import PAPER_BETA, PAPER_GAMMA_1, fit_growth_of_table, select_cohesion
 
     import matplotlib.pyplot as plt
 
-    part = _select_cohesion(table, cohesion).copy()
+    part = select_cohesion(table, cohesion).copy()
     if fit is None:
         try:
-            fit = _fit_from_table(table, cohesion)
+            fit = fit_growth_of_table(table, cohesion)
         except ParameterError:
             fit = None
     part["_v"] = part["mean_volume_norm_mean"].fillna(0.0)
@@ -440,7 +441,7 @@ def cg_threshold_figures(table) -> dict:
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
 
-    from .metrics import BY_FIGURE
+    from granalytics.analysis.metrics import BY_FIGURE
 
     finest = table.loc[table["alpha"].idxmin(), "run"]
     runs = [r for r in table["run"].unique() if r != finest]
@@ -471,3 +472,40 @@ def cg_threshold_figures(table) -> dict:
                      "grey: no granules in the finest run (no relative deviation)", fontsize=9)
         figures[f"cg_thresholds_{metric}"] = fig
     return figures
+
+
+def pbm_figure(prediction, times=None, title=None):
+    """A population-balance prediction against its DEM (:class:`~granalytics.PBMPrediction`): the
+    DEM as points, the PBM as lines; mean granule size and yield over the prediction window, and
+    the cumulative number distribution of granules at ``times`` [revolutions] (default the middle
+    and the last frame). Returns a matplotlib Figure; the backend is not changed."""
+    from matplotlib.figure import Figure
+
+    table = prediction.summary()
+    if times is None:
+        times = (prediction.revolutions[len(prediction.revolutions) // 2], prediction.revolutions[-1])
+    fig = Figure(figsize=(13, 4), layout="constrained")
+    ax = fig.subplots(1, 3)
+    for a, col, label in ((ax[0], "mean_size", "mean granule size [particles]"),
+                          (ax[1], "yield_fraction", "yield (fraction of particles in granules)")):
+        a.plot(table["revolution"], table["dem_" + col], "o", ms=3, label="DEM")
+        a.plot(table["revolution"], table["pbm_" + col], "-", label="PBM")
+        a.set_xlabel("revolutions")
+        a.set_ylabel(label)
+        a.legend()
+    grid = prediction.pbm.grid
+    keep = grid >= 2
+    for k, rev in enumerate(times):
+        i = int(np.argmin(np.abs(prediction.revolutions - rev)))
+        colour = f"C{k}"
+        for numbers, style, what in ((prediction.dem_numbers[i], "o", "DEM"), (prediction.pbm.numbers[i], "-", "PBM")):
+            n = np.clip(numbers[keep], 0, None)
+            ax[2].plot(grid[keep], np.cumsum(n) / n.sum(), style, color=colour, ms=3,
+                       label=f"{what}, rev {prediction.revolutions[i]:.2f}")
+    ax[2].set_xscale("log")
+    ax[2].set_xlabel("granule size [particles]")
+    ax[2].set_ylabel("cumulative number fraction of granules")
+    ax[2].legend(fontsize=8)
+    fig.suptitle(title or f"{prediction.run}: rates on revolutions {prediction.fit_window[0]:g}–{prediction.fit_window[1]:g}, "
+                          f"prediction from {prediction.revolutions[0]:.2f}")
+    return fig

@@ -71,7 +71,7 @@ def make_snapshot(n, pairs=(), f_norm=(), *, radius=None, velocity=None, angular
 
 @pytest.fixture
 def small_snapshot():
-    from granalytics.synthetic import synthetic_snapshot
+    from granalytics.datasets.synthetic import synthetic_snapshot
 
     return synthetic_snapshot(2000, seed=3)
 

@@ -74,16 +74,86 @@ def test_sim_uses_the_run_file_contract_only():
 
 def test_the_contract_and_the_simulator_load_no_analysis_library():
     """`import sim.run` (and so granalytics.core) loads neither pandas, NetworkX, SciPy's sparse
-    graphs, scikit-learn, igraph, matplotlib nor any analysis module of granalytics."""
+    graphs, scikit-learn, igraph, matplotlib nor any module of granalytics above the core."""
     import subprocess
     import sys
 
-    heavy = ("pandas", "networkx", "scipy.sparse", "sklearn", "igraph", "matplotlib", "dask",
-             "granalytics.stats", "granalytics.identify", "granalytics.contacts", "granalytics.cg")
-    code = f"import sys, sim.run; print(','.join(m for m in {heavy!r} if m in sys.modules))"
+    heavy = ("pandas", "networkx", "scipy.sparse", "sklearn", "igraph", "matplotlib", "dask")
+    above = tuple(f"granalytics.{layer}" for layer in ("identify", "analysis", "convert", "export", "plot", "cli"))
+    code = (f"import sys, sim.run; print(','.join(m for m in sys.modules if m in {heavy!r} "
+            f"or m.startswith({above!r})))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == ""
+
+
+#: the layers of granalytics, lowest first: a module imports only modules of its own layer or of a
+#: lower one (docs/architecture.md). ``io`` is the deprecated forward to core and convert.
+LAYERS = {"_version": 0, "_moved": 0, "core": 0, "identify": 1, "convert": 1, "io": 2, "analysis": 2,
+          "export": 3, "plot": 3, "datasets": 3, "cli": 4, "__main__": 4}
+#: the upward edges, inside a method: a CG comparison's ``figures()`` and a PBM prediction's
+#: ``figure()`` draw themselves with granalytics.plot (as a pandas object's ``.plot()`` does)
+LATE_UPWARD = {("granalytics.analysis.cg", "granalytics.plot"),
+               ("granalytics.analysis.population_balance", "granalytics.plot")}
+
+
+def _layer(module):
+    parts = module.split(".")
+    return parts[1] if parts[0] == "granalytics" and len(parts) > 1 else None
+
+
+def test_every_module_lives_in_a_layer_and_imports_only_downwards():
+    names = dict(_modules("granalytics"))
+    unplaced = [name for name in names if name != "granalytics" and _layer(name) not in LAYERS]
+    assert unplaced == []
+    offenders = [f"{name}:{line} imports {module}"
+                 for name, path in names.items() if name != "granalytics" and not _is_entry(name)
+                 for module, line in _imports(name, path)
+                 if _layer(module) in LAYERS and LAYERS[_layer(module)] > LAYERS[_layer(name)]
+                 and (name, module) not in LATE_UPWARD]
+    assert offenders == []
+
+
+def test_identify_and_convert_know_nothing_of_each_other():
+    offenders = [f"{name} imports {module}" for name, path in _modules("granalytics")
+                 for module, _ in _imports(name, path) if {_layer(name), _layer(module)} == {"identify", "convert"}]
+    assert offenders == []
+
+
+def test_every_old_module_path_still_imports_with_a_deprecation_warning():
+    """A fresh interpreter (the warning is given when the old path is first imported): every old
+    path gives the new module itself, its own spec kept, and a DeprecationWarning naming the new path."""
+    import importlib.util
+    import subprocess
+    import sys
+
+    from granalytics._moved import MOVED
+
+    assert all(importlib.util.find_spec(new) is not None for new in MOVED.values())
+    code = ("import importlib, warnings\n"
+            "from granalytics._moved import MOVED\n"
+            "bad = []\n"
+            "for old, new in MOVED.items():\n"
+            "    with warnings.catch_warnings(record=True) as caught:\n"
+            "        warnings.simplefilter('always')\n"
+            "        module = importlib.import_module(old)\n"
+            "    ok = module is importlib.import_module(new) and module.__spec__.name == new\n"
+            "    ok = ok and any(w.category is DeprecationWarning and new in str(w.message) for w in caught)\n"
+            "    bad += [] if ok else [old]\n"
+            "print(','.join(bad))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == ""
+
+
+def test_the_old_public_submodules_forward_with_a_warning():
+    import granalytics
+    from granalytics.core import files, manifest
+
+    with pytest.warns(DeprecationWarning, match="granalytics.core.files"):
+        assert granalytics.files is files
+    with pytest.warns(DeprecationWarning, match="granalytics.core.manifest"):
+        assert granalytics.manifest is manifest
 
 
 def test_the_lazy_package_still_exports_every_public_name():
@@ -91,8 +161,8 @@ def test_the_lazy_package_still_exports_every_public_name():
 
     assert all(getattr(granalytics, name) is not None for name in granalytics.__all__)
     assert set(granalytics.__all__) <= set(dir(granalytics))
+    import granalytics.analysis.sensitivity  # noqa: F401
     import granalytics.identify  # noqa: F401  (submodules named like public functions)
-    import granalytics.sensitivity  # noqa: F401
 
     assert callable(granalytics.identify) and callable(granalytics.sensitivity)
     with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):

@@ -10,7 +10,7 @@ import pytest
 import granalytics as ga
 from granalytics import RunWriter, Snapshot, bed_structure
 from granalytics.cli import main as cli_main
-from granalytics.synthetic import synthetic_meta
+from granalytics.datasets.synthetic import synthetic_meta
 from sim.packing import insertion_positions
 from sim.run import Simulation
 

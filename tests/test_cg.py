@@ -8,11 +8,11 @@ import pandas as pd
 import pytest
 
 import granalytics as ga
-from granalytics.cg import compare_cg
+from granalytics.analysis.cg import compare_cg
 from granalytics.cli import main
-from granalytics.errors import ParameterError
-from granalytics.io import RunWriter, subset_run
-from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+from granalytics.core.errors import ParameterError
+from granalytics.core import RunWriter, subset_run
+from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 
 
 def write_run(path, n_particles, alpha, final_fraction=0.55, wall_per_sim_s=None, revolutions=4.0, seed=0):

@@ -9,7 +9,7 @@ import pytest
 
 from granalytics import open_run
 from granalytics.cli import main
-from granalytics.synthetic import write_synthetic_run
+from granalytics.datasets.synthetic import write_synthetic_run
 
 
 @pytest.fixture(scope="module")
@@ -173,7 +173,7 @@ def test_a_window_past_the_end_of_the_run_is_one_warning_line(run_file, capsys):
 
 
 def test_compare_cg_refuses_existing_outputs_before_analysing(run_file, tmp_path, monkeypatch, capsys):
-    import granalytics.cg
+    import granalytics.analysis.cg
 
     out = tmp_path / "cg"
     out.mkdir()
@@ -182,14 +182,14 @@ def test_compare_cg_refuses_existing_outputs_before_analysing(run_file, tmp_path
     def no_analysis(*args, **kwargs):
         raise AssertionError("analysed before refusing the outputs")
 
-    monkeypatch.setattr(granalytics.cg, "compare_cg", no_analysis)
+    monkeypatch.setattr(granalytics.analysis.cg, "compare_cg", no_analysis)
     assert main(["compare-cg", run_file, run_file, "--out", str(out), "--quiet"]) == 2
     assert "cg_table.csv: exists" in capsys.readouterr().err
     assert (out / "cg_table.csv").read_text() == "precious"
 
 
 def test_an_output_is_replaced_only_when_complete(tmp_path):
-    from granalytics.files import write_atomically
+    from granalytics.core.files import write_atomically
 
     path = tmp_path / "table.csv"
     path.write_text("old, complete")
@@ -207,7 +207,7 @@ def test_an_output_is_replaced_only_when_complete(tmp_path):
 
 
 def test_subset_every_works_on_a_run_whose_drum_does_not_turn(tmp_path, capsys):
-    from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+    from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
     from granalytics import RunWriter
 
     meta = synthetic_meta(50, drum_omega=0.0)
@@ -224,7 +224,7 @@ def test_subset_every_works_on_a_run_whose_drum_does_not_turn(tmp_path, capsys):
 def test_subset_window_every_thins_the_full_window(tmp_path, capsys):
     import math
 
-    from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+    from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
     from granalytics import RunWriter
 
     meta = synthetic_meta(30, drum_omega=2 * math.pi)  # one revolution per second
@@ -244,7 +244,7 @@ def test_subset_window_every_thins_the_full_window(tmp_path, capsys):
 
 
 def test_info_json_is_valid_json_for_an_empty_run(tmp_path, capsys):
-    from granalytics.synthetic import synthetic_meta
+    from granalytics.datasets.synthetic import synthetic_meta
     from granalytics import RunWriter
 
     empty = tmp_path / "empty.h5"
@@ -292,7 +292,7 @@ def test_outputs_in_missing_folders_or_unknown_figure_formats_are_refused_before
     def no_work(*args, **kwargs):
         raise AssertionError("worked before checking the outputs")
 
-    monkeypatch.setattr(sys.modules["granalytics.sensitivity"], "sensitivity", no_work)  # the module, not the function
+    monkeypatch.setattr(sys.modules["granalytics.analysis.sensitivity"], "sensitivity", no_work)  # the module, not the function
     frames_out = tmp_path / "f.csv"
     base = ["sensitivity", run_file, "--window", "1:3", "--frames-out", str(frames_out), "--quiet"]
     assert main(base + ["--out", str(tmp_path / "nodir" / "s.csv")]) == 2
@@ -313,7 +313,7 @@ def test_export_vtk_refuses_existing_frame_files_without_overwrite(run_file, tmp
 
 
 def test_tracking_reports_uneven_frame_spacing_and_bins_from_the_window(tmp_path, capsys):
-    from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+    from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
     from granalytics import RunWriter
 
     meta = synthetic_meta(60)
@@ -335,7 +335,7 @@ def test_tracking_reports_uneven_frame_spacing_and_bins_from_the_window(tmp_path
     (["export-vtk", "--window-rev", "1:2"], "run.pvd.lock"),
 ])
 def test_a_second_writer_into_an_output_folder_is_refused(run_file, tmp_path, capsys, command, lock):
-    from granalytics.io import WriterLock
+    from granalytics.core import WriterLock
 
     out = tmp_path / "out"
     out.mkdir()

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import granalytics as ga
-from granalytics.cohesion import cohesion_counts, cohesive_force
-from granalytics.errors import ParameterError
-from granalytics.io.lammps import DumpMapping, read_liggghts
+from granalytics.identify.cohesion import cohesion_counts, cohesive_force
+from granalytics.core.errors import ParameterError
+from granalytics.convert.lammps import DumpMapping, read_liggghts
 
 from conftest import make_meta, make_snapshot
 

@@ -11,9 +11,9 @@ import pytest
 import granalytics as ga
 from granalytics import ParameterError
 from granalytics.identify import BACKENDS
-from granalytics.confinement import ConfinementFit, confinement_warning, decompose_cg, fit_confinement_curve
-from granalytics.contacts import co_moving, co_moving_rigid, contact_strength, rigid_residual
-from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+from granalytics.analysis.confinement import ConfinementFit, confinement_warning, decompose_cg, fit_confinement_curve
+from granalytics.identify.contacts import co_moving, co_moving_rigid, contact_strength, rigid_residual
+from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 from sim.params import DrumRule, preset, preset_original, sized_drum
 
 from conftest import make_meta, make_snapshot
@@ -285,7 +285,7 @@ def test_the_warning_names_the_threshold_it_falls_below():
 
 # ----------------------------------------------------------------------------- the command line, the warnings
 def test_info_prints_the_confinement_and_warns_below_the_rule(monkeypatch, capsys):
-    import granalytics.confinement as confinement
+    import granalytics.analysis.confinement as confinement
     from granalytics.cli import main
     from granalytics.datasets import dataset_path
 
@@ -299,7 +299,7 @@ def test_info_prints_the_confinement_and_warns_below_the_rule(monkeypatch, capsy
 
 
 def test_compare_cg_warns_for_each_run_below_the_rule(monkeypatch):
-    import granalytics.confinement as confinement
+    import granalytics.analysis.confinement as confinement
     from granalytics.datasets import dataset_path
 
     monkeypatch.setattr(confinement, "CONFINEMENT_RULE", {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)})
@@ -339,7 +339,7 @@ def test_the_rule_is_the_fit_of_the_alpha_1_runs():
     """CONFINEMENT_RULE is what docs/confinement_study.py measures (where the runs are made)."""
     import importlib.util
 
-    import granalytics.confinement as confinement
+    import granalytics.analysis.confinement as confinement
     from granalytics.datasets import confinement_groups
 
     try:

@@ -14,8 +14,8 @@ import pytest
 
 from granalytics.identify import (BACKENDS, CommunityDetection, CustomEdges, DBSCANClustering, GraphNetworkAnalysis,
                                   VirtualSieve)
-from granalytics.snapshot import Snapshot
-from granalytics.synthetic import synthetic_snapshot
+from granalytics.core.snapshot import Snapshot
+from granalytics.datasets.synthetic import synthetic_snapshot
 
 IDENTIFIERS = {
     **{

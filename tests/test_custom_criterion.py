@@ -11,9 +11,9 @@ import pytest
 import granalytics as ga
 from granalytics import ParameterError
 from granalytics.cli import main
-from granalytics.edges import contact_table
+from granalytics.identify.edges import contact_table
 from granalytics.identify.custom import COLUMNS, CustomEdges
-from granalytics.synthetic import synthetic_snapshot, write_synthetic_run
+from granalytics.datasets.synthetic import synthetic_snapshot, write_synthetic_run
 
 
 @pytest.fixture(scope="module")

@@ -118,7 +118,7 @@ def test_replica_sets_are_one_system_at_different_seeds():
 def test_unknown_or_corrupt_dataset_is_an_error(tmp_path, monkeypatch):
     with pytest.raises(GranalyticsError, match="unknown dataset"):
         dataset_path("nope")
-    import granalytics.datasets as ds
+    import granalytics.datasets.catalogue as ds
 
     monkeypatch.setitem(ds.DATASETS, "fake", {"file": "fake.h5", "sha256": "0" * 64, "commands": ["x"]})
     monkeypatch.setattr(ds, "DATASET_DIR", tmp_path)
@@ -142,7 +142,7 @@ def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_
     import pandas as pd
     from test_study import write_point
 
-    from granalytics.datasets import _sha256, bundle_sweep
+    from granalytics.datasets import bundle_sweep, file_sha256 as _sha256
 
     src = tmp_path / "sweep"
     (src / "points").mkdir(parents=True)
@@ -205,8 +205,8 @@ def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_
     assert _main(["bundle-sweep", str(src), str(target), "--overwrite"]) == 2
     assert "exists and is not a folder" in capsys.readouterr().err and target.read_text() == "x"
     # one bundling at a time into a target (DST.lock beside it)
-    from granalytics.errors import RunLockedError
-    from granalytics.io import WriterLock
+    from granalytics.core.errors import RunLockedError
+    from granalytics.core import WriterLock
 
     with WriterLock(tmp_path / "busy"):
         with pytest.raises(RunLockedError, match="busy.lock"):
@@ -216,32 +216,32 @@ def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_
 
 def test_thinned_frames_keeps_the_window_and_every_nth_frame():
     revs = np.arange(13) * 0.25
-    assert list(ga.io.thinned_frames(revs)) == list(range(13))
-    assert list(ga.io.thinned_frames(revs, 4)) == [0, 4, 8, 12]
-    assert list(ga.io.thinned_frames(revs, 4, (1.5, 2.0))) == [0, 4, 6, 7, 8, 12]
+    assert list(ga.core.thinned_frames(revs)) == list(range(13))
+    assert list(ga.core.thinned_frames(revs, 4)) == [0, 4, 8, 12]
+    assert list(ga.core.thinned_frames(revs, 4, (1.5, 2.0))) == [0, 4, 6, 7, 8, 12]
     with pytest.raises(GranalyticsError, match="every"):
-        ga.io.thinned_frames(revs, 0)
+        ga.core.thinned_frames(revs, 0)
     with pytest.raises(GranalyticsError, match="full_window"):
-        ga.io.thinned_frames(revs, 2, (2.0, 1.0))
+        ga.core.thinned_frames(revs, 2, (2.0, 1.0))
 
 
 def test_thinned_frames_thins_the_window_by_its_own_stride():
     revs = np.arange(25) * 0.125
-    assert list(ga.io.thinned_frames(revs, 8, (2.0, 3.0), window_every=2)) == [0, 8, 16, 18, 20, 22, 24]
-    assert list(ga.io.thinned_frames(revs, 8, (2.0, 3.0), window_every=4)) == [0, 8, 16, 20, 24]
+    assert list(ga.core.thinned_frames(revs, 8, (2.0, 3.0), window_every=2)) == [0, 8, 16, 18, 20, 22, 24]
+    assert list(ga.core.thinned_frames(revs, 8, (2.0, 3.0), window_every=4)) == [0, 8, 16, 20, 24]
     with pytest.raises(GranalyticsError, match="window_every"):
-        ga.io.thinned_frames(revs, 2, None, window_every=2)
+        ga.core.thinned_frames(revs, 2, None, window_every=2)
     with pytest.raises(GranalyticsError, match="window_every"):
-        ga.io.thinned_frames(revs, 2, (1.0, 2.0), window_every=0)
+        ga.core.thinned_frames(revs, 2, (1.0, 2.0), window_every=0)
 
 
 def test_thinning_a_thinned_copy_keeps_the_frames_one_thinning_would():
     """A bundled sweep kept every 2nd raw frame; thinning that copy with every 4 outside the window
     keeps the frames that every 8 outside, every 2 inside would keep from the raw run."""
     raw = np.arange(121) * 0.05 * (1 - 1e-5)  # stamped just before the nominal times, as the simulator's are
-    direct = ga.io.thinned_frames(raw, 8, (3.0, 6.0), window_every=2)
-    copy = ga.io.thinned_frames(raw, 2)
-    again = copy[ga.io.thinned_frames(raw[copy], 4, (3.0, 6.0))]
+    direct = ga.core.thinned_frames(raw, 8, (3.0, 6.0), window_every=2)
+    copy = ga.core.thinned_frames(raw, 2)
+    again = copy[ga.core.thinned_frames(raw[copy], 4, (3.0, 6.0))]
     assert list(again) == list(direct)
     assert len(direct) == 8 + 31 and raw[60] < 3.0 and 60 in direct  # the frame at 2.99997 is in [3, 6]
 

@@ -10,9 +10,9 @@ import pytest
 import granalytics as ga
 from granalytics import ParameterError
 from granalytics.cli import main
-from granalytics.edges import contact_table, edge_table, to_igraph, to_networkx
+from granalytics.identify.edges import contact_table, edge_table, to_igraph, to_networkx
 from granalytics.export.vtk import export_vtk
-from granalytics.synthetic import synthetic_snapshot, write_synthetic_run
+from granalytics.datasets.synthetic import synthetic_snapshot, write_synthetic_run
 
 
 @pytest.fixture(scope="module")
@@ -88,8 +88,8 @@ def test_export_carries_granule_track_ids_and_the_drum(tmp_path):
     import meshio
 
     from granalytics.export.vtk import drum_mesh, export_vtk
-    from granalytics.synthetic import write_synthetic_run
-    from granalytics.table import granule_tracks
+    from granalytics.datasets.synthetic import write_synthetic_run
+    from granalytics.analysis.table import granule_tracks
 
     path = write_synthetic_run(tmp_path / "run.h5", n_particles=150, revolutions=0.5, frames_per_revolution=8, seed=2)
     with ga.open_run(path) as run:
@@ -108,15 +108,3 @@ def test_export_carries_granule_track_ids_and_the_drum(tmp_path):
     angle = math.atan2(baffle[1, 1], baffle[1, 0])
     assert angle == pytest.approx(math.pi / 2) and np.hypot(*baffle[0, :2]) == pytest.approx(0.085)
     assert drum.points[:, 2].max() == pytest.approx(0.045)
-
-
-def test_the_old_import_path_of_the_export_still_works_with_a_deprecation_warning():
-    import importlib
-    import sys
-
-    import granalytics.export.vtk as new
-
-    sys.modules.pop("granalytics.io.vtk", None)
-    with pytest.warns(DeprecationWarning, match="granalytics.export.vtk"):
-        old = importlib.import_module("granalytics.io.vtk")
-    assert old.export_vtk is new.export_vtk

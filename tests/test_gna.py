@@ -8,7 +8,7 @@ import pytest
 
 import granalytics as ga
 from granalytics import GraphNetworkAnalysis, ParameterError, Snapshot
-from granalytics.synthetic import synthetic_snapshot
+from granalytics.datasets.synthetic import synthetic_snapshot
 from conftest import GAMMA, make_meta, make_snapshot
 
 

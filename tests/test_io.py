@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from granalytics import RunFileError, RunWriter, ValidationError, open_run
-from granalytics.snapshot import CONTACT_FIELDS, PARTICLE_FIELDS
-from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+from granalytics.core.snapshot import CONTACT_FIELDS, PARTICLE_FIELDS
+from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 
 def assert_same_frame(a, b):
     assert a.time == b.time and a.step == b.step
@@ -123,7 +123,7 @@ WRITER = textwrap.dedent(
     """
     import sys
     from granalytics import RunWriter
-    from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+    from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
     n = int(sys.argv[2]) if len(sys.argv) > 2 else 20000
     meta = synthetic_meta(n)
     base = [synthetic_snapshot(n, seed=s, meta=meta) for s in range(3)]

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 import granalytics as ga
 from granalytics import GranalyticsError
-from granalytics.io.lammps import DumpFormatError, DumpMapping, read_liggghts
-from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+from granalytics.convert.lammps import DumpFormatError, DumpMapping, read_liggghts
+from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 
 ATOM_COLUMNS = ["x", "id", "vz", "radius", "type", "y", "omegax", "vx", "z", "omegaz", "vy", "omegay", "f_film"]
 LOCAL_COLUMNS = ["c_pl[1]", "c_pl[2]", "c_pl[3]", "c_pl[4]", "c_pl[5]", "c_pl[6]"]
@@ -262,7 +262,7 @@ def test_convert_cli_refuses_a_cut_dump_with_exit_2(tmp_path, frames, capsys):
 
 def test_binary_mapping_file_gives_one_line_naming_it(tmp_path, frames, capsys):
     from granalytics.cli import main
-    from granalytics.io.lammps import load_toml
+    from granalytics.convert.lammps import load_toml
 
     binary = tmp_path / "map.toml"
     binary.write_bytes(b'units = "si"\n' + bytes(range(128, 256)) + b"\x00\x01")
@@ -300,7 +300,7 @@ def test_a_failing_convert_leaves_the_existing_output_as_it_was(tmp_path, frames
     import hashlib
 
     from granalytics.cli import main
-    from granalytics.io import RunWriter
+    from granalytics.core import RunWriter
 
     pf, cf = write_dumps(tmp_path, frames, per_step=True)
     out = tmp_path / "run.h5"

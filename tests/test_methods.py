@@ -12,7 +12,7 @@ from scipy.sparse.csgraph import connected_components
 import granalytics as ga
 from granalytics import ParameterError
 from granalytics.identify import sieve_analysis
-from granalytics.synthetic import synthetic_snapshot
+from granalytics.datasets.synthetic import synthetic_snapshot
 from conftest import R0, make_meta, make_snapshot
 
 D = 2 * R0

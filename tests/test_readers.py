@@ -1,4 +1,4 @@
-"""One suite for every reader of other codes' files (granalytics.io.readers.READERS): each one
+"""One suite for every reader of other codes' files (granalytics.convert.registry.READERS): each one
 converts its example files (real output of the code, tests/data/) into valid, ordered frames that
 granalytics analyses, through the registry and through ``granalytics convert --from NAME``."""
 
@@ -9,7 +9,7 @@ import pytest
 
 import granalytics as ga
 from granalytics.cli import main
-from granalytics.io.readers import READERS, read_run_files
+from granalytics.convert.registry import READERS, read_run_files
 
 DATA = Path(__file__).parent / "data"
 #: reader -> (particle files, contact files, mapping, dt_s [s]); every registered reader needs one

@@ -9,12 +9,12 @@ import pandas as pd
 import pytest
 
 import granalytics as ga
-from granalytics.cg import compare_cg, group_replicas
+from granalytics.analysis.cg import compare_cg, group_replicas
 from granalytics.cli import main
-from granalytics.errors import ParameterError
+from granalytics.core.errors import ParameterError
 from granalytics.plot import growth_figure
-from granalytics.stats import combine_replicas
-from granalytics.study import study_table
+from granalytics.analysis.stats import combine_replicas
+from granalytics.analysis.study import study_table
 from test_cg import write_run
 from test_study import write_point
 

@@ -4,7 +4,7 @@ import pytest
 
 import granalytics as ga
 from granalytics import ParameterError, RunWriter, open_run
-from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 
 C_GRID = [0.0, 0.1, 0.35, 0.6, 0.6000001, 0.8, 1.0, 1.5]
 A_GRID = [5.0, 20.0, 90.0, 180.0]
@@ -66,7 +66,7 @@ def test_bad_grids_are_rejected(frames, kw, words):
 
 
 def test_a_repeated_angle_is_swept_once():
-    from granalytics.synthetic import synthetic_snapshot
+    from granalytics.datasets.synthetic import synthetic_snapshot
 
     frame = synthetic_snapshot(300, seed=4)
     once = ga.sensitivity([frame], [0.5], [20.0])

@@ -6,7 +6,7 @@ import pytest
 
 import granalytics as ga
 from granalytics import ParameterError, RunWriter, open_run
-from granalytics.synthetic import synthetic_meta, synthetic_snapshot
+from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 from conftest import R0, make_meta, make_snapshot
 
 
@@ -189,7 +189,7 @@ def test_blocking_sem_covers_correlated_frames():
     """Frames correlated over many frames (an AR(1) series, as a granule population that changes
     over a fraction of a revolution): short blocks give far too small an error; the blocking
     (largest error over the merging levels) gives most of the true spread of the mean."""
-    from granalytics.stats import blocking_sem
+    from granalytics.analysis.stats import blocking_sem
 
     rng = np.random.default_rng(0)
     n, phi, runs = 240, 0.9, 300

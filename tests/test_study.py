@@ -1,4 +1,4 @@
-"""Analysis of a sweep folder (granalytics/study.py): the study table, the Fig 7 growth fit, the
+"""Analysis of a sweep folder (granalytics/analysis/study.py): the study table, the Fig 7 growth fit, the
 Gaussian-process surrogate with leave-one-out errors, the figure and the ``study`` command.
 
 The sweep folder here is fake: a hand-written manifest and tiny synthetic (physics-free) runs
@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from granalytics import GranalyticsError, ParameterError, RunMeta, RunWriter
-from granalytics.study import (
+from granalytics.analysis.study import (
     PAPER_BETA,
     PAPER_GAMMA_1,
     fit_granule_growth,
@@ -23,7 +23,7 @@ from granalytics.study import (
 )
 from granalytics.cli.study import add_study_parser, parse_predict
 from granalytics.plot import growth_figure
-from granalytics.synthetic import synthetic_snapshot
+from granalytics.datasets.synthetic import synthetic_snapshot
 
 ALPHA = 2.0
 GAMMAS = (0.02, 0.06, 0.12, 0.24)

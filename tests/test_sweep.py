@@ -21,7 +21,7 @@ import pytest
 
 import granalytics as ga
 from granalytics import ParameterError, RunMeta, RunWriter
-from granalytics.synthetic import synthetic_snapshot
+from granalytics.datasets.synthetic import synthetic_snapshot
 from sim.cli import add_sweep_parser, cmd_sweep
 from sim.cli import sweep_main as main
 from sim.sweep import load_spec, parse_spec, point_name, read_manifest, run_sweep
@@ -395,8 +395,8 @@ except Started as started:
 
 
 def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path, scheduler, capsys):
-    from granalytics.errors import RunLockedError
-    from granalytics.io import WriterLock
+    from granalytics.core.errors import RunLockedError
+    from granalytics.core import WriterLock
 
     spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
     out = tmp_path / "out"

@@ -6,7 +6,7 @@ import pytest
 
 import granalytics as ga
 from granalytics.cli import main
-from granalytics.synthetic import write_synthetic_run
+from granalytics.datasets.synthetic import write_synthetic_run
 
 
 @pytest.fixture(scope="module")

@@ -9,9 +9,9 @@ import pandas as pd
 import pytest
 
 import granalytics as ga
-from granalytics.errors import ParameterError
-from granalytics.synthetic import synthetic_snapshot, write_synthetic_run
-from granalytics.tracking import (
+from granalytics.core.errors import ParameterError
+from granalytics.datasets.synthetic import synthetic_snapshot, write_synthetic_run
+from granalytics.analysis.tracking import (
     KINDS,
     breakage_rate,
     coalescence_kernel,

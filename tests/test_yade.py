@@ -9,7 +9,7 @@ import pytest
 import granalytics as ga
 from granalytics import GranalyticsError
 from granalytics.cli import main
-from granalytics.io.yade import read_yade_csv
+from granalytics.convert.yade import read_yade_csv
 
 DATA = Path(__file__).parent / "data" / "yade_wet_drum"
 PARTICLES = sorted(DATA.glob("frame_particles_*.csv.gz"))

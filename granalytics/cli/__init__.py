@@ -15,10 +15,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .._version import __version__
-from ..errors import GranalyticsError
-from ..files import warnings_as_lines
-from . import analysis, data, datasets, study, tracking
+from granalytics._version import __version__
+from granalytics.core.errors import GranalyticsError
+from granalytics.core.files import warnings_as_lines
+from granalytics.cli import analysis, data, datasets, pbm, study, tracking
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -32,6 +32,7 @@ COMMANDS = {
     "compare-cg": analysis.add_compare_cg_parser,
     "subset": data.add_subset_parser,
     "track": tracking.add_track_parser,
+    "pbm": pbm.add_pbm_parser,
     "study": study.add_study_parser,
     "sweep": study.add_sweep_parser,
     "export-vtk": data.add_export_vtk_parser,
@@ -63,7 +64,7 @@ def main(argv=None):
     import matplotlib
 
     matplotlib.use("Agg")  # the command line only writes figures to files
-    from .._threading import configure_threading
+    from granalytics.core._threading import configure_threading
 
     configure_threading()
     with warnings_as_lines("granalytics"):

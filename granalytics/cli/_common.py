@@ -9,11 +9,11 @@ import os
 
 import numpy as np
 
-from ..cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
-from ..errors import GranalyticsError, ParameterError, ValidationError
-from ..files import check_output_folder, write_atomically
-from ..identify import BACKENDS, make_identifier
-from ..identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
+from granalytics.identify.cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
+from granalytics.core.errors import GranalyticsError, ParameterError, ValidationError
+from granalytics.core.files import check_output_folder, write_atomically
+from granalytics.identify import BACKENDS, make_identifier
+from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 
 def interval(text):
     """Parse ``A:B`` into a pair of floats."""
@@ -48,7 +48,7 @@ def threshold_options(args, method, names=("c_agg", "a_agg_deg")) -> dict:
     to the method's own default (its constructor's, so the command line and the library agree).
     A threshold given for a method that ignores it is refused (``ParameterError`` naming the
     option), never silently dropped."""
-    from ..identify import method_parameters
+    from granalytics.identify import method_parameters
 
     accepted = method_parameters(method)
     out = {}
@@ -118,7 +118,7 @@ def add_cohesion_option(parser):
 def add_criterion_options(parser, grid_tol=False):
     """The co-motion test and the granule size floor of GNA (:func:`criterion_params` reads them);
     ``grid_tol``: ``--rigid-tol`` takes a grid (the sensitivity pass)."""
-    from ..contacts import COMOTION_TESTS, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, RIGID_SCALES
+    from granalytics.identify.contacts import COMOTION_TESTS, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, RIGID_SCALES
 
     parser.add_argument("--comotion", choices=COMOTION_TESTS, default=DEFAULT_COMOTION,
                         help="co-motion test: 'angle' = the paper's (velocities or angular velocities within A_agg), "
@@ -177,7 +177,7 @@ def selected_frames(run, args):
 
 
 def window_axis(frames, by="revolutions"):
-    """The frames' times [s] or revolutions for :func:`~granalytics.stats.check_window`; NaN
+    """The frames' times [s] or revolutions for :func:`~granalytics.analysis.stats.check_window`; NaN
     revolutions for a run whose drum does not turn (which check_window then reports)."""
     try:
         return frames.times if by == "time_s" else frames.revolutions
@@ -213,7 +213,7 @@ def table_format(path):
 
 def save_figure(fig, path, stage=None):
     """Write ``fig`` to ``path`` (its format from the extension), atomically, or into
-    ``stage(path)`` when the command writes its outputs as one (:func:`granalytics.files.staged_outputs`)."""
+    ``stage(path)`` when the command writes its outputs as one (:func:`granalytics.core.files.staged_outputs`)."""
     ext = os.path.splitext(path)[1].lstrip(".").lower() or "png"
     try:
         if stage is not None:
@@ -273,7 +273,7 @@ def check_outputs(args, tables=(), others=(), plots=()):
 
 def write_table(table, path, stage=None):
     """Write ``table`` to ``path`` (.csv or .parquet), atomically, or into ``stage(path)`` when the
-    command writes its outputs as one (:func:`granalytics.files.staged_outputs`)."""
+    command writes its outputs as one (:func:`granalytics.core.files.staged_outputs`)."""
     def write(tmp):
         if table_format(path) == "csv":
             table.to_csv(tmp, index=False)

@@ -10,15 +10,15 @@ import warnings
 
 import numpy as np
 
-from .._windows import window_mask
-from ..metrics import HEADLINE, METRICS
-from ..errors import GranalyticsError, ParameterError
-from ..files import WriterLock, output_folder, staged_outputs, write_atomically
-from ..identify import DEFAULT_METHODS, accepted_params
-from ..identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
-from ..io import open_run
-from ..stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
-from ._common import (threshold_options, add_cohesion_option, add_criterion_options, add_gna_options, criterion_params, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
+from granalytics.core._windows import window_mask
+from granalytics.analysis.metrics import HEADLINE, METRICS
+from granalytics.core.errors import GranalyticsError, ParameterError
+from granalytics.core.files import WriterLock, output_folder, staged_outputs, write_atomically
+from granalytics.identify import DEFAULT_METHODS, accepted_params
+from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
+from granalytics.core import open_run
+from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
+from granalytics.cli._common import (threshold_options, add_cohesion_option, add_criterion_options, add_gna_options, criterion_params, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
                       setting, window_axis, write_table)
 
 
@@ -149,8 +149,8 @@ def add_compare_cg_parser(sub):
 
 
 def cmd_info(args):
-    from ..bed import bed_structure, run_confinement
-    from ..confinement import confinement_warning
+    from granalytics.core.bed import bed_structure, run_confinement
+    from granalytics.analysis.confinement import confinement_warning
 
     with open_run(args.run) as run:
         info = run.info()
@@ -213,7 +213,7 @@ def cmd_identify(args):
 def _write_labels(out, args, frames, identifier, n_frames, n):
     """Fill an open labels file: attributes, frame index and time, labels, ids and granule track
     ids per frame."""
-    from ..frames import map_frames
+    from granalytics.analysis.frames import map_frames
 
     out.attrs["format"] = "granalytics-labels"
     out.attrs["run"] = os.path.abspath(args.run)
@@ -234,7 +234,7 @@ def _write_labels(out, args, frames, identifier, n_frames, n):
 
     map_frames(frames, write_frame, progress=progress(args), desc="identify", what="identify")
     # the granule track of every particle (-1 free): the id that a granule keeps while it lives
-    from ..tracking import track_granules
+    from granalytics.analysis.tracking import track_granules
 
     tracks = track_granules([labels[k] for k in range(n_frames)], [ids[k] for k in range(n_frames)], frames.times)
     granule_track = out.create_dataset("granule_track", (n_frames, n), dtype=np.int64, **chunked)
@@ -283,7 +283,7 @@ def _stats(args):
         if args.plot:
             import matplotlib.pyplot as plt
 
-            from ..plot import stats_figure
+            from granalytics.plot import stats_figure
 
             fig = stats_figure(ts, dist, window=window, x=by, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}")
             try:
@@ -306,7 +306,7 @@ def _stats(args):
 
 
 def cmd_sensitivity(args):
-    from ..sensitivity import sensitivity, sensitivity_summary
+    from granalytics.analysis.sensitivity import sensitivity, sensitivity_summary
 
     check_outputs(args, tables=(args.out, args.frames_out), plots=(args.plot,))
     if (args.c_agg < 0).any():
@@ -332,7 +332,7 @@ def cmd_sensitivity(args):
         write_table(summary, args.out)
         print(f"wrote summary over {len(frames)} frames ({len(summary)} grid points) to {args.out}")
     if args.plot:
-        from ..plot import sensitivity_figure
+        from granalytics.plot import sensitivity_figure
 
         save_figure(sensitivity_figure(summary, title=f"{os.path.basename(args.run)}, revolutions "
                                  f"[{args.window[0]:g}, {args.window[1]:g}], cohesion={args.cohesion}"), args.plot)
@@ -346,7 +346,7 @@ def cmd_sensitivity(args):
 
 
 def cmd_compare(args):
-    from ..compare import compare_methods
+    from granalytics.analysis.method_comparison import compare_methods
 
     check_outputs(args, tables=(args.out, args.stats_out), plots=(args.plot,))
     methods = {name: (name, {}) for name in args.methods}
@@ -364,7 +364,7 @@ def cmd_compare(args):
         write_table(stats, args.stats_out)
         print(f"wrote per-method statistics to {args.stats_out}")
     if args.plot:
-        from ..plot import comparison_figure
+        from granalytics.plot import comparison_figure
 
         uses = [m for m in methods if m != "dbscan" or methods[m][1].get("bridged_only")]  # DBSCAN on positions has no F_coh
         save_figure(comparison_figure(stats, pairs, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion} "
@@ -395,7 +395,7 @@ def _paper_criterion(args) -> bool:
 
 
 def cmd_compare_cg(args):
-    from ..cg import CGComparison, compare_cg, group_replicas
+    from granalytics.analysis.cg import CGComparison, compare_cg, group_replicas
 
     labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
     grids = [g for g in (args.c_agg, args.a_agg_deg) if g is not None]
@@ -427,8 +427,8 @@ def _compare_cg_thresholds(args, labels) -> int:
     """compare-cg with a grid of thresholds: the deviation table and one heatmap per statistic."""
     import matplotlib.pyplot as plt
 
-    from ..cg import compare_cg_thresholds
-    from ..plot import cg_threshold_figures
+    from granalytics.analysis.cg import compare_cg_thresholds
+    from granalytics.plot import cg_threshold_figures
 
     if args.method != "gna":
         raise ParameterError(f"--method {args.method}: a threshold grid is GNA's C_agg x A_agg (give --method gna)")
@@ -442,7 +442,7 @@ def _compare_cg_thresholds(args, labels) -> int:
     if (c_agg < 0).any() or ((a_agg <= 0) | (a_agg > 180)).any():
         raise ParameterError("--c-agg values must be >= 0 and --a-agg-deg values in (0, 180] degrees")
     paths = {"table": os.path.join(args.out, "cg_thresholds.csv")}
-    from ..metrics import BY_FIGURE
+    from granalytics.analysis.metrics import BY_FIGURE
 
     paths.update({m: os.path.join(args.out, f"cg_thresholds_{m}.png") for m in BY_FIGURE})
     existing = [p for p in paths.values() if os.path.exists(p)]

@@ -6,12 +6,12 @@ from __future__ import annotations
 import os
 
 
-from ..errors import ParameterError
-from ..files import WriterLock, check_apart, output_folder, regular_input, staged_outputs
-from ..io.readers import READERS
-from ..io import open_run
-from ..stats import check_window
-from ._common import add_gna_options, criterion_params, check_new_file, check_outputs, every, interval, selected_frames, table_format
+from granalytics.core.errors import ParameterError
+from granalytics.core.files import WriterLock, check_apart, output_folder, regular_input, staged_outputs
+from granalytics.convert.registry import READERS
+from granalytics.core import open_run
+from granalytics.analysis.stats import check_window
+from granalytics.cli._common import add_gna_options, criterion_params, check_new_file, check_outputs, every, interval, selected_frames, table_format
 
 
 def add_subset_parser(sub):
@@ -58,7 +58,7 @@ def add_convert_parser(sub):
                    help="; ".join(f"{r.name}: {r.description}" for r in READERS.values()) + " (default liggghts)")
     p.add_argument("--contacts", nargs="+", required=True, help="contact dump files or contact CSVs")
     p.add_argument("--mapping", required=True, help="TOML file: for liggghts units, contact columns and material metadata "
-                   "(granalytics.io.lammps.DumpMapping); for yade surface_tension, density, drum_omega, contact_angle, alpha")
+                   "(granalytics.convert.lammps.DumpMapping); for yade surface_tension, density, drum_omega, contact_angle, alpha")
     p.add_argument("--dt-s", type=float, help="simulation time step in seconds (liggghts: time = timestep × dt; "
                    "yade files carry their time)")
     p.add_argument("--out", required=True, help="run file to write (.h5)")
@@ -69,7 +69,7 @@ def add_convert_parser(sub):
 
 
 def cmd_subset(args):
-    from ..io import subset_run, thinned_frames
+    from granalytics.core import subset_run, thinned_frames
 
     if args.every < 1:
         raise ParameterError(f"--every must be >= 1, got {args.every}")
@@ -94,8 +94,8 @@ def cmd_subset(args):
 
 
 def cmd_export_vtk(args):
-    from ..io import WriterLock
-    from ..export.vtk import export_vtk
+    from granalytics.core import WriterLock
+    from granalytics.export.vtk import export_vtk
 
     pvd_path = os.path.join(args.out, "run.pvd")
     # the folder made before the export (and removed again if the export fails and leaves it empty),
@@ -119,8 +119,8 @@ def cmd_export_vtk(args):
 def cmd_convert(args):
     from tqdm.auto import tqdm
 
-    from ..io import RunWriter, replacing_run
-    from ..io.readers import read_run_files
+    from granalytics.core import RunWriter, replacing_run
+    from granalytics.convert.registry import read_run_files
 
     inputs = [*args.particles, *args.contacts, args.mapping]
     check_apart(args.out, inputs, "converted run")  # --overwrite must never replace an input
@@ -150,7 +150,7 @@ def add_synthetic_parser(sub):
 
 
 def cmd_synthetic(args) -> int:
-    from ..synthetic import write_synthetic_run
+    from granalytics.datasets.synthetic import write_synthetic_run
 
     path = write_synthetic_run(args.out, args.particles, args.revolutions, args.frames_per_revolution,
                                alpha=args.alpha, seed=args.seed)
@@ -175,7 +175,7 @@ def add_table_parser(sub):
 
 
 def cmd_table(args) -> int:
-    from ..table import particle_frames, write_frames
+    from granalytics.analysis.table import particle_frames, write_frames
 
     check_outputs(args, tables=(args.out,))
     with WriterLock(args.out), open_run(args.run) as run, staged_outputs() as stage:

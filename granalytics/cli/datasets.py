@@ -7,9 +7,9 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 import argparse
 
-from .. import datasets
-from ..errors import GranalyticsError
-from ._common import every, interval
+from granalytics import datasets
+from granalytics.core.errors import GranalyticsError
+from granalytics.cli._common import every, interval
 
 
 def main(argv=None, prog="python -m granalytics.datasets") -> int:

@@ -9,14 +9,14 @@ import os
 
 import pandas as pd
 
-from ..metrics import HEADLINE, METRICS
-from ..identify import DEFAULT_METHODS
-from ..errors import ParameterError
-from ..manifest import read_manifest
-from ..plot import growth_figure
-from ..stats import DEFAULT_WINDOW_REV
-from ..study import _fit_from_table, fit_surrogate, study_table
-from ._common import check_outputs, interval, save_figure, threshold_options, write_table
+from granalytics.analysis.metrics import HEADLINE, METRICS
+from granalytics.identify import DEFAULT_METHODS
+from granalytics.core.errors import ParameterError
+from granalytics.core.manifest import read_manifest
+from granalytics.plot import growth_figure
+from granalytics.analysis.stats import DEFAULT_WINDOW_REV
+from granalytics.analysis.study import fit_growth_of_table, fit_surrogate, study_table
+from granalytics.cli._common import check_outputs, interval, save_figure, threshold_options, write_table
 
 def parse_predict(text, inputs=("gamma", "omega")) -> dict:
     """Parse ``"gamma=0.2,omega=3"`` into ``{"gamma": 0.2, "omega": 3.0}``.
@@ -128,7 +128,7 @@ def cmd_study(args) -> int:
     for conv in ([None] if table["cohesion"].isna().all() else conventions):
         label = f"cohesion={conv}" if conv else "all rows"
         try:
-            fits[conv] = _fit_from_table(table, conv, model=args.model)
+            fits[conv] = fit_growth_of_table(table, conv, model=args.model)
             print(f"growth fit ({label}): {fits[conv].summary()}")
         except ParameterError as exc:
             print(f"growth fit ({label}): not possible: {exc}")

@@ -5,13 +5,13 @@ from __future__ import annotations
 import math
 import os
 
-from ..errors import ParameterError
-from ..files import WriterLock, output_folder, staged_outputs
-from ..identify import DEFAULT_METHODS, accepted_params
-from ..io import open_run
-from ..plot import tracking_figure
-from ..tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
-from ._common import add_cohesion_option, interval, save_figure, threshold_options, write_table
+from granalytics.core.errors import ParameterError
+from granalytics.core.files import WriterLock, output_folder, staged_outputs
+from granalytics.identify import DEFAULT_METHODS, accepted_params
+from granalytics.core import open_run
+from granalytics.plot import tracking_figure
+from granalytics.analysis.tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
+from granalytics.cli._common import add_cohesion_option, interval, save_figure, threshold_options, write_table
 
 _OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
 

@@ -2,6 +2,6 @@
 
 import sys
 
-from ..cli.datasets import main
+from granalytics.cli.datasets import main
 
 sys.exit(main())

@@ -4,7 +4,7 @@ frame and a ``.pvd`` collection that ParaView opens as a time series.
 Each ``.vtu`` holds the particles as points (vertex cells) with point data ``id``, ``radius``
 [m], ``velocity`` [m/s], ``angular_velocity`` [rad/s], ``film_volume`` [m³], ``granule`` (label,
 −1 free), ``granule_track`` (the granule's track id, which keeps its value while the granule
-lives, −1 free; :mod:`granalytics.tracking`) and ``granule_size`` (particles in the particle's
+lives, −1 free; :mod:`granalytics.analysis.tracking`) and ``granule_size`` (particles in the particle's
 granule, 1 when free), and every
 contact or bridge as a line cell with cell data ``kept`` (1 when the identification kept it),
 ``f_cap`` [N], ``bridge_volume`` [m³] and ``gap`` [m] (vertex cells carry 0 there). In
@@ -24,12 +24,12 @@ import xml.etree.ElementTree as ET
 import numpy as np
 from tqdm.auto import tqdm
 
-from ..files import staged_outputs
-from ..errors import GranalyticsError
-from ..frames import map_frames
-from ..identify import make_identifier
-from ..identify.result import IdentificationResult
-from ..tracking import track_granules
+from granalytics.core.files import staged_outputs
+from granalytics.core.errors import GranalyticsError
+from granalytics.analysis.frames import map_frames
+from granalytics.identify import make_identifier
+from granalytics.identify.result import IdentificationResult
+from granalytics.analysis.tracking import track_granules
 
 __all__ = ["export_vtk", "frame_mesh", "drum_mesh"]
 
@@ -111,7 +111,7 @@ def export_vtk(frames, out_dir, method="gna", *, progress=False, **params):
         Path of the ``.pvd`` file.
 
     The export is written whole or not at all: every file goes into a staging folder inside
-    ``out_dir`` first (:func:`granalytics.files.staged_outputs`) and is renamed into place only
+    ``out_dir`` first (:func:`granalytics.core.files.staged_outputs`) and is renamed into place only
     when all frames are written; a failure or Ctrl-C leaves ``out_dir`` as it was.
     """
     import meshio

@@ -10,14 +10,14 @@ import inspect
 
 import numpy as np
 
-from ..errors import ParameterError
-from .common import Identifier
-from .community import CommunityDetection
-from .custom import CustomEdges
-from .dbscan import DBSCANClustering, DBSCANIdentifier
-from .gna import BACKENDS, GraphNetworkAnalysis
-from .result import IdentificationResult
-from .sieve import VirtualSieve, sieve_analysis
+from granalytics.core.errors import ParameterError
+from granalytics.identify.common import Identifier, check_flag
+from granalytics.identify.community import CommunityDetection
+from granalytics.identify.custom import CustomEdges
+from granalytics.identify.dbscan import DBSCANClustering, DBSCANIdentifier
+from granalytics.identify.gna import BACKENDS, GraphNetworkAnalysis
+from granalytics.identify.result import IdentificationResult
+from granalytics.identify.sieve import VirtualSieve, sieve_analysis
 
 __all__ = [
     "identify", "make_identifier", "METHODS", "DEFAULT_METHODS", "BACKENDS", "method_parameters", "accepted_params", "IdentificationResult", "Identifier",
@@ -63,12 +63,14 @@ def make_identifier(method="gna", **params):
     except KeyError:
         raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}") from None
     defaults = {name: p.default for name, p in inspect.signature(cls).parameters.items()}
-    for name, value in params.items():  # a number where the method's default is one (e.g. text from --set)
+    for name, value in params.items():  # a number or a flag where the method's default is one (e.g. text from --set)
         default = defaults.get(name)
         numeric = isinstance(default, (int, float)) and not isinstance(default, bool)
         if numeric and value is not None and (isinstance(value, bool)
                                                or not isinstance(value, (int, float, np.integer, np.floating))):
             raise ParameterError(f"method {method!r}: {name} must be a number, got {value!r}")
+        if isinstance(default, bool):
+            check_flag(f"method {method!r}: {name}", value)
     try:
         return cls(**params)
     except TypeError as exc:
@@ -94,7 +96,7 @@ def identify(snapshot, method="gna", **params) -> IdentificationResult:
     >>> result = identify(snapshot, c_agg=0.6, a_agg_deg=20)    # doctest: +SKIP
     >>> result.labels, result.granules                          # doctest: +SKIP
     """
-    from ..snapshot import Snapshot
+    from granalytics.core.snapshot import Snapshot
 
     if not isinstance(snapshot, Snapshot):
         hint = " (open the run with granalytics.open_run and pass one frame, e.g. run[0])" if isinstance(

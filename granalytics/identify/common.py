@@ -1,7 +1,7 @@
 """Pieces shared by the identification methods: the :class:`Identifier` base class (parameters
 from the constructor, ``params()``, ``repr``), one validation of the thresholds C_agg and A_agg,
 and canonical labels. Per-contact quantities (γ, R, f = F_coh/(2πγR), co-motion) live in
-:mod:`granalytics.contacts`, below this package."""
+:mod:`granalytics.identify.contacts`, below this package."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import math
 
 import numpy as np
 
-from .. import _kernels
-from ..contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
-from ..errors import ParameterError
+from granalytics.identify import _kernels
+from granalytics.identify.contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
+from granalytics.core.errors import ParameterError
 
 #: the paper's thresholds, the defaults of every method that filters contacts by them (GNA, the
 #: sieve over GNA granules, community detection): C_agg (F_coh ≥ C_agg·2πγR) and A_agg [deg]
@@ -62,6 +62,14 @@ def check_c_agg(c_agg) -> float:
     if not (math.isfinite(value) and value >= 0):
         raise ParameterError(f"c_agg must be finite and >= 0, got {c_agg!r}")
     return value
+
+
+def check_flag(name, value) -> bool:
+    """``value`` if it is a bool; text such as ``'no'`` or ``'false'`` and numbers are refused
+    (``ParameterError`` naming ``name``), never read by their truth value."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ParameterError(f"{name} must be True or False, got {type(value).__name__} {value!r}")
+    return bool(value)
 
 
 def check_min_size(min_size) -> int:

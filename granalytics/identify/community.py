@@ -20,12 +20,12 @@ import random
 
 import numpy as np
 
-from .. import _kernels
-from ..errors import ParameterError
-from ..snapshot import Snapshot
-from ..cohesion import DEFAULT_COHESION, check_cohesion
-from .common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
-from .result import IdentificationResult
+from granalytics.identify import _kernels
+from granalytics.core.errors import ParameterError
+from granalytics.core.snapshot import Snapshot
+from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
+from granalytics.identify.result import IdentificationResult
 
 __all__ = ["CommunityDetection"]
 
@@ -53,7 +53,7 @@ class CommunityDetection(Identifier):
     surface_tension : float, optional
         γ [N/m]; defaults to the run metadata's.
     cohesion : {"acting", "bridge"}, default "acting"
-        Which force is F_coh (:mod:`granalytics.cohesion`).
+        Which force is F_coh (:mod:`granalytics.identify.cohesion`).
     """
 
     method = "community"

@@ -3,9 +3,9 @@
 A criterion string is never handed to ``eval`` or :meth:`pandas.DataFrame.eval`: it is parsed
 with :mod:`ast` and evaluated here, node by node, on the numpy columns of the contact table.
 Only the small grammar below is accepted; everything else is refused with a one-line
-:class:`~granalytics.errors.ParameterError` before any data is touched.
+:class:`~granalytics.core.errors.ParameterError` before any data is touched.
 
-* names: the columns of :func:`granalytics.edges.contact_table` (:data:`COLUMNS`);
+* names: the columns of :func:`granalytics.identify.edges.contact_table` (:data:`COLUMNS`);
 * numbers: int and float literals;
 * comparisons ``< <= > >= == !=``, chained ones included (``0.2 < f_norm < 0.8``);
 * ``and``, ``or``, ``not`` and their pandas spellings ``&``, ``|``, ``~``, elementwise on
@@ -22,17 +22,17 @@ import tokenize
 
 import numpy as np
 
-from ..cohesion import DEFAULT_COHESION, check_cohesion
-from .. import _kernels
-from ..contacts import contact_table
-from ..errors import ParameterError
-from ..snapshot import Snapshot
-from .common import Identifier
-from .result import IdentificationResult
+from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.identify import _kernels
+from granalytics.identify.contacts import contact_table
+from granalytics.core.errors import ParameterError
+from granalytics.core.snapshot import Snapshot
+from granalytics.identify.common import Identifier
+from granalytics.identify.result import IdentificationResult
 
 __all__ = ["CustomEdges", "COLUMNS", "FUNCTIONS", "compile_criterion", "evaluate_criterion"]
 
-#: the names a criterion may use: the columns of :func:`granalytics.edges.contact_table`
+#: the names a criterion may use: the columns of :func:`granalytics.identify.edges.contact_table`
 COLUMNS = ("i", "j", "id_i", "id_j", "f_cap", "f_coh", "f_normal", "gap", "bridge_volume",
            "f_norm", "angle_v_deg", "angle_w_deg", "rigid_residual")
 
@@ -310,7 +310,7 @@ class CustomEdges(Identifier):
     Parameters
     ----------
     criterion : str or callable
-        An expression on the columns of :func:`~granalytics.edges.contact_table` (``i``,
+        An expression on the columns of :func:`~granalytics.identify.edges.contact_table` (``i``,
         ``j``, ``id_i``, ``id_j``, ``f_cap``, ``f_coh``, ``f_normal``, ``gap``, ``bridge_volume``,
         ``f_norm``, ``angle_v_deg``, ``angle_w_deg``, ``rigid_residual`` [m/s]), e.g.
         ``"f_norm >= 0.5 and (angle_v_deg < 30 or angle_w_deg < 30)"``. It is parsed and
@@ -318,14 +318,14 @@ class CustomEdges(Identifier):
         literals, comparisons (chained too), ``and``/``or``/``not`` (also ``&``/``|``/``~``),
         unary ``+ -``, ``+ - * / ** %``, parentheses and the functions ``abs``, ``sqrt``,
         ``exp``, ``log``, ``log10``, ``minimum``, ``maximum`` are accepted; anything else
-        raises :class:`~granalytics.errors.ParameterError`. Or, from Python, a callable
+        raises :class:`~granalytics.core.errors.ParameterError`. Or, from Python, a callable
         taking that table (a DataFrame) and returning a boolean array.
     radius : {"pair", "mean"}
         R in ``f_norm``.
     surface_tension : float, optional
         γ [N/m] in ``f_norm``; defaults to the run metadata's.
     cohesion : {"acting", "bridge"}, default "acting"
-        Which force is ``f_coh`` (and so ``f_norm``); :mod:`granalytics.cohesion`.
+        Which force is ``f_coh`` (and so ``f_norm``); :mod:`granalytics.identify.cohesion`.
     """
 
     method = "custom"

@@ -18,11 +18,12 @@ import math
 import numpy as np
 from scipy.sparse import coo_matrix
 
-from ..cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts
-from ..errors import ParameterError
-from ..snapshot import Snapshot
-from .common import Identifier, labels_from_clusters, mean_radius
-from .result import IdentificationResult
+from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts
+from granalytics.core.errors import ParameterError
+from granalytics.core.snapshot import Snapshot
+from granalytics.identify.contacts import as_number
+from granalytics.identify.common import Identifier, check_flag, labels_from_clusters, mean_radius
+from granalytics.identify.result import IdentificationResult
 
 __all__ = ["DBSCANClustering", "DBSCANIdentifier"]
 
@@ -48,7 +49,7 @@ class DBSCANClustering(Identifier):
         that a unit of velocity difference counts like one mean diameter of distance times the
         weight. 0 clusters on positions alone.
     cohesion : {"acting", "bridge"}, default "acting"
-        Which bridges count for ``bridged_only`` (:mod:`granalytics.cohesion`): ``"bridge"``
+        Which bridges count for ``bridged_only`` (:mod:`granalytics.identify.cohesion`): ``"bridge"``
         every wet pair, ``"acting"`` only those whose bridge force acted (separated pairs,
         unless the run applied capillary force in contact).
     """
@@ -78,16 +79,18 @@ class DBSCANClustering(Identifier):
         from sklearn.cluster import DBSCAN
         from sklearn.neighbors import radius_neighbors_graph
 
-        eps = float(self.eps_diameters)
+        eps = as_number("eps_diameters", self.eps_diameters, "a number > 0")
         if not (math.isfinite(eps) and eps > 0):
             raise ParameterError(f"eps_diameters must be > 0, got {self.eps_diameters!r}")
-        if int(self.min_samples) != self.min_samples or self.min_samples < 1:
+        min_samples = as_number("min_samples", self.min_samples, "an integer >= 1")
+        if not min_samples.is_integer() or min_samples < 1:
             raise ParameterError(f"min_samples must be an integer >= 1, got {self.min_samples!r}")
-        if not (math.isfinite(float(self.velocity_weight)) and self.velocity_weight >= 0):
+        weight = as_number("velocity_weight", self.velocity_weight, "a number >= 0")
+        if not (math.isfinite(weight) and weight >= 0):
             raise ParameterError(f"velocity_weight must be >= 0, got {self.velocity_weight!r}")
         x = self._features(snapshot)
         n = snapshot.n_particles
-        if self.bridged_only:
+        if check_flag("bridged_only", self.bridged_only):
             wet = (snapshot.bridge_volume > 0) & cohesion_counts(snapshot, check_cohesion(self.cohesion))
             i, j = snapshot.contact_i[wet], snapshot.contact_j[wet]
             d = np.linalg.norm(x[i] - x[j], axis=1)

@@ -8,8 +8,8 @@ from functools import cached_property
 import numpy as np
 import pandas as pd
 
-from ..granules import granule_table
-from ..snapshot import Snapshot
+from granalytics.identify.granules import granule_table
+from granalytics.core.snapshot import Snapshot
 
 __all__ = ["IdentificationResult"]
 

@@ -21,13 +21,13 @@ import math
 import numpy as np
 import pandas as pd
 
-from ..cohesion import DEFAULT_COHESION
-from .. import _kernels
-from ..errors import ParameterError
-from ..snapshot import Snapshot
-from .common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, mean_radius
-from .gna import GraphNetworkAnalysis
-from .result import IdentificationResult
+from granalytics.identify.cohesion import DEFAULT_COHESION
+from granalytics.identify import _kernels
+from granalytics.core.errors import ParameterError
+from granalytics.core.snapshot import Snapshot
+from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, mean_radius
+from granalytics.identify.gna import GraphNetworkAnalysis
+from granalytics.identify.result import IdentificationResult
 
 __all__ = ["VirtualSieve", "sieve_analysis"]
 

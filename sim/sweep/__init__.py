@@ -45,8 +45,9 @@ import time
 import uuid
 from dataclasses import dataclass, field
 
-from granalytics.core import (MANIFEST_COLUMNS, NAMED_PARAMETERS, ParameterError, WriterLock, manifest_path,
-                              manifest_rows, one_line, read_manifest, regular_input, warnings_as_lines, write_manifest)
+from granalytics.core import (MANIFEST_COLUMNS, NAMED_PARAMETERS, ParameterError, WriterLock, dask_client,
+                              manifest_path, manifest_rows, one_line, read_manifest, regular_input, warnings_as_lines,
+                              write_manifest)
 
 from ..params import (PHYSICS_VERSION, PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps,
                      preset_original, sized_drum)
@@ -446,14 +447,8 @@ def run_sweep(spec_path, out_dir, workers=None, scheduler=None, progress=True, p
 
 
 def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler, progress):
-    import logging
-
+    from distributed import as_completed
     from tqdm.auto import tqdm
-
-    try:
-        from distributed import Client, LocalCluster, as_completed
-    except ImportError:  # pragma: no cover - a declared dependency
-        raise ParameterError("sweeps need dask.distributed: pip install 'dask[distributed]'") from None
 
     tasks = {}
     for point in todo:
@@ -465,39 +460,24 @@ def _run_points(spec, out_dir, todo, rows, settings, runner, workers, scheduler,
         tasks[point.name] = PointTask(point.name, dict(point.resolved), overrides, spec.preset, spec.revolutions,
                                       spec.frame_every_rev, spec.checkpoint_every, spec.threads,
                                       os.path.join(out_dir, rel))
-    cluster = None
-    try:
-        if scheduler is not None:
+    n_local = None if scheduler is not None else (
+        workers if workers is not None else max(1, min(os.cpu_count() or 1, len(todo))))
+    with dask_client(scheduler, n_local, what="sweeps") as client:
+        write_manifest(out_dir, rows.values())  # the points as running, once there is a cluster to run them
+        token = uuid.uuid4().hex[:8]
+        futures = {client.submit(_execute, runner, task, key=f"sweep-{token}-{name}", pure=False, retries=0): name
+                   for name, task in tasks.items()}
+        bar = tqdm(as_completed(list(futures)), total=len(spec.points), initial=len(spec.points) - len(todo),
+                   unit="point", desc="sweep", disable=not progress)
+        for future in bar:
+            name = futures[future]
             try:
-                client = Client(scheduler, timeout="20s")
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise ParameterError(f"cannot connect to the dask scheduler {scheduler} ({one_line(exc)})") from None
-        else:
-            n = workers if workers is not None else max(1, min(os.cpu_count() or 1, len(todo)))
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                   silence_logs=logging.ERROR)
-            client = Client(cluster)
-        try:
-            write_manifest(out_dir, rows.values())  # the points as running, once there is a cluster to run them
-            token = uuid.uuid4().hex[:8]
-            futures = {client.submit(_execute, runner, task, key=f"sweep-{token}-{name}", pure=False, retries=0): name
-                       for name, task in tasks.items()}
-            bar = tqdm(as_completed(list(futures)), total=len(spec.points), initial=len(spec.points) - len(todo),
-                       unit="point", desc="sweep", disable=not progress)
-            for future in bar:
-                name = futures[future]
-                try:
-                    result = future.result()
-                except Exception as exc:  # the task itself did not finish (e.g. its worker kept dying)
-                    result = {"status": "failed", "wall_time_s": None, "sha256": "", "error": _error_cell(exc),
-                              "resumed": False}
-                rows[name].update(result)
-                rows[name]["finished_utc"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-                write_manifest(out_dir, rows.values())
-                bar.set_postfix_str(f"{name}: {result['status']}")
-            bar.close()
-        finally:
-            client.close()
-    finally:
-        if cluster is not None:
-            cluster.close()
+                result = future.result()
+            except Exception as exc:  # the task itself did not finish (e.g. its worker kept dying)
+                result = {"status": "failed", "wall_time_s": None, "sha256": "", "error": _error_cell(exc),
+                          "resumed": False}
+            rows[name].update(result)
+            rows[name]["finished_utc"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+            write_manifest(out_dir, rows.values())
+            bar.set_postfix_str(f"{name}: {result['status']}")
+        bar.close()

@@ -1,0 +1,435 @@
+"""Coarse-graining comparison: do runs of one system at CG factors α = 1, 2, 3 give the same
+granulation? The analogues of the paper's Figs 3–6 (mean granule volume, granule number, size
+distribution and yield) and a table of steady-state values, their deviations from the finest run,
+size-distribution distances and the measured CG speed-up.
+
+Every statistic is normalised by the run's own particle count and mean particle volume and the
+identification thresholds by the run's own γ and R, so runs at different α are comparable as they
+are (§3.1 of the paper: F_agg,CG = α²·F_agg,o, A_agg unchanged).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from granalytics.core.bed import run_confinement
+from granalytics.analysis.confinement import confinement_warning
+from granalytics.core.files import staged_outputs
+from granalytics.analysis.metrics import BY_FIGURE, METRICS
+from granalytics.core._windows import window_mask
+from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.core.errors import ParameterError
+from granalytics.core import open_run
+from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
+
+__all__ = ["compare_cg", "compare_cg_thresholds", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
+
+#: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
+PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
+
+#: steady-state metrics compared, with the paper's figure
+CG_METRICS = {name: f"{METRICS[name].figure}: {METRICS[name].label}" for name in BY_FIGURE}
+
+
+@dataclass
+class CGComparison:
+    """Result of :func:`compare_cg`.
+
+    Attributes
+    ----------
+    runs : DataFrame
+        One row per run or group of replicas: ``run`` (label), ``path`` (a group's paths joined by
+        ``"; "``), ``alpha``, ``n_particles``, ``n_particles_original``, ``revolutions_last``,
+        ``wall_time_s`` and ``wall_time_per_simulated_s`` (from the run's provenance, a group's
+        mean; NaN when it does not say), ``n_replicas``, ``seeds``.
+    timeseries : DataFrame
+        :func:`~granalytics.run_stats` rows of every run, with ``run``, ``alpha`` and ``replica``
+        (0, 1, … within a group).
+    distributions : DataFrame
+        :func:`~granalytics.size_distribution` of the granule sizes pooled over the window, per
+        run, with ``run`` and ``alpha``.
+    table : DataFrame
+        One row per run or group: for each metric of :data:`CG_METRICS` ``<metric>_mean``,
+        ``_std`` (over frames), ``_sem`` (blocking), ``_replica_sem`` (a group's run-to-run
+        error; NaN for one run), ``_rel_dev`` (relative deviation of the mean from the reference
+        run's) and ``_rel_dev_se`` (its standard error); ``n_replicas``; ``ks_distance`` (Kolmogorov–Smirnov D between the
+        pooled granule sizes of the run and of the reference) and ``w1_log10_size``
+        (Wasserstein-1 distance of log10 sizes); ``n_frames``, ``n_granules_pooled``;
+        ``speedup`` (reference wall time per simulated second over this run's) and
+        ``paper_speedup`` (the paper's figure for the same pair of CG factors: 12× for CG2 and
+        32× over CG1, so 32/12 for CG3 over CG2); ``method``, ``cohesion``, ``window``.
+    sizes : dict
+        Run label -> pooled granule sizes in the window (int array).
+    reference : str
+        Label of the reference run (the smallest α).
+    window : (float, float)
+        Steady-state window [revolutions].
+    method, cohesion : str
+    params : dict
+        Identification parameters.
+    """
+
+    runs: pd.DataFrame
+    timeseries: pd.DataFrame
+    distributions: pd.DataFrame
+    table: pd.DataFrame
+    sizes: dict
+    reference: str
+    window: tuple
+    method: str
+    cohesion: str
+    params: dict = field(default_factory=dict)
+
+    @property
+    def description(self) -> str:
+        """One line naming the identification: method, thresholds, cohesion convention, window."""
+        shown = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.params.items())
+        shown = shown or "its default parameters"
+        return (f"{self.method} ({shown}), cohesion={self.cohesion}, "
+                f"window [{self.window[0]:g}, {self.window[1]:g}] rev")
+
+    def figures(self) -> dict:
+        """The four figures (matplotlib), keyed ``fig3_mean_volume``, ``fig4_granule_number``,
+        ``fig5_size_distribution``, ``fig6_yield``."""
+        from granalytics.plot import cg_figures
+
+        return cg_figures(self)
+
+    @staticmethod
+    def check_outputs(out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
+        """The paths :meth:`save` writes into ``out_dir``; refuses (``ParameterError``) when
+        some exist and not ``overwrite``, or when ``out_dir`` is a file. For checking before the
+        comparison is computed."""
+        if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+            raise ParameterError(f"{out_dir}: exists and is not a folder")
+        names = ["cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv"]
+        names += [f"{fig}.{ext}" for fig in ("fig3_mean_volume", "fig4_granule_number", "fig5_size_distribution",
+                                              "fig6_yield") for ext in formats]
+        paths = [os.path.join(out_dir, name) for name in names]
+        existing = [p for p in paths if os.path.exists(p)]
+        if existing and not overwrite:
+            raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace "
+                                 f"{len(existing)} existing output file(s))")
+        return paths
+
+    def save(self, out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
+        """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` and the four figures
+        (one file per format) into ``out_dir``; existing files are refused unless ``overwrite``.
+        Written as one (:func:`granalytics.core.files.staged_outputs`): a failure or Ctrl-C leaves
+        every earlier output in ``out_dir`` as it was, never old and new figures mixed. Returns
+        the written paths."""
+        import matplotlib.pyplot as plt
+
+        paths = self.check_outputs(out_dir, overwrite=overwrite, formats=formats)
+        try:
+            os.makedirs(out_dir, exist_ok=True)
+            figures = self.figures()
+            try:
+                with staged_outputs(out_dir) as stage:
+                    for table, path in zip((self.table, self.timeseries, self.distributions), paths):
+                        table.to_csv(stage(path), index=False)
+                    written = paths[:3]
+                    for name, fig in figures.items():
+                        for ext in formats:
+                            path = os.path.join(out_dir, f"{name}.{ext}")
+                            fig.savefig(stage(path), dpi=150, format=ext)
+                            written.append(path)
+            finally:
+                for fig in figures.values():
+                    plt.close(fig)
+        except OSError as exc:
+            raise ParameterError(f"{out_dir}: cannot write the comparison ({exc})") from None
+        return written
+
+
+def _paper_speedup(alpha) -> float:
+    """The paper's speed-up of CG factor α over CG1 (1 for α = 1, NaN where it reports none)."""
+    return 1.0 if alpha == 1 else PAPER_SPEEDUP.get(float(alpha), math.nan)
+
+
+def _alpha_label(alpha, n_particles, n_replicas=1):
+    replicas = f", {n_replicas} replicas" if n_replicas > 1 else ""
+    return f"CG{alpha:g} ({n_particles} particles{replicas})"
+
+
+def _replica_group(item) -> list:
+    """A ``runs`` entry of :func:`compare_cg` as a list of replicas (a single run: a list of one)."""
+    if isinstance(item, (list, tuple)):
+        if not item:
+            raise ParameterError("compare_cg: an empty group of replicas")
+        return list(item)
+    return [item]
+
+
+def group_replicas(paths) -> list:
+    """Group run files into replicas of one system: runs with equal α and particle count (and
+    original system) are replicas (they differ in their seed). Returns a list of groups (lists of
+    paths) in the order of each group's first run, for :func:`compare_cg`."""
+    groups = {}
+    for path in paths:
+        with open_run(path) as run:
+            meta = run.meta
+            key = (float(meta.alpha), int(meta.n_particles), int(meta.n_particles_original))
+        groups.setdefault(key, []).append(path)
+    return list(groups.values())
+
+
+def _seed(meta):
+    """The simulator's filling seed of a run (None when the run does not say: other codes)."""
+    return ((meta.sim_config or {}).get("params") or {}).get("seed")
+
+
+def _recorded(value) -> float:
+    """A provenance number as a float, NaN where the run does not record it."""
+    return math.nan if value is None else float(value)
+
+
+def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
+    """One run of a comparison: its time series, steady state, pooled window sizes and provenance."""
+    lo, hi = window
+    run = open_run(item) if isinstance(item, (str, os.PathLike)) else item
+    try:
+        meta = run.meta
+        if len(run) == 0:
+            raise ParameterError(f"{run.path}: the run has no frames")
+        drum = run_confinement(meta)
+        if drum is not None and (warning := confinement_warning(drum.drum_ratio)):
+            warnings.warn(f"{os.fspath(run.path)}: {warning}", stacklevel=3)
+        ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
+        steady = steady_state(ts, window=(lo, hi), source=os.fspath(run.path))
+        revs = ts["revolutions"].to_numpy()
+        inside = window_mask(revs, lo, hi)
+        pooled = np.concatenate([s for s, keep in zip(frame_sizes, inside) if keep] or [np.zeros(0, np.int64)])
+        provenance = meta.provenance
+        info = {
+            "path": os.fspath(run.path), "alpha": meta.alpha, "n_particles": meta.n_particles,
+            "n_particles_original": meta.n_particles_original, "mean_radius_original": meta.mean_radius_original,
+            "revolutions_last": float(revs[-1]),
+            # None: recorded as not measured (RunMeta checks that these are numbers or None)
+            "wall_time_s": _recorded(provenance.get("wall_time_s")),
+            "wall_time_per_simulated_s": _recorded(provenance.get("wall_time_per_simulated_s")),
+            "physics_version": provenance.get("physics_version"),
+            "seed": _seed(meta),
+        }
+    finally:
+        if run is not item:
+            run.close()
+    return {"info": info, "timeseries": ts, "steady": steady, "sizes": pooled}
+
+
+def _relative_deviation(mean, se, ref_mean, ref_se):
+    """(mean − ref)/ref and its standard error from the two standard errors (NaN where ref is 0)."""
+    if not ref_mean:
+        return math.nan, math.nan
+    ratio = mean / ref_mean
+    se_ratio = abs(ratio) * math.hypot(se / mean if mean else math.nan, ref_se / ref_mean)
+    return ratio - 1.0, se_ratio
+
+
+def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", cohesion=DEFAULT_COHESION,
+               progress=False, **params) -> CGComparison:
+    """Compare runs of one system at several CG factors (paper §3.1, Figs 3–6).
+
+    Parameters
+    ----------
+    runs : sequence of paths (or :class:`~granalytics.Run`), or of groups of them
+        At least two systems; their metadata give α, the particle counts and the wall time. An
+        entry that is a list or tuple of runs is a group of **replicas** (runs of one system that
+        differ in their seed, e.g. from :func:`group_replicas`): its statistics are the mean over
+        the replicas, with the replica standard error beside the block s.e.m.
+    labels : sequence of str, optional
+        Display names, one per entry of ``runs``; default ``"CG<α> (<N> particles)"`` (with the
+        number of replicas for a group).
+    window : (float, float), default (3, 6)
+        Steady-state window [revolutions]: statistics, block s.e.m., pooled size distributions.
+    method : str, default "gna"
+        Identification method (any of :data:`granalytics.identify.METHODS`).
+    cohesion : {"acting", "bridge"}, default "acting"
+        Which force is F_coh (:mod:`granalytics.identify.cohesion`).
+    progress : bool
+        Progress bars over frames.
+    **params
+        Method parameters, e.g. ``c_agg=0.6, a_agg_deg=20`` (the paper's, and GNA's defaults).
+
+    Returns
+    -------
+    CGComparison
+        Its table has, per metric, ``_mean`` (over the replicas of a group), ``_std`` (over
+        frames, averaged over replicas), ``_sem`` (block s.e.m., combined over replicas as
+        √(Σ sem²)/n), ``_replica_sem`` (standard deviation of the replica means / √n; NaN for a
+        single run), ``_rel_dev`` and ``_rel_dev_se`` (its standard error, from each side's replica
+        s.e. where it has replicas and its block s.e.m. where not), and ``n_replicas``.
+    """
+    from scipy.stats import ks_2samp, wasserstein_distance
+
+    from granalytics.analysis.stats import _combine_steady_states
+
+    check_cohesion(cohesion)
+    groups = [_replica_group(item) for item in runs]
+    if len(groups) < 2:
+        raise ParameterError("compare_cg needs at least two runs")
+    if labels is not None and len(labels) != len(groups):
+        raise ParameterError(f"{len(labels)} labels for {len(groups)} runs")
+    lo, hi = (float(w) for w in window)
+    infos, series, dists, steady, sizes = [], [], [], {}, {}
+    for k, group in enumerate(groups):
+        members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
+        first = members[0]["info"]
+        for member in members[1:]:
+            other = member["info"]
+            if (other["alpha"], other["n_particles"]) != (first["alpha"], first["n_particles"]):
+                raise ParameterError(f"{other['path']}: not a replica of {first['path']} (α = {other['alpha']:g} with "
+                                     f"{other['n_particles']} particles against α = {first['alpha']:g} with "
+                                     f"{first['n_particles']})")
+        n = len(members)
+        if labels is not None:
+            label = labels[k]
+        else:
+            label = _alpha_label(first["alpha"], first["n_particles"], n)
+        if label in sizes:
+            raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels, or group replicas "
+                                 "(granalytics compare-cg --replicas)")
+        tables = [m["steady"] for m in members]
+        combined = _combine_steady_states(tables)
+        combined["std"] = pd.concat([t["std"] for t in tables], axis=1).mean(axis=1)
+        combined["n_frames"] = sum(t["n_frames"] for t in tables)
+        info = {"run": label, **first, "path": "; ".join(m["info"]["path"] for m in members), "n_replicas": n,
+                "seeds": ", ".join(str(m["info"]["seed"]) for m in members)}
+        for key in ("wall_time_s", "wall_time_per_simulated_s"):
+            info[key] = float(np.mean([m["info"][key] for m in members]))
+        info["revolutions_last"] = min(m["info"]["revolutions_last"] for m in members)
+        del info["seed"]
+        infos.append(info)
+        for r, member in enumerate(members):
+            ts = member["timeseries"]
+            ts.insert(0, "replica", r)
+            ts.insert(0, "alpha", first["alpha"])
+            ts.insert(0, "run", label)
+            series.append(ts)
+        pooled = np.concatenate([m["sizes"] for m in members])
+        dist = size_distribution(pooled)
+        dist.insert(0, "alpha", first["alpha"])
+        dist.insert(0, "run", label)
+        dists.append(dist)
+        steady[label] = combined
+        sizes[label] = pooled
+    for key, what in (("n_particles_original", "original particle counts"), ("mean_radius_original", "original mean radii")):
+        values = [i[key] for i in infos]
+        if max(values) > 1.01 * min(values):
+            warnings.warn(f"compare_cg: the runs are not coarse-grained from one system: their {what} differ ("
+                          + ", ".join(f"{i['run']}: {i[key]:.4g}" for i in infos)
+                          + "); their differences are not those of coarse-graining", stacklevel=2)
+    versions = {i["run"]: i["physics_version"] for i in infos if i["physics_version"] is not None}
+    if len(set(versions.values())) > 1:
+        warnings.warn("compare_cg: the runs were made by different simulator physics versions ("
+                      + ", ".join(f"{run}: {v}" for run, v in versions.items())
+                      + "); their differences mix coarse-graining with the change of physics", stacklevel=2)
+    info = pd.DataFrame(infos)
+    reference = info.loc[info["alpha"].idxmin(), "run"]
+    ref = steady[reference]
+    ref_row = info.set_index("run").loc[reference]
+    rows = []
+    for row in info.itertuples():
+        table = steady[row.run]
+        out = {"run": row.run, "alpha": row.alpha, "n_particles": row.n_particles, "n_replicas": row.n_replicas}
+        error = "replica_sem" if row.n_replicas > 1 else "block_sem"  # each side its run-to-run error where it has one
+        ref_error = "replica_sem" if ref_row["n_replicas"] > 1 else "block_sem"
+        for metric in CG_METRICS:
+            mean = table.loc[metric, "mean"]
+            out[f"{metric}_mean"] = mean
+            out[f"{metric}_std"] = table.loc[metric, "std"]
+            out[f"{metric}_sem"] = table.loc[metric, "block_sem"]
+            out[f"{metric}_replica_sem"] = table.loc[metric, "replica_sem"]
+            if row.run == reference:
+                dev, dev_se = (0.0, math.nan) if ref.loc[metric, "mean"] else (math.nan, math.nan)
+            else:
+                dev, dev_se = _relative_deviation(mean, table.loc[metric, error], ref.loc[metric, "mean"],
+                                                  ref.loc[metric, ref_error])
+            out[f"{metric}_rel_dev"] = dev
+            out[f"{metric}_rel_dev_se"] = dev_se
+        a, b = sizes[row.run], sizes[reference]
+        both = a.size and b.size
+        out["ks_distance"] = ks_2samp(a, b).statistic if both else math.nan
+        out["w1_log10_size"] = wasserstein_distance(np.log10(a), np.log10(b)) if both else math.nan
+        out["n_frames"] = int(table.loc["yield_fraction", "n_frames"])
+        out["n_granules_pooled"] = int(a.size)
+        out["wall_time_per_simulated_s"] = row.wall_time_per_simulated_s
+        out["speedup"] = ref_row["wall_time_per_simulated_s"] / row.wall_time_per_simulated_s
+        out["paper_speedup"] = _paper_speedup(row.alpha) / _paper_speedup(ref_row["alpha"])
+        out["method"] = method
+        out["cohesion"] = cohesion
+        out["window"] = f"{lo:g}:{hi:g}"
+        rows.append(out)
+    return CGComparison(
+        runs=info, timeseries=pd.concat(series, ignore_index=True), distributions=pd.concat(dists, ignore_index=True),
+        table=pd.DataFrame(rows), sizes=sizes, reference=reference, window=(lo, hi), method=method,
+        cohesion=cohesion, params=dict(params),
+    )
+
+
+def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT_WINDOW_REV,
+                          cohesion=DEFAULT_COHESION, radius="pair", progress=False) -> pd.DataFrame:
+    """Does the CG agreement survive other thresholds? The deviation of each headline statistic
+    from the finest run (smallest α) at every (C_agg, A_agg) pair.
+
+    GNA's criterion is normalised by each system's own γ and R (f = F_coh/(2πγR)), so one threshold
+    pair means the same in every run; every run is analysed once per frame for the whole grid
+    (:func:`granalytics.analysis.sensitivity`).
+
+    Parameters
+    ----------
+    runs : sequence of paths
+        At least two runs of one system at several CG factors.
+    c_agg, a_agg_deg : sequence of float
+        The threshold grid (C_agg ≥ 0; A_agg in (0, 180] degrees).
+    labels, window, cohesion, radius, progress :
+        As for :func:`compare_cg`.
+
+    Returns
+    -------
+    DataFrame
+        One row per run and threshold pair: ``run``, ``alpha``, ``c_agg``, ``a_agg_deg``,
+        ``n_frames``, and for each headline metric ``<metric>_mean`` (over the window's frames)
+        and ``<metric>_rel_dev`` ((run − finest)/finest; 0 for the finest run, NaN where the
+        finest is 0).
+    """
+    from granalytics.analysis.sensitivity import sensitivity, sensitivity_summary
+
+    check_cohesion(cohesion)
+    runs = list(runs)
+    if len(runs) < 2:
+        raise ParameterError("compare_cg_thresholds needs at least two runs")
+    if labels is not None and len(labels) != len(runs):
+        raise ParameterError(f"{len(labels)} labels for {len(runs)} runs")
+    lo, hi = (float(w) for w in window)
+    rows = []
+    for k, path in enumerate(runs):
+        with open_run(path) as run:
+            label = labels[k] if labels is not None else _alpha_label(run.meta.alpha, run.meta.n_particles)
+            if any(label == r["run"].iloc[0] for r in rows):
+                raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels")
+            frames = run.select(revolutions=(lo, hi))
+            if not len(frames):
+                raise ParameterError(f"{run.path}: no frame in the window [{lo:g}, {hi:g}] revolutions")
+            table = sensitivity(frames, c_agg, a_agg_deg, radius=radius, cohesion=cohesion, progress=progress)
+            summary = sensitivity_summary(table)
+            summary.insert(0, "alpha", run.meta.alpha)
+            summary.insert(0, "run", label)
+            rows.append(summary)
+    out = pd.concat(rows, ignore_index=True)
+    finest = out.loc[out["alpha"] == out["alpha"].min(), "run"].iloc[0]
+    keys = ["a_agg_deg", "c_agg"]
+    ref = out[out["run"] == finest].set_index(keys)
+    for metric in BY_FIGURE:
+        base = ref.loc[pd.MultiIndex.from_frame(out[keys]), f"{metric}_mean"].to_numpy()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[f"{metric}_rel_dev"] = np.where(base != 0, (out[f"{metric}_mean"].to_numpy() - base) / base, np.nan)
+    columns = ["run", "alpha", "c_agg", "a_agg_deg", "n_frames"]
+    columns += [f"{m}_{s}" for m in BY_FIGURE for s in ("mean", "rel_dev")]
+    return out[columns].sort_values(["alpha", "a_agg_deg", "c_agg"]).reset_index(drop=True)

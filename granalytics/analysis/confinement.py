@@ -1,0 +1,262 @@
+"""The drum's confinement against coarse-graining: how granule statistics depend on the drum-to-
+particle size ratio D/d, and what a user can trust.
+
+A coarse-grained (CG) run of a drum keeps the drum and makes the particles α times larger, so it
+lowers D/d by α: fewer particle layers between the walls, more particles touching a wall (wall
+contacts are not edges of the granule graph), a thinner bed. Whether CG "works" is then two
+questions, which this module separates:
+
+- the **confinement curve**: runs of original (α = 1) particles in drums of one geometry rule
+  (fill, L/R_d, r_s/R_d, baffles: ``python -m sim run --drum-ratio``) at several D/d, their
+  steady yield, ⟨V_g⟩/V_p and N_g/N against D/d (:func:`confinement_table`), fitted by the
+  finite-size law y(D/d) = y∞·(1 − b/(D/d)) (:func:`fit_confinement_curve`: the share of particles
+  at a wall falls as 1/(D/d));
+- the **decomposition** of a CG run's deviation (:func:`decompose_cg`): against the α = 1 curve at
+  its *own* D/d (the error of the scaling rules themselves) and against the α = 1 run in the same
+  drum (what a user gets).
+
+:data:`CONFINEMENT_RULE` holds the smallest D/d at which the yield is within 5 % and 10 % of its
+large-drum value, measured on the α = 1 runs of ``granalytics.datasets.CONFINEMENT`` (docs/results.md,
+"Confinement");
+:func:`confinement_warning` is the one-line warning `granalytics info` and
+:func:`~granalytics.compare_cg` give below it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pandas as pd
+
+from granalytics.core.bed import bed_structure, run_confinement, wall_touching
+from granalytics.core.errors import ParameterError
+from granalytics.analysis.frames import map_frames
+from granalytics.identify import make_identifier
+from granalytics.core import open_run
+from granalytics.analysis.metrics import HEADLINE
+from granalytics.analysis.stats import DEFAULT_WINDOW_REV, frame_stats, steady_state
+
+__all__ = ["CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", "confinement_table",
+           "ConfinementFit", "fit_confinement_curve", "decompose_cg", "BED_COLUMNS"]
+
+#: the smallest D/d (of the simulated particles: D/(α·d) for a CG run) at which the acting yield
+#: at the paper's thresholds is within 5 % and within 10 % of its large-drum value y∞, with the
+#: standard error from the fit's covariance; measured on the α = 1 confinement curve of the lab
+#: drum family (docs/results.md, "Confinement"; docs/confinement_study.py regenerates it)
+CONFINEMENT_RULE = {"within_5pc": (62.0, 9.0), "within_10pc": (31.0, 4.0)}
+
+#: per-frame bed columns of :func:`confinement_timeseries` beside the headline metrics
+BED_COLUMNS = ("wall_share", "coordination")
+
+
+def confinement_warning(drum_ratio, rule=None) -> str | None:
+    """One line when a run's D/d is below the :data:`CONFINEMENT_RULE` threshold for 10 % (or
+    5 %), None otherwise (or when the rule is not measured)."""
+    rule = CONFINEMENT_RULE if rule is None else rule
+    x10, s10 = rule["within_10pc"]
+    x5, s5 = rule["within_5pc"]
+    if x10 is None or x5 is None or not math.isfinite(drum_ratio):
+        return None
+    if drum_ratio < x10:
+        return (f"D/d = {drum_ratio:.1f} is below {x10:.0f} ± {s10:.0f}, where the drum's confinement lowers the yield "
+                f"by more than 10 % against a large drum (docs/results.md, 'Confinement'); CG deviations here mix "
+                f"confinement with the scaling rules")
+    if drum_ratio < x5:
+        return (f"D/d = {drum_ratio:.1f} is below {x5:.0f} ± {s5:.0f}, where the drum's confinement lowers the yield by "
+                f"5-10 % against a large drum (docs/results.md, 'Confinement')")
+    return None
+
+
+def confinement_timeseries(frames, meta, method="gna", *, progress=False, **params) -> pd.DataFrame:
+    """:func:`~granalytics.run_stats`' time series with the bed's share of particles touching a
+    wall (``wall_share``, :func:`~granalytics.wall_touching`) and its coordination number
+    (``coordination``, touching particle contacts per particle, walls not counted) per frame.
+
+    Parameters
+    ----------
+    frames : Run or RunSlice
+    meta : RunMeta
+        The run's metadata (its drum geometry).
+    method, params :
+        The identification, as for :func:`~granalytics.run_stats`.
+    """
+    identifier = make_identifier(method, **params)
+
+    def one_frame(snapshot):
+        row = frame_stats(snapshot, identifier.identify(snapshot))
+        row["wall_share"] = float(wall_touching(snapshot, meta).mean())
+        row["coordination"] = bed_structure(snapshot).coordination
+        return row
+
+    frame_ids, rows = map_frames(frames, one_frame, progress=progress, desc="confinement")
+    for k, row in zip(frame_ids, rows):
+        row.insert(0, "frame", int(k))
+    return pd.concat(rows, ignore_index=True)
+
+
+def _group_paths(group):
+    return [group] if isinstance(group, (str, bytes)) or hasattr(group, "__fspath__") else list(group)
+
+
+def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gna", *, progress=False,
+                      **params) -> pd.DataFrame:
+    """The confinement and the steady granule statistics of runs, one row per run or group of
+    replicas.
+
+    Parameters
+    ----------
+    groups : sequence of path or of list of paths
+        Runs of the simulator; a list is a group of replicas (the same system at other seeds).
+    window : (float, float), default (3, 6)
+        Steady-state window [revolutions].
+    labels : sequence of str, optional
+        Row names (default: the first file's name).
+    method, params :
+        The identification (default GNA at its defaults).
+
+    Returns
+    -------
+    DataFrame
+        ``label``, ``alpha``, ``n_particles``, ``n_replicas``, ``drum_ratio`` (D/d),
+        ``length_ratio`` (L/d), ``bed_depth_ratio`` (nominal depth/d), then for every metric of
+        the headline statistics and :data:`BED_COLUMNS` its mean over the window (``<metric>``,
+        averaged over replicas) and its error ``<metric>_err``: the replica standard error for a
+        group of two or more, the block s.e.m. of the one run otherwise.
+    """
+    groups = [_group_paths(g) for g in groups]
+    if not groups:
+        raise ParameterError("confinement_table: no runs")
+    if labels is not None and len(labels) != len(groups):
+        raise ParameterError(f"confinement_table: {len(labels)} labels for {len(groups)} runs or groups")
+    columns = (*HEADLINE, *BED_COLUMNS)
+    rows = []
+    for k, paths in enumerate(groups):
+        series, first = [], None
+        for path in paths:
+            with open_run(path) as run:
+                drum = run_confinement(run.meta)
+                if drum is None:
+                    raise ParameterError(f"{path}: the run has no drum description (not a run of the simulator)")
+                first = first or (run.meta, drum)
+                series.append(confinement_timeseries(run.select(revolutions=window), run.meta, method,
+                                                     progress=progress, **params))
+        steady = steady_state(series if len(series) > 1 else series[0], window, columns, source=str(paths[0]))
+        error = steady["replica_sem"] if len(series) > 1 else steady["sem"]
+        meta, drum = first
+        row = {"label": labels[k] if labels is not None else str(paths[0]).rsplit("/", 1)[-1].removesuffix(".h5"),
+               "alpha": meta.alpha, "n_particles": meta.n_particles, "n_replicas": len(series),
+               "drum_ratio": drum.drum_ratio, "length_ratio": drum.length_ratio,
+               "bed_depth_ratio": drum.bed_depth_ratio}
+        for col in columns:
+            row[col] = float(steady.loc[col, "mean"])
+            row[f"{col}_err"] = float(error.loc[col])
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+@dataclasses.dataclass(frozen=True)
+class ConfinementFit:
+    """The finite-size law y(x) = y∞·(1 − b/x), x = D/d, fitted to a confinement curve.
+
+    Attributes
+    ----------
+    y_inf, b : float
+        The large-drum value and the confinement length (in particle diameters).
+    covariance : (2, 2) array
+        Of (y∞, b), scaled by the reduced χ² when it exceeds 1.
+    chi2 : float
+        χ² of the fit (with the points' errors), ``dof`` its degrees of freedom.
+    """
+
+    y_inf: float
+    b: float
+    covariance: np.ndarray
+    chi2: float
+    dof: int
+
+    def __call__(self, drum_ratio):
+        """y at D/d = ``drum_ratio``."""
+        return self.y_inf * (1 - self.b / np.asarray(drum_ratio, dtype=float))
+
+    def error(self, drum_ratio):
+        """Standard error of :meth:`__call__` at ``drum_ratio`` (from the covariance)."""
+        x = np.asarray(drum_ratio, dtype=float)
+        grad = np.stack([1 - self.b / x, -self.y_inf / x])
+        return np.sqrt(np.einsum("i...,ij,j...->...", grad, self.covariance, grad))
+
+    def within(self, fraction) -> tuple[float, float]:
+        """The smallest D/d at which y is within ``fraction`` of y∞ (b/fraction), with its
+        standard error."""
+        if not 0 < fraction < 1:
+            raise ParameterError(f"fraction must be in (0, 1), got {fraction!r}")
+        return self.b / fraction, math.sqrt(self.covariance[1, 1]) / fraction
+
+
+def fit_confinement_curve(drum_ratio, values, errors) -> ConfinementFit:
+    """Weighted least-squares fit of y = y∞·(1 − b/x) to points (x = D/d, y ± error).
+
+    The law is linear in (y∞, y∞·b): y = y∞ − (y∞·b)/x, so the fit is a weighted linear regression
+    on 1/x; the covariance of (y∞, b) follows by propagation.
+
+    Raises
+    ------
+    ParameterError
+        Fewer than three points, or a non-positive error or D/d.
+    """
+    x, y, s = (np.asarray(a, dtype=float) for a in (drum_ratio, values, errors))
+    if not (x.shape == y.shape == s.shape) or x.size < 3:
+        raise ParameterError(f"fit_confinement_curve: needs three or more points of equal length, got {x.size}")
+    if not (np.all(np.isfinite(s)) and np.all(s > 0) and np.all(x > 0)):
+        raise ParameterError("fit_confinement_curve: every D/d and every error must be finite and > 0")
+    design = np.column_stack([np.ones_like(x), -1 / x])
+    weight = 1 / s**2
+    normal = design.T @ (design * weight[:, None])
+    cov_lin = np.linalg.inv(normal)
+    coef = cov_lin @ (design.T @ (weight * y))
+    residual = y - design @ coef
+    chi2 = float(np.sum(weight * residual**2))
+    dof = x.size - 2
+    if dof > 0 and chi2 / dof > 1:
+        cov_lin = cov_lin * (chi2 / dof)
+    y_inf, c = coef  # c = y∞·b
+    jac = np.array([[1.0, 0.0], [-c / y_inf**2, 1 / y_inf]])  # d(y∞, b)/d(y∞, c)
+    return ConfinementFit(y_inf=float(y_inf), b=float(c / y_inf), covariance=jac @ cov_lin @ jac.T, chi2=chi2, dof=dof)
+
+
+def decompose_cg(cg_rows: pd.DataFrame, fit: ConfinementFit, same_drum: dict, metric="yield_fraction") -> pd.DataFrame:
+    """Split the deviation of CG runs into the scaling rules' error and what a user gets.
+
+    Parameters
+    ----------
+    cg_rows : DataFrame
+        Rows of :func:`confinement_table` for the CG runs.
+    fit : ConfinementFit
+        The α = 1 confinement curve of ``metric``.
+    same_drum : dict
+        label -> (value, error) of the α = 1 reference in the same drum (the lab drum's CG1 run;
+        for a drum without one, the curve at its D/d·α).
+    metric : str
+
+    Returns
+    -------
+    DataFrame
+        ``label``, ``alpha``, ``drum_ratio``, ``value``, ``value_err``, ``cg1_equal_dd`` (the
+        curve at the run's D/d) with ``cg1_equal_dd_err``, ``dev_equal_dd`` (relative deviation
+        from it: the scaling rules' error) with ``dev_equal_dd_err``, ``cg1_same_drum``,
+        ``dev_same_drum`` (from the α = 1 run in the same drum) with ``dev_same_drum_err``.
+    """
+    rows = []
+    for row in cg_rows.itertuples(index=False):
+        value, err = getattr(row, metric), getattr(row, f"{metric}_err")
+        ref, ref_err = float(fit(row.drum_ratio)), float(fit.error(row.drum_ratio))
+        drum_ref, drum_err = same_drum[row.label]
+        rows.append({
+            "label": row.label, "alpha": row.alpha, "drum_ratio": row.drum_ratio, "value": value, "value_err": err,
+            "cg1_equal_dd": ref, "cg1_equal_dd_err": ref_err, "dev_equal_dd": value / ref - 1,
+            "dev_equal_dd_err": value / ref * math.hypot(err / value, ref_err / ref),
+            "cg1_same_drum": drum_ref, "dev_same_drum": value / drum_ref - 1,
+            "dev_same_drum_err": value / drum_ref * math.hypot(err / value, drum_err / drum_ref),
+        })
+    return pd.DataFrame(rows)

@@ -1,0 +1,164 @@
+"""Threshold sensitivity of graph network analysis over a grid of C_agg × A_agg (the paper's
+angle test) or C_agg × rigid_tol (the rigid co-motion test, ``comotion="rigid"``).
+
+For one frame and one co-motion threshold, the whole C_agg axis comes from a single pass: the contacts passing
+the angle criterion are sorted by f = F_coh/(2πγR) and merged in decreasing order with union-find,
+recording granule number, granulated particles and granulated volume at every requested
+threshold (Newman & Ziff, Phys. Rev. Lett. 85, 4104 (2000)). The statistics are those of
+:func:`granalytics.frame_stats` for GNA at each (C_agg, A_agg) — a test checks equality with
+independent identifications. Frames are processed in parallel threads (the kernels release the
+GIL); frames are read from the file in the calling thread.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from granalytics.identify import _kernels
+from granalytics.analysis.metrics import HEADLINE
+from granalytics.core._windows import window_mask
+from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.core.errors import ParameterError
+from granalytics.analysis.frames import map_frames
+from granalytics.identify.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion, check_rigid_tol, comotion_mask,
+                       contact_strength)
+from granalytics.identify.common import check_c_agg, check_min_size
+
+__all__ = ["sensitivity", "sensitivity_summary", "COMOTION_COLUMNS", "comotion_column"]
+
+_METRICS = HEADLINE
+#: the column of the co-motion threshold in a sensitivity table, by co-motion test
+COMOTION_COLUMNS = {"angle": "a_agg_deg", "rigid": "rigid_tol"}
+
+
+def comotion_column(table) -> str:
+    """The co-motion threshold's column of a :func:`sensitivity` table or its summary
+    (``a_agg_deg`` or ``rigid_tol``)."""
+    for column in COMOTION_COLUMNS.values():
+        if column in table:
+            return column
+    raise ParameterError(f"the table has no co-motion threshold column ({' or '.join(COMOTION_COLUMNS.values())})")
+
+
+def _frame_sweep(snapshot, c_desc, thresholds, radius, gamma, cohesion, comotion, rigid_scale, min_size):
+    f = contact_strength(snapshot, radius, gamma, cohesion)
+    volume = snapshot.particle_volume
+    n = snapshot.n_particles
+    n_initial = snapshot.meta.n_particles if snapshot.meta is not None else n
+    v_mean = volume.mean()
+    column = COMOTION_COLUMNS[comotion]
+    rows = []
+    for a in thresholds:
+        passes = comotion_mask(snapshot, comotion, **({"a_agg_deg": a} if comotion == "angle"
+                                                      else {"rigid_tol": a, "rigid_scale": rigid_scale}))
+        n_gran, n_in, v_in = _kernels.threshold_sweep(
+            snapshot.contact_i, snapshot.contact_j, f, passes, volume, c_desc, min_size)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean_volume = np.where(n_gran > 0, v_in / np.maximum(n_gran, 1), np.nan)
+        rows.append(pd.DataFrame({
+            "time_s": snapshot.time, "step": snapshot.step, "revolutions": snapshot.revolutions,
+            "cohesion": cohesion, "c_agg": c_desc, column: a, "n_granules": n_gran,
+            "n_granules_norm": n_gran / n_initial, "yield_fraction": n_in / n,
+            "mean_volume_norm": mean_volume / v_mean,
+        }))
+    return pd.concat(rows, ignore_index=True)
+
+
+def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION,
+                comotion=DEFAULT_COMOTION, rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE, min_size=2,
+                jobs=1, progress=False):
+    """GNA statistics of every frame at every (C_agg, A_agg), or every (C_agg, rigid_tol) with
+    the rigid co-motion test.
+
+    Parameters
+    ----------
+    frames : Run, RunSlice or sequence of Snapshot
+    c_agg : sequence of float
+        Cohesion thresholds (≥ 0).
+    a_agg_deg : sequence of float
+        Angle thresholds [deg], each in (0, 180]; with ``comotion="angle"`` (required there).
+    radius, surface_tension, cohesion, rigid_scale, min_size :
+        As for :class:`~granalytics.GraphNetworkAnalysis` (``cohesion``: which force is F_coh,
+        ``"acting"`` or ``"bridge"``; see :mod:`granalytics.identify.cohesion`).
+    comotion : {"angle", "rigid"}, default "angle"
+        The co-motion test; its thresholds are ``a_agg_deg`` or ``rigid_tol``.
+    rigid_tol : sequence of float
+        Tolerances of the rigid test (each > 0); with ``comotion="rigid"`` (required there).
+    jobs : int, default 1
+        Worker threads over frames.
+    progress : bool
+        Progress bar over frames.
+
+    Returns
+    -------
+    DataFrame
+        One row per (frame, c_agg, co-motion threshold), sorted by frame, threshold, then C_agg
+        ascending, with ``frame`` (index in the run file, or in the list), ``time_s`` [s], ``step``,
+        ``revolutions``, ``cohesion``, ``c_agg``, ``a_agg_deg`` (or ``rigid_tol``), ``n_granules``,
+        ``n_granules_norm``, ``yield_fraction``, ``mean_volume_norm`` (definitions of
+        :func:`~granalytics.frame_stats`).
+    """
+    values = c_agg.tolist() if isinstance(c_agg, np.ndarray) else list(c_agg) if isinstance(c_agg, (list, tuple)) else [c_agg]
+    c = np.array([check_c_agg(v) for v in values], dtype=float)
+    if c.size == 0:
+        raise ParameterError(f"c_agg must be a non-empty list of numbers >= 0, got {c_agg!r}")
+    check_comotion(comotion)
+    given, check, name = ((a_agg_deg, check_angle, "a_agg_deg") if comotion == "angle"
+                          else (rigid_tol, check_rigid_tol, "rigid_tol"))
+    other = rigid_tol if comotion == "angle" else a_agg_deg
+    if other is not None:
+        raise ParameterError(f"sensitivity: comotion={comotion!r} sweeps {name}; leave "
+                             f"{'rigid_tol' if comotion == 'angle' else 'a_agg_deg'} out")
+    if given is None:
+        raise ParameterError(f"sensitivity: comotion={comotion!r} needs the thresholds {name}")
+    a_list = sorted({check(a) for a in np.atleast_1d(given)})  # each threshold once, as each C_agg
+    if not a_list:
+        raise ParameterError(f"{name} must not be empty")
+    check_cohesion(cohesion)
+    check_min_size(min_size)
+    c_desc = np.unique(c)[::-1].copy()
+    frame_ids, tables = map_frames(
+        frames, lambda snapshot: _frame_sweep(snapshot, c_desc, a_list, radius, surface_tension, cohesion, comotion,
+                                              rigid_scale, int(min_size)),
+        progress=progress, desc="sensitivity", jobs=jobs)
+    for frame, table in zip(frame_ids, tables):
+        table.insert(0, "frame", int(frame))
+    out = pd.concat(tables, ignore_index=True)
+    return out.sort_values(["frame", COMOTION_COLUMNS[comotion], "c_agg"], kind="stable", ignore_index=True)
+
+
+def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
+    """Mean and standard deviation over frames of each metric at each (C_agg, co-motion threshold).
+
+    Parameters
+    ----------
+    table : output of :func:`sensitivity`
+    window : (float, float), optional
+        Revolution window; all frames when None.
+    """
+    if not isinstance(table, pd.DataFrame):
+        raise ParameterError(f"sensitivity_summary: table must be the DataFrame of sensitivity(), got {type(table).__name__}")
+    threshold = next((c for c in COMOTION_COLUMNS.values() if c in table), "a_agg_deg")
+    need = [threshold, "c_agg", *(["revolutions"] if window is not None else []), *_METRICS]
+    if any(c not in table for c in need):
+        raise ParameterError(f"sensitivity_summary: table must be the DataFrame of sensitivity() (columns "
+                             f"{', '.join(need)}), got {type(table).__name__}"
+                             f"{' without ' + repr(next(c for c in need if c not in table)) if isinstance(table, pd.DataFrame) else ''}")
+    if table.empty:
+        raise ParameterError("sensitivity_summary: the table has no rows (no frame was analysed)")
+    if window is not None:
+        from granalytics.analysis.stats import _window_pair
+
+        lo, hi = _window_pair(window, "sensitivity_summary: window")
+        table = table[window_mask(table["revolutions"], lo, hi)]
+        if table.empty:
+            raise ParameterError(f"no frame in the window [{lo:g}, {hi:g}] revolutions")
+    keys = ["cohesion", threshold, "c_agg"] if "cohesion" in table else [threshold, "c_agg"]
+    grouped = table.groupby(keys)[list(_METRICS)]
+    out = grouped.agg(["mean", "std"])
+    out.columns = [f"{m}_{stat}" for m, stat in out.columns]
+    out["n_frames"] = grouped.size()
+    return out.reset_index()
+
+

@@ -1,0 +1,184 @@
+"""The study table of a sweep folder (``python -m sim sweep``): steady-state yield, mean granule
+volume and granule number of every finished point, for each cohesion convention, with γ and Ω of
+the *original* (α = 1) system taken from the run's metadata (the paper's Fig 7 plots CG2 runs,
+simulated with γ₂ = 2γ, against the original γ); replicas of a point combined.
+
+A sweep folder holds ``manifest.csv`` (one row per point: parameters, status, file, …) and the
+run files ``points/<point>.h5``. This module reads only those files; it does not need :mod:`sim`.
+"""
+
+from __future__ import annotations
+
+import os
+
+import pandas as pd
+
+from granalytics.analysis.metrics import HEADLINE
+from granalytics.analysis.stats import DEFAULT_WINDOW_REV
+from granalytics.core.errors import ParameterError
+from granalytics.core.manifest import MANIFEST_COLUMNS, read_manifest
+from granalytics.identify.cohesion import check_cohesion
+
+
+#: steady-state metrics of the study table
+STUDY_METRICS = HEADLINE
+
+
+#: manifest columns that are bookkeeping, not point parameters (the schema's, and the bundled copy's
+#: ``source_sha256``, :func:`granalytics.datasets.bundle_sweep`)
+_BOOKKEEPING = ("status", *MANIFEST_COLUMNS, "source_sha256")
+
+
+# ----------------------------------------------------------------------------- the table
+def _original_values(meta):
+    """(γ, Ω) of the original system: ``meta.sim_config["original"]`` when the run came from
+    ``sim``, else γ/α (Weber scaling γ_CG = α·γ) and the run's Ω."""
+    original = (meta.sim_config or {}).get("original") or {}
+    gamma = original.get("surface_tension", meta.surface_tension / meta.alpha)
+    omega = original.get("drum_omega", meta.drum_omega)
+    return float(gamma), float(omega)
+
+
+def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("acting", "bridge"), *,
+                replicas=None, progress=False, **params) -> pd.DataFrame:
+    """Steady-state statistics of every finished point of a sweep.
+
+    Parameters
+    ----------
+    sweep_dir : path, or list of paths
+        Folder with ``manifest.csv`` and the run files it names (relative to the folder); several
+        folders are analysed as one table (e.g. a sweep and its replicas at other seeds, run later).
+    window : (float, float), default (3, 6)
+        Steady-state window [revolutions] (:func:`~granalytics.steady_state`; block s.e.m. over
+        revolutions).
+    method : str, default "gna"
+        Identification method; ``params`` go to it (e.g. ``c_agg=0.6, a_agg_deg=20``).
+    cohesion : str or sequence of str, default ("acting", "bridge")
+        Cohesion conventions (:mod:`granalytics.identify.cohesion`); one row per point and convention.
+        Ignored (one row per point, ``cohesion`` None) for methods without a convention.
+    replicas : str, optional
+        A grid column that tells replicas apart (``"seed"``): points equal in every other
+        parameter are combined into one row (:func:`~granalytics.analysis.stats.combine_replicas`):
+        ``<metric>_mean`` over the replicas, ``_sem`` their block s.e.m. combined (√(Σ sem²)/n),
+        ``_replica_sem`` (standard deviation of the replica means / √n), ``_replica_std``,
+        ``n_replicas``; ``point`` and ``file`` list the replicas joined by ``"; "``, the
+        ``replicas`` column their values.
+    progress : bool
+        A progress bar over points.
+
+    Returns
+    -------
+    DataFrame
+        One row per finished (``status == done``) point and convention: ``point``, the point
+        parameters of the manifest, then ``gamma`` and ``omega`` of the ORIGINAL system and
+        ``alpha`` read from the run's metadata (``meta.sim_config["original"]``; runs without it:
+        γ = γ_run/α), ``gamma_run`` (γ of the simulated system), ``n_particles``, ``cohesion``,
+        ``<metric>_mean``, ``_std``, ``_sem`` for ``yield_fraction``, ``mean_volume_norm``,
+        ``n_granules_norm`` (``mean_volume_norm_mean`` is NaN when no frame in the window has a
+        granule), ``n_frames``, ``method``, ``window``, ``file``.
+    """
+    from tqdm.auto import tqdm
+
+    from granalytics.identify import METHODS, method_parameters
+    from granalytics.core import open_run
+    from granalytics.analysis.stats import run_stats, steady_state
+
+    if isinstance(sweep_dir, (list, tuple)):  # several folders analysed as one (e.g. replicas run later)
+        if not sweep_dir:
+            raise ParameterError("study_table: no sweep folder given")
+        table = pd.concat([study_table(d, window, method, cohesion, progress=progress, **params) for d in sweep_dir],
+                          ignore_index=True)
+        return table if replicas is None else _combine_replica_rows(table, replicas, sweep_dir[0])
+
+    if method not in METHODS:
+        raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}")
+    conventions = [cohesion] if isinstance(cohesion, str) else list(cohesion)
+    if not conventions:
+        raise ParameterError("cohesion: give at least one convention")
+    for c in conventions:
+        check_cohesion(c)
+    if "cohesion" not in method_parameters(method):
+        conventions = [None]
+    lo, hi = (float(w) for w in window)
+    manifest = read_manifest(sweep_dir)
+    done = manifest[manifest["status"] == "done"]
+    if done.empty:
+        raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: no finished point "
+                             f"({len(manifest)} in the manifest)")
+    param_cols = [c for c in manifest.columns if c not in ("point", *_BOOKKEEPING)]
+    rows = []
+    for record in tqdm(done.to_dict("records"), disable=not progress, unit="point", desc="study"):
+        if not isinstance(record.get("file"), str) or not record["file"]:
+            raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: point {record['point']} is "
+                                 f"done but its file field is empty ({record.get('file')!r})")
+        path = os.path.join(os.fspath(sweep_dir), record["file"])
+        with open_run(path) as run:
+            meta = run.meta
+            frames = run.select(revolutions=(lo, hi))
+            if not len(frames):
+                revs = run.revolutions
+                span = f"[{revs.min():.3g}, {revs.max():.3g}]" if len(revs) else "no frames"
+                raise ParameterError(f"{path}: no frame in the window [{lo:g}, {hi:g}] revolutions (the run covers {span})")
+            gamma, omega = _original_values(meta)
+            for conv in conventions:
+                kwargs = dict(params) if conv is None else {**params, "cohesion": conv}
+                ts = run_stats(frames, method, **kwargs)
+                steady = steady_state(ts, window=(lo, hi), columns=STUDY_METRICS, source=path)
+                row = {"point": record["point"], **{c: record[c] for c in param_cols}}
+                row.update({"gamma": gamma, "omega": omega, "alpha": float(meta.alpha),
+                            "gamma_run": float(meta.surface_tension), "n_particles": int(meta.n_particles),
+                            "cohesion": conv})
+                for metric in STUDY_METRICS:
+                    for stat in ("mean", "std", "sem"):
+                        row[f"{metric}_{stat}"] = float(steady.loc[metric, stat])
+                row["n_frames"] = int(steady.loc["yield_fraction", "n_frames"])
+                row["method"] = method
+                row["window"] = f"{lo:g}:{hi:g}"
+                row["file"] = record["file"]
+                rows.append(row)
+    table = pd.DataFrame(rows)
+    return table if replicas is None else _combine_replica_rows(table, replicas, sweep_dir)
+
+
+def _combine_replica_rows(table, replicas, sweep_dir) -> pd.DataFrame:
+    """Rows of :func:`study_table` that differ only in the ``replicas`` column, combined."""
+    from granalytics.analysis.stats import combine_replicas
+
+    if replicas not in table:
+        raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: no grid column {replicas!r} "
+                             f"to tell replicas apart (it has {', '.join(map(str, table.columns))})")
+    stats = [f"{m}_{s}" for m in STUDY_METRICS for s in ("mean", "std", "sem")]
+    joined = ("point", "file", replicas)
+    keys = [c for c in table.columns if c not in (*stats, *joined, "n_frames")]
+    rows = []
+    for _, group in table.groupby(keys, sort=False, dropna=False):
+        row = group.iloc[0][keys].to_dict()
+        for col in joined:
+            row[col] = "; ".join(str(v) for v in group[col])
+        means = group[[f"{m}_mean" for m in STUDY_METRICS]].T.set_axis(STUDY_METRICS)
+        sems = group[[f"{m}_sem" for m in STUDY_METRICS]].T.set_axis(STUDY_METRICS)
+        combined = combine_replicas(means, sems)
+        for metric in STUDY_METRICS:
+            row[f"{metric}_mean"] = combined.loc[metric, "mean"]
+            row[f"{metric}_std"] = float(group[f"{metric}_std"].mean())
+            row[f"{metric}_sem"] = combined.loc[metric, "block_sem"]
+            row[f"{metric}_replica_sem"] = combined.loc[metric, "replica_sem"]
+            row[f"{metric}_replica_std"] = combined.loc[metric, "replica_std"]
+        row["n_replicas"] = len(group)
+        row["n_frames"] = int(group["n_frames"].sum())
+        rows.append(row)
+    return pd.DataFrame(rows)[[*table.columns, *(f"{m}_{s}" for m in STUDY_METRICS
+                                                  for s in ("replica_sem", "replica_std")), "n_replicas"]]
+
+
+def select_cohesion(table, cohesion):
+    if cohesion is None or "cohesion" not in table:
+        return table
+    if table["cohesion"].isna().all():  # a method without conventions
+        return table
+    part = table[table["cohesion"] == cohesion]
+    if part.empty:
+        raise ParameterError(f"the table has no rows with cohesion={cohesion!r} "
+                             f"(it has {sorted(table['cohesion'].dropna().unique())})")
+    return part
+

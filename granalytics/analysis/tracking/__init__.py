@@ -1,0 +1,22 @@
+"""Granule life histories: tracking across frames, coalescence and breakage, population-balance rates.
+
+Granules identified in successive frames are linked through the particles they share (particles
+are matched by their *ids*, never by row). Every granule of every frame belongs to exactly one
+*track*; a track starts at an ``"initial"`` granule (first frame), a ``"birth"``, a
+``"coalescence"`` or a ``"breakage"``, and ends ``"alive"`` (last frame), by ``"death"``,
+``"coalescence"`` or ``"breakage"``. The definitions are in :func:`track_granules` and in
+``docs/tracking.md``.
+
+- :mod:`.linking`: :class:`GranuleTracks`, :func:`track_granules`, :func:`track_run`;
+- :mod:`.rates`: :func:`event_rates`, :func:`coalescence_kernel`, :func:`breakage_rate` (the
+  rate functions of a population balance).
+
+Units: SI, time in seconds (``_s`` suffix); granule sizes in particles.
+"""
+
+from granalytics.analysis.tracking.linking import KINDS, GranuleTracks, track_granules, track_run
+from granalytics.analysis.tracking.rates import breakage_rate, coalescence_kernel, event_rates
+
+
+__all__ = ["GranuleTracks", "track_granules", "track_run", "event_rates", "coalescence_kernel", "breakage_rate",
+           "KINDS"]

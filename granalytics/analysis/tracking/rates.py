@@ -1,0 +1,267 @@
+"""Rates from tracked granules: event rates per revolution or per second (:func:`event_rates`),
+the empirical coalescence kernel β(i, j) on logarithmic size classes (:func:`coalescence_kernel`)
+and the selection (breakage) rate S(i) (:func:`breakage_rate`), the two rate functions of a
+population balance.
+
+Units: SI, time in seconds (``_s`` suffix); granule sizes in particles.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from itertools import combinations
+
+import numpy as np
+import pandas as pd
+
+from granalytics.analysis.tracking.linking import GranuleTracks, KINDS
+from granalytics.core._windows import window_tolerance
+from granalytics.core.errors import ParameterError
+
+
+def _steps(tracks):
+    t = np.asarray(tracks.times_s, dtype=float)
+    if t.size < 2:
+        raise ParameterError("rates need at least two tracked frames (one frame interval)")
+    return t, np.diff(t)
+
+
+def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=None) -> pd.DataFrame:
+    """Event counts and rates per kind, binned in time.
+
+    Each step k → k+1 (its events and its duration t_{k+1} − t_k) is assigned to the bin that
+    holds the step's midpoint.
+
+    Parameters
+    ----------
+    tracks : GranuleTracks
+    revolution_period_s : float, optional
+        Drum revolution period 2π/Ω [s]. Given: bins in revolutions and rates also per
+        revolution. Not given: bins in seconds, rates per second only.
+    bin_width : float, optional
+        Bin width in revolutions (with a period; default 1) or in seconds (without; default a
+        tenth of the tracked time span).
+
+    Warns
+    -----
+    UserWarning
+        When the frame intervals differ by more than 1.5× (rates of bins with other spacings
+        are not comparable: events between frames further apart go uncounted).
+
+    Returns
+    -------
+    DataFrame
+        One row per (bin, kind), kinds in the order birth, death, coalescence, breakage.
+        Columns ``bin``; ``rev_start``, ``rev_end`` (bin edges in revolutions, NaN without a
+        period); ``time_start_s``, ``time_end_s`` [s]; ``observed_s`` (tracked time inside the
+        bin [s]); ``kind``; ``count`` (events); ``rate_per_s`` (count / observed_s [1/s]);
+        ``rate_per_rev`` (events per revolution, NaN without a period). Rates are NaN in a bin
+        with no tracked time.
+    """
+    t, dt = _steps(tracks)
+    if dt.max() > 1.5 * dt.min():
+        warnings.warn(f"the tracked frames are {dt.min():.3g}–{dt.max():.3g} s apart (a run thinned outside a "
+                      "window?): events between frames further apart go uncounted, so rates of bins with other "
+                      "frame spacings are not comparable; track the evenly spaced part (--window)", stacklevel=2)
+    if revolution_period_s is not None:
+        period = float(revolution_period_s)
+        if not (math.isfinite(period) and period > 0):
+            raise ParameterError(f"revolution_period_s must be a positive number of seconds, got {revolution_period_s!r}")
+        x = t / period
+        width = 1.0 if bin_width is None else float(bin_width)
+    else:
+        period = None
+        x = t
+        width = (t[-1] - t[0]) / 10 if bin_width is None else float(bin_width)
+    if not (math.isfinite(width) and width > 0):
+        raise ParameterError(f"bin_width must be positive, got {bin_width!r}")
+    # bin edges with the windows' tolerance: a first frame stamped 2.9999 revolutions opens the bin
+    # [3, 4), not an empty [2, 3) (frames lie on whole time steps; granalytics.core._windows)
+    tol = window_tolerance(x)
+    start = math.floor((x[0] + tol) / width) * width
+    n_bins = max(1, math.ceil((x[-1] - tol - start) / width - 1e-9))
+    edges = start + width * np.arange(n_bins + 1)
+    mid = (x[:-1] + x[1:]) / 2
+    step_bin = np.clip(np.floor((mid - start) / width).astype(np.int64), 0, n_bins - 1)
+    observed = np.bincount(step_bin, weights=dt, minlength=n_bins)
+    ev = tracks.events
+    kind_code = pd.Categorical(ev["kind"], categories=list(KINDS)).codes.astype(np.int64)
+    ev_bin = step_bin[ev["frame"].to_numpy(dtype=np.int64) - 1]
+    counts = np.bincount(ev_bin * len(KINDS) + kind_code, minlength=n_bins * len(KINDS)).reshape(n_bins, len(KINDS))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per_s = np.where(observed[:, None] > 0, counts / observed[:, None], np.nan)
+    bins = np.repeat(np.arange(n_bins), len(KINDS))
+    lo, hi = edges[:-1][bins], edges[1:][bins]
+    table = pd.DataFrame({
+        "bin": bins,
+        "rev_start": lo if period else np.nan,
+        "rev_end": hi if period else np.nan,
+        "time_start_s": lo * period if period else lo,
+        "time_end_s": hi * period if period else hi,
+        "observed_s": observed[bins],
+        "kind": pd.Categorical.from_codes(np.tile(np.arange(len(KINDS)), n_bins), categories=list(KINDS)),
+        "count": counts.reshape(-1),
+        "rate_per_s": per_s.reshape(-1),
+        "rate_per_rev": per_s.reshape(-1) * period if period else np.nan,
+    })
+    return table
+
+
+def _size_classes(tracks, size_bins, bins_per_decade):
+    """Integer class edges (lower inclusive, upper exclusive) and a classifier."""
+    if size_bins is not None:
+        edges = np.asarray(size_bins)
+        if edges.ndim != 1 or edges.size < 2 or not np.issubdtype(edges.dtype, np.number):
+            raise ParameterError("size_bins must be at least two increasing integer edges")
+        if (edges != np.round(edges)).any() or (np.diff(edges) <= 0).any() or edges[0] < 1:
+            raise ParameterError(f"size_bins must be increasing integers >= 1, got {edges.tolist()}")
+        edges = edges.astype(np.int64)
+    else:
+        if bins_per_decade <= 0:
+            raise ParameterError(f"bins_per_decade must be positive, got {bins_per_decade!r}")
+        all_sizes = np.concatenate([s[s > 0] for s in tracks.sizes_by_frame] + [np.zeros(0, np.int64)])
+        lo = int(all_sizes.min()) if all_sizes.size else 2
+        top = (int(all_sizes.max()) if all_sizes.size else lo) + 1
+        n = max(1, math.ceil(bins_per_decade * math.log10(top / lo)))
+        edges = np.unique(np.ceil(np.geomspace(lo, top, n + 1)).astype(np.int64))
+        edges[0], edges[-1] = lo, max(edges[-1], top)
+
+    def classify(sizes):
+        sizes = np.asarray(sizes, dtype=np.int64)
+        c = np.searchsorted(edges, sizes, side="right") - 1
+        return np.where((c >= 0) & (c < edges.size - 1), c, -1)
+
+    return edges, classify
+
+
+def _mean_numbers(tracks, classify, n_classes, dt):
+    """Time-averaged number of granules per class over the frames that start a step [granules]."""
+    total = np.zeros(n_classes)
+    for sizes, w in zip(tracks.sizes_by_frame[:-1], dt):
+        c = classify(sizes[sizes > 0])
+        total += w * np.bincount(c[c >= 0], minlength=n_classes)
+    return total / dt.sum()
+
+
+def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4) -> pd.DataFrame:
+    """Empirical coalescence kernel β(i, j) on logarithmic size classes.
+
+    β(i, j) = r(i, j) / (N_i·N_j) for i ≠ j and r(i, i) / (N_i²/2) for i = j, where r(i, j) is
+    the rate of binary coalescences between a granule of class i and one of class j [1/s] and
+    N_i the time-averaged number of granules of class i (the number of distinct pairs is
+    N_i·N_j, or N_i²/2 within a class, as in the Smoluchowski equation dN/dt = ½ΣβN_iN_j − …).
+
+    Parent sizes are taken at the frame before the event. A coalescence of p parents counts as
+    p − 1 binary coalescences, shared equally among its p(p−1)/2 parent pairs (weight 2/p each).
+    N_i is averaged over the frames that start a step, weighted by the step's duration, from
+    :attr:`GranuleTracks.sizes_by_frame` (the same numbers as the tracks' size histories); the
+    rate divides by the tracked time t_K − t_0.
+
+    Parameters
+    ----------
+    tracks : GranuleTracks
+    size_bins : int array, optional
+        Class edges in particles per granule, increasing; class i holds sizes
+        ``size_bins[i] <= s < size_bins[i+1]``; sizes outside are ignored. Default: logarithmic
+        classes of integers from the smallest to the largest tracked granule.
+    bins_per_decade : float, default 4
+        Classes per decade of size, for the default classes.
+
+    Returns
+    -------
+    DataFrame
+        One row per unordered pair of classes i <= j (empty cells included). Columns
+        ``class_i``, ``class_j``; ``size_min_i``, ``size_max_i``, ``size_min_j``,
+        ``size_max_j`` (inclusive bounds [particles]); ``n_events`` (coalescence events with a
+        parent pair in the cell); ``n_pairs`` (parent pairs in the cell); ``n_binary`` (weighted
+        binary coalescences); ``rate_per_s`` (n_binary / tracked time [1/s]); ``n_mean_i``,
+        ``n_mean_j`` (time-averaged granule numbers); ``beta_per_s`` (β [1/s per pair of
+        granules]; NaN where a class is never populated). Read β only where ``n_events`` is
+        large enough: a cell with a handful of events is noise.
+    """
+    t, dt = _steps(tracks)
+    edges, classify = _size_classes(tracks, size_bins, bins_per_decade)
+    nc = edges.size - 1
+    n_mean = _mean_numbers(tracks, classify, nc, dt)
+    n_events = np.zeros((nc, nc))
+    n_pairs = np.zeros((nc, nc))
+    weight = np.zeros((nc, nc))
+    coal = tracks.events.loc[tracks.events["kind"] == "coalescence", "parent_sizes"]
+    for parent_sizes in coal:  # one iteration per coalescence event
+        cls = classify(parent_sizes).tolist()
+        p = len(cls)
+        touched = set()
+        for ci, cj in combinations(cls, 2):
+            if ci < 0 or cj < 0:
+                continue
+            ci, cj = min(ci, cj), max(ci, cj)
+            n_pairs[ci, cj] += 1
+            weight[ci, cj] += 2.0 / p
+            touched.add((ci, cj))
+        for cell in touched:
+            n_events[cell] += 1
+    iu, ju = np.triu_indices(nc)
+    rate = weight[iu, ju] / dt.sum()
+    pairs = np.where(iu == ju, n_mean[iu] ** 2 / 2, n_mean[iu] * n_mean[ju])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        beta = np.where(pairs > 0, rate / pairs, np.nan)
+    return pd.DataFrame({
+        "class_i": iu, "class_j": ju,
+        "size_min_i": edges[iu], "size_max_i": edges[iu + 1] - 1,
+        "size_min_j": edges[ju], "size_max_j": edges[ju + 1] - 1,
+        "n_events": n_events[iu, ju].astype(np.int64),
+        "n_pairs": n_pairs[iu, ju].astype(np.int64),
+        "n_binary": weight[iu, ju],
+        "rate_per_s": rate,
+        "n_mean_i": n_mean[iu], "n_mean_j": n_mean[ju],
+        "beta_per_s": beta,
+    })
+
+
+def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4) -> pd.DataFrame:
+    """Empirical selection (breakage) rate S(i) on logarithmic size classes.
+
+    S(i) = (breakage events of granules of class i per unit time) / N_i, with the size of the
+    breaking granule at the frame before the event and N_i the time-averaged number of granules
+    of class i (as in :func:`coalescence_kernel`).
+
+    Parameters
+    ----------
+    tracks : GranuleTracks
+    size_bins : int array, optional
+        Class edges in particles per granule (see :func:`coalescence_kernel`).
+    bins_per_decade : float, default 4
+
+    Returns
+    -------
+    DataFrame
+        One row per class: ``class``, ``size_min``, ``size_max`` (inclusive [particles]),
+        ``n_events`` (breakages), ``fragments_mean`` (mean number of fragments, NaN without
+        events), ``rate_per_s`` (n_events / tracked time [1/s]), ``n_mean`` (time-averaged
+        number of granules), ``selection_rate_per_s`` (S(i) [1/s]; NaN where N_i = 0).
+    """
+    t, dt = _steps(tracks)
+    edges, classify = _size_classes(tracks, size_bins, bins_per_decade)
+    nc = edges.size - 1
+    n_mean = _mean_numbers(tracks, classify, nc, dt)
+    br = tracks.events[tracks.events["kind"] == "breakage"]
+    c = classify(br["n_particles"].to_numpy(dtype=np.int64))
+    n_children = np.fromiter((len(x) for x in br["children"]), dtype=np.int64, count=len(br))
+    ok = c >= 0
+    n_events = np.bincount(c[ok], minlength=nc)
+    fragments = np.bincount(c[ok], weights=n_children[ok], minlength=nc)
+    rate = n_events / dt.sum()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        selection = np.where(n_mean > 0, rate / n_mean, np.nan)
+        fragments_mean = np.where(n_events > 0, fragments / n_events, np.nan)
+    return pd.DataFrame({
+        "class": np.arange(nc),
+        "size_min": edges[:-1], "size_max": edges[1:] - 1,
+        "n_events": n_events.astype(np.int64),
+        "fragments_mean": fragments_mean,
+        "rate_per_s": rate,
+        "n_mean": n_mean,
+        "selection_rate_per_s": selection,
+    })
+

@@ -1,0 +1,116 @@
+"""Read the CSV export of ``docs/yade_export.py`` (YADE has no standard contact file).
+
+Each frame is a particle file (``# time_s=… step=… dt_s=…`` then ``id,radius,x,y,z,vx,vy,vz,
+wx,wy,wz,film_volume``) and a contact file (``id1,id2,gap,normal_force,bridge_active,
+bridge_volume``). YADE applies the capillary force only while a bridge is active (separated,
+s < s_crit), so F_coh is the normal force of active bridges and 0 otherwise; the total normal
+force is stored positive when repulsive (touching) and negative when attractive (bridge).
+Material metadata (γ, ρ, Ω, θ, α) come from a TOML file, as the CSVs do not carry them.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+
+import numpy as np
+import pandas as pd
+
+from granalytics.core.errors import GranalyticsError, ValidationError
+from granalytics.core.snapshot import RunMeta, Snapshot
+from granalytics.convert._text import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps
+
+__all__ = ["read_yade_csv", "PARTICLE_COLUMNS", "CONTACT_COLUMNS"]
+
+PARTICLE_COLUMNS = ["id", "radius", "x", "y", "z", "vx", "vy", "vz", "wx", "wy", "wz", "film_volume"]
+CONTACT_COLUMNS = ["id1", "id2", "gap", "normal_force", "bridge_active", "bridge_volume"]
+_META_KEYS = {"surface_tension", "density", "drum_omega", "contact_angle", "alpha"}
+
+
+def _read(path, columns):
+    lines = read_complete_lines(path)  # refuses a file whose last line was cut
+    header = lines[0] if lines else ""
+    try:
+        table = pd.read_csv(io.StringIO("\n".join(lines[1:]) + "\n"), dtype=float)
+    except (pd.errors.ParserError, ValueError) as exc:
+        raise DumpFormatError(f"{path}: cannot read as a granalytics YADE export "
+                              f"({' '.join(str(exc).split())})") from None
+    info = dict(re.findall(r"(\w+)=(\S+)", header)) if header.startswith("#") else {}
+    if "time_s" not in info or "step" not in info:
+        raise DumpFormatError(f"{path}, line 1: expected '# time_s=... step=...', found {header.strip()[:60]!r}")
+    if list(table.columns) != columns:
+        raise DumpFormatError(f"{path}, line 2: columns {list(table.columns)}, expected {columns}")
+    bad = ~np.isfinite(table.to_numpy())
+    if bad.any():
+        r, c = np.argwhere(bad)[0]
+        raise DumpFormatError(f"{path}, line {r + 3}: non-finite or missing value in column {columns[c]!r}")
+    try:
+        return float(info["time_s"]), int(info["step"]), table
+    except ValueError:
+        raise DumpFormatError(f"{path}, line 1: time_s must be a number and step a whole number, found "
+                              f"time_s={info['time_s']!r} step={info['step']!r}") from None
+
+
+def read_yade_csv(particle_files, contact_files, meta_toml):
+    """Snapshots (sorted by step) and metadata of a YADE run exported by ``docs/yade_export.py``."""
+    meta_data = load_toml(meta_toml)
+    unknown = sorted(set(meta_data) - _META_KEYS)
+    if unknown:
+        raise ValidationError("mapping", f"unknown keys {unknown} in {meta_toml} (allowed: {sorted(_META_KEYS)})")
+    contacts = {}
+    for path in contact_files:
+        time, step, table = _read(path, CONTACT_COLUMNS)
+        if step in contacts:
+            raise DumpFormatError(f"{path}: contact step {step} already read")
+        contacts[step] = (table, path)
+    frames = {}
+    for path in particle_files:
+        time, step, table = _read(path, PARTICLE_COLUMNS)
+        if step in frames:
+            raise DumpFormatError(f"{path}: particle step {step} already read")
+        frames[step] = (time, table, path)
+    if not frames:
+        raise DumpFormatError("no particle files given")
+    warn_unused_contact_steps(contacts, frames, list(contact_files))
+    snapshots = []
+    for step in sorted(frames):
+        time, p, path = frames[step]
+        if step not in contacts:
+            raise DumpFormatError(f"{path}: no contact file for step {step}")
+        c, cpath = contacts[step]
+        ids = p["id"].to_numpy().astype(np.int64)
+        row = {int(pid): k for k, pid in enumerate(ids)}
+        rows = []
+        for name in ("id1", "id2"):
+            r = np.array([row.get(int(x), -1) for x in c[name]], dtype=np.int64)
+            if (r < 0).any():
+                k = int(np.flatnonzero(r < 0)[0])
+                raise DumpFormatError(f"{cpath}, line {k + 3}: particle id {int(c[name].iloc[k])} is not in {path}")
+            rows.append(r)
+        active = c["bridge_active"].to_numpy() != 0
+        gap = c["gap"].to_numpy()
+        force = c["normal_force"].to_numpy()
+        try:
+            snapshots.append(Snapshot(
+                time=time, step=step, ids=ids, radius=p["radius"].to_numpy(),
+                position=p[["x", "y", "z"]].to_numpy(), velocity=p[["vx", "vy", "vz"]].to_numpy(),
+                angular_velocity=p[["wx", "wy", "wz"]].to_numpy(), film_volume=p["film_volume"].to_numpy(),
+                contact_i=np.minimum(*rows), contact_j=np.maximum(*rows),
+                f_cap=np.where(active, force, 0.0), f_normal=np.where(gap > 0, -force, force), gap=gap,
+                bridge_volume=c["bridge_volume"].to_numpy(),
+            ))
+        except ValidationError as exc:
+            raise exc.located(f"{path} / {cpath}") from None
+    first = snapshots[0]
+    try:
+        meta = RunMeta(n_particles=first.n_particles, mean_radius=float(first.radius.mean()),
+                       capillary_in_contact=False,  # YADE's ViscElCapPhys law: no capillary force in contact
+                       provenance={"source": "YADE export (docs/yade_export.py)",
+                                   "particle_files": list(map(str, particle_files)),
+                                   "contact_files": list(map(str, contact_files))},
+                       **meta_data)
+    except TypeError as exc:
+        raise GranalyticsError(f"{meta_toml}: {exc}") from None
+    for s in snapshots:
+        s.meta = meta
+    return snapshots, meta

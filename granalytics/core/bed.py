@@ -1,0 +1,260 @@
+"""Structure of a particle bed: is it three-dimensional, how many contacts, how it moves.
+
+A drum run whose particles never leave their axial planes (a lattice insertion with nothing to
+break its symmetry: gravity along −y, rotation about z) is a stack of independent 2-D monolayers.
+Its granules are planar and its statistics mean nothing for a 3-D bed. :func:`bed_structure`
+measures what tells the two apart, for any snapshot (ours or converted from another code):
+
+- the fraction of touching contacts whose unit normal has an axial component |n_z| > 0.1
+  (a contact that crosses axial layers): 0 for a planar bed, about 0.9 for an isotropic packing;
+- ⟨n_z²⟩, the axial entry of the fabric tensor: 0 planar, 1/3 isotropic;
+- the mean coordination number (touching contacts per particle, walls not counted);
+- ⟨|v_z|⟩ / ⟨|v_xy|⟩, axial against cross-sectional speeds (0 planar).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from granalytics.core.errors import ParameterError, ValidationError
+from granalytics.core.snapshot import Snapshot
+
+__all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "drum_confinement",
+           "run_confinement", "wall_touching", "FILL_PACKING"]
+
+#: a contact crosses axial layers when its unit normal has |n_axis| above this
+AXIAL_NORMAL_MIN = 0.1
+#: a bed with fewer than this fraction of its touching contacts crossing axial layers is planar
+#: (a 2-D monolayer stack gives 0, an isotropic 3-D packing about 0.9, the simulator's settled
+#: beds 0.75-0.85; physics-free synthetic frames about 0.35)
+PLANAR_FRACTION = 0.25
+
+
+@dataclasses.dataclass(frozen=True)
+class BedStructure:
+    """What :func:`bed_structure` measured on one frame.
+
+    Attributes
+    ----------
+    n_particles : int
+    n_touching : int
+        Particle–particle contacts with a negative gap (overlap); bridges across a gap are not counted.
+    crossing_fraction : float
+        Fraction of the touching contacts with |n_axis| > :data:`AXIAL_NORMAL_MIN` (NaN without contacts).
+    axial_fabric : float
+        ⟨n_axis²⟩ over the touching contacts: 1/3 isotropic, 0 planar (NaN without contacts).
+    coordination : float
+        Mean number of touching particle contacts per particle (2·n_touching / N).
+    axial_speed_ratio : float
+        ⟨|v_axis|⟩ / ⟨|v_⊥|⟩ over the particles (NaN when no particle moves across the axis).
+    axial_layers : int
+        Distinct axial positions (to 1e-9 of the bed's axial extent): a handful in a planar bed,
+        about N in a 3-D one.
+    """
+
+    n_particles: int
+    n_touching: int
+    crossing_fraction: float
+    axial_fabric: float
+    coordination: float
+    axial_speed_ratio: float
+    axial_layers: int
+
+    @property
+    def planar(self) -> bool:
+        """True when the touching contacts lie in axial planes (fewer than :data:`PLANAR_FRACTION` cross them)."""
+        return self.n_touching > 0 and self.crossing_fraction < PLANAR_FRACTION
+
+    def to_dict(self) -> dict:
+        out = dataclasses.asdict(self)
+        out["planar"] = self.planar
+        return out
+
+    def describe(self) -> str:
+        """One line for a command's output or a warning."""
+        return (f"{100 * self.crossing_fraction:.1f} % of {self.n_touching} touching contacts cross axial layers "
+                f"(|n_z| > {AXIAL_NORMAL_MIN:g}; isotropic 3-D ≈ 90 %), <n_z²> = {self.axial_fabric:.3f}, "
+                f"coordination {self.coordination:.2f}, <|v_z|>/<|v_xy|> = {self.axial_speed_ratio:.3f}, "
+                f"{self.axial_layers} axial positions")
+
+
+def bed_structure(snapshot: Snapshot, axis: int = 2) -> BedStructure:
+    """Measure whether the bed of ``snapshot`` is three-dimensional (see the module docstring).
+
+    Parameters
+    ----------
+    snapshot : Snapshot
+        One frame (positions [m], velocities [m/s], contacts with their gaps [m]).
+    axis : int, default 2
+        The drum axis (0, 1 or 2 for x, y, z); the simulator's drum turns about z.
+
+    Returns
+    -------
+    BedStructure
+    """
+    if not isinstance(snapshot, Snapshot):
+        raise ParameterError(f"bed_structure: snapshot must be a granalytics Snapshot, got {type(snapshot).__name__}")
+    if axis not in (0, 1, 2) or isinstance(axis, bool):
+        raise ParameterError(f"bed_structure: axis must be 0, 1 or 2 (x, y, z), got {axis!r}")
+    n = snapshot.n_particles
+    touching = snapshot.gap < 0
+    i, j = snapshot.contact_i[touching], snapshot.contact_j[touching]
+    d = snapshot.position[j] - snapshot.position[i]
+    length = np.linalg.norm(d, axis=1)
+    ok = length > 0
+    n_axis = np.abs(d[ok, axis]) / length[ok]
+    crossing = float(np.mean(n_axis > AXIAL_NORMAL_MIN)) if n_axis.size else math.nan
+    fabric = float(np.mean(n_axis**2)) if n_axis.size else math.nan
+    across = [k for k in range(3) if k != axis]
+    v = snapshot.velocity
+    v_across = float(np.mean(np.hypot(v[:, across[0]], v[:, across[1]]))) if n else 0.0
+    ratio = float(np.mean(np.abs(v[:, axis]))) / v_across if v_across > 0 else math.nan
+    z = snapshot.position[:, axis]
+    extent = float(z.max() - z.min()) if n else 0.0
+    layers = int(np.unique(np.round(z / max(extent * 1e-9, 1e-300))).size) if n else 0
+    return BedStructure(n_particles=n, n_touching=int(touching.sum()), crossing_fraction=crossing,
+                        axial_fabric=fabric, coordination=2 * int(touching.sum()) / n if n else math.nan,
+                        axial_speed_ratio=ratio, axial_layers=layers)
+
+
+# ----------------------------------------------------------------------------- the drum's confinement
+#: packing fraction at which the simulator's drums are filled (the nominal bed depth assumes it)
+FILL_PACKING = 0.6
+
+
+@dataclasses.dataclass(frozen=True)
+class DrumConfinement:
+    """How confined a drum's bed is: the drum against its particles.
+
+    Attributes
+    ----------
+    drum_ratio : float
+        D/d: drum diameter over the mean particle diameter.
+    length_ratio : float
+        L/d: axial drum length over the mean particle diameter.
+    bed_depth_ratio : float
+        Nominal bed depth over d: the depth of the circular segment that holds the particles at
+        packing :data:`FILL_PACKING` (volume N·πd³/6 over the drum length), the bed at rest.
+    fill_fraction : float
+        That bed's share of the drum's cross-section.
+    """
+
+    drum_ratio: float
+    length_ratio: float
+    bed_depth_ratio: float
+    fill_fraction: float
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def describe(self) -> str:
+        """One line for a command's output."""
+        return (f"D/d = {self.drum_ratio:.1f}, L/d = {self.length_ratio:.1f}, bed depth/d = {self.bed_depth_ratio:.1f} "
+                f"(nominal, fill {100 * self.fill_fraction:.0f} % at packing {FILL_PACKING:g})")
+
+
+def _segment_depth(fraction: float) -> float:
+    """Depth over radius of the circular segment that covers ``fraction`` of a circle's area:
+    solves (θ − sin θ)/(2π) = fraction for the central angle θ, depth = 1 − cos(θ/2)."""
+    from scipy.optimize import brentq
+
+    if fraction <= 0:
+        return 0.0
+    if fraction >= 1:
+        return 2.0
+    theta = brentq(lambda t: (t - math.sin(t)) / (2 * math.pi) - fraction, 0.0, 2 * math.pi, xtol=1e-14)
+    return 1.0 - math.cos(theta / 2)
+
+
+def drum_confinement(drum_radius: float, drum_length: float, d_mean: float, n_particles: int) -> DrumConfinement:
+    """The confinement of ``n_particles`` spheres of mean diameter ``d_mean`` [m] in a drum of
+    radius ``drum_radius`` [m] and length ``drum_length`` [m] (:class:`DrumConfinement`)."""
+    for name, value in (("drum_radius", drum_radius), ("drum_length", drum_length), ("d_mean", d_mean)):
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0):
+            raise ParameterError(f"drum_confinement: {name} must be a finite number > 0 [m], got {value!r}")
+    if not (isinstance(n_particles, (int, np.integer)) and not isinstance(n_particles, bool) and n_particles > 0):
+        raise ParameterError(f"drum_confinement: n_particles must be a positive integer, got {n_particles!r}")
+    bed_area = n_particles * math.pi * d_mean**3 / 6 / FILL_PACKING / drum_length
+    fill = bed_area / (math.pi * drum_radius**2)
+    return DrumConfinement(drum_ratio=2 * drum_radius / d_mean, length_ratio=drum_length / d_mean,
+                           bed_depth_ratio=_segment_depth(fill) * drum_radius / d_mean, fill_fraction=min(fill, 1.0))
+
+
+def _drum_params(meta):
+    """The simulated system's parameters in a run's ``sim_config`` (a dict), or None."""
+    params = meta.sim_config.get("params") if isinstance(meta.sim_config, dict) else None
+    return params if isinstance(params, dict) else None
+
+
+def run_confinement(meta) -> DrumConfinement | None:
+    """The confinement of a run's drum from its metadata (a :class:`RunMeta`): the values the
+    simulator recorded in ``sim_config["confinement"]``, or computed from ``sim_config["params"]``
+    (drum_radius, drum_length, d_mean [m]) for older runs; None for a run without a drum
+    description (converted from another code).
+
+    Raises
+    ------
+    ValidationError
+        The recorded values are not numbers.
+    """
+    recorded = meta.sim_config.get("confinement") if isinstance(meta.sim_config, dict) else None
+    if recorded is not None:
+        try:
+            return DrumConfinement(**{f.name: float(recorded[f.name]) for f in dataclasses.fields(DrumConfinement)})
+        except (KeyError, TypeError, ValueError):
+            raise ValidationError("sim_config.confinement", f"must hold the numbers of DrumConfinement, got {recorded!r}") from None
+    params = _drum_params(meta)
+    if params is None or not all(k in params for k in ("drum_radius", "drum_length", "d_mean")):
+        return None
+    try:
+        return drum_confinement(params["drum_radius"], params["drum_length"], params["d_mean"], meta.n_particles)
+    except ParameterError as exc:
+        raise ValidationError("sim_config.params", str(exc)) from None
+
+
+def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> np.ndarray:
+    """Which particles of ``snapshot`` touch a wall of the simulator's drum: the cylinder
+    (radius R_d about z), a baffle (a radial plate of height baffle_height·R_d, turned to the
+    drum angle Ω·t) or an end plate (z = 0, z = L), from the geometry in ``meta.sim_config``.
+
+    Parameters
+    ----------
+    snapshot : Snapshot
+    meta : RunMeta
+        The run's metadata with ``sim_config["params"]`` (drum_radius, drum_length [m],
+        n_baffles, baffle_height, drum_omega [rad/s]).
+    overlap_tolerance : float, default 0
+        A particle counts as touching when its overlap with a wall exceeds
+        −overlap_tolerance·radius (0: a true overlap).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (N,)
+
+    Raises
+    ------
+    ParameterError
+        The run has no drum description.
+    """
+    params = _drum_params(meta)
+    needed = ("drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega")
+    if params is None or not all(k in params for k in needed):
+        raise ParameterError("wall_touching: the run's metadata has no drum geometry (sim_config.params with "
+                             f"{', '.join(needed)}); only runs of the simulator have one")
+    x, y, z = snapshot.position.T
+    r = snapshot.radius
+    slack = -overlap_tolerance * r
+    radius, length = float(params["drum_radius"]), float(params["drum_length"])
+    touching = (np.hypot(x, y) + r - radius > slack) | (r - z > slack) | (r - (length - z) > slack)
+    n_baffles, inner = int(params["n_baffles"]), radius * (1 - float(params["baffle_height"]))
+    angle = float(params["drum_omega"]) * snapshot.time
+    for b in range(n_baffles):
+        phi = angle + 2 * math.pi * b / n_baffles
+        ex, ey = math.cos(phi), math.sin(phi)
+        a, side = x * ex + y * ey, -x * ey + y * ex  # along the plate, across it
+        dist = np.where(a >= inner, np.abs(side), np.hypot(x - inner * ex, y - inner * ey))
+        touching |= r - dist > slack
+    return touching

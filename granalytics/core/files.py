@@ -1,0 +1,316 @@
+"""Files that granalytics and the simulator write: shared helpers (public, used by both packages).
+
+- :func:`replaced_atomically` / :func:`write_atomically`: write into a temporary file beside the
+  target and rename it into place only when the writing succeeded;
+- :func:`check_output_folder`: refuse an output whose folder is missing or not writable, before
+  the work that makes it;
+- :class:`WriterLock`: one writer at a time on an output (the lock file ``OUTPUT.lock``);
+- :func:`one_line` and :func:`warnings_as_lines`: errors and warnings as one line each, as every
+  command line of the project prints them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import socket
+import sys
+import time as _time
+import warnings
+
+from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
+
+__all__ = ["replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
+           "warnings_as_lines", "regular_input", "staged_outputs", "output_folder"]
+
+
+@contextlib.contextmanager
+def replaced_atomically(path, tmp=None):
+    """Yield a temporary path beside ``path`` (default ``PATH.<pid>.tmp``) to write into; it is
+    renamed over ``path`` when the block succeeds, and removed when it fails (a full disk, an
+    interrupt), leaving an earlier ``path`` as it was. Temporary files ``PATH.<pid>.tmp`` that a
+    killed writer on this host left behind (its pid is gone) are removed first."""
+    path = os.fspath(path)
+    _remove_stale_temporaries(path)
+    tmp = f"{path}.{os.getpid()}.tmp" if tmp is None else os.fspath(tmp)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _remove_stale_temporaries(path) -> None:
+    """Remove ``PATH.<pid>.tmp`` files whose writer process no longer runs on this host (SIGKILL
+    leaves them; nothing else can)."""
+    import glob
+
+    for tmp in glob.glob(glob.escape(path) + ".*.tmp"):
+        pid = tmp[len(path) + 1:-len(".tmp")]
+        if pid.isdigit() and _owner_is_dead({"host": socket.gethostname(), "pid": int(pid)}):
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+
+
+def write_atomically(path, write):
+    """``write(tmp)`` under :func:`replaced_atomically`; returns what ``write`` returns."""
+    with replaced_atomically(path) as tmp:
+        return write(tmp)
+
+
+def check_apart(output, inputs, what="output") -> None:
+    """Refuse (``ParameterError``) an ``output`` path that is, contains or lies inside one of
+    ``inputs`` (after resolving links): ``--overwrite`` must never replace or delete a source."""
+    out = os.path.realpath(os.fspath(output))
+    for source in inputs:
+        src = os.path.realpath(os.fspath(source))
+        if out == src:
+            raise ParameterError(f"{output}: the {what} is the input {source}")
+        if os.path.commonpath([out, src]) == src:
+            raise ParameterError(f"{output}: the {what} lies inside the input {source}")
+        if os.path.commonpath([out, src]) == out:
+            raise ParameterError(f"{output}: the {what} contains the input {source}")
+
+
+def regular_input(path):
+    """``path`` if it names a regular file (or a folder), else ``ParameterError``: reading a FIFO,
+    a socket or a device would block for ever or read garbage."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise ParameterError(f"{path}: cannot read (no such file)") from None
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot read ({exc.strerror or one_line(exc)})") from None
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        raise ParameterError(f"{path}: not a regular file (a FIFO, socket or device cannot be read as a run or dump)")
+    return path
+
+
+@contextlib.contextmanager
+def staged_outputs(folder=None):
+    """Several output files written as one: nothing is replaced unless all of them were written.
+
+    Yields a function ``stage(target) -> path`` that gives, for each output file ``target``, a
+    temporary name to write into, in a staging folder ``.staging-PID-…`` inside ``folder`` (or,
+    when ``folder`` is None, in the target's own folder: renames never cross file systems); the
+    file's extension is kept, for writers that choose the format by it. When the block succeeds every staged file is renamed over its
+    target (a loop of atomic renames on one file system); when it fails or is interrupted
+    (Ctrl-C) the staging folder is deleted and no target is touched.
+    """
+    import shutil
+    import tempfile
+
+    staging, dirs = {}, {}  # target -> staged file; base folder -> its staging folder
+
+    def stage(target):
+        target = os.fspath(target)
+        base = folder if folder is not None else os.path.dirname(os.path.abspath(target))
+        if base not in dirs:
+            dirs[base] = tempfile.mkdtemp(prefix=f".staging-{os.getpid()}-", dir=base)
+        tmp = os.path.join(dirs[base], f"{len(staging):04d}-{os.path.basename(target)}")
+        staging[target] = tmp
+        return tmp
+
+    try:
+        yield stage
+        for target, tmp in staging.items():
+            os.replace(tmp, target)
+    finally:
+        for staging_dir in dirs.values():
+            shutil.rmtree(staging_dir, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def output_folder(path):
+    """Make the output folder ``path`` (refusing a file of that name, naming the reason); when the
+    block fails or is interrupted and the folder was made here and is empty, remove it again."""
+    path = os.fspath(path)
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise ParameterError(f"{path}: exists and is not a folder")
+    created = not os.path.exists(path)
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot create the output folder ({exc.strerror or exc})") from None
+    try:
+        yield path
+    except BaseException:
+        if created:
+            with contextlib.suppress(OSError):
+                os.rmdir(path)  # only if empty
+        raise
+
+
+def check_output_folder(path) -> None:
+    """Refuse (``ParameterError``) an output file whose folder does not exist or is not writable,
+    before the work that would write it."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ParameterError(f"{path}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ParameterError(f"{path}: the folder {folder} is not writable")
+
+
+_LOCK_SUFFIX = ".lock"
+
+
+def one_line(exc) -> str:
+    """An exception's message on one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+class WriterLock:
+    """Exclusive lock of an output: the file ``target + ".lock"``, created with O_EXCL and
+    holding the owner's pid and host as one JSON line.
+
+    :class:`RunWriter` holds one on its run file while it is open; anything else that writes
+    (e.g. a sweep folder's manifest) can hold one the same way, as a context manager::
+
+        with WriterLock("study/manifest.csv"):
+            ...
+
+    A lock file whose owner is no longer running on this host (a killed writer) is taken over
+    with a warning; any other existing lock raises
+    :class:`~granalytics.core.errors.RunLockedError`, naming the lock file and its owner.
+    """
+
+    def __init__(self, target):
+        self.target = os.fspath(target)
+        self.path = self.target + _LOCK_SUFFIX
+        self._record = None
+
+    def __enter__(self) -> "WriterLock":
+        return self.acquire()
+
+    def __exit__(self, *exc_info) -> None:
+        self.release()
+
+    def acquire(self) -> "WriterLock":
+        record = json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                             "since": _time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n"
+        for _attempt in range(5):
+            try:
+                fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+            except FileExistsError:
+                text = _read_text(self.path)
+                if text is None:  # released in the meantime
+                    continue
+                owner = _parse_lock(text)
+                if owner is not None and _owner_is_dead(owner):
+                    if self._take_over(text):
+                        warnings.warn(
+                            f"{self.target}: took over the stale lock file {self.path} "
+                            f"(pid {owner['pid']} on host {owner['host']} is no longer running)",
+                            stacklevel=4,
+                        )
+                    continue
+                raise RunLockedError(f"{self.target}: another writer holds the lock file {self.path} "
+                                     f"({_describe_owner(owner, text)}); delete the lock file only if "
+                                     "no writer is running") from None
+            except OSError as exc:
+                raise RunFileError(f"{self.target}: cannot create the lock file {self.path} "
+                                   f"({exc.strerror or one_line(exc)})") from None
+            try:
+                os.write(fd, record.encode())
+            finally:
+                os.close(fd)
+            self._record = record
+            return self
+        raise RunLockedError(f"{self.target}: the lock file {self.path} keeps changing hands; "
+                             "another writer is starting on the same file")
+
+    def _take_over(self, seen) -> bool:
+        """Remove a stale lock file whose content is ``seen``; False if it changed meanwhile."""
+        aside = f"{self.path}.stale.{os.getpid()}"
+        try:
+            os.rename(self.path, aside)
+        except FileNotFoundError:
+            return False
+        except OSError as exc:
+            raise RunFileError(f"{self.target}: cannot remove the stale lock file {self.path} "
+                               f"({exc.strerror or one_line(exc)})") from None
+        if _read_text(aside) == seen:
+            os.unlink(aside)
+            return True
+        try:  # another process took it over first: put its lock back
+            os.link(aside, self.path)
+        except OSError:
+            pass
+        os.unlink(aside)
+        return False
+
+    def release(self) -> None:
+        """Remove the lock file if it is still this holder's (idempotent)."""
+        if self._record is None:
+            return
+        record, self._record = self._record, None
+        text = _read_text(self.path)
+        if text == record:
+            try:
+                os.unlink(self.path)
+            except FileNotFoundError:
+                pass
+        elif text is not None:
+            warnings.warn(f"{self.target}: the lock file {self.path} was replaced while this writer "
+                          "held it; left in place", stacklevel=3)
+
+
+def _read_text(path):
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return f.read()
+    except FileNotFoundError:
+        return None
+    except OSError:
+        return ""
+
+
+def _parse_lock(text):
+    try:
+        owner = json.loads(text)
+        if isinstance(owner, dict) and isinstance(owner.get("pid"), int) and isinstance(owner.get("host"), str):
+            return owner
+    except ValueError:
+        pass
+    return None
+
+
+def _owner_is_dead(owner) -> bool:
+    """True only when the owner ran on this host and its pid is gone."""
+    if owner["host"] != socket.gethostname() or owner["pid"] <= 0:
+        return False
+    if owner["pid"] == os.getpid():
+        return False
+    try:
+        os.kill(owner["pid"], 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # exists, owned by another user
+        return False
+    return False
+
+
+def _describe_owner(owner, text):
+    if owner is None:
+        return f"unreadable content {text.strip()[:60]!r}"
+    since = f", since {owner['since']}" if owner.get("since") else ""
+    return f"pid {owner['pid']} on host {owner['host']}{since}"
+
+
+
+
+@contextlib.contextmanager
+def warnings_as_lines(prog):
+    """Inside: every warning that Python's filters let through is printed as one line
+    ``PROG: warning: message`` on stderr, instead of Python's file, line and source."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield

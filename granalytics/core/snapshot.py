@@ -1,0 +1,486 @@
+"""Data model: one frame of a wet-particle simulation (:class:`Snapshot`) and a run's metadata
+(:class:`RunMeta`).
+
+All quantities are SI: seconds, metres, m/s, rad/s, m³, newtons, kg/m³, N/m, radians.
+
+Contacts and liquid bridges are stored as pairs of *row indices* into the snapshot's particle
+arrays (not particle ids), with ``contact_i < contact_j``. A pair appears at most once: a pair
+that touches and shares a liquid bridge is one entry carrying both its forces and its bridge
+volume.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from granalytics.core.errors import ValidationError
+
+__all__ = ["RunMeta", "Snapshot"]
+
+
+def json_problem(value) -> str | None:
+    """Why ``value`` cannot be stored as JSON and read back unchanged, or None if it can.
+
+    Refused: objects JSON has no type for, circular references, and dict keys that are not
+    strings (JSON would silently turn ``{1: x}`` into ``{"1": x}``).
+    """
+    try:
+        json.dumps(value)
+    except (TypeError, ValueError, RecursionError) as exc:
+        return str(exc)
+    stack = [(value, "")]
+    while stack:
+        item, where = stack.pop()
+        if isinstance(item, dict):
+            for key, sub in item.items():
+                if not isinstance(key, str):
+                    return f"key {key!r}{' in ' + where if where else ''} is not a string"
+                stack.append((sub, f"{where}[{key!r}]"))
+        elif isinstance(item, (list, tuple)):
+            stack.extend((sub, f"{where}[{k}]") for k, sub in enumerate(item))
+    return None
+
+
+@dataclass
+class RunMeta:
+    """Metadata of a run: what CG-aware statistics need, plus provenance.
+
+    Parameters
+    ----------
+    surface_tension : float
+        Liquid surface tension γ of *this* (possibly coarse-grained) system [N/m].
+    density : float
+        Particle density ρ [kg/m³].
+    drum_omega : float
+        Drum angular velocity Ω [rad/s]; revolutions are t·Ω/2π. Use 0 when the run has no
+        drum (revolution-based selections then raise).
+    n_particles : int
+        Number of particles of this run.
+    mean_radius : float
+        Mean particle radius of this run [m].
+    alpha : float, default 1
+        Coarse-graining factor α (1 = original system).
+    contact_angle : float, default 0
+        Liquid–solid contact angle θ [rad].
+    gravity : tuple of 3 floats, default (0, 0, -9.81)
+        Gravitational acceleration [m/s²].
+    n_particles_original : int, optional
+        Particle count of the original (α = 1) system; defaults to ``round(n_particles·α³)``.
+    mean_radius_original : float, optional
+        Mean particle radius of the original system [m]; defaults to ``mean_radius/α``.
+    capillary_in_contact : bool, optional
+        Whether the producing DEM code applied the capillary (bridge) force between *touching*
+        particles. YADE's law does not (False); ``sim`` records its parameter of the same name.
+        Default: ``sim_config["params"]["capillary_in_contact"]`` when present, else False.
+        Decides the ``cohesion="acting"`` convention (:mod:`granalytics.identify.cohesion`).
+    sim_config : dict
+        Full simulator configuration when the run came from ``sim`` (JSON-serialisable).
+    provenance : dict
+        Free-form provenance: code, version, command line, source files (JSON-serialisable).
+    """
+
+    surface_tension: float
+    density: float
+    drum_omega: float
+    n_particles: int
+    mean_radius: float
+    alpha: float = 1.0
+    contact_angle: float = 0.0
+    gravity: tuple = (0.0, 0.0, -9.81)
+    n_particles_original: int | None = None
+    mean_radius_original: float | None = None
+    capillary_in_contact: bool | None = None
+    sim_config: dict = field(default_factory=dict)
+    provenance: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        def number(name):
+            return _real(name, getattr(self, name))
+
+        def positive(name):
+            value = number(name)
+            if not math.isfinite(value) or value <= 0:
+                raise ValidationError(name, f"must be finite and > 0, got {value!r}")
+            return value
+
+        self.surface_tension = positive("surface_tension")
+        self.density = positive("density")
+        self.mean_radius = positive("mean_radius")
+        self.alpha = positive("alpha")
+        self.drum_omega = number("drum_omega")
+        if not math.isfinite(self.drum_omega):
+            raise ValidationError("drum_omega", f"must be finite, got {self.drum_omega!r}")
+        self.contact_angle = number("contact_angle")
+        if not 0.0 <= self.contact_angle < math.pi / 2:
+            raise ValidationError(
+                "contact_angle", f"must be in [0, π/2) rad, got {self.contact_angle!r}"
+            )
+        self.n_particles = _positive_int("n_particles", self.n_particles)
+        try:
+            gravity = tuple(_real("gravity", g) for g in self.gravity)
+        except (TypeError, ValidationError):
+            raise ValidationError("gravity", f"must be 3 finite numbers, got {self.gravity!r}") from None
+        if len(gravity) != 3 or not all(math.isfinite(g) for g in gravity):
+            raise ValidationError("gravity", f"must be 3 finite numbers, got {self.gravity!r}")
+        self.gravity = gravity
+        if self.n_particles_original is None:
+            self.n_particles_original = int(round(self.n_particles * self.alpha**3))
+        self.n_particles_original = _positive_int("n_particles_original", self.n_particles_original)
+        if self.mean_radius_original is None:
+            self.mean_radius_original = self.mean_radius / self.alpha
+        self.mean_radius_original = positive("mean_radius_original")
+        for name in ("sim_config", "provenance"):
+            if not isinstance(getattr(self, name), dict):
+                raise ValidationError(name, f"must be a dict, got {type(getattr(self, name)).__name__}")
+        for name in ("sim_config", "provenance"):
+            problem = json_problem(getattr(self, name))
+            if problem:
+                raise ValidationError(name, f"must be JSON-serialisable: {problem}")
+        _check_schema("sim_config", self.sim_config, _SIM_CONFIG_SCHEMA)
+        _check_schema("provenance", self.provenance, _PROVENANCE_SCHEMA)
+        if self.capillary_in_contact is None:
+            self.capillary_in_contact = self.sim_config.get("params", {}).get("capillary_in_contact", False)
+        self.capillary_in_contact = _boolean("capillary_in_contact", self.capillary_in_contact)
+
+    def validate(self) -> None:
+        """Check every field again, e.g. after fields were assigned since construction.
+
+        Raises
+        ------
+        ValidationError
+            Naming the offending field.
+        """
+        self.__post_init__()
+
+    @property
+    def mean_particle_volume(self) -> float:
+        """Volume of a sphere of the run's mean radius, 4/3·π·R̄³ [m³]."""
+        return 4.0 / 3.0 * math.pi * self.mean_radius**3
+
+    def to_dict(self) -> dict:
+        """Plain-dict form (JSON-serialisable)."""
+        out = dataclasses.asdict(self)
+        out["gravity"] = list(self.gravity)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "RunMeta":
+        """Build from :meth:`to_dict` output; unknown keys are kept in ``provenance`` with a warning."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        known = {k: v for k, v in data.items() if k in names}
+        unknown = {k: v for k, v in data.items() if k not in names}
+        if unknown:
+            warnings.warn(
+                f"run metadata has unknown keys {sorted(unknown)}; kept under provenance['unknown_meta']",
+                stacklevel=2,
+            )
+            known.setdefault("provenance", {})
+            known["provenance"] = dict(known["provenance"], unknown_meta=unknown)
+        return cls(**known)
+
+
+def _real(name, value) -> float:
+    """``value`` as a float if it is a real number (an int or a float, not a bool, a string or
+    bytes: metadata that holds the text ``"0.07"`` was changed by hand or by another tool)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValidationError(name, f"must be a number, got {type(value).__name__} {value!r}")
+    return float(value)
+
+
+def _boolean(name, value) -> bool:
+    """``value`` if it is a bool (also numpy's); the text ``"false"`` or a number is refused, not
+    read by its truth value (``bool("false")`` is True)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValidationError(name, f"must be true or false, got {type(value).__name__} {value!r}")
+    return bool(value)
+
+
+def _integer(name, value) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ValidationError(name, f"must be an integer, got {type(value).__name__} {value!r}")
+    return int(value)
+
+
+# what granalytics reads from the free-form dicts of RunMeta: the type of each entry (when present;
+# None is allowed where the producer may record "not measured"), or a nested schema (a table)
+_SIM_PARAMS_SCHEMA = {
+    **dict.fromkeys(("drum_radius", "drum_length", "d_mean", "baffle_height", "drum_omega", "alpha",
+                     "surface_tension", "density", "contact_angle", "dt"), _real),
+    **dict.fromkeys(("n_baffles", "n_particles", "seed"), _integer),
+    **dict.fromkeys(("capillary_in_contact", "viscous"), _boolean),
+}
+_SIM_CONFIG_SCHEMA = {
+    "params": _SIM_PARAMS_SCHEMA,
+    "original": _SIM_PARAMS_SCHEMA,
+    "confinement": {name: _real for name in ("drum_ratio", "length_ratio", "bed_depth_ratio", "fill_fraction")},
+}
+_PROVENANCE_SCHEMA = {
+    **dict.fromkeys(("wall_time_s", "wall_time_per_simulated_s", "simulated_time_s"),
+                    lambda name, value: None if value is None else _real(name, value)),
+    "planned_frames": lambda name, value: None if value is None else _integer(name, value),
+}
+
+
+def _check_schema(name, table, schema) -> None:
+    """Check the entries of ``table`` that ``schema`` knows (their types; nested tables must be
+    dicts); other entries are free-form. Raises ValidationError naming the entry's dotted path."""
+    for key, rule in schema.items():
+        if key not in table:
+            continue
+        where, value = f"{name}.{key}", table[key]
+        if isinstance(rule, dict):
+            if not isinstance(value, dict):
+                raise ValidationError(where, f"must be a table (a dict), got {type(value).__name__} {value!r}")
+            _check_schema(where, value, rule)
+        else:
+            rule(where, value)
+
+
+def _positive_int(name, value):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, (float, np.floating)) and float(value).is_integer():
+            value = int(value)
+        else:
+            raise ValidationError(name, f"must be an integer, got {value!r}")
+    if value <= 0:
+        raise ValidationError(name, f"must be > 0, got {value!r}")
+    return int(value)
+
+
+# field name -> (kind, trailing shape, sign constraint)
+_PARTICLE_FIELDS = {
+    "ids": ("int", (), None),
+    "radius": ("float", (), "positive"),
+    "position": ("float", (3,), None),
+    "velocity": ("float", (3,), None),
+    "angular_velocity": ("float", (3,), None),
+    "film_volume": ("float", (), "nonnegative"),
+}
+_CONTACT_FIELDS = {
+    "contact_i": ("int", (), None),
+    "contact_j": ("int", (), None),
+    "f_cap": ("float", (), "nonnegative"),
+    "f_normal": ("float", (), None),
+    "gap": ("float", (), None),
+    "bridge_volume": ("float", (), "nonnegative"),
+}
+PARTICLE_FIELDS = tuple(_PARTICLE_FIELDS)
+CONTACT_FIELDS = tuple(_CONTACT_FIELDS)
+
+
+@dataclass(eq=False)
+class Snapshot:
+    """One frame: particles and their contacts / liquid bridges.
+
+    Arrays are converted to float64 (int64 for ids and contact indices) and validated on
+    construction; a violation raises :class:`~granalytics.ValidationError` naming the field and
+    the first offending index.
+
+    Parameters
+    ----------
+    time : float
+        Simulated time [s].
+    step : int
+        Integration step number.
+    ids : (N,) int array
+        Particle ids, unique within the frame (stable across frames of a run).
+    radius : (N,) float array
+        Particle radii [m], > 0.
+    position, velocity, angular_velocity : (N, 3) float arrays
+        Positions [m], velocities [m/s], angular velocities [rad/s].
+    film_volume : (N,) float array
+        Liquid film volume carried by each particle [m³], ≥ 0.
+    contact_i, contact_j : (M,) int arrays
+        Row indices of the two particles of each contact or bridge, ``0 ≤ i < j < N``.
+    f_cap : (M,) float array
+        Magnitude of the capillary (cohesive) normal force F_coh [N], ≥ 0.
+    f_normal : (M,) float array
+        Total normal force [N] (sign convention of the source code; granalytics does not use it
+        for identification).
+    gap : (M,) float array
+        Surface-to-surface gap [m]; negative means overlap.
+    bridge_volume : (M,) float array
+        Liquid bridge volume [m³], ≥ 0 (0 for a dry contact).
+    meta : RunMeta, optional
+        Metadata of the run the frame belongs to.
+    """
+
+    time: float
+    step: int
+    ids: np.ndarray
+    radius: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
+    film_volume: np.ndarray
+    contact_i: np.ndarray
+    contact_j: np.ndarray
+    f_cap: np.ndarray
+    f_normal: np.ndarray
+    gap: np.ndarray
+    bridge_volume: np.ndarray
+    meta: RunMeta | None = None
+
+    def __post_init__(self):
+        self.validate()
+
+    # ------------------------------------------------------------------ validation
+    def validate(self) -> None:
+        """Coerce dtypes and check every invariant of the data model.
+
+        Raises
+        ------
+        ValidationError
+            Naming the field and the first offending index.
+        """
+        try:
+            self.time = float(self.time)
+        except (TypeError, ValueError):
+            raise ValidationError("time", f"must be a number, got {self.time!r}") from None
+        if not math.isfinite(self.time):
+            raise ValidationError("time", f"must be finite, got {self.time!r}")
+        if isinstance(self.step, (float, np.floating)) and float(self.step).is_integer():
+            self.step = int(self.step)
+        if isinstance(self.step, (bool, np.bool_)) or not isinstance(self.step, (int, np.integer)):
+            raise ValidationError("step", f"must be an integer, got {self.step!r}")
+        self.step = int(self.step)
+        if self.step < 0:
+            raise ValidationError("step", f"must be >= 0, got {self.step}")
+
+        n = None
+        for name, spec in _PARTICLE_FIELDS.items():
+            arr = _coerce(name, getattr(self, name), spec, n)
+            n = arr.shape[0] if n is None else n
+            setattr(self, name, arr)
+        if n == 0:
+            raise ValidationError("ids", "the frame has no particles: a snapshot needs at least one")
+        m = None
+        for name, spec in _CONTACT_FIELDS.items():
+            arr = _coerce(name, getattr(self, name), spec, m)
+            m = arr.shape[0] if m is None else m
+            setattr(self, name, arr)
+
+        _check_unique("ids", self.ids, "particle id")
+        ci, cj = self.contact_i, self.contact_j
+        for name, arr in (("contact_i", ci), ("contact_j", cj)):
+            bad = np.flatnonzero((arr < 0) | (arr >= n))
+            if bad.size:
+                k = int(bad[0])
+                raise ValidationError(
+                    name, f"particle index {int(arr[k])} out of range [0, {n})", index=k
+                )
+        bad = np.flatnonzero(ci >= cj)
+        if bad.size:
+            k = int(bad[0])
+            what = "a particle paired with itself" if ci[k] == cj[k] else "pair not ordered i < j"
+            raise ValidationError(
+                "contact_i", f"{what}: i={int(ci[k])}, j={int(cj[k])}", index=k
+            )
+        _check_unique("contact_i", ci * np.int64(n) + cj, "contact pair", ci, cj)
+        if self.meta is not None and not isinstance(self.meta, RunMeta):
+            raise ValidationError("meta", f"must be a RunMeta, got {type(self.meta).__name__}")
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def n_particles(self) -> int:
+        """Number of particles N."""
+        return int(self.radius.shape[0])
+
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts and liquid bridges M."""
+        return int(self.contact_i.shape[0])
+
+    @property
+    def particle_volume(self) -> np.ndarray:
+        """Particle volumes 4/3·π·R³ [m³]."""
+        return 4.0 / 3.0 * np.pi * self.radius**3
+
+    @property
+    def revolutions(self) -> float:
+        """Drum revolutions t·Ω/2π (NaN without metadata or with Ω = 0)."""
+        if self.meta is None or self.meta.drum_omega == 0:
+            return float("nan")
+        return self.time * abs(self.meta.drum_omega) / (2 * math.pi)
+
+    def take_particles(self, order) -> "Snapshot":
+        """Return a copy with particles in the given order and contacts re-indexed.
+
+        Parameters
+        ----------
+        order : (N,) int array
+            A permutation of ``range(N)``: row ``k`` of the result is row ``order[k]`` here.
+        """
+        order = np.asarray(order, dtype=np.int64)
+        if order.shape != (self.n_particles,) or not np.array_equal(
+            np.sort(order), np.arange(self.n_particles)
+        ):
+            raise ValidationError("order", "must be a permutation of range(n_particles)")
+        new_index = np.empty_like(order)
+        new_index[order] = np.arange(order.size)
+        a, b = new_index[self.contact_i], new_index[self.contact_j]
+        particle = {name: getattr(self, name)[order] for name in PARTICLE_FIELDS}
+        contact = {name: getattr(self, name) for name in CONTACT_FIELDS}
+        contact["contact_i"] = np.minimum(a, b)
+        contact["contact_j"] = np.maximum(a, b)
+        return Snapshot(time=self.time, step=self.step, meta=self.meta, **particle, **contact)
+
+
+def _coerce(name, value, spec, expected_len):
+    kind, trailing, sign = spec
+    arr = np.asarray(value)
+    if kind == "int":
+        if arr.dtype.kind not in "iu" or arr.dtype == np.bool_:
+            if arr.size == 0 and arr.dtype.kind == "f":
+                arr = arr.astype(np.int64)
+            else:
+                raise ValidationError(name, f"must have an integer dtype, got {arr.dtype}")
+        arr = arr.astype(np.int64, copy=False)
+    else:
+        if arr.dtype.kind not in "iuf" or arr.dtype == np.bool_:
+            raise ValidationError(name, f"must have a real numeric dtype, got {arr.dtype}")
+        arr = arr.astype(np.float64, copy=False)
+    # C order too: the kernels read these arrays many times per frame (a threshold sweep, a
+    # column view of an (M, 2) pair array), and strided reads cost them up to a third more
+    arr = np.ascontiguousarray(arr)
+    if arr.ndim != 1 + len(trailing) or arr.shape[1:] != trailing:
+        want = "(n," + ",".join(str(t) for t in trailing) + ")" if trailing else "(n,)"
+        raise ValidationError(name, f"must have shape {want}, got {arr.shape}")
+    if expected_len is not None and arr.shape[0] != expected_len:
+        raise ValidationError(
+            name, f"has length {arr.shape[0]}, expected {expected_len} like the other fields"
+        )
+    if kind == "float":
+        finite = np.isfinite(arr)
+        if not finite.all():
+            k = int(np.flatnonzero(~finite.reshape(arr.shape[0], -1).all(axis=1))[0])
+            raise ValidationError(name, f"non-finite value {arr[k].tolist()}", index=k)
+        if sign == "positive":
+            bad = np.flatnonzero(arr <= 0)
+            if bad.size:
+                k = int(bad[0])
+                raise ValidationError(name, f"must be > 0, got {arr[k]!r}", index=k)
+        elif sign == "nonnegative":
+            bad = np.flatnonzero(arr < 0)
+            if bad.size:
+                k = int(bad[0])
+                raise ValidationError(name, f"must be >= 0, got {arr[k]!r}", index=k)
+    return arr
+
+
+def _check_unique(name, keys, what, ci=None, cj=None):
+    if keys.size < 2:
+        return
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    dup = np.flatnonzero(sorted_keys[1:] == sorted_keys[:-1])
+    if dup.size:
+        k = int(order[dup + 1].min())
+        shown = f"({int(ci[k])}, {int(cj[k])})" if ci is not None else f"{int(keys[k])}"
+        raise ValidationError(name, f"duplicate {what} {shown}", index=k)
