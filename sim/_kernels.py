@@ -68,7 +68,7 @@ def kernel_params(params, n_walls: int) -> KernelParams:
         dt=float(p.dt), n_walls=int(n_walls), drum_radius=float(p.drum_radius), drum_length=float(p.drum_length),
         n_baffles=int(p.n_baffles), baffle_height=float(p.baffle_height), drum_omega=float(p.drum_omega),
         gx=float(p.gravity[0]), gy=float(p.gravity[1]), gz=float(p.gravity[2]),
-        law=int(CONTACT_LAWS[p.contact_law]), k_n=float(p.k_n), k_t=float(p.k_t), c_n=float(p.c_n), c_t=float(p.c_t), mu=float(p.friction),
+        law=CONTACT_LAWS[p.contact_law].kernel_id, k_n=float(p.k_n), k_t=float(p.k_t), c_n=float(p.c_n), c_t=float(p.c_t), mu=float(p.friction),
         gamma=float(p.surface_tension), eta=float(p.viscosity), theta=float(p.contact_angle),
         model=int(CAPILLARY_MODELS[p.capillary_model]), viscous=bool(p.viscous),
         capillary_in_contact=bool(p.capillary_in_contact), v_min=float(p.v_min), bridge_volume=float(p.bridge_volume),

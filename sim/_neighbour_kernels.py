@@ -62,15 +62,16 @@ def _unravel(c, n_cells):
 
 
 @njit(cache=True, parallel=True)
-def _pair_pass(pos, radius, cell_of, cell_start, n_cells, reach, fill, start, pair_j, count):
+def _pair_pass(pos, radius, cell_of, cell_rank, cell_start, n_cells, reach, fill, start, pair_j, count):
     """For every particle i, the partners j > i within R_i + R_j + reach in the 27 cells around
     it: counted into ``count[i]``, or (``fill``) written to ``pair_j[start[i]:]`` in ascending
     order.
 
-    The particles must be sorted by cell (cell c holds particles ``cell_start[c]`` …
-    ``cell_start[c+1] − 1``), so a cell is scanned from its largest index down to the first
-    j <= i, which skips the half of the candidates that belongs to the other particle of a pair
-    without testing each one.
+    ``cell_of`` holds linear cell indices. The particles must be sorted by cell, in the order
+    ``cell_rank`` gives the cells (cell c holds particles ``cell_start[r]`` …
+    ``cell_start[r+1] − 1``, r = ``cell_rank[c]``), so a cell is scanned from its largest index
+    down to the first j <= i, which skips the half of the candidates that belongs to the other
+    particle of a pair without testing each one.
     """
     n = pos.shape[0]
     for i in prange(n):
@@ -79,7 +80,7 @@ def _pair_pass(pos, radius, cell_of, cell_start, n_cells, reach, fill, start, pa
         for ax in range(max(cx - 1, 0), min(cx + 2, n_cells[0])):
             for ay in range(max(cy - 1, 0), min(cy + 2, n_cells[1])):
                 for az in range(max(cz - 1, 0), min(cz + 2, n_cells[2])):
-                    c = (ax * n_cells[1] + ay) * n_cells[2] + az
+                    c = cell_rank[(ax * n_cells[1] + ay) * n_cells[2] + az]
                     for j in range(cell_start[c + 1] - 1, cell_start[c] - 1, -1):
                         if j <= i:
                             break
@@ -105,19 +106,19 @@ def _pair_pass(pos, radius, cell_of, cell_start, n_cells, reach, fill, start, pa
             count[i] = c_n
 
 
-def count_pairs(pos, radius, cell_of, cell_start, n_cells, reach):
+def count_pairs(pos, radius, cell_of, cell_rank, cell_start, n_cells, reach):
     """Number of partners j > i within R_i + R_j + reach of every particle i (particles sorted by
-    cell, see :func:`_pair_pass`)."""
+    cell in ``cell_rank`` order, see :func:`_pair_pass`)."""
     count = np.zeros(pos.shape[0], dtype=np.int64)
-    _pair_pass(pos, radius, cell_of, cell_start, n_cells, reach, False,
+    _pair_pass(pos, radius, cell_of, cell_rank, cell_start, n_cells, reach, False,
                np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), count)
     return count
 
 
-def fill_pairs(pos, radius, cell_of, cell_start, n_cells, reach, start, pair_j):
+def fill_pairs(pos, radius, cell_of, cell_rank, cell_start, n_cells, reach, start, pair_j):
     """Write the partners counted by :func:`count_pairs` into ``pair_j[start[i]:start[i+1]]``,
     sorted ascending per particle (so the pair keys i·N + j are globally sorted)."""
-    _pair_pass(pos, radius, cell_of, cell_start, n_cells, reach, True, start, pair_j,
+    _pair_pass(pos, radius, cell_of, cell_rank, cell_start, n_cells, reach, True, start, pair_j,
                np.zeros(1, dtype=np.int64))
 
 

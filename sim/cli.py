@@ -53,6 +53,16 @@ def _check_options(args) -> None:
             raise ValueError(f"{option} must be {requirement}, got {value:g}")
 
 
+def _threads(text):
+    """``--threads``: ``auto`` or a whole number (its range is checked against numba's pool later)."""
+    if text == "auto":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be 'auto' or a whole number, got {text!r}") from None
+
+
 def build_parser():
     parser = _Parser(prog="python -m sim", description="Numba wet-DEM of a baffled drum granulator.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -81,7 +91,11 @@ def build_parser():
     p.add_argument("--no-viscous", action="store_true",
                    help="switch off the viscous (lubrication) force of the bridges, as YADE's ViscElCapMat")
     p.add_argument("--seed", type=int, help="random seed of the filling (>= 0)")
-    p.add_argument("--threads", type=int, help="numba threads (default: all cores)")
+    p.add_argument("--threads", type=_threads, default="auto",
+                   help="numba threads: a count, or 'auto' (the default): the count is chosen as the run goes by "
+                        "measuring 1 thread against all the cores the process may use, again at intervals of 2 "
+                        "to 20 s and whenever the rate falls, so that a busy machine (another program on a "
+                        "core) does not stall the threads; results are bit-identical for any count")
     p.add_argument("--frame-every-rev", type=float, default=0.05,
                    help="output interval [revolutions] (default 0.05)")
     p.add_argument("--checkpoint-every", type=int, default=20, help="checkpoint every N >= 1 frames (default 20)")
@@ -120,12 +134,11 @@ def _run(args) -> int:
     if not args.resume and os.path.exists(out) and not args.overwrite:
         raise ValueError(f"{out} exists; give --overwrite to replace it, or --resume to continue it from its checkpoint")
     original, params = _params(args)
-    if args.threads is not None:
+    if args.threads != "auto":
         import numba
 
         if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
-            raise ValueError(f"--threads must be in [1, {numba.config.NUMBA_NUM_THREADS}], got {args.threads}")
-        numba.set_num_threads(args.threads)
+            raise ValueError(f"--threads must be 'auto' or in [1, {numba.config.NUMBA_NUM_THREADS}], got {args.threads}")
     frame_every = frame_interval_steps(args.revolutions, args.frame_every_rev, params,
                                        names=("--revolutions", "--frame-every-rev"))
     check_output_folder(out)  # a missing or read-only folder now, not after the settling
@@ -135,13 +148,14 @@ def _run(args) -> int:
         if not os.path.exists(ckpt):
             raise ValueError(f"{ckpt}: no checkpoint to resume from")
         sim = Simulation.resume(out)
+        sim.threads = args.threads
         if sim.params != params or sim.original != original:
             changed = sorted(k for k, v in params.to_dict().items() if sim.params.to_dict().get(k) != v)
             raise ValueError(f"{ckpt}: checkpoint was made with other parameters ({', '.join(changed) or 'original system'}); "
                              f"give the options the run started with")
     else:
         try:
-            sim = Simulation(params, original, progress=not args.quiet)
+            sim = Simulation(params, original, progress=not args.quiet, threads=args.threads)
         except RuntimeError as exc:  # e.g. a particle left the drum while settling
             print(f"sim: error: {one_line(exc)} (while settling; nothing was written)", file=sys.stderr)
             return 1

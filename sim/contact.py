@@ -11,16 +11,72 @@ tangential spring force *on i*.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Callable
 
 from numba import njit
 
-__all__ = ["rotate_spring", "mechanical_force", "contact_force", "CONTACT_LAWS"]
+__all__ = ["rotate_spring", "mechanical_force", "contact_force", "ContactLaw", "LINEAR_COULOMB", "CONTACT_LAWS"]
 
-#: contact law name -> the integer id the kernels dispatch on (:func:`contact_force`). Adding a law:
-#: write it as a numba function of the same arguments and results as :func:`mechanical_force`,
-#: give it the next id here and a branch in :func:`contact_force` (docs/simulator.md, "Adding a
-#: contact law"); ``SimParams.contact_law`` then accepts its name.
-CONTACT_LAWS = {"linear_coulomb": 0}
+
+@dataclass(frozen=True)
+class ContactLaw:
+    """A mechanical contact law as the rest of the simulator sees it: the id its numba force
+    function is dispatched on in :func:`contact_force`, the :class:`~sim.params.SimParams` fields
+    it reads, its closed-form contact time and its coarse-graining rule.
+
+    Attributes
+    ----------
+    name : str
+        ``SimParams.contact_law``.
+    kernel_id : int
+        The branch of :func:`contact_force` (the kernels pass an integer: a numba loop cannot
+        carry a Python object).
+    parameters : tuple of str
+        The ``SimParams`` fields the law reads (recorded with the run; a sweep may grid them).
+    contact_time : callable
+        ``contact_time(params, radius) -> t_c [s]``: the normal contact time of two equal spheres
+        of ``radius`` [m]; the time step is chosen from it (Δt ≤ t_c/20). Raises ``ValueError``
+        where there is none (an overdamped contact).
+    cg_scaled : callable
+        ``cg_scaled(params, alpha) -> {field: value}``: the law's parameters of the system
+        coarse-grained by α from the original ``params`` (:func:`sim.params.cg_scale`).
+    """
+
+    name: str
+    kernel_id: int
+    parameters: tuple
+    contact_time: Callable
+    cg_scaled: Callable
+
+
+def _linear_contact_time(params, radius) -> float:
+    """π/(ω₀√(1−ζ²)) [s], ω₀ = √(k_n/m_eff), ζ = c_n/(2√(k_n m_eff)), m_eff = m/2."""
+    m = params.density * 4 / 3 * math.pi * radius**3
+    m_eff = m / 2
+    w0 = math.sqrt(params.k_n / m_eff)
+    zeta = params.c_n / (2 * math.sqrt(params.k_n * m_eff))
+    if zeta >= 1:
+        raise ValueError(f"parameter c_n = {params.c_n:.3g} N s/m overdamps the normal contact of particles of "
+                         f"radius {radius:.3g} m (damping ratio ζ = {zeta:.3g} >= 1)")
+    return math.pi / (w0 * math.sqrt(1 - zeta**2))
+
+
+def _linear_cg_scaled(params, alpha) -> dict:
+    """Table 2 of the paper (Weber scaling): k_n, k_t ×α; c_n, c_t ×α²; friction unchanged."""
+    return {"k_n": params.k_n * alpha, "k_t": params.k_t * alpha,
+            "c_n": params.c_n * alpha**2, "c_t": params.c_t * alpha**2}
+
+
+#: the linear viscoelastic normal force with a tangential spring–dashpot and Coulomb friction
+LINEAR_COULOMB = ContactLaw("linear_coulomb", 0, ("k_n", "k_t", "c_n", "c_t", "friction"),
+                            _linear_contact_time, _linear_cg_scaled)
+
+#: contact law name -> :class:`ContactLaw`. Adding a law (docs/architecture.md, "Adding a contact
+#: law"): its numba force function (the arguments and results of :func:`mechanical_force`) and a
+#: branch in :func:`contact_force` for its ``kernel_id``, its ``ContactLaw`` here;
+#: ``SimParams.contact_law`` then accepts its name.
+CONTACT_LAWS = {law.name: law for law in (LINEAR_COULOMB,)}
 
 
 @njit(cache=True, inline="always")
@@ -94,8 +150,8 @@ def mechanical_force(u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, 
 
 @njit(cache=True, inline="always")
 def contact_force(law, u, nx, ny, nz, vx, vy, vz, fx, fy, fz, k_n, k_t, c_n, c_t, mu, dt):
-    """The contact law ``law`` (a value of :data:`CONTACT_LAWS`): the arguments and results of
-    :func:`mechanical_force`, the linear viscoelastic law with Coulomb friction (law 0).
+    """The contact law whose ``kernel_id`` is ``law`` (:data:`CONTACT_LAWS`): the arguments and
+    results of :func:`mechanical_force`, the linear viscoelastic law with Coulomb friction (law 0).
 
     A new law is a new branch before the last line. The id is checked where it is chosen
     (:class:`sim.params.SimParams` refuses an unknown ``contact_law``), never here: this function

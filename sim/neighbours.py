@@ -1,6 +1,7 @@
 """Cell lists and Verlet lists: rebuild the interaction slots of a :class:`~sim.state.State`.
 
-A rebuild sorts the particles by cell (so neighbours are close in memory), lists every pair
+A rebuild sorts the particles by cell, the cells in Morton (Z-curve) order (so that particles
+close in space are close in memory, as LAMMPS' ``atom_modify sort``), lists every pair
 closer than R_i + R_j + reach (reach = the largest possible bridge rupture distance + the
 skin), carries the state of every live interaction over to the new list, and rebuilds the slot
 lists. Pair lists are counted first and then filled into exactly sized arrays, so they can
@@ -9,13 +10,14 @@ never overflow.
 
 from __future__ import annotations
 
+import functools
 
 import numpy as np
 
 from . import _neighbour_kernels as _kernels
 from .state import PARTICLE_FIELDS, SLOT_FIELDS, State
 
-__all__ = ["max_rupture_distance", "rebuild", "empty_slots"]
+__all__ = ["max_rupture_distance", "rebuild", "empty_slots", "morton_rank"]
 
 
 def max_rupture_distance(params) -> float:
@@ -42,6 +44,34 @@ def _grid(params):
     return reach, cell, lo, n_cells
 
 
+@functools.lru_cache(maxsize=8)
+def morton_rank(n_cells: tuple[int, int, int]) -> np.ndarray:
+    """Position of every cell in Morton (Z-curve) order, indexed by its linear index
+    (cx·n_y + cy)·n_z + cz.
+
+    The Morton key interleaves the bits of (cx, cy, cz), most significant first: cells that are
+    close in space get close keys, so that in key order a cell's 26 neighbours lie mostly within
+    a few cells' distance instead of n_y·n_z cells away (the row order's neighbours across x).
+    Keys are unique, so the order has no ties: it is a permutation of the cells, the same on
+    every machine (read-only, cached per grid).
+
+    Parameters
+    ----------
+    n_cells : tuple of 3 ints
+        Cells along x, y and z.
+    """
+    bits = max(1, int(max(n_cells) - 1).bit_length())
+    coords = [c.ravel().astype(np.int64) for c in np.indices(n_cells)]
+    key = np.zeros(coords[0].shape, dtype=np.int64)
+    for b in range(bits - 1, -1, -1):
+        for c in coords:
+            key = (key << 1) | ((c >> b) & 1)
+    rank = np.empty_like(key)
+    rank[np.argsort(key, kind="stable")] = np.arange(key.size)
+    rank.flags.writeable = False
+    return rank
+
+
 def empty_slots(n_particles, n_walls, n_pairs):
     """Slot arrays for N·W wall slots and ``n_pairs`` pair slots, all dead, with zero outputs."""
     s = n_particles * n_walls + n_pairs
@@ -63,6 +93,10 @@ def _permuted(a, order):
 def rebuild(state: State, params, n_walls: int) -> State:
     """Reorder particles by cell, rebuild the pair list, carry live interactions over.
 
+    Particles are sorted by the Morton rank of their cell (:func:`morton_rank`), stably, so
+    that the particles of a cell keep their previous relative order: the new order depends only
+    on the positions and the previous order, never on the thread count.
+
     Everything proportional to the number of particles or slots runs in compiled code, in
     parallel except the counting sorts (the cell sort and the partner transposition in
     :func:`sim._neighbour_kernels.build_csr`).
@@ -80,7 +114,8 @@ def rebuild(state: State, params, n_walls: int) -> State:
     if i >= 0:
         raise RuntimeError(f"particle id {state.ids[i]} left the drum at step {state.step}: position {state.pos[i].tolist()} m")
     cell_of = _kernels.cell_index(state.pos, lo, cell, n_cells)
-    order, cell_start = _kernels.counting_sort(cell_of, int(np.prod(n_cells)))
+    rank = morton_rank(tuple(int(c) for c in n_cells))
+    order, cell_start = _kernels.counting_sort(rank[cell_of], rank.size)
     new_index = np.empty(n, dtype=np.int64)
     new_index[order] = np.arange(n)
 
@@ -90,12 +125,13 @@ def rebuild(state: State, params, n_walls: int) -> State:
     state.film = np.concatenate([_permuted(state.film[:n], order), state.film[n:]])
 
     # new pair list; the particles are now in cell order, so each cell's particles are a run
+    # (cell c's run starts at cell_start[rank[c]])
     cell_of = _permuted(cell_of, order)
-    count = _kernels.count_pairs(state.pos, state.radius, cell_of, cell_start, n_cells, reach)
+    count = _kernels.count_pairs(state.pos, state.radius, cell_of, rank, cell_start, n_cells, reach)
     start = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(count, out=start[1:])
     partners = np.empty(start[-1], dtype=np.int64)
-    _kernels.fill_pairs(state.pos, state.radius, cell_of, cell_start, n_cells, reach, start, partners)
+    _kernels.fill_pairs(state.pos, state.radius, cell_of, rank, cell_start, n_cells, reach, start, partners)
 
     old = _kernels.SlotArrays(*(getattr(state, name) for name in SLOT_FIELDS))
     n_slots = n * n_walls + partners.size

@@ -26,7 +26,6 @@ __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHY
 PHYSICS_VERSION = 3
 
 CAPILLARY_MODEL_NAMES = tuple(CAPILLARY_MODELS)
-CONTACT_LAW_NAMES = tuple(CONTACT_LAWS)
 #: Δt must resolve the contact of the smallest particles with at least this many steps
 MIN_STEPS_PER_CONTACT = 20
 
@@ -113,8 +112,8 @@ class SimParams:
             raise ValueError(f"parameter d_spread must be in [0, 1), got {self.d_spread!r}")
         if not 0 <= self.contact_angle < math.pi / 2:
             raise ValueError(f"parameter contact_angle must be in [0, π/2) rad, got {self.contact_angle!r}")
-        if self.contact_law not in CONTACT_LAW_NAMES:
-            raise ValueError(f"parameter contact_law must be one of {CONTACT_LAW_NAMES}, got {self.contact_law!r}")
+        if self.contact_law not in CONTACT_LAWS:
+            raise ValueError(f"parameter contact_law must be one of {tuple(CONTACT_LAWS)}, got {self.contact_law!r}")
         if self.capillary_model not in CAPILLARY_MODEL_NAMES:
             raise ValueError(f"parameter capillary_model must be one of {CAPILLARY_MODEL_NAMES}, got {self.capillary_model!r}")
         if not (isinstance(self.n_particles, int) and self.n_particles > 0):
@@ -156,22 +155,15 @@ class SimParams:
 
     def contact_time(self, radius=None) -> float:
         """Closed-form normal contact time of two equal spheres of ``radius`` (default the mean
-        radius), π/(ω₀√(1−ζ²)) [s].
+        radius) under the run's contact law (:attr:`sim.contact.ContactLaw.contact_time`; the
+        linear law's π/(ω₀√(1−ζ²))) [s].
 
         Raises
         ------
         ValueError
             If the contact is overdamped (ζ ≥ 1: no rebound, no contact time).
         """
-        r = self.r_mean if radius is None else radius
-        m = self.density * 4 / 3 * math.pi * r**3
-        m_eff = m / 2
-        w0 = math.sqrt(self.k_n / m_eff)
-        zeta = self.c_n / (2 * math.sqrt(self.k_n * m_eff))
-        if zeta >= 1:
-            raise ValueError(f"parameter c_n = {self.c_n:.3g} N s/m overdamps the normal contact of particles of "
-                             f"radius {r:.3g} m (damping ratio ζ = {zeta:.3g} >= 1)")
-        return math.pi / (w0 * math.sqrt(1 - zeta**2))
+        return CONTACT_LAWS[self.contact_law].contact_time(self, self.r_mean if radius is None else radius)
 
     def to_dict(self) -> dict:
         """JSON-serialisable form."""
@@ -196,8 +188,9 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
     """Coarse-grain the *original* (α = 1) parameters by a factor α (Table 2 of the paper, Weber
     scaling; docs/physics.md, "Coarse-graining rules").
 
-    Radii ×α, particle count ×1/α³ (rounded), γ ×α, η ×α, k_n and k_t ×α, c_n and c_t ×α²,
-    Δt ×α (unless ``scale_dt=False``); volumes per particle follow the radius (same fractions of
+    Radii ×α, particle count ×1/α³ (rounded), γ ×α, η ×α, the contact law's parameters by its
+    own rule (:attr:`sim.contact.ContactLaw.cg_scaled`; the linear law: k_n and k_t ×α, c_n and
+    c_t ×α²), Δt ×α (unless ``scale_dt=False``); volumes per particle follow the radius (same fractions of
     V_p, so V_max, spray dose and initial film coefficients are unchanged); drum, spray zone,
     Ω, friction, contact angle, density unchanged; a fixed bridge volume V_b ×α³. Forces then scale as α².
 
@@ -217,10 +210,7 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
         d_mean=params.d_mean * alpha,
         surface_tension=params.surface_tension * alpha,
         viscosity=params.viscosity * alpha,
-        k_n=params.k_n * alpha,
-        k_t=params.k_t * alpha,
-        c_n=params.c_n * alpha**2,
-        c_t=params.c_t * alpha**2,
+        **CONTACT_LAWS[params.contact_law].cg_scaled(params, alpha),
         dt=params.dt * alpha if scale_dt else params.dt,
         skin=params.skin * alpha,
         bridge_volume=params.bridge_volume * alpha**3,

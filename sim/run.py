@@ -26,6 +26,7 @@ from .neighbours import empty_slots, rebuild
 from .packing import check_settled_bed, insertion_positions, settled_bed_report
 from .params import PHYSICS_VERSION, SimParams
 from .state import State
+from .threads import ThreadGovernor
 
 __all__ = ["Simulation", "configure_threading", "PHYSICS_VERSION"]
 
@@ -50,11 +51,17 @@ class Simulation:
     progress : bool, default False
         A progress bar over the settling of a new filling (``settle_time``: minutes to hours
         for the large presets).
+    threads : int or "auto", optional
+        Threads of the kernels (:attr:`threads`); default: numba's current count.
     """
 
+    _threads = None
+    _governor = None
+
     def __init__(self, params: SimParams, original: SimParams | None = None, state: State | None = None, *,
-                 progress: bool = False):
+                 progress: bool = False, threads: int | str | None = None):
         configure_threading()
+        self.threads = threads
         self.params = params
         if original is None:
             if params.alpha != 1:
@@ -135,18 +142,54 @@ class Simulation:
         return self.state
 
     # ------------------------------------------------------------------ stepping
+    @property
+    def threads(self) -> int | str | None:
+        """Threads of the kernels: ``None`` (numba's current count, left as it is), a count
+        (set with ``numba.set_num_threads`` now), or ``"auto"``: a :class:`sim.threads.ThreadGovernor`
+        chooses the count as the run goes, from the rates it measures (docs/simulator.md,
+        "Threads"). Results are bit-identical for any choice.
+
+        Raises
+        ------
+        ValueError
+            A count outside [1, ``NUMBA_NUM_THREADS``], or another value.
+        """
+        return self._threads
+
+    @threads.setter
+    def threads(self, value) -> None:
+        import numba
+
+        if value == "auto":
+            self._governor = ThreadGovernor()
+        elif value is None:
+            self._governor = None
+        elif isinstance(value, (int, np.integer)) and not isinstance(value, bool) and \
+                1 <= value <= numba.config.NUMBA_NUM_THREADS:
+            self._governor = None
+            numba.set_num_threads(int(value))
+        else:
+            raise ValueError(f"threads must be 'auto' or a whole number in [1, {numba.config.NUMBA_NUM_THREADS}], "
+                             f"got {value!r}")
+        self._threads = value
+
     def _advance(self, n_steps: int, settling: bool = False, on_steps=None) -> None:
         """Advance ``n_steps`` steps, rebuilding the lists whenever the kernel stops for it;
         ``on_steps(k)`` is called after each kernel call with the steps it did (e.g. a progress
-        bar's update)."""
+        bar's update). With ``threads="auto"`` each call is capped by the governor, which sets
+        the thread count before it; a call that ends at its cap is followed by no rebuild, so
+        the trajectory is the same however the steps are split."""
         p, s = self.params, self.state
         kp = _kernels.kernel_params(p, self.n_walls)
+        governor = self._governor
         remaining = n_steps
         step = 0 if settling else s.step
         while remaining > 0:
+            cap = remaining if governor is None else governor.begin(p.n_particles, remaining)
+            t0 = _time.perf_counter()
             body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(self.n_walls)])
             done, s.n_sprays, sprayed = _kernels.advance(
-                remaining, step, settling, s.n_sprays, kp, _kernels.kernel_arrays(s, body_key, self._bridge_table()))
+                cap, step, settling, s.n_sprays, kp, _kernels.kernel_arrays(s, body_key, self._bridge_table()))
             s.sprayed_total += sprayed
             if on_steps is not None:
                 on_steps(done)
@@ -154,8 +197,10 @@ class Simulation:
             step += done
             if not settling:
                 s.step = step
-            if remaining > 0:
+            if done < cap:  # a particle moved more than half the skin
                 self.state = s = rebuild(s, p, self.n_walls)
+            if governor is not None:
+                governor.end(done, p.n_particles, _time.perf_counter() - t0)
 
     def _bridge_table(self) -> np.ndarray:
         """The cache of bridge constants for the state's current slot list (a new one after a
@@ -201,16 +246,27 @@ class Simulation:
         bridge created or refilled by that step's liquid migration: the step's force pass ran
         before the migration, with the earlier volume (0 for a new bridge), and
         ``state.f_cap`` keeps that value.
+
+        Particles are in the order of their ids and contacts in the order of their (i, j), so a
+        frame does not depend on the order the simulator keeps its rows in (re-sorted along a
+        space-filling curve at every neighbour-list rebuild, :func:`sim.neighbours.rebuild`).
         """
         s, p = self.state, self.params
         n = s.n_particles
+        order = np.argsort(s.ids, kind="stable")
+        row_of = np.empty(n, dtype=np.int64)
+        row_of[order] = np.arange(n)
         live = np.flatnonzero(s.alive[n * self.n_walls:]) + n * self.n_walls
-        i, j = s.pair_i[live], s.pair_j[live]
-        f_cap = pair_capillary_force(s.gap[live], s.radius[i], s.radius[j], s.v_b[live], p.surface_tension,
+        a, b = row_of[s.pair_i[live]], row_of[s.pair_j[live]]
+        i, j = np.minimum(a, b), np.maximum(a, b)
+        by_pair = np.lexsort((j, i))
+        live, i, j = live[by_pair], i[by_pair], j[by_pair]
+        radius = s.radius[order]
+        f_cap = pair_capillary_force(s.gap[live], radius[i], radius[j], s.v_b[live], p.surface_tension,
                                      p.contact_angle, p.capillary_model)
         return Snapshot(
-            time=self.time, step=s.step, ids=s.ids, radius=s.radius, position=s.pos, velocity=s.vel,
-            angular_velocity=s.omega, film_volume=s.film[:n],
+            time=self.time, step=s.step, ids=s.ids[order], radius=radius, position=s.pos[order],
+            velocity=s.vel[order], angular_velocity=s.omega[order], film_volume=s.film[:n][order],
             contact_i=i, contact_j=j, f_cap=f_cap,
             f_normal=s.f_normal[live], gap=s.gap[live], bridge_volume=s.v_b[live],
             meta=meta if meta is not None else self.run_meta(),
@@ -364,6 +420,7 @@ class Simulation:
             raise ValueError(f"checkpoint_every must be a whole number of frames >= 1 (or None), got {checkpoint_every!r}")
         ckpt = f"{out}.ckpt.npz"
         meta = self.run_meta()
+        meta.provenance["planned_frames"] = int(n_frames)  # a reader can tell a killed run from a finished one
         if resume:
             if not hasattr(self, "_resume_frame"):
                 raise ValueError("resume=True needs a simulation restored with Simulation.resume(out)")
@@ -372,6 +429,7 @@ class Simulation:
                       "nothing to resume, the file is left as it is", file=sys.stderr)
                 return out
             writer = RunWriter.continue_from(out, self._resume_frame)
+            writer.update_provenance(planned_frames=int(n_frames))  # the resumed run may plan more frames
         else:
             if os.path.exists(out) and not overwrite:
                 raise FileExistsError(f"{out}: file exists (pass overwrite=True, or --overwrite, to replace it)")
@@ -385,25 +443,29 @@ class Simulation:
         wall_before = getattr(self, "_resume_wall_s", 0.0)  # wall time of earlier sittings
         bar = tqdm(total=n_frames, initial=writer.n_frames, unit="frame", disable=not progress,
                    desc=f"{p.n_particles} particles α={p.alpha:g}")
+        import numba
+
         with writer:
             while writer.n_frames < n_frames:
+                frame_t0, frame_step0 = _time.perf_counter(), self.state.step
                 self.advance(writer.n_frames * frame_every - self.state.step)
+                frame_wall = _time.perf_counter() - frame_t0
                 writer.append(self.snapshot(meta))
                 if checkpoint_every is not None and writer.n_frames % checkpoint_every == 0:
                     self.save_checkpoint(ckpt, {"frames": writer.n_frames, "frame_every": frame_every,
                                                 "wall_s": wall_before + _time.perf_counter() - wall0})
                 bar.update(1)
-                elapsed = _time.perf_counter() - wall0
-                rate = (self.state.step - steps0) * p.n_particles / max(elapsed, 1e-9)
+                # the rate of the frame just simulated (the machine's load changes as the run goes)
+                rate = (self.state.step - frame_step0) * p.n_particles / max(frame_wall, 1e-9)
                 bar.set_postfix_str(f"t={self.time:.3f} s rev={self.time / p.revolution_period:.2f} "
-                                    f"{rate / 1e6:.2f}M particle-steps/s")
-            import numba
-
+                                    f"{rate / 1e6:.2f}M particle-steps/s, {numba.get_num_threads()} thread(s)")
             wall = wall_before + _time.perf_counter() - wall0
             writer.update_provenance(
                 physics_version=PHYSICS_VERSION, wall_time_s=wall, simulated_time_s=self.time,
                 wall_time_per_simulated_s=wall / max(self.time, 1e-300),
-                threads=numba.get_num_threads(), cpu_count=os.cpu_count())
+                particle_steps_per_s=(self.state.step - steps0) * p.n_particles / max(wall - wall_before, 1e-9),
+                threads=numba.get_num_threads(), thread_policy="auto" if self._governor is not None else "fixed",
+                cpu_count=os.cpu_count())
         bar.close()
         return out
 

@@ -21,6 +21,19 @@ def test_bad_parameters_give_one_line_and_exit_2(tmp_path, capsys, args, words):
     assert len(err) == 1 and err[0].startswith("sim: error:") and words in err[0]
 
 
+def test_threads_is_auto_or_a_count(tmp_path, capsys):
+    from sim.cli import build_parser
+
+    args = ["run", "--revolutions", "1", "--out", str(tmp_path / "r.h5")]
+    assert build_parser().parse_args(args).threads == "auto"
+    assert build_parser().parse_args(args + ["--threads", "1"]).threads == 1
+    with pytest.raises(SystemExit) as exit_:
+        main(args + ["--threads", "all"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--threads" in err[0] and "'auto' or a whole number" in err[0]
+
+
 def test_presets_are_listed(capsys):
     assert main(["presets"]) == 0
     out = capsys.readouterr().out

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sim.capillary import CAPILLARY_MODELS, capillary_force_scalar, rupture_distance_scalar
-from sim.neighbours import max_rupture_distance, pair_count_reference, rebuild
+from sim.neighbours import _grid, max_rupture_distance, morton_rank, pair_count_reference, rebuild
 from sim.params import PRESETS, SimParams, cg_scale, preset, preset_original
 from sim.run import Simulation
 from sim.state import PARTICLE_FIELDS, SLOT_FIELDS
@@ -164,6 +164,68 @@ def test_verlet_list_equals_brute_force_and_covers_bridge_range():
     assert max_rupture_distance(p) >= rupture_distance_scalar(0.03 * r_max**3, r_max, 0.0)
 
 
+def test_morton_rank_interleaves_the_cell_coordinates_bits():
+    # a 4 x 4 x 4 grid: the rank is the key itself, x's bit before y's before z's at each level
+    rank = morton_rank((4, 4, 4))
+    for cx, cy, cz in [(0, 0, 1), (0, 1, 0), (1, 0, 0), (0, 0, 2), (3, 2, 1), (3, 3, 3)]:
+        key = sum(((c >> b) & 1) << (3 * b + 2 - axis) for b in range(2) for axis, c in enumerate((cx, cy, cz)))
+        assert rank[(cx * 4 + cy) * 4 + cz] == key
+    # any grid: a permutation of its cells that keeps the order of the keys, with empty keys skipped
+    rank = morton_rank((5, 3, 2))
+    assert sorted(rank.tolist()) == list(range(30))
+    assert rank[0] == 0 and rank[(4 * 3 + 2) * 2 + 1] == 29
+    assert not rank.flags.writeable
+
+
+def test_rebuild_sorts_particles_by_the_morton_rank_of_their_cell_keeping_their_order_within_a_cell():
+    rng = np.random.default_rng(5)
+    n = 600
+    p = dataclasses.replace(FREE, n_particles=n)
+    sim = Simulation.from_particles(p, rng.uniform([-0.015, -0.015, 0.005], [0.015, 0.015, 0.025], (n, 3)),
+                                    rng.uniform(0.8, 1.2, n) * R)
+    s = sim.state
+    before = s.ids.copy()
+    s = rebuild(s, p, sim.n_walls)
+    _, cell, lo, n_cells = _grid(p)
+    coords = np.clip(np.floor((s.pos - lo) / cell).astype(np.int64), 0, n_cells - 1)
+    linear = (coords[:, 0] * n_cells[1] + coords[:, 1]) * n_cells[2] + coords[:, 2]
+    key = morton_rank(tuple(int(c) for c in n_cells))[linear]
+    assert (np.diff(key) >= 0).all() and len(np.unique(key)) > 50
+    previous_row = np.argsort(before)[s.ids]  # each particle's row before the rebuild
+    same_cell = np.diff(key) == 0
+    assert same_cell.any() and (np.diff(previous_row)[same_cell] > 0).all()
+
+
+def test_the_particle_order_changes_no_physics():
+    """The same particles given in two orders: the rebuilds order them differently within their
+    cells (and orient pairs differently), so the sums run in other orders; the motion agrees to
+    round-off."""
+    p = dataclasses.replace(preset("lab-cg3"), settle_time=0.01, spray_interval=0.005)
+    sim = Simulation(p, preset_original("lab-cg3")[0])
+    sim.advance(3000)  # wet and turning: contacts, bridges and wall contacts
+    s = sim.state
+    n = s.n_particles
+    by_id = np.argsort(s.ids)
+    perm = np.random.default_rng(1).permutation(n)
+    # a skin of two radii: cells of ~3 diameters, so that cells hold several particles (the
+    # preset's cells hold about one, and its order would follow from the cells alone)
+    wide = dataclasses.replace(p, skin=2 * p.r_mean)
+    runs = []
+    for order in (by_id, by_id[perm]):
+        other = Simulation.from_particles(wide, s.pos[order], s.radius[order], s.vel[order], s.omega[order],
+                                          s.film[:n][order])
+        other.state.step = s.step
+        other.advance(400)
+        runs.append(other.state)
+    a, b = runs
+    # particle k of the second run is particle perm[k] of the first
+    ia, ib = np.argsort(a.ids), np.argsort(b.ids)
+    assert np.allclose(a.pos[ia][perm], b.pos[ib], rtol=0, atol=1e-12)
+    assert np.allclose(a.vel[ia][perm], b.vel[ib], rtol=0, atol=1e-9)
+    assert np.allclose(a.film[:n][ia][perm], b.film[:n][ib], rtol=1e-9, atol=1e-24)
+    assert not np.array_equal(a.vel[ia][perm], b.vel[ib])  # the sums did run in other orders
+
+
 def _interactions_by_id(s):
     """Every live slot's state keyed by its bodies' ids (a wall by −1 − wall index), a pair's
     vectors (spring = tangential force on the first body, previous normal from first to second)
@@ -316,9 +378,29 @@ def test_contact_law_dispatcher_and_registry():
     from sim.params import SimParams
 
     args = (2e-6, 0.6, 0.8, 0.0, 0.01, -0.02, 0.005, 1e-4, -2e-4, 0.0, 150.0, 120.0, 0.0011, 0.0011, 0.5, 1e-6)
-    assert contact_force(CONTACT_LAWS["linear_coulomb"], *args) == mechanical_force(*args)
+    assert contact_force(CONTACT_LAWS["linear_coulomb"].kernel_id, *args) == mechanical_force(*args)
     with pytest.raises(ValueError, match="contact_law must be one of"):
         dataclasses.replace(SimParams(), contact_law="hertz")
+
+
+def test_a_contact_law_object_carries_its_contact_time_and_cg_rule(monkeypatch):
+    """SimParams' contact time and cg_scale ask the run's law: a scratch law (the linear force,
+    with its own contact time and CG rule) is followed without an edit elsewhere."""
+    import dataclasses
+
+    from sim.contact import CONTACT_LAWS, LINEAR_COULOMB, ContactLaw
+    from sim.params import SimParams, cg_scale
+
+    scratch = ContactLaw("scratch", LINEAR_COULOMB.kernel_id, LINEAR_COULOMB.parameters,
+                         contact_time=lambda params, radius: 7.0 * radius,
+                         cg_scaled=lambda params, alpha: {"k_n": params.k_n * alpha**2})
+    monkeypatch.setitem(CONTACT_LAWS, "scratch", scratch)
+    params = dataclasses.replace(SimParams(), contact_law="scratch")
+    assert params.contact_time(1e-3) == 7e-3
+    scaled = cg_scale(params, 2.0)
+    assert scaled.k_n == params.k_n * 4 and scaled.k_t == params.k_t and scaled.c_n == params.c_n
+    linear = cg_scale(SimParams(), 2.0)
+    assert (linear.k_n, linear.k_t, linear.c_n, linear.c_t) == (300.0, 240.0, 0.0011 * 4, 0.0011 * 4)
 
 
 @pytest.mark.slow

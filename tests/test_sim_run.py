@@ -12,6 +12,7 @@ import pytest
 import granalytics as ga
 from sim.params import cg_scale
 from sim.run import Simulation
+from sim.threads import ThreadGovernor, available_cores, thread_candidates
 
 from conftest import former_lab_original  # noqa: E402
 
@@ -105,6 +106,8 @@ def test_resumed_run_equals_uninterrupted_run(tmp_path):
     Simulation.resume(part).run(part, revs, frame_every=frame_every, checkpoint_every=4, progress=False, resume=True)
     with ga.open_run(full) as a, ga.open_run(part) as b:
         assert len(a) == len(b) == 13
+        assert a.meta.provenance["planned_frames"] == b.meta.provenance["planned_frames"] == 13
+        assert a.unfinished is None and b.unfinished is None
         for fa, fb in zip(a, b):
             assert fa.time == fb.time
             for name in ("ids", "position", "velocity", "angular_velocity", "film_volume", "contact_i", "contact_j", "f_cap", "bridge_volume"):
@@ -125,6 +128,12 @@ def test_snapshot_is_a_valid_granalytics_frame_with_bridges(settled):
     assert wet.any() and (snap.f_cap[wet] > 0).all() and (snap.f_cap[~wet] == 0).all()
     result = ga.identify(snap)
     assert result.labels.shape == (200,)
+    # particles by id and contacts by pair, whatever order the simulator keeps its rows in
+    s = sim.state
+    by_id = np.argsort(s.ids)
+    assert np.array_equal(snap.ids, np.arange(200)) and not np.array_equal(s.ids, snap.ids)
+    assert np.array_equal(snap.position, s.pos[by_id]) and np.array_equal(snap.film_volume, s.film[:200][by_id])
+    assert (np.diff(snap.contact_i * 200 + snap.contact_j) > 0).all()
 
 
 def test_trajectory_does_not_depend_on_how_steps_are_split_into_calls(settled):
@@ -134,6 +143,70 @@ def test_trajectory_does_not_depend_on_how_steps_are_split_into_calls(settled):
         b.advance(50)
     for f in dataclasses.fields(a.state):
         assert np.array_equal(getattr(a.state, f.name), getattr(b.state, f.name)), f.name
+
+
+@pytest.mark.filterwarnings("ignore:the simulator slowed")  # millisecond windows: rates scatter
+def test_the_thread_governor_leaves_the_trajectory_bit_identical(settled):
+    a, b = copy(settled), copy(settled)
+    numba.set_num_threads(1)
+    a.advance(600)
+    b.threads = "auto"
+    # windows of a millisecond and calls capped at a fraction of one: the count changes every few
+    # calls, and calls end at their cap rather than at a rebuild
+    b._governor = ThreadGovernor(probe_s=1e-3, window_s=1e-3, first_recheck_s=0.0, recheck_s=0.0, call_s=1e-4)
+    b.advance(600)
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    used = {threads for threads, _ in b._governor.history}
+    switches = sum(t0 != t1 for (t0, _), (t1, _) in zip(b._governor.history, b._governor.history[1:]))
+    assert len(used) == len(b._governor.candidates) and b._governor._calls > 12
+    assert switches > 2 or len(used) == 1
+    for f in dataclasses.fields(a.state):
+        assert np.array_equal(getattr(a.state, f.name), getattr(b.state, f.name)), f.name
+
+
+def test_thread_candidates_are_powers_of_two_and_the_maximum():
+    assert thread_candidates(1) == [1] and thread_candidates(2) == [1, 2]
+    assert thread_candidates(6) == [1, 2, 4, 6] and thread_candidates(8) == [1, 2, 4, 8]
+
+
+@pytest.mark.skipif(min(available_cores(), numba.config.NUMBA_NUM_THREADS) < 2, reason="needs two cores")
+def test_the_thread_governor_runs_on_the_faster_count_and_probes_again_when_the_rate_falls():
+    now = [0.0]
+    gov = ThreadGovernor(max_threads=2, probe_s=1.0, window_s=1.0, first_recheck_s=10.0, recheck_s=40.0,
+                         clock=lambda: now[0])
+    speed = {1: 2e6, 2: 3e6}  # particle-steps/s at each count
+
+    def calls(k):
+        for _ in range(k):
+            gov.begin(1000, 10**9)
+            now[0] += 0.5
+            gov.end(int(speed[gov.threads] * 0.5 / 1000), 1000, 0.5)
+
+    calls(5)  # the first call is not measured; then 1 s on one thread, 1 s on two
+    assert gov.rates == pytest.approx({1: 2e6, 2: 3e6}) and gov.threads == 2 and not gov.probing
+    calls(8)
+    assert gov.threads == 2 and not gov.probing  # no new probe before first_recheck_s
+    speed[2] = 0.1e6  # another program takes a core: the second thread stalls the first at every barrier
+    with pytest.warns(RuntimeWarning, match=r"slowed to 0.10M particle-steps/s from 3.00M .* busy"):
+        calls(2)
+    calls(4)  # a probe at once, not after recheck_s
+    assert gov.threads == 1 and not gov.probing and gov.rates[2] == pytest.approx(0.1e6)
+    speed[2] = 3e6  # the other program ended: the next recheck finds two threads faster again
+    t_chosen = now[0]
+    calls(30)
+    assert gov.threads == 2 and now[0] - t_chosen > 10.0
+    assert numba.get_num_threads() == 2
+    # a probe that keeps the count doubles the time to the next one, up to recheck_s
+    calls(200)
+    assert gov.threads == 2 and gov._interval == 40.0
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+
+
+def test_threads_refuses_counts_outside_numbas_pool(settled):
+    sim = copy(settled)
+    for bad in (0, numba.config.NUMBA_NUM_THREADS + 1, "all", 1.5, True):
+        with pytest.raises(ValueError, match="threads must be 'auto' or a whole number"):
+            sim.threads = bad
 
 
 # --- kernel seams: parameters by name, trajectory unchanged --------------------------------------
@@ -216,26 +289,32 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
 
 # sha256 of the state after filling, settling and 2 500 steps. The simulator must stay
 # bit-identical: runs made before and after a refactoring have to be the same runs. Regenerate
-# only for an intentional change of the physics, and say so in the commit. History: made by
-# 24f5f85; regenerated when a rebuild started to re-orient the spring and previous normal of a
-# pair whose particles swap order (docs/simulator.md, "Neighbour lists"); regenerated for physics
-# version 3 (the 3-D insertion, sim/packing.py) by b28edc6's successor.
+# only for an intentional change of the physics or of the summation order, and say so in the
+# commit. History: made by 24f5f85; regenerated when a rebuild started to re-orient the spring and
+# previous normal of a pair whose particles swap order (docs/simulator.md, "Neighbour lists");
+# regenerated for physics version 3 (the 3-D insertion, sim/packing.py) by b28edc6's successor;
+# regenerated when the rebuild started to order the particles along a Morton curve (the sums of
+# every particle run in another order; physics unchanged, tests/test_sim_physics.py).
 # The same code gives different last bits on different CPUs: the glibc libm variant chosen by CPU
-# features (exp, log, pow, cos, sin, acos) differs in the last bit. So each digest is listed under
-# the fingerprint of the machine's libm as numba calls it (_libm_fingerprint); on a machine with
-# another fingerprint the test is skipped, naming it (add its digests here once they are checked
-# against a second machine of that kind). Earlier machines: the first dev machine (physics version 2
-# digests d01d032d…, 527aaeb0…, not remade for version 3) and a Zen 4 one (b1e6ba21…, bcfa6acd…;
-# this machine's kind, which gave the version 3 digests below).
+# features (exp, log, pow, cos, sin, acos) differs in the last bit, and so do numpy's vectorised
+# functions (the filling's power, sim/packing.py: numpy takes AVX-512 paths where the CPU has
+# them). So each digest is listed under the fingerprint of both as the simulator calls them
+# (_libm_fingerprint); on a machine with another fingerprint the test is skipped, naming it (add
+# its digests here once they are checked against a second machine of that kind). Earlier machines,
+# fingerprinted by libm alone: the first dev machine (physics version 2 digests d01d032d…,
+# 527aaeb0…), a Zen 4 one (libm 6c9921ee; version 3 digests e4583258…, 0ee16d49…) and an AMD EPYC
+# without AVX-512 (libm 6c9921ee as well, but version 3 digests 67de1d69…, 4e09b417…: numpy's
+# power differs), which gave the digests below.
 REFERENCE_DIGESTS = {
-    "6c9921ee": {"default": "e458325893024a53e6eb95b7c108aa3dc6790364332c2af450a682ce521f201e",
-                 "variant": "0ee16d498de5bd8bd947efb91786f7956dbba4932fb06c6ae78fcaf44a3e0dda"},
+    "111470bc": {"default": "45db1ab524c5dc4747d3311ac7bdcb0eb49be6f38da819452a87302c44856b3a",
+                 "variant": "f0128de75b8df11fe669ec37d4c37585d42aff48e48038fbf819af3bd0aad7df"},
 }
 REFERENCE_PLATFORM = ("0.68.1", "x86_64", ("glibc", "2.36"))  # numba, machine, libc of the digests
 
 
 def _libm_fingerprint() -> str:
-    """First 8 hex digits of the sha256 of the libm functions the kernels call, on 4 000 arguments."""
+    """First 8 hex digits of the sha256 of the libm functions the kernels call and of numpy's
+    vectorised power (the filling's), on 4 000 arguments."""
     import hashlib
     import math
 
@@ -249,7 +328,8 @@ def _libm_fingerprint() -> str:
         return out
 
     x = np.random.default_rng(0).uniform(1e-3, 20.0, 4000)
-    return hashlib.sha256(probe(x).tobytes()).hexdigest()[:8]
+    vectorised = np.stack([(x / 20.0) ** (1 / 3), np.exp(-x), np.log(x), np.cos(x), np.sin(x)])
+    return hashlib.sha256(probe(x).tobytes() + vectorised.tobytes()).hexdigest()[:8]
 
 
 def _state_digest(state):
@@ -303,7 +383,7 @@ def test_importing_granalytics_and_sim_and_their_force_laws_changes_no_global_st
         "import os, numba\n"
         "os.environ.pop('GOMP_SPINCOUNT', None)\n"
         "numba.config.THREADING_LAYER_PRIORITY = default = ['tbb', 'omp', 'workqueue']\n"
-        "import granalytics, granalytics._kernels, granalytics.plot, granalytics.cli\n"
+        "import granalytics, granalytics.identify._kernels, granalytics.plot, granalytics.cli\n"
         "import sim, sim.run, sim.cli, sim._kernels, sim.neighbours\n"
         "sim.capillary_force(1e-5, 1e-3, 1e-3, 1e-12, 0.1)\n"
         "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY == default)\n")
@@ -565,6 +645,11 @@ def test_a_run_ends_at_the_requested_revolutions(tmp_path):
     with ga.open_run(tmp_path / "r.h5") as run:
         assert len(run) == 5
         assert abs(run.steps[-1] - 0.006 * steps_per_rev) <= 2.5  # the requested end, to the rounding of the interval
+        # the run records the frames it planned: a reader tells it from a killed one
+        assert run.meta.provenance["planned_frames"] == 5 and run.unfinished is None
+    kept = ga.subset_run(tmp_path / "r.h5", tmp_path / "sub.h5", frames=[0, 2, 4])
+    with ga.open_run(kept) as run:  # a subset plans the frames it keeps
+        assert run.meta.provenance["planned_frames"] == 3 and run.unfinished is None
 
 
 def test_resume_refuses_a_checkpoint_of_another_physics_version(tmp_path):

@@ -1,0 +1,154 @@
+"""The thread count of the simulator's kernels: fixed, or chosen as the run goes (``"auto"``).
+
+Every parallel region of a time step ends at a barrier, so a thread that the operating system
+deschedules (another program wants the core) stalls the others until it runs again: on a busy
+2-core machine a 111-particle drum ran 20 times slower on two threads than on one. The
+simulator's results are bit-identical for any thread count, so the count can change between any
+two kernel calls without changing the trajectory: :class:`ThreadGovernor` measures the rate at
+each candidate count for a short probe, runs on the fastest and measures again every
+``recheck_s`` seconds, or at once when the rate falls (docs/simulator.md, "Threads").
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import warnings
+
+__all__ = ["ThreadGovernor", "available_cores", "thread_candidates"]
+
+
+def available_cores() -> int:
+    """Cores this process may run on (its CPU affinity, e.g. a cluster job's share of a node)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # no sched_getaffinity (macOS, Windows)
+        return os.cpu_count() or 1
+
+
+def thread_candidates(max_threads: int) -> list[int]:
+    """The thread counts the governor tries: 1, 2, 4, … below ``max_threads``, and ``max_threads``."""
+    counts, k = [], 1
+    while k < max_threads:
+        counts.append(k)
+        k *= 2
+    return counts + [max_threads]
+
+
+class ThreadGovernor:
+    """Chooses numba's thread count for each kernel call of a simulation by measuring.
+
+    A *probe* runs each candidate count (:func:`thread_candidates`) for ``probe_s`` seconds of
+    wall time and keeps the count with the highest rate (particle-steps per second; of counts
+    within ``prefer`` of each other, the smallest). The run then
+    goes on at that count, measured in windows of ``window_s``; a new probe starts
+    ``first_recheck_s`` seconds after a probe that changed the count, twice as long after one
+    that kept it, up to ``recheck_s`` (so that a choice made in a moment of passing load is
+    soon corrected, and a settled one costs little), or after the first window whose rate is
+    below ``fall`` times the rate the count was chosen at (the load changed). When the chosen count's rate drops below half the
+    highest rate of the run, one warning says so, with the load average.
+
+    Parameters
+    ----------
+    max_threads : int, optional
+        The most threads to use; default: the cores of the process's affinity, at most numba's
+        thread pool (``NUMBA_NUM_THREADS``).
+    probe_s, window_s : float
+        Probe length per candidate and measurement window [s].
+    first_recheck_s, recheck_s : float
+        Shortest and longest time between probes [s].
+    fall : float
+        Fraction of the chosen rate below which a window starts a new probe.
+    prefer : float
+        A probe keeps the fewest threads whose rate is within this factor of the fastest: fewer
+        threads lose less when the load rises (and leave the cores to others) and a rate
+        measured in a short probe is uncertain by some per cent.
+    call_s : float
+        Target wall time of one kernel call [s]: :meth:`begin` caps the steps of a call so that
+        probes and windows can end on time, from the last call at the same count (a count's
+        first call does one step: a count can be 20 times slower than another).
+    clock : callable
+        Wall clock [s] (``time.perf_counter``; replaceable for tests).
+    """
+
+    def __init__(self, max_threads: int | None = None, *, probe_s: float = 0.3, window_s: float = 0.5,
+                 first_recheck_s: float = 2.0, recheck_s: float = 20.0, fall: float = 0.7, prefer: float = 1.1,
+                 call_s: float = 0.05, clock=time.perf_counter):
+        import numba
+
+        limit = min(available_cores(), numba.config.NUMBA_NUM_THREADS)
+        self.max_threads = limit if max_threads is None else max(1, min(int(max_threads), limit))
+        self.candidates = thread_candidates(self.max_threads)
+        self.probe_s, self.window_s, self.call_s = probe_s, window_s, call_s
+        self.first_recheck_s, self.recheck_s = first_recheck_s, recheck_s
+        self._interval = first_recheck_s  # time to the next probe
+        self.fall, self.prefer = fall, prefer
+        self._clock = clock
+        self.rates: dict[int, float] = {}  # particle-steps/s of each count at its latest probe
+        self.threads = self.max_threads
+        self.chosen_rate = 0.0  # the rate at which self.threads was chosen
+        self._chosen = self.max_threads
+        self.best_rate = 0.0  # the highest window rate of the run
+        self.history: list[tuple[int, float]] = []  # (threads, rate) of every finished window
+        self._queue = list(self.candidates)  # counts still to probe; empty: running on the chosen one
+        self._start_probe_at = None
+        self._warned = False
+        self._window_work = self._window_wall = 0.0
+        self._steps_per_call: dict[int, int] = {}  # per count: a count's first call is one step
+        self._calls = 0
+
+    @property
+    def probing(self) -> bool:
+        """Whether a probe is under way."""
+        return bool(self._queue)
+
+    def begin(self, n_particles: int, remaining: int) -> int:
+        """Set numba's thread count for the next kernel call; returns the most steps it should do."""
+        import numba
+
+        if not self._queue and self._start_probe_at is not None and self._clock() >= self._start_probe_at:
+            self._queue = [c for c in self.candidates if c != self.threads] + [self.threads]
+            self._window_work = self._window_wall = 0.0
+        if self._queue:
+            self.threads = self._queue[0]
+        numba.set_num_threads(self.threads)
+        return max(1, min(remaining, self._steps_per_call.get(self.threads, 1)))
+
+    def end(self, steps: int, n_particles: int, wall_s: float) -> None:
+        """Account for a kernel call (and the rebuild after it) of ``steps`` steps of
+        ``n_particles`` particles that took ``wall_s`` seconds. The first call is not measured
+        (it may load or compile the kernels)."""
+        self._calls += 1
+        if self._calls == 1:
+            return
+        if steps > 0 and wall_s > 0:  # the next call's length from this one's speed, growing at most 4x a call
+            last = self._steps_per_call.get(self.threads, 1)
+            self._steps_per_call[self.threads] = max(1, min(4 * last, int(self.call_s * steps / wall_s)))
+        self._window_work += steps * n_particles
+        self._window_wall += wall_s
+        if self._window_wall < (self.probe_s if self._queue else self.window_s):
+            return
+        rate = self._window_work / self._window_wall
+        self._window_work = self._window_wall = 0.0
+        self.history.append((self.threads, rate))
+        self.best_rate = max(self.best_rate, rate)
+        if self._queue:
+            self.rates[self._queue.pop(0)] = rate
+            if not self._queue:  # probe done: the fewest threads within `prefer` of the fastest
+                fastest = max(self.rates.get(c, 0.0) for c in self.candidates)
+                chosen = min(c for c in self.candidates if self.prefer * self.rates.get(c, 0.0) >= fastest)
+                kept = self.chosen_rate > 0 and chosen == self._chosen
+                self._interval = min(2 * self._interval, self.recheck_s) if kept else self.first_recheck_s
+                self.threads = self._chosen = chosen
+                self.chosen_rate = self.rates[chosen]
+                self._start_probe_at = self._clock() + self._interval
+            return
+        if rate < self.fall * self.chosen_rate:
+            self._start_probe_at = self._clock()  # the load changed: probe again now
+        if rate < 0.5 * self.best_rate and not self._warned:
+            self._warned = True
+            load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+            warnings.warn(
+                f"the simulator slowed to {rate / 1e6:.2f}M particle-steps/s from {self.best_rate / 1e6:.2f}M earlier "
+                f"in the run: the machine is busy (load average {load:.1f} on {available_cores()} cores); running on "
+                f"{self.threads} thread(s), the fastest now", RuntimeWarning, stacklevel=2)
