@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 BUILD := build
 
-.PHONY: test test-fast demo bench install clean clean-runs datasets
+.PHONY: test test-fast demo bench install clean clean-runs datasets notebooks
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,23 @@ demo: $(STAMP)
 		datasets/lab-cg2.h5 datasets/lab-cg2-seed1.h5 datasets/lab-cg2-seed2.h5 \
 		datasets/lab-cg3.h5 datasets/lab-cg3-seed1.h5 datasets/lab-cg3-seed2.h5 \
 		--replicas --window 3:6 --out $(BUILD)/demo-cg --overwrite
+
+## notebooks: run every notebook of docs/notebooks on the bundled data, top to bottom, into
+## build/notebooks/NAME.ipynb (with its outputs) and NAME.html (open it in a browser); the
+## notebooks' own files are written there too. Installs the `notebooks` extra (nbconvert, ipywidgets).
+NB_STAMP := $(VENV)/.installed-notebooks
+NOTEBOOKS := $(wildcard docs/notebooks/*.ipynb)
+$(NB_STAMP): $(STAMP) pyproject.toml
+	$(PY) -m pip install --quiet -e '.[test,notebooks]'
+	touch $(NB_STAMP)
+
+notebooks: $(NB_STAMP)
+	@mkdir -p $(BUILD)/notebooks
+	cp $(NOTEBOOKS) $(BUILD)/notebooks/
+	cd $(BUILD)/notebooks && $(abspath $(PY)) -m jupyter nbconvert --to notebook --execute --inplace \
+		--ExecutePreprocessor.timeout=900 $(notdir $(NOTEBOOKS))
+	cd $(BUILD)/notebooks && $(abspath $(PY)) -m jupyter nbconvert --to html $(notdir $(NOTEBOOKS))
+	@echo "executed notebooks and their HTML in $(BUILD)/notebooks/"
 
 ## datasets: regenerate every bundled dataset from its recipe (simulation, then subset; hours for the
 ## CG1 and paper runs; an interrupted simulation resumes from its checkpoint), DATASET_JOBS at a time

@@ -13,7 +13,7 @@ import typing
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.metrics import METRICS, STEADY
+from granalytics.analysis.metrics import BY_FIGURE, HEADLINE, METRICS
 
 if typing.TYPE_CHECKING:
     from granalytics.analysis.tracking import GranuleTracks
@@ -22,7 +22,6 @@ __all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensiti
            "frame_figure", "cg_figures", "tracking_figure", "growth_figure", "cg_threshold_figures",
            "pbm_figure"]
 
-_TIMESERIES = tuple((name, METRICS[name].label) for name in STEADY if METRICS[name].headline)
 
 
 def plot_timeseries(ts, column, ax=None, window=None, label=None, ylabel=None, x="revolutions"):
@@ -67,13 +66,15 @@ def plot_size_distribution(dist, ax=None, label=None):
 
 
 def stats_figure(ts, dist=None, window=None, title=None, x="revolutions"):
-    """Figure with the time series of granule number, mean volume, yield and the size distribution."""
+    """Figure with the time series of every headline metric (granule number, mean volume, yield)
+    and the size distribution."""
     import matplotlib.pyplot as plt
 
-    n = len(_TIMESERIES) + (dist is not None)
+    shown = list(BY_FIGURE)
+    n = len(shown) + (dist is not None)
     fig, axes = plt.subplots(1, n, figsize=(4 * n, 3.4), layout="constrained")
-    for ax, (column, ylabel) in zip(np.atleast_1d(axes), _TIMESERIES):
-        plot_timeseries(ts, column, ax=ax, window=window, ylabel=ylabel, x=x)
+    for ax, column in zip(np.atleast_1d(axes), shown):
+        plot_timeseries(ts, column, ax=ax, window=window, ylabel=METRICS[column].label, x=x)
     if dist is not None:
         plot_size_distribution(dist, ax=axes[-1])
         if window is not None:
@@ -85,8 +86,8 @@ def stats_figure(ts, dist=None, window=None, title=None, x="revolutions"):
 
 
 def sensitivity_figure(summary, title=None):
-    """Heatmaps of yield and mean granule volume over (C_agg, A_agg) (or (C_agg, rigid_tol)), and
-    yield and mean volume against C_agg for every co-motion threshold
+    """Heatmaps of every headline metric over (C_agg, A_agg) (or (C_agg, rigid_tol)) (top row), and
+    each against C_agg for every co-motion threshold (bottom row)
     (:func:`~granalytics.sensitivity_summary` output)."""
     import matplotlib.pyplot as plt
 
@@ -94,25 +95,29 @@ def sensitivity_figure(summary, title=None):
 
     column = comotion_column(summary)
     name, unit = ("A_agg", "°") if column == "a_agg_deg" else ("rigid_tol", "")
-    fig, axes = plt.subplots(1, 4, figsize=(17, 3.8), layout="constrained")
+    shown = list(HEADLINE)
+    fig, axes = plt.subplots(2, len(shown), figsize=(4.6 * len(shown), 7.2), layout="constrained", squeeze=False)
     c_values = np.sort(summary["c_agg"].unique())
     a_values = np.sort(summary[column].unique())
-    for ax, (metric, label) in zip(axes[:2], (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩ / V_p"))):
+    for ax, metric in zip(axes[0], shown):
+        label = METRICS[metric].label
         grid = summary.pivot(index=column, columns="c_agg", values=f"{metric}_mean").loc[a_values, c_values]
         mesh = ax.pcolormesh(_edges(c_values), np.arange(len(a_values) + 1), grid.to_numpy(), shading="flat")
         ax.set_yticks(np.arange(len(a_values)) + 0.5, [f"{a:g}" for a in a_values])
         ax.set_xlabel("C_agg")
         ax.set_ylabel(f"{name} [{unit}]" if unit else name)
         fig.colorbar(mesh, ax=ax, label=label)
-    for ax, (metric, label) in zip(axes[2:], (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩ / V_p"))):
+    for ax, metric in zip(axes[1], shown):
+        label = METRICS[metric].label
         for a in a_values:
             part = summary[summary[column] == a].sort_values("c_agg")
             ax.errorbar(part["c_agg"], part[f"{metric}_mean"], yerr=part[f"{metric}_std"], marker=".",
                         ms=3, lw=1, capsize=2, label=f"{name} = {a:g}{unit}")
         ax.set_xlabel("C_agg")
         ax.set_ylabel(label)
-    axes[3].set_yscale("log")
-    axes[2].legend(fontsize=8)
+        if METRICS[metric].log_scale:
+            ax.set_yscale("log")
+    axes[1, 0].legend(fontsize=8)
     fig.text(0.5, -0.02, "heatmaps: mean over the window's frames; white cells: no granules at that pair (⟨V_g⟩ "
              "undefined); line plots: mean ± standard deviation over the frames (frame-to-frame spread, not an "
              "error of the mean)", ha="center", va="top", fontsize=8)
@@ -122,17 +127,18 @@ def sensitivity_figure(summary, title=None):
 
 
 def comparison_figure(stats, pairs, title=None):
-    """Yield and granule number per method, and the adjusted Rand index of each pair, against
+    """Every headline metric per method, and the adjusted Rand index of each pair, against
     revolutions (:func:`~granalytics.compare_methods` output)."""
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(13, 3.6), layout="constrained")
+    shown = list(HEADLINE)
+    fig, axes = plt.subplots(1, len(shown) + 1, figsize=(4.3 * (len(shown) + 1), 3.6), layout="constrained")
     for name, part in stats.groupby("method", sort=False):
-        plot_timeseries(part, "yield_fraction", ax=axes[0], label=name, ylabel="yield")
-        plot_timeseries(part, "n_granules_norm", ax=axes[1], label=name, ylabel="granules / particles")
+        for ax, metric in zip(axes, shown):
+            plot_timeseries(part, metric, ax=ax, label=name, ylabel=METRICS[metric].label)
     for (a, b), part in pairs.groupby(["method_a", "method_b"], sort=False):
-        plot_timeseries(part, "ari", ax=axes[2], label=f"{a} vs {b}", ylabel="adjusted Rand index")
-    axes[2].set_ylim(-0.05, 1.05)
+        plot_timeseries(part, "ari", ax=axes[-1], label=f"{a} vs {b}", ylabel="adjusted Rand index")
+    axes[-1].set_ylim(-0.05, 1.05)
     for ax in axes:  # below the panel, never over the curves
         ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, frameon=False)
     if title:
@@ -200,14 +206,12 @@ def cg_figures(comparison) -> dict:
 
     Returns
     -------
-    dict of str -> Figure, keyed ``fig3_mean_volume``, ``fig4_granule_number``,
-    ``fig5_size_distribution``, ``fig6_yield``.
+    dict of str -> Figure, keyed by each headline metric's ``figure_key`` (``fig3_mean_volume``,
+    ``fig4_granule_number``, ``fig6_yield``) and ``fig5_size_distribution``.
     """
     import matplotlib.pyplot as plt
 
-    panels = (("fig3_mean_volume", "mean_volume_norm", "⟨V_g⟩ / V_p", "mean granule volume"),
-              ("fig4_granule_number", "n_granules_norm", "N_g / N", "number of granules"),
-              ("fig6_yield", "yield_fraction", "yield (fraction of particles in granules)", "granulation yield"))
+    panels = [(METRICS[m].figure_key, m, METRICS[m].label, METRICS[m].what) for m in BY_FIGURE]
     subtitle = comparison.description
     figures = {}
     for name, column, ylabel, what in panels:

@@ -94,7 +94,7 @@ LAYERS = {"_version": 0, "_moved": 0, "core": 0, "identify": 1, "convert": 1, "i
 #: the upward edges, inside a method: a CG comparison's ``figures()`` and a PBM prediction's
 #: ``figure()`` draw themselves with granalytics.plot (as a pandas object's ``.plot()`` does)
 LATE_UPWARD = {("granalytics.analysis.cg", "granalytics.plot"),
-               ("granalytics.analysis.population_balance", "granalytics.plot")}
+               ("granalytics.analysis.population_balance.dem", "granalytics.plot")}
 
 
 def _layer(module):

@@ -325,13 +325,13 @@ def test_tracking_reports_uneven_frame_spacing_and_bins_from_the_window(tmp_path
             writer.append(synthetic_snapshot(60, time=rev * period, step=k, seed=k, meta=meta))
     assert main(["track", str(src), "--out", str(tmp_path / "t"), "--quiet"]) == 0
     assert "frames are" in capsys.readouterr().err
-    assert main(["track", str(src), "--out", str(tmp_path / "w"), "--window", "0.8:1", "--quiet"]) == 0
+    assert main(["track", str(src), "--out", str(tmp_path / "w"), "--window-rev", "0.8:1", "--quiet"]) == 0
     rates = pd.read_csv(tmp_path / "w" / "rates.csv")
     assert sorted(rates["bin"].unique()) == [0] and rates["observed_s"].gt(0).all()
 
 
 @pytest.mark.parametrize("command, lock", [
-    (["track", "--window", "1:2"], "tracking.lock"),
+    (["track", "--window-rev", "1:2"], "tracking.lock"),
     (["export-vtk", "--window-rev", "1:2"], "run.pvd.lock"),
 ])
 def test_a_second_writer_into_an_output_folder_is_refused(run_file, tmp_path, capsys, command, lock):
@@ -344,3 +344,42 @@ def test_a_second_writer_into_an_output_folder_is_refused(run_file, tmp_path, ca
         assert "another writer holds the lock file" in capsys.readouterr().err
     assert main([command[0], run_file, "--out", str(out), *command[1:], "--quiet"]) == 0
     assert not (out / lock).exists()
+
+
+def test_info_prints_floats_to_six_significant_digits(capsys):
+    """info printed contacts_per_frame_mean as 232.60330578512398; --json keeps every digit."""
+    from pathlib import Path
+
+    run_file = str(Path(__file__).parents[1] / "datasets" / "lab-cg3.h5")
+    assert main(["info", run_file]) == 0
+    out = capsys.readouterr().out
+    mean = float(next(line.split()[1] for line in out.splitlines() if "contacts_per_frame_mean" in line))
+    with open_run(run_file) as run:
+        exact = run.info()["contacts_per_frame_mean"]
+    assert mean == float(f"{exact:.6g}") and len(str(exact)) > 10
+    assert main(["info", run_file, "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["file"]["contacts_per_frame_mean"] == exact
+
+
+@pytest.mark.parametrize("value, error, shown", [
+    (3, 0.0907, "3.000 ± 0.091"), (0.34012, 0.0151, "0.340 ± 0.015"), (12.345, 1.87, "12.3 ± 1.9"),
+    (12345, 870, "12340 ± 870"), (0.5, float("nan"), "0.5 ± n/a"),
+])
+def test_a_mean_and_its_error_are_printed_to_the_errors_figures(value, error, shown):
+    """compare-cg and study printed '3 ± 0.0907': the mean is now given to the error's last figure."""
+    from granalytics.cli._common import plus_minus
+
+    assert plus_minus(value, error) == shown
+
+
+def test_stats_says_what_its_errors_are_and_why_one_is_nan(capsys):
+    """A 0.25-revolution window printed 'sem NaN' with no note; neither std nor sem was named."""
+    from pathlib import Path
+
+    run = str(Path(__file__).parents[1] / "datasets" / "lab-cg3.h5")
+    assert main(["stats", run, "--window", "3:3.25", "--window-rev", "3:3.3", "--quiet"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith("std: over the frames of the window; sem: standard error") and "single block" in last
+    assert main(["stats", run, "--window", "3:4", "--window-rev", "3:4", "--quiet"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith("std: over the frames") and "NaN" not in last

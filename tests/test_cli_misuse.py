@@ -117,3 +117,115 @@ def test_stats_over_a_time_window_for_a_run_without_rotation(tmp_path, capsys):
     assert steady.loc["yield_fraction", "mean"] == pytest.approx(inside["yield_fraction"].mean())
     assert steady.loc["yield_fraction", "n_blocks"] == 5
     assert np.isfinite(steady.loc["yield_fraction", "sem"])
+
+
+# ------------------------------------------------------------------ round three (issue 33)
+@pytest.mark.parametrize("value", ["no", "yes", "0", "off"])
+def test_a_flag_given_as_text_is_refused_not_read_by_its_truth(run_file, capsys, value):
+    """dbscan bridged_only='no' was taken as true (any non-empty text is truthy)."""
+    assert main(["compare-methods", run_file, "--methods", "gna,dbscan", "--set", f"dbscan.bridged_only={value}",
+                 "--quiet"]) == 2
+    one_line_error(capsys, "bridged_only must be True or False", repr(int(value) if value.isdigit() else value))
+
+
+def test_the_api_refuses_a_flag_that_is_not_a_bool(run_file):
+    with ga.open_run(run_file) as run:
+        snapshot = run[2]
+    for value in ("no", 1, None):
+        with pytest.raises(ParameterError, match="bridged_only must be True or False"):
+            ga.identify(snapshot, method="dbscan", bridged_only=value)
+        with pytest.raises(ParameterError, match="bridged_only must be True or False"):
+            ga.DBSCANClustering(bridged_only=value).identify(snapshot)
+    assert ga.identify(snapshot, method="dbscan", bridged_only=np.bool_(False)).n_granules >= 0
+
+
+def test_a_sensitivity_grid_out_of_reach_is_refused_with_its_size(run_file, capsys, monkeypatch):
+    """A 10 000 × 10 000 grid ran (for hours, towards hundreds of GB) instead of being refused."""
+    import granalytics.core._resources
+
+    monkeypatch.setattr(granalytics.core._resources, "physical_memory", lambda: 16 * 10**9)
+    assert main(["sensitivity", run_file, "--c-agg", "0:1:10000", "--a-agg-deg", "1:90:10000", "--window", "0:3",
+                 "--quiet"]) == 2
+    one_line_error(capsys, "100000000 grid points", "GB of memory", "refused before starting")
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--revolutions", "1e12"], "PB of disk"), (["--particles", "1000000000"], "GB of memory"),
+    (["--revolutions", "nan"], "revolutions must be a finite number"),
+    (["--frames-per-revolution", "0"], "frames_per_revolution must be a whole number >= 1"),
+])
+def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, monkeypatch, argv, words):
+    import granalytics.core._resources
+
+    monkeypatch.setattr(granalytics.core._resources, "physical_memory", lambda: 16 * 10**9)
+    assert main(["synthetic", "--out", str(tmp_path / "s.h5"), *argv]) == 2
+    one_line_error(capsys, words)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda s: ga.Snapshot(time=0, step=0, **{**_fields(s), "position": [[0.0, 0.0, 0.0]] * (s.n_particles - 1) + [[1.0, 2.0]]}),
+     "'position': must be an array of numbers of shape (n,3)"),
+    (lambda s: ga.Snapshot(time=0, step=0, **{**_fields(s), "ids": [[1, 2], [3]]}), "'ids': must be an array"),
+    (lambda s: ga.identify(s, method=["gna"]), "unknown method ['gna']"),
+    (lambda s: ga.GraphNetworkAnalysis().identify("run.h5"), "GraphNetworkAnalysis.identify: snapshot must be"),
+    (lambda s: ga.run_stats([1, 2]), "snapshot must be a granalytics Snapshot, got int"),
+    (lambda s: ga.compare_cg(5), "compare_cg: runs must be a list"),
+    (lambda s: ga.compare_cg([1, 2]), "compare_cg: a run must be a run file's path or an open run, got int"),
+    (lambda s: ga.compare_cg(["a.h5", "b.h5"], window="3:6"), "window must be a pair of numbers"),
+    (lambda s: ga.subset_run("a.h5", "b.h5", [[0, 1], [2]]), "'frames': must be a sequence of whole frame indices"),
+    (lambda s: ga.study_table(5), "the sweep folder must be a path"),
+    (lambda s: __import__("granalytics.identify.edges", fromlist=["edge_table"]).edge_table(None),
+     "edge_table: result must be an IdentificationResult"),
+])
+def test_wrong_types_get_the_librarys_error_naming_the_argument(run_file, call, words):
+    """Ragged arrays, None, strings and ints ended in numpy / int() / AttributeError errors."""
+    with ga.open_run(run_file) as run:
+        snapshot = run[1]
+    with pytest.raises(ga.GranalyticsError) as exc:
+        call(snapshot)
+    assert words in str(exc.value) and "\n" not in str(exc.value)
+
+
+def _fields(s):
+    return {name: getattr(s, name) for name in ("ids", "radius", "position", "velocity", "angular_velocity",
+                                                 "film_volume", "contact_i", "contact_j", "f_cap", "f_normal", "gap",
+                                                 "bridge_volume")}
+
+
+def test_run_select_refuses_a_window_that_is_not_two_numbers(run_file):
+    with ga.open_run(run_file) as run:
+        for window in ("0:1", ("0", "1"), (0, 1, 2), (2, 1)):
+            with pytest.raises(ga.ParameterError, match="select: revolutions must be"):
+                run.select(revolutions=window)
+
+
+def test_a_c_agg_that_no_contact_can_pass_is_warned_of_in_one_line(capsys):
+    """--c-agg 1.5 was accepted silently and gave zeros: no pair scores above F_cap(0⁺) ≈ 0.855·2πγR*."""
+    from pathlib import Path
+
+    run = str(Path(__file__).parents[1] / "datasets" / "lab-cg3.h5")
+    assert main(["stats", run, "--window-rev", "3:3.5", "--window", "3:3.5", "--c-agg", "1.5", "--quiet"]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if "C_agg" in line]
+    assert len(warned) == 1 and warned[0].startswith(f"granalytics: warning: {run}: C_agg 1.5 is above the largest")
+    assert "0.855" in warned[0] or "0.854" in warned[0]
+    assert main(["stats", run, "--window-rev", "3:3.5", "--window", "3:3.5", "--quiet"]) == 0
+    assert "largest F_coh" not in capsys.readouterr().err
+    # a grid that crosses the cliff is what a sweep is for; one wholly above it finds nothing
+    assert main(["sensitivity", run, "--window", "3:3.5", "--c-agg", "0.6,0.8,0.9,1.2", "--a-agg-deg", "20",
+                 "--quiet"]) == 0
+    assert "largest F_coh" not in capsys.readouterr().err
+    assert main(["sensitivity", run, "--window", "3:3.5", "--c-agg", "0.9,1.2", "--a-agg-deg", "20", "--quiet"]) == 0
+    assert "every C_agg of the grid (from 0.9) is above the largest" in capsys.readouterr().err
+
+
+def test_track_window_is_the_old_spelling_of_window_rev(run_file, tmp_path, capsys):
+    """In track --window selected frames (an alias of --window-rev), everywhere else it is the
+    steady-state window: one name, one meaning; the old spelling still works, with one warning line."""
+    assert main(["track", run_file, "--out", str(tmp_path / "old"), "--window", "1:2", "--quiet"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0] == ("granalytics: warning: --window is the old spelling of --window-rev (the frames to track): "
+                      "everywhere else --window is the steady-state window; use --window-rev")
+    assert main(["track", run_file, "--out", str(tmp_path / "new"), "--window-rev", "1:2", "--quiet"]) == 0
+    assert "old spelling" not in capsys.readouterr().err
+    assert (pd.read_csv(tmp_path / "old" / "tracks.csv").equals(pd.read_csv(tmp_path / "new" / "tracks.csv")))

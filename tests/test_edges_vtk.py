@@ -108,3 +108,26 @@ def test_export_carries_granule_track_ids_and_the_drum(tmp_path):
     angle = math.atan2(baffle[1, 1], baffle[1, 0])
     assert angle == pytest.approx(math.pi / 2) and np.hypot(*baffle[0, :2]) == pytest.approx(0.085)
     assert drum.points[:, 2].max() == pytest.approx(0.045)
+
+
+def test_export_writes_the_track_ids_of_the_continuation_rule(tmp_path):
+    """Main-branch ids by default, the strict rule's with continuation="strict"; a bad value is
+    refused before anything is written."""
+    from granalytics.analysis.table import granule_tracks
+
+    path = write_synthetic_run(tmp_path / "run.h5", n_particles=200, revolutions=1.0, frames_per_revolution=8, seed=4)
+    written = {}
+    with ga.open_run(path) as run:
+        for rule in ("main", "strict"):
+            export_vtk(run, tmp_path / rule, c_agg=0.5, **({} if rule == "main" else {"continuation": rule}))
+            labels, tracks = granule_tracks(run, c_agg=0.5, continuation=rule)
+            written[rule] = []
+            for k in range(len(labels)):
+                got = meshio.read(tmp_path / rule / f"frame_{k:05d}.vtu").point_data["granule_track"]
+                mapping = tracks.labels_to_tracks[k]
+                assert np.array_equal(got, np.where(labels[k] >= 0, mapping[np.maximum(labels[k], 0)], -1))
+                written[rule].append(got)
+        assert any((a != b).any() for a, b in zip(written["main"], written["strict"]))
+        with pytest.raises(ParameterError, match="^continuation must be 'main' or 'strict'"):
+            export_vtk(run, tmp_path / "bad", c_agg=0.5, continuation="longest")
+    assert not (tmp_path / "bad").exists()

@@ -373,3 +373,81 @@ def test_a_mapping_value_of_the_wrong_kind_names_the_file_and_the_key(tmp_path, 
     with pytest.raises(ga.ValidationError) as err:
         DumpMapping.from_toml(toml)
     assert words in str(err.value) and str(toml) in str(err.value)
+
+
+# ---------------------------------------------------------------- ids read exactly (issue 33, A5)
+def _with_ids(lines, column, write):
+    """The dump ``lines`` with the values of ``column`` of every data row rewritten by ``write(value)``."""
+    out, columns = [], None
+    for line in lines:
+        if line.startswith("ITEM: ATOMS") or line.startswith("ITEM: ENTRIES"):
+            columns = line.split()[2:]
+        elif line.startswith("ITEM:"):
+            columns = None
+        elif columns and len(line.split()) == len(columns):
+            fields = line.split()
+            k = columns.index(column)
+            fields[k] = write(float(fields[k]))
+            line = " ".join(fields)
+        out.append(line)
+    return out
+
+
+def test_particle_ids_beyond_2_53_are_read_exactly_not_through_a_float(tmp_path, frames):
+    """ids were read as float64: 9007199254740993 came back as ...992 (two particles one id)."""
+    base = 9007199254740993 - 100  # atoms_block adds 100: ids from 2**53 + 1 upwards
+    atoms = _with_ids(atoms_block(frames[0], 0, np.arange(300)), "id", lambda v: str(int(v) + base))
+    local = _with_ids(_with_ids(local_block(frames[0], 0), "c_pl[1]", lambda v: str(int(v) + base)),
+                      "c_pl[2]", lambda v: str(int(v) + base))
+    (tmp_path / "a.dump").write_text("\n".join(atoms) + "\n")
+    (tmp_path / "p.dump").write_text("\n".join(local) + "\n")
+    snapshots, _ = read_liggghts([tmp_path / "a.dump"], [tmp_path / "p.dump"], DumpMapping(**MAPPING), dt=DT)
+    np.testing.assert_array_equal(snapshots[0].ids, frames[0].ids + 100 + base)
+    assert 9007199254740993 in snapshots[0].ids.tolist()
+    assert ga.identify(snapshots[0]).partition() == {frozenset(int(x) + 100 + base for x in g)
+                                                       for g in ga.identify(frames[0]).partition()}
+
+
+@pytest.mark.parametrize("column, value, words", [
+    ("c_pl[1]", "3.5", "is not a whole number"), ("id", "2.5", "is not a whole number"),
+    ("id", "1e16", "float above 2**53"), ("c_pl[2]", "99999999999999999999", "beyond the 64-bit integers"),
+])
+def test_ids_that_are_not_exact_integers_are_refused_naming_the_line(tmp_path, frames, column, value, words):
+    """a contact id 3.5 was truncated to particle 3; 1e16 rounded to another particle."""
+    atoms, local = atoms_block(frames[0], 0, np.arange(300)), local_block(frames[0], 0)
+    target = atoms if column == "id" else local
+    header = next(k for k, line in enumerate(target) if line.startswith("ITEM: ATOMS") or line.startswith("ITEM: ENTRIES"))
+    fields = target[header + 1].split()
+    fields[target[header].split()[2:].index(column)] = value
+    target[header + 1] = " ".join(fields)
+    (tmp_path / "a.dump").write_text("\n".join(atoms) + "\n")
+    (tmp_path / "p.dump").write_text("\n".join(local) + "\n")
+    with pytest.raises(DumpFormatError, match=f"line {header + 2}: .*{value!r}") as exc:
+        read_liggghts([tmp_path / "a.dump"], [tmp_path / "p.dump"], DumpMapping(**MAPPING), dt=DT)
+    assert words in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_tab_separated_dumps_read_as_the_space_separated_ones(tmp_path, frames):
+    """'ITEM:\\tTIMESTEP' was refused ('expected ITEM: TIMESTEP'), though LAMMPS reads such a dump."""
+    pf, cf = write_dumps(tmp_path, frames)
+    spaced = read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)[0]
+    for path in (*pf, *cf):
+        path.write_text(path.read_text().replace(" ", "\t"))
+    tabbed = read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)[0]
+    assert len(tabbed) == len(spaced) == len(frames)
+    for a, b in zip(spaced, tabbed):
+        assert a.step == b.step
+        for name in ("ids", "position", "contact_i", "contact_j", "f_cap"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_convert_without_dt_names_the_option(tmp_path, frames, capsys):
+    from granalytics.cli import main
+
+    pf, cf = write_dumps(tmp_path, frames)
+    mapping = tmp_path / "map.toml"
+    mapping.write_text("\n".join(f"{k} = {v!r}".replace("'", '"') for k, v in MAPPING.items()) + "\n")
+    assert main(["convert", *map(str, pf), "--contacts", *map(str, cf), "--mapping", str(mapping),
+                 "--out", str(tmp_path / "run.h5"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("granalytics: error: --dt-s:") and "\n" not in err

@@ -13,6 +13,7 @@ import granalytics as ga
 from granalytics import ParameterError
 from granalytics.identify import sieve_analysis
 from granalytics.datasets.synthetic import synthetic_snapshot
+from granalytics.identify._kernels import canonical_labels
 from conftest import R0, make_meta, make_snapshot
 
 D = 2 * R0
@@ -38,7 +39,7 @@ def test_dbscan_with_min_samples_2_equals_components_of_the_eps_graph():
     i, j = np.nonzero(np.triu(d <= 1.05, 1))
     _, comp = connected_components(coo_matrix((np.ones(i.size), (i, j)), shape=(800, 800)), directed=False)
     expected = ga.identify(s, method="gna", c_agg=0.0, a_agg_deg=180.0)  # placeholder type for partition()
-    expected.labels, expected.sizes = __import__("granalytics")._kernels.canonical_labels(comp.astype(np.int64))
+    expected.labels, expected.sizes = canonical_labels(comp.astype(np.int64))
     got = ga.identify(s, method="dbscan", bridged_only=False, eps_diameters=1.05)
     assert got.partition() == expected.partition() and got.n_granules > 0
 

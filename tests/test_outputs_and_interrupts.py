@@ -102,9 +102,9 @@ def test_ctrl_c_is_one_line_and_exit_130(run_file, tmp_path, capsys, monkeypatch
         raise KeyboardInterrupt
 
     monkeypatch.setattr(ga.GraphNetworkAnalysis, "identify", interrupted)
-    import sys
+    import granalytics.analysis.sensitivity
 
-    monkeypatch.setattr(sys.modules["granalytics.analysis.sensitivity"], "sensitivity",
+    monkeypatch.setattr(granalytics.analysis.sensitivity, "sensitivity",
                         lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt()))
     argv = [command[0], run_file, *(str(tmp_path / a) if a in ("labels.h5", "kin", "vtk") else a for a in command[1:]),
             "--quiet"]
@@ -241,7 +241,7 @@ def test_a_killed_writers_temporary_is_removed_by_the_next_write(run_file, tmp_p
 
 def test_a_failed_track_leaves_no_empty_folder(run_file, tmp_path, capsys):
     out = tmp_path / "kinetics"
-    assert main(["track", run_file, "--out", str(out), "--window", "50:60", "--quiet"]) == 2
+    assert main(["track", run_file, "--out", str(out), "--window-rev", "50:60", "--quiet"]) == 2
     assert not out.exists()
 
 
@@ -347,3 +347,240 @@ def test_the_readme_says_how_to_reach_the_commands():
         "make demo    # identify granules and print granulation statistics on the demo run",
         "make test    # create .venv, install the project with its test extras, run the test suite"]
     assert ". .venv/bin/activate" in readme and ".venv/bin/granalytics" in readme
+
+
+# ------------------------------------------------------------ round three (issue 33): Ctrl-C (A2)
+def test_ctrl_c_while_the_commands_load_is_one_line_and_exit_130(run_file, tmp_path):
+    """The commands' imports take seconds; a Ctrl-C then printed a KeyboardInterrupt traceback
+    and the process died of SIGINT (exit -2). A real SIGINT, 0.3 s after the start."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "granalytics", "identify", run_file, "--out",
+                             str(tmp_path / "labels.h5"), "--quiet"], stderr=subprocess.PIPE, text=True)
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().startswith("granalytics:") and "\n" not in err.strip() and "interrupted" in err
+    assert not (tmp_path / "labels.h5").exists()
+
+
+def test_the_console_script_handles_ctrl_c_before_the_commands_are_imported(monkeypatch, capsys):
+    import builtins
+
+    import granalytics.__main__ as entry
+
+    real = builtins.__import__
+
+    def interrupted_import(name, *args, **kwargs):
+        if name == "granalytics.cli":
+            raise KeyboardInterrupt
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", interrupted_import)
+    assert entry.main(["info", "run.h5"]) == 130
+    assert capsys.readouterr().err.strip() == "granalytics: interrupted before any work; nothing was written"
+
+
+def test_ctrl_c_inside_a_numba_kernel_is_an_interrupt_too(run_file, tmp_path, monkeypatch, capsys):
+    """A Ctrl-C while a numba kernel runs surfaces as SystemError ('... returned a result with an
+    exception set'), which export-vtk printed as a traceback with exit 1."""
+    def kernel_interrupted(self, snapshot):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise SystemError("CPUDispatcher(<function gna_fused>) returned a result with an exception set")
+
+    monkeypatch.setattr(ga.GraphNetworkAnalysis, "identify", kernel_interrupted)
+    assert main(["export-vtk", run_file, "--out", str(tmp_path / "vtk"), "--quiet"]) == 130
+    _one_line(capsys, "interrupted", prefix="granalytics: export-vtk:")
+
+
+def _interrupt_the_swap_at(monkeypatch, call):
+    """Ctrl-C at the ``call``-th rename of the swap that puts staged outputs in place."""
+    import granalytics.core.files as files
+
+    real, seen = os.replace, []
+
+    def replace(src, dst):
+        if ".staging-" in os.fspath(src) or ".staging-" in os.fspath(dst):
+            seen.append(dst)
+            if len(seen) == call:
+                raise KeyboardInterrupt
+        return real(src, dst)
+
+    monkeypatch.setattr(files.os, "replace", replace)
+    return seen
+
+
+@pytest.mark.parametrize("call", [2, 3, 5, 7])
+@pytest.mark.parametrize("command", ["stats", "track", "compare-cg"])
+def test_ctrl_c_inside_the_final_renames_changes_no_output(run_file, tmp_path, monkeypatch, capsys, command, call):
+    """A Ctrl-C during the renames of a multi-file output left 2 new and 3 old files: now the
+    earlier outputs are put back (all old), exit 130."""
+    out = tmp_path / "out"
+    runs = [run_file]
+    if command == "compare-cg":
+        runs.append(write_synthetic_run(tmp_path / "cg2.h5", n_particles=60, revolutions=2.0, frames_per_revolution=4,
+                                        alpha=2.0, seed=7))
+    argv = {"stats": ["stats", run_file, "--window", "0:2", "--out", str(out / "ts.csv"), "--steady-out",
+                      str(out / "steady.csv"), "--sizes-out", str(out / "sizes.csv"), "--plot", str(out / "p.png")],
+            "track": ["track", run_file, "--out", str(out)],
+            "compare-cg": ["compare-cg", *runs, "--window", "1:2", "--out", str(out)]}[command]
+    out.mkdir()
+    assert main([*argv, "--quiet"]) == 0
+    before = _digest(out)
+    seen = _interrupt_the_swap_at(monkeypatch, call)
+    assert main([*argv, "--quiet", "--overwrite", "--c-agg", "0.3"]) == 130
+    assert len(seen) >= call  # the interrupt came inside the swap (then the renames that undo it)
+    assert _digest(out) == before
+    assert not [p for p in os.listdir(out) if p.startswith(".staging")]
+    capsys.readouterr()
+
+
+def test_a_real_sigint_during_the_swap_is_held_and_undoes_it(tmp_path, monkeypatch):
+    import signal
+
+    import granalytics.core.files as files
+
+    targets = [tmp_path / f"t{k}.csv" for k in range(4)]
+    for target in targets:
+        target.write_text("old")
+    real = os.replace
+
+    def replace(src, dst):
+        if dst == os.fspath(targets[1]):
+            os.kill(os.getpid(), signal.SIGINT)  # delivered at once: held until the swap is done
+        return real(src, dst)
+
+    monkeypatch.setattr(files.os, "replace", replace)
+    with pytest.raises(KeyboardInterrupt):
+        with files.staged_outputs() as stage:
+            for target in targets:
+                with open(stage(target), "w") as f:
+                    f.write("new")
+    assert [t.read_text() for t in targets] == ["old"] * 4
+    assert sorted(os.listdir(tmp_path)) == sorted(t.name for t in targets)
+
+
+def test_ctrl_c_while_bundle_sweep_replaces_a_bundle_keeps_the_old_one(sweep, tmp_path, monkeypatch, capsys):
+    """Ctrl-C during the replacement deleted the new bundle and part of the old one."""
+    import shutil as shutil_module
+
+    dst = tmp_path / "bundle"
+    assert main(["datasets", "bundle-sweep", str(sweep), str(dst)]) == 0
+    before = _digest(dst)
+    real = shutil_module.rmtree
+
+    def interrupted_rmtree(path, *args, **kwargs):  # the old code deleted dst before the rename
+        if os.fspath(path) == os.fspath(dst):
+            real(os.path.join(path, "points"), *args, **kwargs)
+            raise KeyboardInterrupt
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(shutil_module, "rmtree", interrupted_rmtree)
+    import granalytics.core.files as files
+
+    real_replace, interrupts = os.replace, []
+
+    def replace(src, dst_path):  # Ctrl-C as the new bundle is renamed into place (once)
+        if os.fspath(dst_path) == os.fspath(dst) and not interrupts:
+            interrupts.append(src)
+            raise KeyboardInterrupt
+        return real_replace(src, dst_path)
+
+    monkeypatch.setattr(files.os, "replace", replace)
+    assert main(["datasets", "bundle-sweep", str(sweep), str(dst), "--overwrite"]) == 130
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err == f"granalytics datasets bundle-sweep: interrupted; {dst} was left as it was"
+    assert _digest(dst) == before
+    assert sorted(os.listdir(tmp_path)) == ["bundle", "sweep"]
+
+
+# ------------------------------------------------- writes where they should not (A6, A7)
+@pytest.mark.parametrize("command", ["identify", "subset", "table", "synthetic"])
+def test_an_output_that_is_a_device_is_refused_even_with_overwrite(run_file, tmp_path, capsys, command):
+    """--out /dev/null --overwrite replaced the device with a file (as root); a table through a
+    link to it (its name needs a table extension) the same."""
+    out = "/dev/null"
+    if command == "table":
+        out = tmp_path / "t.parquet"
+        out.symlink_to("/dev/null")
+    argv = (["synthetic", "--out", str(out), "--particles", "50"] if command == "synthetic"
+            else [command, run_file, "--out", str(out), "--quiet"])
+    before = os.stat("/dev/null")
+    assert main([*argv, "--overwrite"]) == 2
+    _one_line(capsys, str(out), "not a regular file")
+    after = os.stat("/dev/null")
+    assert (after.st_ino, after.st_rdev) == (before.st_ino, before.st_rdev)
+    assert not os.path.exists("/dev/null.lock")
+
+
+def test_synthetic_replaces_a_run_only_with_overwrite_and_never_through_a_link(run_file, tmp_path, capsys):
+    """synthetic --out replaced an existing run without --overwrite, wrote through a symlink into
+    another run, and a Ctrl-C truncated the run it was replacing."""
+    precious = tmp_path / "precious.h5"
+    shutil.copy(run_file, precious)
+    digest = hashlib.sha256(precious.read_bytes()).hexdigest()
+    link = tmp_path / "link.h5"
+    link.symlink_to(precious)
+    for out in (precious, link):
+        assert main(["synthetic", "--out", str(out), "--particles", "50", "--revolutions", "0.5"]) == 2
+        _one_line(capsys, "exists", "--overwrite")
+    assert main(["synthetic", "--out", str(link), "--particles", "50", "--revolutions", "0.5", "--overwrite"]) == 0
+    assert not link.is_symlink() and ga.open_run(link).n_particles == 50
+    assert hashlib.sha256(precious.read_bytes()).hexdigest() == digest
+    capsys.readouterr()
+
+
+def test_an_interrupted_synthetic_leaves_the_run_it_replaces_whole(run_file, tmp_path, monkeypatch, capsys):
+    precious = tmp_path / "precious.h5"
+    shutil.copy(run_file, precious)
+    digest = hashlib.sha256(precious.read_bytes()).hexdigest()
+    import granalytics.datasets.synthetic as synthetic
+
+    real, calls = synthetic.synthetic_snapshot, []
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(synthetic, "synthetic_snapshot", interrupted)
+    assert main(["synthetic", "--out", str(precious), "--particles", "50", "--overwrite"]) == 130
+    _one_line(capsys, "interrupted", prefix="granalytics: synthetic:")
+    assert hashlib.sha256(precious.read_bytes()).hexdigest() == digest
+    assert sorted(os.listdir(tmp_path)) == ["precious.h5"]
+
+
+def test_an_output_linked_to_the_input_is_the_input(run_file, tmp_path, capsys):
+    """identify --out LINK, LINK a symlink to its own input, replaced the input run."""
+    source = tmp_path / "run.h5"
+    shutil.copy(run_file, source)
+    digest = hashlib.sha256(source.read_bytes()).hexdigest()
+    link = tmp_path / "labels.h5"
+    link.symlink_to(source)
+    for command in ("identify", "subset", "table"):
+        out = link if command != "table" else tmp_path / "t.parquet"
+        if command == "table":
+            out.symlink_to(source)
+        assert main([command, str(source), "--out", str(out), "--overwrite", "--quiet"]) == 2
+        _one_line(capsys, "input run")
+    assert hashlib.sha256(source.read_bytes()).hexdigest() == digest
+
+
+def test_study_refuses_an_output_that_reaches_the_sweep_through_a_link(sweep, tmp_path, capsys):
+    """study --out through a symlinked sweep folder overwrote the sweep's manifest.csv."""
+    (tmp_path / "alias").symlink_to(sweep)
+    before = _digest(sweep)
+    for out in (tmp_path / "alias" / "manifest.csv", tmp_path / "alias" / "points" / "t.csv"):
+        assert main(["study", str(sweep), "--out", str(out), "--overwrite", "--quiet"]) == 2
+        _one_line(capsys, "inside the sweep folder")
+    (tmp_path / "table.csv").symlink_to(sweep / "manifest.csv")
+    assert main(["study", str(sweep), "--out", str(tmp_path / "table.csv"), "--overwrite", "--quiet"]) == 2
+    _one_line(capsys, "inside the sweep folder")
+    assert _digest(sweep) == before

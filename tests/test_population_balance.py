@@ -158,7 +158,7 @@ def test_the_jacobian_is_the_derivative_of_the_right_hand_side():
 @pytest.mark.parametrize("x,nu,m", [(10, 2, 1), (10, 3, 2), (12, 4, 2), (9, 3, 3), (7, 2, 2)])
 def test_uniform_fragments_are_every_composition_equally_likely(x, nu, m):
     """Expected fragment counts of a breakage into ν parts of >= m particles, against enumeration."""
-    from granalytics.analysis.population_balance import _composition_fragments
+    from granalytics.analysis.population_balance.model import _composition_fragments
 
     comps = [c for c in product(range(m, x + 1), repeat=nu) if sum(c) == x]
     expected = np.zeros(x)

@@ -179,10 +179,19 @@ def test_lock_is_held_through_compaction_and_released_after_errors(tmp_path, fra
     monkeypatch.setattr(RunWriter, "_compact", spy)
     write_run(path, frames[:2])
     assert seen == [os.getpid()] and not os.path.exists(f"{path}.lock")
-    # creating the HDF5 file fails (a folder is in the way): the lock goes too
+    # creating the HDF5 file fails: the lock goes too
+    def cannot_create(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(h5py, "File", cannot_create)
+        with pytest.raises(RunFileError, match="cannot create run file"):
+            RunWriter(tmp_path / "full.h5", frames[0].meta, overwrite=True)
+    assert not os.path.exists(tmp_path / "full.h5.lock")
+    # a folder in the way is refused before any lock file is made
     folder = tmp_path / "folder.h5"
     folder.mkdir()
-    with pytest.raises(RunFileError, match="cannot create run file"):
+    with pytest.raises(GranalyticsError, match="is a folder"):
         RunWriter(folder, frames[0].meta, overwrite=True)
     assert not os.path.exists(f"{folder}.lock")
     with pytest.raises(RunFileError, match="lock file"):
@@ -562,3 +571,127 @@ def test_errors_are_granalytics_errors(run_path):
     edit(run_path, lambda f: f["frames/step"].resize(2, axis=0))
     with pytest.raises(GranalyticsError):
         open_run(run_path)
+
+
+# ------------------------------------------------- mutated metadata (issue 33: round three, A1, A8)
+def _mutated(tmp_path, run_path, name, change):
+    path = tmp_path / f"{name}.h5"
+    path.write_bytes(run_path.read_bytes())
+    with h5py.File(path, "a") as f:
+        change(f)
+    return path
+
+
+def _set_json(group, key, update):
+    value = json.loads(group.attrs[key])
+    update(value)
+    group.attrs[key] = json.dumps(value)
+
+
+@pytest.mark.parametrize("name, change, words", [
+    ("format_ascii", lambda f: f.attrs.__setitem__("format", b"granalytics-run"), "'format'"),
+    ("format_bytes_array", lambda f: f.attrs.__setitem__("format", np.array([b"granalytics-run"])), "'format'"),
+    ("version_text", lambda f: f.attrs.__setitem__("format_version", "1"), "'format_version'"),
+    ("version_float", lambda f: f.attrs.__setitem__("format_version", 1.5), "'format_version'"),
+    ("version_bool", lambda f: f.attrs.__setitem__("format_version", True), "'format_version'"),
+    ("density_text", lambda f: f["meta"].attrs.__setitem__("density", "2500"), "'density'"),
+    ("gamma_bytes", lambda f: f["meta"].attrs.__setitem__("surface_tension", np.bytes_(b"0.1")), "'surface_tension'"),
+    ("omega_bool", lambda f: f["meta"].attrs.__setitem__("drum_omega", True), "'drum_omega'"),
+    ("capillary_text", lambda f: f["meta"].attrs.__setitem__("capillary_in_contact", "false"), "'capillary_in_contact'"),
+    ("params_int", lambda f: f["meta"].attrs.__setitem__("sim_config", json.dumps({"params": 5})), "'sim_config.params'"),
+    ("original_list", lambda f: f["meta"].attrs.__setitem__("sim_config", json.dumps({"original": [1]})),
+     "'sim_config.original'"),
+    ("params_capillary_text", lambda f: f["meta"].attrs.__setitem__(
+        "sim_config", json.dumps({"params": {"capillary_in_contact": "false"}})), "'sim_config.params.capillary_in_contact'"),
+    ("params_radius_text", lambda f: f["meta"].attrs.__setitem__(
+        "sim_config", json.dumps({"params": {"drum_radius": "0.02"}})), "'sim_config.params.drum_radius'"),
+    ("wall_time_text", lambda f: _set_json(f["meta"], "provenance", lambda p: p.update(wall_time_s="39 s")),
+     "'provenance.wall_time_s'"),
+    ("provenance_number", lambda f: f["meta"].attrs.__setitem__("provenance", 5), "provenance"),
+])
+def test_mutated_metadata_is_refused_naming_the_attribute(tmp_path, run_path, capsys, name, change, words):
+    """Each was read as a valid run by info, stats and subset (69 cases of round three): the text
+    "false" as True (yield 0.88 instead of 0.34), "2500" as a density, an int as sim_config's table."""
+    path = _mutated(tmp_path, run_path, name, change)
+    with pytest.raises(GranalyticsError) as exc:
+        open_run(path)
+    assert words in one_line(exc.value) and str(path) in str(exc.value)
+    for argv in (["info", str(path)], ["stats", str(path), "--quiet"],
+                 ["subset", str(path), "--out", str(tmp_path / "s.h5")]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("granalytics: error:") and "\n" not in err and words in err
+    assert not (tmp_path / "s.h5").exists()
+
+
+def test_a_null_wall_time_is_not_measured_in_compare_cg(tmp_path):
+    """compare-cg raised TypeError: float() argument must be ... 'NoneType' on a run whose
+    provenance records "wall_time_s": null."""
+    from granalytics.datasets.synthetic import write_synthetic_run
+
+    runs = []
+    for alpha, n in ((1.0, 400), (2.0, 50)):
+        path = write_synthetic_run(tmp_path / f"cg{alpha:g}.h5", n_particles=n, revolutions=2.0,
+                                   frames_per_revolution=4, alpha=alpha, seed=1)
+        with h5py.File(path, "a") as f:
+            _set_json(f["meta"], "provenance", lambda p: p.update(wall_time_s=None, wall_time_per_simulated_s=None))
+        runs.append(path)
+    comparison = granalytics.compare_cg(runs, window=(1, 2))
+    assert np.isnan(comparison.table["speedup"]).all()
+
+
+# ------------------------------------------------------ a run left by a killed simulation (A3)
+def test_info_and_stats_say_that_a_killed_writers_run_is_unfinished(killed_run, capsys):
+    """info and stats showed a run whose writer was killed after 6 frames as a valid run."""
+    with open_run(killed_run) as run:
+        assert "did not close it" in run.unfinished
+    assert main(["info", str(killed_run)]) == 0
+    captured = capsys.readouterr()
+    assert f"granalytics: warning: {killed_run}: unfinished run:" in captured.err
+    assert "finished" in captured.out and "no: its writer did not close it" in captured.out
+    assert main(["stats", str(killed_run), "--window-time", "0:100", "--quiet"]) == 0
+    assert capsys.readouterr().err.count(f"{killed_run}: unfinished run: its writer did not close it") == 1
+
+
+@pytest.mark.parametrize("provenance, words", [
+    ({"code": "sim", "planned_frames": 11}, ["5 of the 11 frames planned", "no wall time"]),
+    ({"code": "sim", "wall_time_s": 12.5, "planned_frames": 11}, ["5 of the 11 frames planned"]),
+    ({"code": "sim"}, ["the simulator recorded no end (no wall time) after its 5 frames"]),
+])
+def test_a_run_stopped_before_its_planned_frames_is_unfinished(tmp_path, frames, provenance, words):
+    frames[0].meta.provenance = provenance
+    path = write_run(tmp_path / "run.h5", frames)
+    with open_run(path) as run:
+        assert all(w in run.unfinished for w in words), run.unfinished
+    frames[0].meta.provenance = {"code": "sim", "wall_time_s": 1.0, "planned_frames": 5}
+    with open_run(write_run(tmp_path / "done.h5", frames)) as run:
+        assert run.unfinished is None
+
+
+# ---------------------------------------------------------------------- resources (A4)
+def test_a_small_file_declaring_2e8_particles_is_refused_at_once(tmp_path, run_path, capsys, monkeypatch):
+    """450 kB declaring 2·10⁸ particles drove info/stats/subset past 8 GB of memory (the machine
+    taken to have 16 GB, so that the test refuses on any machine)."""
+    import granalytics.core._resources
+
+    monkeypatch.setattr(granalytics.core._resources, "physical_memory", lambda: 16 * 10**9)
+    n = 200_000_000
+    path = tmp_path / "huge.h5"
+    with h5py.File(path, "w") as f, h5py.File(run_path, "r") as src:
+        for key, value in src.attrs.items():
+            f.attrs[key] = value
+        for group in ("meta", "frames", "contacts"):
+            src.copy(group, f)
+        f["meta"].attrs["n_particles"] = np.int64(n)
+        f["meta"].attrs["n_particles_original"] = np.int64(n)
+        for name, ds in src["particles"].items():  # declared, never written: fill values
+            f.create_dataset(f"particles/{name}", shape=(ds.shape[0], n) + ds.shape[2:], dtype=ds.dtype,
+                             chunks=(1, 1 << 20) + ds.shape[2:], compression="gzip")
+    assert path.stat().st_size < 1_000_000
+    for argv in (["info", str(path)], ["stats", str(path), "--quiet"],
+                 ["subset", str(path), "--out", str(tmp_path / "s.h5")]):
+        t0 = time.monotonic()
+        assert main(argv) == 2
+        assert time.monotonic() - t0 < 10
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and "200000000 particles" in err and "GB of memory" in err

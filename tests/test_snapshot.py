@@ -146,3 +146,11 @@ def test_run_meta_json_fields_must_be_dicts_that_json_stores_unchanged():
     m.sim_config = {"when": object()}  # changed after construction: validate() catches it
     with pytest.raises(ValidationError, match="field 'sim_config'"):
         m.validate()
+
+
+def test_a_snapshot_prints_as_one_line():
+    """print(snapshot) printed every array of the frame (~500 lines)."""
+    s = make_snapshot(4, [(0, 1), (1, 2)], [0.5, 0.7], time=1.5, step=300)
+    text = repr(s)
+    assert "\n" not in text and len(text) < 120 and str(s) == text
+    assert f"{s.n_particles} particles" in text and f"{s.n_contacts} contacts" in text and f"step {s.step}" in text

@@ -73,3 +73,47 @@ def test_granule_table_carries_the_same_track_ids(run_file):
     assert (joined["granule_track"] == joined["track"]).all() and len(joined) == len(members)
     size_column = "size" if "size" in granules else "n_particles"
     assert (joined[size_column].to_numpy() == joined.iloc[:, -1].to_numpy()).all()
+
+
+def test_track_ids_follow_the_main_branch_by_default_and_the_strict_rule_on_request(run_file, tmp_path):
+    import h5py
+
+    with ga.open_run(run_file) as run:
+        main_ids = ga.particle_table(run, c_agg=0.5)
+        strict = ga.particle_table(run, c_agg=0.5, continuation="strict")
+        pd.testing.assert_frame_equal(main_ids, ga.particle_table(run, c_agg=0.5, continuation="main"))
+        granules = ga.granule_track_table(run, c_agg=0.5, continuation="strict")
+        _, strict_tracks = ga.table.granule_tracks(run, c_agg=0.5, continuation="strict")
+        _, main_tracks = ga.table.granule_tracks(run, c_agg=0.5)
+    assert main_tracks.continuation == "main" and strict_tracks.continuation == "strict"
+    pd.testing.assert_frame_equal(main_ids.drop(columns="granule_track"), strict.drop(columns="granule_track"))
+    # the synthetic run has breakages and coalescences: the main branch keeps ids the strict rule renews
+    assert (main_ids.granule_track != strict.granule_track).any()
+    assert main_ids.granule_track.nunique() < strict.granule_track.nunique()
+    lived = strict_tracks.tracks.set_index("track")
+    member = strict[strict.granule >= 0]
+    for track, part in member.groupby("granule_track"):
+        assert part.groupby("frame").size().tolist() == list(lived.loc[track, "sizes"])
+    first = member.groupby(["frame", "granule"]).granule_track.first()
+    assert (granules.set_index(["frame", "granule"])["granule_track"] == first).all()
+    # the commands write the same ids with --continuation strict
+    out = tmp_path / "strict.csv"
+    assert main(["table", run_file, "--out", str(out), "--c-agg", "0.5", "--continuation", "strict", "--quiet"]) == 0
+    assert np.array_equal(pd.read_csv(out).granule_track.to_numpy(), strict.granule_track.to_numpy())
+    labels = tmp_path / "labels.h5"
+    assert main(["identify", run_file, "--out", str(labels), "--c-agg", "0.5", "--continuation", "strict",
+                 "--quiet"]) == 0
+    with h5py.File(labels, "r") as f:
+        assert f.attrs["continuation"] == "strict"
+        assert np.array_equal(f["granule_track"][:].ravel(), strict.granule_track.to_numpy())
+
+
+def test_invalid_continuation_is_refused_before_any_work(run_file, tmp_path, capsys):
+    with ga.open_run(run_file) as run, pytest.raises(ga.ParameterError,
+                                                     match=r"^continuation must be 'main' or 'strict', got 'none'$"):
+        ga.particle_table(run, c_agg=0.5, continuation="none")
+    out = tmp_path / "t.csv"
+    with pytest.raises(SystemExit) as refused:  # argparse refuses the option value, exit status 2
+        main(["table", run_file, "--out", str(out), "--continuation", "none", "--quiet"])
+    assert refused.value.code == 2 and not out.exists()
+    assert "argument --continuation: invalid choice: 'none'" in capsys.readouterr().err

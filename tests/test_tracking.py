@@ -253,6 +253,156 @@ def test_input_errors():
 
 
 # ----------------------------------------------------------------------------------------------
+# continuation rules: the main branch keeps its id, the events stay the same
+
+
+def granule_events(tr):
+    """The events table with each track id replaced by the granule it names: (frame, label) of
+    the parents at the frame before the event and of the children at the event's frame."""
+    def granules(tracks, frame_index):
+        l2t = tr.labels_to_tracks[frame_index]
+        return [(frame_index, int(np.flatnonzero(l2t == t)[0])) for t in tracks]
+
+    ev = tr.events.copy()
+    ev["parents"] = [granules(p, f - 1) for p, f in zip(ev["parents"], ev["frame"])]
+    ev["children"] = [granules(c, f) for c, f in zip(ev["children"], ev["frame"])]
+    return ev
+
+
+def check_same_events(strict, main):
+    """The same events (kind, frame, sizes, and parents and children as granules) under both rules,
+    hence the same rates, kernel and selection rate."""
+    assert strict.continuation == "strict" and main.continuation == "main"
+    pd.testing.assert_frame_equal(granule_events(strict), granule_events(main))
+    ids = ["parents", "children"]
+    pd.testing.assert_frame_equal(strict.events.drop(columns=ids), main.events.drop(columns=ids))
+    for rate in (lambda t: event_rates(t, revolution_period_s=2.0), coalescence_kernel, breakage_rate):
+        pd.testing.assert_frame_equal(rate(strict), rate(main))
+
+
+def check_main_tracks(tr):
+    """Main-branch tracks: the size histories are the per-frame sizes, a track is continued only
+    along a link in which each granule is the other's main one, and a continuing granule's id is
+    among the parents of its coalescence or the children of its breakage."""
+    tracks = tr.tracks.set_index("track")
+    assert "breakage" not in set(tracks["end"])
+    for k, (l2t, sizes) in enumerate(zip(tr.labels_to_tracks, tr.sizes_by_frame)):
+        assert (l2t >= 0).sum() == (sizes > 0).sum() and len(set(l2t[l2t >= 0])) == (sizes > 0).sum()
+        for label in np.flatnonzero(sizes):
+            row = tracks.loc[l2t[label]]
+            assert row.first_frame <= k <= row.last_frame and row.sizes[k - row.first_frame] == sizes[label]
+    for row in tr.events.itertuples():
+        if row.kind == "coalescence" and row.children[0] in row.parents:
+            assert tracks.loc[row.children[0], "first_frame"] < row.frame
+        if row.kind == "breakage":
+            assert row.parents[0] in row.children or tracks.loc[row.parents[0], "end"] == "coalescence"
+
+
+def test_main_branch_keeps_the_id_of_a_granule_that_sheds_a_pair():
+    big, ids = range(10), np.arange(30)
+    f0 = frame([big], ids)
+    # it sheds the pair {8, 9} and layers particle 25; a pair {20, 21} is born and dies
+    f1 = frame([[20, 21], [*range(8), 25], [8, 9]], ids)
+    f2 = frame([[*range(8), 25], [8, 9]], ids)
+    strict = track([f0, f1, f2])
+    main = track([f0, f1, f2], continuation="main")
+    check_same_events(strict, main)
+    assert strict.event_counts().to_dict() == {"birth": 1, "death": 1, "coalescence": 0, "breakage": 1}
+
+    assert track_of(strict, 1, 1) != track_of(strict, 0, 0)  # strict: the large piece is a new track
+    assert track_of(main, 1, 1) == track_of(main, 0, 0) == track_of(main, 2, 0)
+    shed = track_of(main, 1, 2)
+    assert shed != track_of(main, 0, 0) and shed == track_of(main, 2, 1)
+    brk = events_of(main, "breakage").iloc[0]
+    assert brk["parents"] == [track_of(main, 0, 0)] and brk["children"] == [track_of(main, 0, 0), shed]
+    tracks = main.tracks.set_index("track")
+    assert tracks.loc[track_of(main, 0, 0), ["origin", "end", "sizes"]].tolist() == ["initial", "alive", [10, 9, 9]]
+    assert tracks.loc[shed, ["origin", "end", "sizes"]].tolist() == ["breakage", "alive", [2, 2]]
+    assert main.n_tracks == 3 and strict.n_tracks == 4
+    check_main_tracks(main)
+
+
+def test_main_branch_continues_the_largest_contributor_of_a_coalescence():
+    A, B, C = range(6), range(6, 10), range(10, 13)
+    ids = np.arange(20)
+    f0 = frame([B, A, C], ids)  # the largest contributor is not label 0
+    f1 = frame([[*A, *B, 10, 11, 15]], ids)  # A + B + two of C (a third coalescing parent) + a free particle
+    strict = track([f0, f1])
+    main = track([f0, f1], continuation="main")
+    check_same_events(strict, main)
+    coal = events_of(main, "coalescence").iloc[0]
+    assert coal["parent_sizes"] == [4, 6, 3] and coal["children"] == [track_of(main, 0, 1)]
+    tracks = main.tracks.set_index("track")
+    assert tracks.loc[track_of(main, 0, 1), ["end", "sizes"]].tolist() == ["alive", [6, 13]]
+    assert [tracks.loc[track_of(main, 0, g), "end"] for g in (0, 2)] == ["coalescence", "coalescence"]
+    assert track_of(strict, 1, 0) not in [track_of(strict, 0, g) for g in range(3)]
+    check_main_tracks(main)
+
+
+def test_main_branch_ties_go_to_the_larger_granule_then_to_the_smaller_particle_id():
+    ids = np.arange(20)
+    rng = np.random.default_rng(3)
+    # a 4-particle granule breaks into two pairs: the pair holding particle 0 keeps the id,
+    # whatever the labels and the row order
+    for pieces in ([[0, 1], [2, 3]], [[2, 3], [0, 1]]):
+        main = track([frame([range(4)], ids, rng), frame(pieces, ids, rng)], continuation="main")
+        keeper = pieces.index([0, 1])
+        assert track_of(main, 1, keeper) == track_of(main, 0, 0) != track_of(main, 1, 1 - keeper)
+    # equal shares, one child grew: the larger child keeps the id although it holds larger ids
+    main = track([frame([range(4)], ids), frame([[0, 1], [2, 3, 10, 11]], ids)], continuation="main")
+    assert track_of(main, 1, 1) == track_of(main, 0, 0)
+    # two pairs merge: the parent holding particle 0 continues, whatever the labels
+    for pairs in ([[0, 1], [2, 3]], [[2, 3], [0, 1]]):
+        main = track([frame(pairs, ids, rng), frame([range(4)], ids, rng)], continuation="main")
+        assert track_of(main, 1, 0) == track_of(main, 0, pairs.index([0, 1]))
+    # equal contributions, one parent larger (it lost a particle to the free ones): it continues
+    main = track([frame([[0, 1], [2, 3, 4]], ids), frame([range(4)], ids)], continuation="main")
+    assert track_of(main, 1, 0) == track_of(main, 0, 1)
+
+
+def test_main_branch_is_the_same_for_permuted_rows_and_labels_and_keeps_the_events():
+    labels, ids = random_series()
+    times = np.linspace(0.0, 1.4, len(labels))
+    strict = track_granules(labels, ids, times)
+    main = track_granules(labels, ids, times, continuation="main")
+    check_same_events(strict, main)
+    check_main_tracks(main)
+    assert main.n_tracks < strict.n_tracks
+    assert (main.tracks["last_frame"] > main.tracks["first_frame"]).mean() > (
+        strict.tracks["last_frame"] > strict.tracks["first_frame"]).mean()
+    # rows permuted: the same ids; label values permuted too: the same particles share an id
+    rng = np.random.default_rng(7)
+    orders = [rng.permutation(lab.size) for lab in labels]
+    renames = [rng.permutation(lab.max() + 1) for lab in labels]
+    rows = track_granules([lab[o] for lab, o in zip(labels, orders)], [i[o] for i, o in zip(ids, orders)], times,
+                          continuation="main")
+    for a, b in zip(main.labels_to_tracks, rows.labels_to_tracks):
+        assert np.array_equal(a, b)
+    renamed = [np.where(lab >= 0, r[np.maximum(lab, 0)], -1) for lab, r in zip(labels, renames)]
+    relabelled = track_granules(renamed, ids, times, continuation="main")
+
+    def members(tr, labs):  # each track as the set of (frame, particle id) it holds
+        out = {}
+        for k, (lab, pid) in enumerate(zip(labs, ids)):
+            for t, p in zip(tr.labels_to_tracks[k][lab[lab >= 0]], pid[lab >= 0]):
+                out.setdefault(int(t), set()).add((k, int(p)))
+        return sorted(map(sorted, out.values()))
+
+    assert members(main, labels) == members(relabelled, renamed)
+
+
+def test_invalid_continuation_is_one_line_naming_it():
+    lab, ids = np.array([0, 0, -1]), np.arange(3)
+    for bad in ("branch", None, 1):
+        with pytest.raises(ParameterError, match=r"^continuation must be 'main' or 'strict', got ") as info:
+            track_granules([lab, lab], [ids, ids], [0, 1], continuation=bad)
+        assert "\n" not in str(info.value)
+    snaps = [synthetic_snapshot(50, time=0.1 * k, seed=k) for k in range(2)]
+    with pytest.raises(ParameterError, match="continuation"):
+        track_run(snaps, continuation="Main")
+
+
+# ----------------------------------------------------------------------------------------------
 # consistency with identification
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import granalytics as ga
-from granalytics import GranalyticsError
+from granalytics import GranalyticsError, ValidationError
 from granalytics.cli import main
 from granalytics.convert.yade import read_yade_csv
 
@@ -21,9 +21,11 @@ def test_yade_fixture_reads_and_analyses(tmp_path, capsys):
     assert [s.step for s in snapshots] == [12000, 16000] and meta.n_particles == 246
     s = snapshots[-1]
     assert s.time == pytest.approx(16000 * 3e-6)
-    active = s.f_cap > 0
-    # YADE applies capillary forces only to separated bridges
-    assert active.any() and (s.gap[active] > 0).all() and (s.f_normal[active] < 0).all()
+    # YADE applies capillary forces only to separated bridges: the force of the separated ones
+    # is its attractive normal force
+    active = (s.f_cap > 0) & (s.gap > 0)
+    assert active.any() and (s.f_normal[active] < 0).all()
+    np.testing.assert_array_equal(s.f_cap[active], -s.f_normal[active])
     np.testing.assert_allclose(s.bridge_volume, 1e-11)
     assert ga.identify(s, c_agg=0.3).n_granules > 0
     out = tmp_path / "y.h5"
@@ -79,3 +81,34 @@ def test_unused_contact_files_are_reported_and_a_bad_step_names_the_file(tmp_pat
     assert "step=16k" in bad.read_text()
     with pytest.raises(GranalyticsError, match=r"p.csv, line 1: .*step a whole number.*'16k'"):
         read_yade_csv([bad], CONTACTS[-1:], DATA / "meta.toml")
+
+
+def test_touching_wet_pairs_carry_willetts_bridge_force_at_contact():
+    """YADE exports no force for a touching wet pair; the reader fills in Willett's F_cap(0⁺),
+    which must equal the simulator's own Willett_numeric (sim.capillary, from YADE's source) at
+    s = 0 with YADE's pair radius 2·r_i·r_j/(r_i + r_j)."""
+    from sim.capillary import CAPILLARY_MODELS, capillary_force_scalar
+
+    snapshots, meta = read_yade_csv(PARTICLES, CONTACTS, DATA / "meta.toml")
+    s = snapshots[-1]
+    touching_wet = (s.gap <= 0) & (s.bridge_volume > 0)
+    assert touching_wet.sum() > 100
+    r_i, r_j = s.radius[s.contact_i], s.radius[s.contact_j]
+    expected = [capillary_force_scalar(CAPILLARY_MODELS["willett_numeric"], 0.0, v, 2 * a * b / (a + b),
+                                       meta.surface_tension, meta.contact_angle)
+                for v, a, b in zip(s.bridge_volume[touching_wet], r_i[touching_wet], r_j[touching_wet])]
+    np.testing.assert_allclose(s.f_cap[touching_wet], expected, rtol=1e-12)
+    # the acting convention still gives touching pairs no cohesion (YADE applies none there), the
+    # bridge convention counts them: more particles in granules
+    import granalytics as ga
+
+    acting, bridge = ga.identify(s, cohesion="acting"), ga.identify(s, cohesion="bridge")
+    assert (bridge.labels >= 0).mean() > (acting.labels >= 0).mean() + 0.1
+    assert meta.provenance["capillary_type"] == "Willett_numeric"
+
+
+def test_an_unknown_capillary_type_is_refused(tmp_path):
+    mapping = tmp_path / "meta.toml"
+    mapping.write_text((DATA / "meta.toml").read_text() + 'capillary_type = "Rabinovich"\n')
+    with pytest.raises(ValidationError, match="capillary_type 'Rabinovich' is not read"):
+        read_yade_csv(PARTICLES, CONTACTS, mapping)

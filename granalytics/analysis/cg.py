@@ -22,7 +22,7 @@ from granalytics.core.bed import run_confinement
 from granalytics.analysis.confinement import confinement_warning
 from granalytics.core.files import staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE, METRICS
-from granalytics.core._windows import window_mask
+from granalytics.core._windows import check_interval, window_mask
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
 from granalytics.core.errors import ParameterError
 from granalytics.core import open_run
@@ -33,8 +33,9 @@ __all__ = ["compare_cg", "compare_cg_thresholds", "group_replicas", "CGCompariso
 #: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
 
-#: steady-state metrics compared, with the paper's figure
-CG_METRICS = {name: f"{METRICS[name].figure}: {METRICS[name].label}" for name in BY_FIGURE}
+#: steady-state metrics compared: the headline metrics of the registry, in the order of the paper's
+#: figures (a live list, :mod:`granalytics.analysis.metrics`)
+CG_METRICS = BY_FIGURE
 
 
 @dataclass
@@ -95,8 +96,8 @@ class CGComparison:
                 f"window [{self.window[0]:g}, {self.window[1]:g}] rev")
 
     def figures(self) -> dict:
-        """The four figures (matplotlib), keyed ``fig3_mean_volume``, ``fig4_granule_number``,
-        ``fig5_size_distribution``, ``fig6_yield``."""
+        """The figures (matplotlib), keyed by each headline metric's ``figure_key``
+        (``fig3_mean_volume``, ``fig4_granule_number``, ``fig6_yield``) and ``fig5_size_distribution``."""
         from granalytics.plot import cg_figures
 
         return cg_figures(self)
@@ -109,8 +110,8 @@ class CGComparison:
         if os.path.exists(out_dir) and not os.path.isdir(out_dir):
             raise ParameterError(f"{out_dir}: exists and is not a folder")
         names = ["cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv"]
-        names += [f"{fig}.{ext}" for fig in ("fig3_mean_volume", "fig4_granule_number", "fig5_size_distribution",
-                                              "fig6_yield") for ext in formats]
+        figures = [*(METRICS[m].figure_key for m in BY_FIGURE), "fig5_size_distribution"]
+        names += [f"{fig}.{ext}" for fig in sorted(figures) for ext in formats]
         paths = [os.path.join(out_dir, name) for name in names]
         existing = [p for p in paths if os.path.exists(p)]
         if existing and not overwrite:
@@ -158,13 +159,29 @@ def _alpha_label(alpha, n_particles, n_replicas=1):
     return f"CG{alpha:g} ({n_particles} particles{replicas})"
 
 
+def _run_list(runs, where) -> list:
+    """``runs`` (a list or tuple of runs) as a list; anything else is a ParameterError."""
+    if not isinstance(runs, (list, tuple)):
+        raise ParameterError(f"{where}: runs must be a list of run files (or open runs), got {type(runs).__name__} "
+                             f"{runs!r}")
+    return list(runs)
+
+
+def _run_item(item, where):
+    """One run of a comparison: a run file's path or an open run (anything with ``meta``)."""
+    if not isinstance(item, (str, os.PathLike)) and not hasattr(item, "meta"):
+        raise ParameterError(f"{where}: a run must be a run file's path or an open run, got {type(item).__name__} "
+                             f"{item!r}")
+    return item
+
+
 def _replica_group(item) -> list:
     """A ``runs`` entry of :func:`compare_cg` as a list of replicas (a single run: a list of one)."""
     if isinstance(item, (list, tuple)):
         if not item:
             raise ParameterError("compare_cg: an empty group of replicas")
-        return list(item)
-    return [item]
+        return [_run_item(member, "compare_cg") for member in item]
+    return [_run_item(item, "compare_cg")]
 
 
 def group_replicas(paths) -> list:
@@ -201,6 +218,9 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
         drum = run_confinement(meta)
         if drum is not None and (warning := confinement_warning(drum.drum_ratio)):
             warnings.warn(f"{os.fspath(run.path)}: {warning}", stacklevel=3)
+        if getattr(run, "unfinished", None):
+            warnings.warn(f"{os.fspath(run.path)}: unfinished run: {run.unfinished}; its steady state is that of the "
+                          "frames it holds", stacklevel=3)
         ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
         steady = steady_state(ts, window=(lo, hi), source=os.fspath(run.path))
         revs = ts["revolutions"].to_numpy()
@@ -271,12 +291,12 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     from granalytics.analysis.stats import _combine_steady_states
 
     check_cohesion(cohesion)
-    groups = [_replica_group(item) for item in runs]
+    groups = [_replica_group(item) for item in _run_list(runs, "compare_cg")]
     if len(groups) < 2:
         raise ParameterError("compare_cg needs at least two runs")
     if labels is not None and len(labels) != len(groups):
         raise ParameterError(f"{len(labels)} labels for {len(groups)} runs")
-    lo, hi = (float(w) for w in window)
+    lo, hi = check_interval("window", window)
     infos, series, dists, steady, sizes = [], [], [], {}, {}
     for k, group in enumerate(groups):
         members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
@@ -402,12 +422,12 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
     from granalytics.analysis.sensitivity import sensitivity, sensitivity_summary
 
     check_cohesion(cohesion)
-    runs = list(runs)
+    runs = [_run_item(item, "compare_cg_thresholds") for item in _run_list(runs, "compare_cg_thresholds")]
     if len(runs) < 2:
         raise ParameterError("compare_cg_thresholds needs at least two runs")
     if labels is not None and len(labels) != len(runs):
         raise ParameterError(f"{len(labels)} labels for {len(runs)} runs")
-    lo, hi = (float(w) for w in window)
+    lo, hi = check_interval("window", window)
     rows = []
     for k, path in enumerate(runs):
         with open_run(path) as run:

@@ -69,7 +69,8 @@ def confinement_warning(drum_ratio, rule=None) -> str | None:
     return None
 
 
-def confinement_timeseries(frames, meta, method="gna", *, progress=False, **params) -> pd.DataFrame:
+def confinement_timeseries(frames, meta, method="gna", *, progress=False, jobs=1, scheduler=None,
+                           **params) -> pd.DataFrame:
     """:func:`~granalytics.run_stats`' time series with the bed's share of particles touching a
     wall (``wall_share``, :func:`~granalytics.wall_touching`) and its coordination number
     (``coordination``, touching particle contacts per particle, walls not counted) per frame.
@@ -81,6 +82,11 @@ def confinement_timeseries(frames, meta, method="gna", *, progress=False, **para
         The run's metadata (its drum geometry).
     method, params :
         The identification, as for :func:`~granalytics.run_stats`.
+    progress : bool, default False
+        Progress bar over frames.
+    jobs, scheduler :
+        Where the frames are analysed: ``jobs`` threads here, or a dask cluster (a scheduler's
+        address or a ``distributed.Client``); see :func:`granalytics.analysis.frames.map_frames`.
     """
     identifier = make_identifier(method, **params)
 
@@ -90,7 +96,8 @@ def confinement_timeseries(frames, meta, method="gna", *, progress=False, **para
         row["coordination"] = bed_structure(snapshot).coordination
         return row
 
-    frame_ids, rows = map_frames(frames, one_frame, progress=progress, desc="confinement")
+    frame_ids, rows = map_frames(frames, one_frame, progress=progress, desc="confinement", jobs=jobs,
+                               scheduler=scheduler)
     for k, row in zip(frame_ids, rows):
         row.insert(0, "frame", int(k))
     return pd.concat(rows, ignore_index=True)

@@ -11,6 +11,7 @@ import pandas as pd
 from granalytics.identify.cohesion import DEFAULT_COHESION
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
+from granalytics.analysis.metrics import HEADLINE
 from granalytics.identify import make_identifier
 from granalytics.analysis.stats import frame_stats
 
@@ -25,7 +26,7 @@ def partition_labels(labels) -> np.ndarray:
     return out
 
 
-def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=False):
+def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=False, jobs=1, scheduler=None):
     """Run several identification methods on every frame and compare them pairwise.
 
     Parameters
@@ -37,6 +38,11 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
     cohesion : {"acting", "bridge"}, default "acting"
         Cohesion convention of every method whose params do not set their own
         (:mod:`granalytics.identify.cohesion`).
+    progress : bool, default False
+        Progress bar over frames.
+    jobs, scheduler :
+        Where the frames are analysed: ``jobs`` threads here, or a dask cluster (a scheduler's
+        address or a ``distributed.Client``); see :func:`granalytics.analysis.frames.map_frames`.
 
     Returns
     -------
@@ -45,8 +51,8 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
         :func:`~granalytics.frame_stats` columns.
     pairs : DataFrame
         One row per (frame, method_a, method_b): ``ari`` (adjusted Rand index of the partitions,
-        every free particle its own cluster; 1 = identical), ``d_n_granules_norm`` and
-        ``d_yield_fraction`` (b − a).
+        every free particle its own cluster; 1 = identical) and ``d_<metric>`` (b − a) for every
+        headline metric (:data:`granalytics.analysis.metrics.HEADLINE`).
     """
     from sklearn.metrics import adjusted_rand_score
 
@@ -71,12 +77,12 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
             rows[name] = row
         pairs = [{"time_s": snapshot.time, "revolutions": snapshot.revolutions,
                   "method_a": a, "method_b": b, "ari": adjusted_rand_score(labels[a], labels[b]),
-                  "d_n_granules_norm": rows[b].n_granules_norm.iloc[0] - rows[a].n_granules_norm.iloc[0],
-                  "d_yield_fraction": rows[b].yield_fraction.iloc[0] - rows[a].yield_fraction.iloc[0]}
+                  **{f"d_{name}": rows[b][name].iloc[0] - rows[a][name].iloc[0] for name in HEADLINE}}
                  for a, b in itertools.combinations(identifiers, 2)]
         return list(rows.values()), pairs
 
-    frame_ids, results = map_frames(frames, one_frame, progress=progress, desc="compare", what="compare")
+    frame_ids, results = map_frames(frames, one_frame, progress=progress, desc="compare", what="compare", jobs=jobs,
+                                     scheduler=scheduler)
     stats, pairs = [], []
     for frame, (rows, frame_pairs) in zip(frame_ids, results):
         for row in rows:

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.identify import _kernels
-from granalytics.analysis.metrics import HEADLINE
+from granalytics.analysis.metrics import HEADLINE, GranuleCounts, metric_values
 from granalytics.core._windows import window_mask
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
 from granalytics.core.errors import ParameterError
@@ -54,20 +54,19 @@ def _frame_sweep(snapshot, c_desc, thresholds, radius, gamma, cohesion, comotion
                                                       else {"rigid_tol": a, "rigid_scale": rigid_scale}))
         n_gran, n_in, v_in = _kernels.threshold_sweep(
             snapshot.contact_i, snapshot.contact_j, f, passes, volume, c_desc, min_size)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean_volume = np.where(n_gran > 0, v_in / np.maximum(n_gran, 1), np.nan)
+        counts = GranuleCounts(n_granules=n_gran, n_in_granules=n_in, granule_volume_m3=v_in, n_particles=n,
+                               n_initial=n_initial, mean_particle_volume_m3=v_mean)
         rows.append(pd.DataFrame({
             "time_s": snapshot.time, "step": snapshot.step, "revolutions": snapshot.revolutions,
             "cohesion": cohesion, "c_agg": c_desc, column: a, "n_granules": n_gran,
-            "n_granules_norm": n_gran / n_initial, "yield_fraction": n_in / n,
-            "mean_volume_norm": mean_volume / v_mean,
+            **metric_values(counts, HEADLINE),  # every headline metric of the registry, at every threshold pair
         }))
     return pd.concat(rows, ignore_index=True)
 
 
 def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION,
                 comotion=DEFAULT_COMOTION, rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE, min_size=2,
-                jobs=1, progress=False):
+                jobs=1, scheduler=None, progress=False):
     """GNA statistics of every frame at every (C_agg, A_agg), or every (C_agg, rigid_tol) with
     the rigid co-motion test.
 
@@ -85,8 +84,9 @@ def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension
         The co-motion test; its thresholds are ``a_agg_deg`` or ``rigid_tol``.
     rigid_tol : sequence of float
         Tolerances of the rigid test (each > 0); with ``comotion="rigid"`` (required there).
-    jobs : int, default 1
-        Worker threads over frames.
+    jobs, scheduler :
+        Where the frames are analysed: ``jobs`` threads here, or a dask cluster (a scheduler's
+        address or a ``distributed.Client``); see :func:`granalytics.analysis.frames.map_frames`.
     progress : bool
         Progress bar over frames.
 
@@ -121,7 +121,7 @@ def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension
     frame_ids, tables = map_frames(
         frames, lambda snapshot: _frame_sweep(snapshot, c_desc, a_list, radius, surface_tension, cohesion, comotion,
                                               rigid_scale, int(min_size)),
-        progress=progress, desc="sensitivity", jobs=jobs)
+        progress=progress, desc="sensitivity", jobs=jobs, scheduler=scheduler)
     for frame, table in zip(frame_ids, tables):
         table.insert(0, "frame", int(frame))
     out = pd.concat(tables, ignore_index=True)

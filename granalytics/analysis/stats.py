@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.metrics import STEADY
+from granalytics.analysis.metrics import STEADY, GranuleCounts, metric_values
 from granalytics.core._windows import window_mask, window_tolerance
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
@@ -56,19 +56,16 @@ def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFram
         Sizes of the frame (kept = passing the method's criteria, NaN if not contact-based).
     n_granules
         Number of granules G.
-    n_granules_norm
-        G divided by the run's initial particle count (``meta.n_particles``; the frame's count
-        without metadata) — Fig. 4 of the paper.
-    mean_granule_size
-        Mean particles per granule (NaN without granules).
     largest_granule_size
         Particles in the largest granule (0 without granules).
     mean_volume_m3
         Mean granule volume [m³] (NaN without granules).
-    mean_volume_norm
-        Mean granule volume divided by the frame's mean particle volume — Fig. 3.
-    yield_fraction
-        Fraction of particles in granules — Fig. 6.
+    n_granules_norm, mean_volume_norm, yield_fraction, mean_granule_size, ...
+        Every metric of the registry (:data:`granalytics.analysis.metrics.METRICS`), from the
+        frame's granule counts: G divided by the run's initial particle count (``meta.n_particles``;
+        the frame's count without metadata), Fig. 4 of the paper; the mean granule volume divided
+        by the frame's mean particle volume, Fig. 3; the fraction of particles in granules, Fig. 6;
+        the mean particles per granule (NaN without granules).
     """
     if not isinstance(snapshot, Snapshot):
         raise ParameterError(f"frame_stats: snapshot must be a Snapshot, got {type(snapshot).__name__}")
@@ -87,7 +84,9 @@ def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFram
     volume = snapshot.particle_volume
     g = result.n_granules
     member = result.labels >= 0
-    mean_volume = volume[member].sum() / g if g else math.nan
+    counts = GranuleCounts(n_granules=g, n_in_granules=int(member.sum()), granule_volume_m3=volume[member].sum(),
+                           n_particles=n, n_initial=n_initial, mean_particle_volume_m3=volume.mean())
+    mean_volume = counts.granule_volume_m3 / g if g else math.nan
     row = {
         "time_s": snapshot.time,
         "step": snapshot.step,
@@ -96,17 +95,14 @@ def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFram
         "n_contacts": snapshot.n_contacts,
         "n_kept_contacts": int(result.kept.sum()) if result.kept is not None else math.nan,
         "n_granules": g,
-        "n_granules_norm": g / n_initial,
-        "mean_granule_size": result.sizes.mean() if g else math.nan,
         "largest_granule_size": int(result.sizes[0]) if g else 0,
         "mean_volume_m3": mean_volume,
-        "mean_volume_norm": mean_volume / volume.mean(),
-        "yield_fraction": member.sum() / n,
+        **metric_values(counts),  # every registered metric (granalytics.analysis.metrics)
     }
     return pd.DataFrame([row])
 
 
-def run_stats(frames, method="gna", *, progress=False, return_sizes=False, jobs=1, **params):
+def run_stats(frames, method="gna", *, progress=False, return_sizes=False, jobs=1, scheduler=None, **params):
     """Time series of :func:`frame_stats` over the frames of a run.
 
     Parameters
@@ -119,8 +115,9 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, jobs=
         Show a progress bar over frames.
     return_sizes : bool, default False
         Also return the granule sizes (particles per granule) of every frame.
-    jobs : int, default 1
-        Frames analysed at a time, in threads (:func:`granalytics.analysis.frames.map_frames`).
+    jobs, scheduler :
+        Where the frames are analysed: ``jobs`` threads here, or a dask cluster (a scheduler's
+        address or a ``distributed.Client``); see :func:`granalytics.analysis.frames.map_frames`.
 
     Returns
     -------
@@ -135,7 +132,8 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, jobs=
         result = identifier.identify(snapshot)
         return frame_stats(snapshot, result), result.sizes
 
-    frame_ids, results = map_frames(frames, one_frame, progress=progress, desc="stats", jobs=jobs)
+    frame_ids, results = map_frames(frames, one_frame, progress=progress, desc="stats", jobs=jobs,
+                                    scheduler=scheduler)
     rows = [row for row, _ in results]
     sizes = [s for _, s in results]
     for k, row in zip(frame_ids, rows):

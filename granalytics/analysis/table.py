@@ -2,8 +2,11 @@
 particle's granule and the granule's track id, which keeps its value while the granule lives.
 
 Granule labels are renumbered in every frame (largest first); a track id follows one granule
-from frame to frame by its particles (:mod:`granalytics.analysis.tracking`, rules in ``docs/tracking.md``):
-a granule that continues keeps its id, one made by coalescence or breakage gets a new one.
+from frame to frame by its particles (:mod:`granalytics.analysis.tracking`, rules in ``docs/tracking.md``).
+By default (``continuation="main"``) a granule keeps its id through the events it survives: the
+piece that keeps most of a breaking granule, and the coalescence of which it is the largest
+contributor, carry it on; with ``continuation="strict"`` every coalescence and breakage starts
+new ids.
 """
 
 from __future__ import annotations
@@ -26,8 +29,21 @@ PARTICLE_COLUMNS = {
 }
 
 
-def granule_tracks(frames, method="gna", *, min_fragment=2, progress=False, **params):
+def granule_tracks(frames, method="gna", *, min_fragment=2, continuation="main", progress=False, **params):
     """Granule labels of every frame and the tracks that follow them.
+
+    Parameters
+    ----------
+    frames : Run, RunSlice or sequence of Snapshot
+    method, params
+        Identification, as :func:`granalytics.identify`.
+    min_fragment : int, default 2
+        Smallest fragment of a coalescence or breakage [particles] (:func:`granalytics.track_granules`).
+    continuation : {"main", "strict"}, default "main"
+        Which granule keeps a track id through coalescence and breakage
+        (:func:`granalytics.track_granules`): the main branch, or none.
+    progress : bool, default False
+        Show a progress bar over frames.
 
     Returns
     -------
@@ -39,13 +55,16 @@ def granule_tracks(frames, method="gna", *, min_fragment=2, progress=False, **pa
     """
     from granalytics.analysis.tracking import track_run
 
-    return track_run(frames, method, progress=progress, min_fragment=min_fragment, return_labels=True, **params)
+    return track_run(frames, method, progress=progress, min_fragment=min_fragment, continuation=continuation,
+                     return_labels=True, **params)
 
 
-def particle_frames(frames, method="gna", *, min_fragment=2, progress=False, **params):
+def particle_frames(frames, method="gna", *, min_fragment=2, continuation="main", progress=False, **params):
     """Yield the :func:`particle_table` of one frame at a time (the run is read twice, one frame in
-    memory at a time besides the labels): for tables larger than memory, written piece by piece."""
-    labels, tracks = granule_tracks(frames, method, min_fragment=min_fragment, progress=progress, **params)
+    memory at a time besides the labels): for tables larger than memory, written piece by piece.
+    The arguments are :func:`particle_table`'s."""
+    labels, tracks = granule_tracks(frames, method, min_fragment=min_fragment, continuation=continuation,
+                                    progress=progress, **params)
     indices = _frame_indices(frames)
     for k, snapshot in enumerate(frames):
         lab = labels[k]
@@ -101,7 +120,8 @@ def write_frames(pieces, path, fmt="parquet") -> int:
     return rows
 
 
-def particle_table(frames, method="gna", *, min_fragment=2, progress=False, **params) -> pd.DataFrame:
+def particle_table(frames, method="gna", *, min_fragment=2, continuation="main", progress=False,
+                   **params) -> pd.DataFrame:
     """One row per particle and frame: :data:`PARTICLE_COLUMNS` (SI units).
 
     Parameters
@@ -110,8 +130,15 @@ def particle_table(frames, method="gna", *, min_fragment=2, progress=False, **pa
         E.g. ``run.select(revolutions=(3, 6))``: only these frames are read, one at a time.
     method, params
         Identification (default GNA at the paper's thresholds), as :func:`granalytics.identify`.
-    min_fragment : int
-        Tracking rule (:func:`granalytics.track_granules`).
+    min_fragment : int, default 2
+        Smallest fragment of a coalescence or breakage [particles] (:func:`granalytics.track_granules`).
+    continuation : {"main", "strict"}, default "main"
+        Which granule keeps its ``granule_track`` through coalescence and breakage
+        (:func:`granalytics.track_granules`): ``"main"``, the piece that keeps most of a breaking
+        granule and the coalescence of which a granule is the largest contributor; ``"strict"``,
+        none (every coalescence and breakage starts new ids, as the tracks of the kinetics).
+    progress : bool, default False
+        Show a progress bar over frames.
 
     Returns
     -------
@@ -119,17 +146,21 @@ def particle_table(frames, method="gna", *, min_fragment=2, progress=False, **pa
         Sorted by frame, then particle row. ``granule_track`` is the same for a granule in every
         frame of its life; ``granule`` is renumbered per frame.
     """
-    parts = list(particle_frames(frames, method, min_fragment=min_fragment, progress=progress, **params))
+    parts = list(particle_frames(frames, method, min_fragment=min_fragment, continuation=continuation,
+                                 progress=progress, **params))
     return pd.concat(parts, ignore_index=True)
 
 
-def granule_track_table(frames, method="gna", *, min_fragment=2, progress=False, **params) -> pd.DataFrame:
+def granule_track_table(frames, method="gna", *, min_fragment=2, continuation="main", progress=False,
+                        **params) -> pd.DataFrame:
     """One row per granule and frame: :func:`granalytics.granule_table`'s columns (size, volume,
     centre of mass, radius of gyration, liquid) with ``frame``, ``time_s`` and ``granule_track``,
-    the id the granule keeps while it lives (the same as :func:`particle_table`'s)."""
+    the id the granule keeps while it lives (the same as :func:`particle_table`'s with the same
+    arguments, which are :func:`particle_table`'s)."""
     from granalytics.identify.granules import granule_table
 
-    labels, tracks = granule_tracks(frames, method, min_fragment=min_fragment, progress=progress, **params)
+    labels, tracks = granule_tracks(frames, method, min_fragment=min_fragment, continuation=continuation,
+                                    progress=progress, **params)
     indices = _frame_indices(frames)
     parts = []
     for k, snapshot in enumerate(frames):

@@ -17,7 +17,7 @@ import sys
 
 from granalytics._version import __version__
 from granalytics.core.errors import GranalyticsError
-from granalytics.core.files import warnings_as_lines
+from granalytics.core.files import interrupted, warnings_as_lines
 from granalytics.cli import analysis, data, datasets, pbm, study, tracking
 
 __all__ = ["main", "build_parser", "COMMANDS"]
@@ -70,7 +70,9 @@ def main(argv=None):
     with warnings_as_lines("granalytics"):
         try:
             return args.func(args)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not interrupted(exc):
+                raise
             print(f"granalytics: {args.command}: interrupted; no output was replaced (outputs are written whole "
                   "or not at all)", file=sys.stderr)
             return 130

@@ -6,12 +6,13 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import warnings
 
 import numpy as np
 
 from granalytics.identify.cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
 from granalytics.core.errors import GranalyticsError, ParameterError, ValidationError
-from granalytics.core.files import check_output_folder, write_atomically
+from granalytics.core.files import check_output_folder, check_replaceable, write_atomically
 from granalytics.identify import BACKENDS, make_identifier
 from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 
@@ -26,6 +27,22 @@ def interval(text):
     if not (math.isfinite(hi - lo) and abs(lo) < 1e15 and abs(hi) < 1e15):
         raise argparse.ArgumentTypeError(f"expected a window of revolutions or seconds below 1e15 in size, got {text!r}")
     return lo, hi
+
+
+class OldSpelling(argparse.Action):
+    """The old spelling of an option (``option_strings``), still working: stores into the new
+    option's ``dest`` and prints one warning line naming the new spelling ``new`` (and ``why``)."""
+
+    def __init__(self, option_strings, dest, new, why="", **kwargs):
+        self.new, self.why = new, why
+        super().__init__(option_strings, dest, help=f"old spelling of {new} (deprecated)", **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        import sys
+
+        print(f"granalytics: warning: {option_string} is the old spelling of {self.new}{self.why}; use {self.new}",
+              file=sys.stderr)
+        setattr(namespace, self.dest, values)
 
 
 #: the largest frame stride an option accepts (a run has far fewer frames)
@@ -108,11 +125,37 @@ def setting(text):
     return method.strip(), param.strip(), parsed
 
 
+def add_frame_loop_options(parser):
+    """``--jobs`` and ``--scheduler``: where a command analyses its frames
+    (:func:`granalytics.analysis.frames.map_frames`); :func:`frame_loop` reads them."""
+    parser.add_argument("--jobs", type=int, default=1, help="worker threads over frames (default 1)")
+    parser.add_argument("--scheduler", metavar="ADDR",
+                        help="analyse the frames as tasks on the dask cluster of this scheduler (tcp://host:8786; "
+                             "its workers must read the run file at the same path); not with --jobs")
+
+
+def frame_loop(args) -> dict:
+    """The frame-loop keywords (``jobs``, ``scheduler``) of a command's arguments."""
+    return {"jobs": args.jobs, "scheduler": args.scheduler}
+
+
 def add_cohesion_option(parser):
     parser.add_argument("--cohesion", choices=COHESION_CONVENTIONS, default=DEFAULT_COHESION,
                         help="which force is F_coh: 'acting' = the cohesion the DEM code applied (a separated "
                              "bridge's force; 0 for touching pairs unless the run applied capillary force in contact), "
                              "'bridge' = the bridge force of every wet pair, touching or not (default acting)")
+
+
+def add_continuation_option(parser):
+    """``--continuation``: which granule keeps its track id in the ids a command writes
+    (:func:`granalytics.track_granules`)."""
+    from granalytics.analysis.tracking.linking import CONTINUATIONS
+
+    parser.add_argument("--continuation", choices=CONTINUATIONS, default="main",
+                        help="which granule keeps its granule_track id through a coalescence or breakage: "
+                             "'main' = the piece that keeps most of a breaking granule and the coalescence of which "
+                             "it is the largest contributor, 'strict' = none, every event starts new ids (the "
+                             "tracks of the kinetics); the events are the same (default main)")
 
 
 def add_criterion_options(parser, grid_tol=False):
@@ -169,10 +212,43 @@ def gna_identifier(args):
     )
 
 
+def warn_if_unfinished(run) -> None:
+    """One warning line when ``run`` is unfinished (:attr:`~granalytics.core.Run.unfinished`): its
+    statistics are those of the frames it holds."""
+    if run.unfinished:
+        warnings.warn(f"{run.path}: unfinished run: {run.unfinished}; the results are those of the frames it holds")
+
+
+#: frames (evenly spaced over a selection) in which :func:`warn_if_c_agg_unreachable` looks
+C_AGG_SAMPLE = 5
+
+
+def warn_if_c_agg_unreachable(frames, c_agg, cohesion, radius="pair") -> None:
+    """One warning line when the cohesion threshold ``c_agg`` (every value of a grid: a grid
+    that crosses the cliff is what a sensitivity sweep is for) lies above every contact's
+    F_coh/(2πγR) in up to :data:`C_AGG_SAMPLE` frames of ``frames``: no contact can pass it, every
+    statistic is that of a bed without granules (``docs/identification.md``, "The C_agg cliff")."""
+    from granalytics.identify.contacts import largest_strength
+
+    values = np.atleast_1d(np.asarray(c_agg, dtype=float))
+    picks = np.unique(np.linspace(0, len(frames) - 1, min(C_AGG_SAMPLE, len(frames))).round().astype(int))
+    largest = largest_strength((frames[int(k)] for k in picks), radius=radius, cohesion=cohesion)
+    if values.min() > largest:
+        what = f"C_agg {values[0]:g} is" if values.size == 1 else f"every C_agg of the grid (from {values.min():g}) is"
+        warnings.warn(f"{frames.path}: {what} above the largest F_coh/(2πγR) of the run, {largest:.3f} "
+                      f"(cohesion={cohesion}, {len(picks)} frames looked at): no contact passes, so no granule is "
+                      "found (a touching bridge at its largest volume gives about 0.85)")
+
+
 def selected_frames(run, args):
+    """The frames of ``run`` in ``--window-rev`` (all without it); warns once for an unfinished
+    run and for a ``--c-agg`` that no contact can pass."""
+    warn_if_unfinished(run)
     frames = run if args.window_rev is None else run.select(revolutions=args.window_rev)
     if not len(frames):
         raise ParameterError(f"{run.path}: no frame in the selection (the run has {len(run)} frames)")
+    if getattr(args, "c_agg", None) is not None:
+        warn_if_c_agg_unreachable(frames, args.c_agg, args.cohesion, getattr(args, "radius", "pair"))
     return frames
 
 
@@ -187,6 +263,20 @@ def window_axis(frames, by="revolutions"):
 
 def progress(args):
     return not args.quiet
+
+
+def plus_minus(value, error, digits=2) -> str:
+    """``value ± error`` with ``error`` to ``digits`` significant figures and ``value`` to the
+    same decimal place (``3.000 ± 0.091``, not ``3 ± 0.0907``); an error that is NaN (too few
+    blocks or replicas to estimate one) or 0 leaves ``value`` to 4 significant figures."""
+    if not (math.isfinite(error) and error > 0 and math.isfinite(value)):
+        shown = "n/a" if not math.isfinite(error) else f"{error:g}"
+        return f"{value:.4g} ± {shown}"
+    decimals = digits - 1 - math.floor(math.log10(error))
+    if decimals >= 0:
+        return f"{value:.{decimals}f} ± {error:.{decimals}f}"
+    step = 10.0 ** -decimals
+    return f"{round(value / step) * step:.0f} ± {round(error / step) * step:.0f}"
 
 
 def json_safe(value):
@@ -228,8 +318,7 @@ def save_figure(fig, path, stage=None):
 def check_new_file(path, overwrite):
     """Before any work: refuse to replace an existing file unless ``--overwrite``, a folder
     always, and a file whose folder does not exist or is not writable."""
-    if os.path.isdir(path):
-        raise ParameterError(f"{path}: is a folder, expected a file name")
+    check_replaceable(path)  # a folder or a device (/dev/null) always, --overwrite or not
     if os.path.exists(path) and not overwrite:
         raise ParameterError(f"{path}: file exists (pass --overwrite to replace it)")
     check_output_folder(path)
@@ -257,9 +346,10 @@ def check_outputs(args, tables=(), others=(), plots=()):
     same file, none is the input run, none exists unless ``--overwrite``, and each one's folder
     exists and is writable."""
     paths = [p for p in (*tables, *others, *plots) if p]
-    seen = {os.path.abspath(args.run): "the input run"} if getattr(args, "run", None) else {}
+    # real paths (links resolved): an output that is a link to the input is the input
+    seen = {os.path.realpath(args.run): "the input run"} if getattr(args, "run", None) else {}
     for path in paths:
-        key = os.path.abspath(path)
+        key = os.path.realpath(path)
         if key in seen:
             raise ParameterError(f"{path}: the same file is given twice ({seen[key]} and an output)")
         seen[key] = path

@@ -10,6 +10,7 @@ import warnings
 
 import numpy as np
 
+from granalytics.core._resources import check_memory
 from granalytics.core._windows import window_mask
 from granalytics.analysis.metrics import HEADLINE, METRICS
 from granalytics.core.errors import GranalyticsError, ParameterError
@@ -18,8 +19,11 @@ from granalytics.identify import DEFAULT_METHODS, accepted_params
 from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
-from granalytics.cli._common import (threshold_options, add_cohesion_option, add_criterion_options, add_gna_options, criterion_params, check_outputs, gna_identifier, grid, interval, json_safe, progress, save_figure, selected_frames,
-                      setting, window_axis, write_table)
+from granalytics.cli._common import (threshold_options, add_cohesion_option, add_continuation_option,
+                                     add_criterion_options, add_frame_loop_options, add_gna_options, criterion_params,
+                                     check_outputs, frame_loop, gna_identifier, grid,
+                                     interval, json_safe, plus_minus, progress, save_figure, selected_frames, setting,
+                                     warn_if_c_agg_unreachable, warn_if_unfinished, window_axis, write_table)
 
 
 def add_info_parser(sub):
@@ -39,6 +43,7 @@ def add_identify_parser(sub):
     p.add_argument("--out", required=True, help="labels file to write (.h5): datasets labels, ids, granule_track, time, frame_index, n_granules")
     p.add_argument("--overwrite", action="store_true", help="replace an existing labels file")
     add_gna_options(p)
+    add_continuation_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_identify)
     return p
@@ -62,6 +67,7 @@ def add_stats_parser(sub):
                         "the mean over the replicas with the replica s.e. beside the block s.e.m. (also in --steady-out)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     add_gna_options(p)
+    add_frame_loop_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_stats)
     return p
@@ -82,7 +88,7 @@ def add_sensitivity_parser(sub):
     p.add_argument("--radius", choices=("pair", "mean"), default="pair", help="R in 2πγR (default pair)")
     add_cohesion_option(p)
     add_criterion_options(p, grid_tol=True)
-    p.add_argument("--jobs", type=int, default=1, help="worker threads over frames (default 1)")
+    add_frame_loop_options(p)
     p.add_argument("--out", help="summary table over the window (.csv or .parquet)")
     p.add_argument("--frames-out", help="per-frame table (.csv or .parquet)")
     p.add_argument("--plot", help="heatmaps and line plots (.png, .pdf, .svg)")
@@ -111,6 +117,7 @@ def add_compare_methods_parser(sub):
     p.add_argument("--stats-out", help="statistics per frame and method (.csv or .parquet)")
     p.add_argument("--plot", help="figure (.png, .pdf, .svg)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    add_frame_loop_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
     return p
@@ -153,6 +160,7 @@ def cmd_info(args):
     from granalytics.analysis.confinement import confinement_warning
 
     with open_run(args.run) as run:
+        warn_if_unfinished(run)
         info = run.info()
         meta = run.meta.to_dict()
         bed = bed_structure(run[len(run) - 1]) if len(run) else None
@@ -169,7 +177,7 @@ def cmd_info(args):
     width = max(len(k) for k in list(info) + list(meta))
     print("file")
     for key, value in info.items():
-        print(f"  {key:<{width}}  {value}")
+        print(f"  {key:<{width}}  {_shown(value)}")
     if bed is not None:
         print(f"  {'bed (last frame)':<{width}}  {bed.describe()}")
     if drum is not None:
@@ -180,8 +188,17 @@ def cmd_info(args):
             value = json.dumps(value) if value else "{}"
             if len(value) > 100:
                 value = value[:97] + "..."
-        print(f"  {key:<{width}}  {value}")
+        print(f"  {key:<{width}}  {_shown(value)}")
     return 0
+
+
+def _shown(value):
+    """A value of ``info`` as text: floats to 6 significant digits (``--json`` keeps every digit)."""
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, (list, tuple)) and value and all(isinstance(v, float) for v in value):
+        return "[" + ", ".join(f"{v:.6g}" for v in value) + "]"
+    return value
 
 
 def cmd_identify(args):
@@ -219,6 +236,7 @@ def _write_labels(out, args, frames, identifier, n_frames, n):
     out.attrs["run"] = os.path.abspath(args.run)
     out.attrs["method"] = identifier.method
     out.attrs["params"] = json.dumps(identifier.params())
+    out.attrs["continuation"] = args.continuation
     out["frame_index"] = frames.frame_indices
     out["time"] = frames.times
     out["time"].attrs["unit"] = "s"
@@ -236,7 +254,8 @@ def _write_labels(out, args, frames, identifier, n_frames, n):
     # the granule track of every particle (-1 free): the id that a granule keeps while it lives
     from granalytics.analysis.tracking import track_granules
 
-    tracks = track_granules([labels[k] for k in range(n_frames)], [ids[k] for k in range(n_frames)], frames.times)
+    tracks = track_granules([labels[k] for k in range(n_frames)], [ids[k] for k in range(n_frames)], frames.times,
+                            continuation=args.continuation)
     granule_track = out.create_dataset("granule_track", (n_frames, n), dtype=np.int64, **chunked)
     for k in range(n_frames):
         lab, mapping = labels[k], tracks.labels_to_tracks[k]
@@ -266,11 +285,12 @@ def _stats(args):
         frames = selected_frames(run, args)
         # the window is checked on the frame times before the analysis (its warnings come with the table)
         in_window, _ = check_window(window_axis(frames, by), window, by=by, source=args.run, warn=False)
-        ts, sizes = run_stats(frames, "gna", progress=progress(args), return_sizes=True, **params)
+        ts, sizes = run_stats(frames, "gna", progress=progress(args), return_sizes=True, **frame_loop(args), **params)
     series = [ts]
     for path in args.replica:  # replicas: the steady state is over all of them (steady_state of a list)
         with open_run(path) as replica:
-            series.append(run_stats(selected_frames(replica, args), "gna", progress=progress(args), **params))
+            series.append(run_stats(selected_frames(replica, args), "gna", progress=progress(args), **frame_loop(args),
+                                    **params))
     steady = steady_state(series if args.replica else ts, window=window, by=by, source=args.run)
     dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
     with staged_outputs() as stage:  # every output, or none (a failing figure replaces no table)
@@ -302,6 +322,13 @@ def _stats(args):
           + (f", mean over {args.run} and {len(args.replica)} replica(s):" if args.replica else ":"))
     with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
         print(steady.to_string())
+    if args.replica:
+        print("replica_sem: standard error of the mean over the replicas; replica_std: standard deviation of the "
+              "replica means; block_sem: what the replicas' block s.e.m. say of the same mean, √(Σ sem_i²)/n")
+    else:
+        print("std: over the frames of the window; sem: standard error of the mean from the means of its blocks"
+              + (" (NaN: the window holds a single block, too short to estimate it; widen the window)"
+                 if steady["sem"].isna().any() and (steady["n_blocks"] < 2).any() else ""))
     return 0
 
 
@@ -320,10 +347,16 @@ def cmd_sensitivity(args):
     thresholds = dict(a_agg_deg=None if rigid else args.a_agg_deg, rigid_tol=args.rigid_tol if rigid else None,
                       comotion=args.comotion, rigid_scale=args.rigid_scale, min_size=args.min_size)
     with open_run(args.run) as run:
+        warn_if_unfinished(run)
         check_window(window_axis(run), args.window, source=args.run)  # refuses an empty window, warns for an uncovered one
         frames = run.select(revolutions=args.window)
-        table = sensitivity(frames, args.c_agg, radius=args.radius, cohesion=args.cohesion, jobs=args.jobs,
-                            progress=not args.quiet, **thresholds)
+        # the per-frame table: one row of about 120 bytes per frame and grid point, built in memory
+        points = len(args.c_agg) * (len(args.rigid_tol) if rigid else len(args.a_agg_deg))
+        check_memory(f"sensitivity over {len(frames)} frames × {points} grid points", 120 * 2 * len(frames) * points)
+        if len(frames):
+            warn_if_c_agg_unreachable(frames, args.c_agg, args.cohesion, args.radius)
+        table = sensitivity(frames, args.c_agg, radius=args.radius, cohesion=args.cohesion, progress=not args.quiet,
+                            **frame_loop(args), **thresholds)
     summary = sensitivity_summary(table)
     if args.frames_out:
         write_table(table, args.frames_out)
@@ -338,8 +371,7 @@ def cmd_sensitivity(args):
                                  f"[{args.window[0]:g}, {args.window[1]:g}], cohesion={args.cohesion}"), args.plot)
     import pandas as pd
 
-    shown = summary[["rigid_tol" if rigid else "a_agg_deg", "c_agg", "yield_fraction_mean", "n_granules_norm_mean",
-                     "mean_volume_norm_mean"]]
+    shown = summary[["rigid_tol" if rigid else "a_agg_deg", "c_agg", *(f"{name}_mean" for name in HEADLINE)]]
     with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120, "display.max_rows", 40):
         print(shown.to_string(index=False))
     return 0
@@ -356,7 +388,8 @@ def cmd_compare(args):
         methods[method][1][param] = value
     with open_run(args.run) as run:
         frames = selected_frames(run, args)
-        stats, pairs = compare_methods(frames, methods, cohesion=args.cohesion, progress=not args.quiet)
+        stats, pairs = compare_methods(frames, methods, cohesion=args.cohesion, progress=not args.quiet,
+                                       **frame_loop(args))
     if args.out:
         write_table(pairs, args.out)
         print(f"wrote pairwise comparison to {args.out}")
@@ -381,7 +414,7 @@ def cmd_compare(args):
     frames_in = set(stats["frame"][inside])
     mean_stats = stats[inside].groupby("method", sort=False)[list(HEADLINE)].mean()
     mean_pairs = pairs[pairs["frame"].isin(frames_in)].groupby(["method_a", "method_b"], sort=False)[
-        ["ari", "d_n_granules_norm", "d_yield_fraction"]].mean()
+        ["ari", *(f"d_{name}" for name in HEADLINE)]].mean()
     with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
         print(f"means over the {len(frames_in)} frames in the window [{lo:g}, {hi:g}] revolutions")
         print(mean_stats.to_string())
@@ -482,9 +515,9 @@ def format_cg_table(comparison) -> str:
     lines.append(header)
     for row in comparison.table.itertuples():
         cells = []
-        for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
+        for metric in HEADLINE:
             mean, sem, dev = (getattr(row, f"{metric}_{x}") for x in ("mean", "sem", "rel_dev"))
-            cells.append(f"{mean:{fmt}} ± {sem:{fmt}} ({dev:+.0%})")
+            cells.append(f"{plus_minus(mean, sem)} ({dev:+.0%})")
         lines.append(f"{row.run:<{width}} {cells[0]:>19} {cells[1]:>21} {cells[2]:>23} {row.ks_distance:>6.3f} "
                      f"{row.speedup:>8.1f}× {row.paper_speedup:>5.1f}×")
     lines.append("* wall time per simulated second recorded by the simulator in each run; runs that shared the "
@@ -494,10 +527,10 @@ def format_cg_table(comparison) -> str:
         lines.append("replicas: mean over the replicas ± replica s.e. [block s.e.m.]; deviation ± its s.e.")
         for row in replicated.itertuples():
             cells = []
-            for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
+            for metric in HEADLINE:
                 mean, rsem, sem, dev, dev_se = (getattr(row, f"{metric}_{x}")
                                                 for x in ("mean", "replica_sem", "sem", "rel_dev", "rel_dev_se"))
-                cells.append(f"{METRICS[metric].label} {mean:{fmt}} ± {rsem:{fmt}} [{sem:{fmt}}] "
+                cells.append(f"{METRICS[metric].label} {plus_minus(mean, rsem)} [{sem:#.2g}] "
                              f"({dev:+.0%} ± {dev_se:.0%})")
             lines.append(f"  {row.run}: " + "; ".join(cells))
     return "\n".join(lines)

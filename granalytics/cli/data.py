@@ -11,7 +11,8 @@ from granalytics.core.files import WriterLock, check_apart, output_folder, regul
 from granalytics.convert.registry import READERS
 from granalytics.core import open_run
 from granalytics.analysis.stats import check_window
-from granalytics.cli._common import add_gna_options, criterion_params, check_new_file, check_outputs, every, interval, selected_frames, table_format
+from granalytics.cli._common import (add_continuation_option, add_gna_options, criterion_params, check_new_file,
+                                     check_outputs, every, interval, selected_frames, table_format)
 
 
 def add_subset_parser(sub):
@@ -43,6 +44,7 @@ def add_export_vtk_parser(sub):
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--overwrite", action="store_true", help="replace an earlier export of the same run in the folder")
     add_gna_options(p)
+    add_continuation_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_export_vtk)
     return p
@@ -75,10 +77,7 @@ def cmd_subset(args):
         raise ParameterError(f"--every must be >= 1, got {args.every}")
     if args.window_every != 1 and args.full_window is None:
         raise ParameterError(f"--window-every {args.window_every} thins --full-window; give one")
-    if os.path.abspath(args.out) == os.path.abspath(args.run):
-        raise ParameterError(f"{args.out}: --out is the input run")
-    if os.path.exists(args.out) and not args.overwrite:
-        raise ParameterError(f"{args.out}: file exists (pass --overwrite to replace it)")
+    check_outputs(args, others=(args.out,))  # not the input (links resolved), no device, --overwrite
     with open_run(args.run) as run:
         n_frames = len(run)
         # revolutions only where a window of them is asked for (a static run has none)
@@ -109,8 +108,8 @@ def cmd_export_vtk(args):
         if existing and not args.overwrite:
             raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace {len(existing)} frame file(s) "
                                  f"in {args.out})")
-        pvd = export_vtk(frames, args.out, "gna", progress=not args.quiet, c_agg=args.c_agg,
-                         a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
+        pvd = export_vtk(frames, args.out, "gna", continuation=args.continuation, progress=not args.quiet,
+                         c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,
                          cohesion=args.cohesion, **criterion_params(args))
     print(f"wrote {len(frames)} frames and {pvd} (open it in ParaView)")
     return 0
@@ -122,6 +121,9 @@ def cmd_convert(args):
     from granalytics.core import RunWriter, replacing_run
     from granalytics.convert.registry import read_run_files
 
+    if READERS[args.source].needs_dt and args.dt_s is None:
+        raise ParameterError(f"--dt-s: {args.source} files do not record the time step; give it in seconds "
+                             "(time = timestep × dt)")
     inputs = [*args.particles, *args.contacts, args.mapping]
     check_apart(args.out, inputs, "converted run")  # --overwrite must never replace an input
     for path in inputs:
@@ -145,6 +147,7 @@ def add_synthetic_parser(sub):
     p.add_argument("--frames-per-revolution", type=int, default=20, help="default 20")
     p.add_argument("--alpha", type=float, default=1.0, help="CG factor α (default 1)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--overwrite", action="store_true", help="replace an existing run file")
     p.set_defaults(func=cmd_synthetic)
     return p
 
@@ -152,8 +155,9 @@ def add_synthetic_parser(sub):
 def cmd_synthetic(args) -> int:
     from granalytics.datasets.synthetic import write_synthetic_run
 
+    check_new_file(args.out, args.overwrite)
     path = write_synthetic_run(args.out, args.particles, args.revolutions, args.frames_per_revolution,
-                               alpha=args.alpha, seed=args.seed)
+                               alpha=args.alpha, seed=args.seed, overwrite=args.overwrite)
     print(f"wrote synthetic (physics-free) run {path}")
     return 0
 
@@ -163,12 +167,13 @@ def add_table_parser(sub):
     p = sub.add_parser("table", help="tidy per-particle table: one row per particle and frame, with granule and track id",
                        description="One row per particle and frame (frame, time_s, revolutions, id, x, y, z, vx, vy, "
                                    "vz, wx, wy, wz, radius, film_volume, granule, granule_track), written frame by "
-                                   "frame (.parquet or .csv). granule_track keeps its value while a granule lives "
-                                   "(docs/tracking.md).")
+                                   "frame (.parquet or .csv). granule_track keeps its value while a granule lives, "
+                                   "by default through the events it survives as the main branch (docs/tracking.md).")
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--out", required=True, help="table to write (.parquet or .csv)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing table")
     add_gna_options(p)
+    add_continuation_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_table)
     return p
@@ -181,7 +186,8 @@ def cmd_table(args) -> int:
     with WriterLock(args.out), open_run(args.run) as run, staged_outputs() as stage:
         check_outputs(args, tables=(args.out,))
         frames = selected_frames(run, args)
-        pieces = particle_frames(frames, "gna", progress=not args.quiet, c_agg=args.c_agg, a_agg_deg=args.a_agg_deg,
+        pieces = particle_frames(frames, "gna", continuation=args.continuation, progress=not args.quiet,
+                                 c_agg=args.c_agg, a_agg_deg=args.a_agg_deg,
                                  radius=args.radius, backend=args.backend, cohesion=args.cohesion,
                                  **criterion_params(args))
         rows = write_frames(pieces, stage(args.out), table_format(args.out))

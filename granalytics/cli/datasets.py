@@ -9,6 +9,7 @@ import argparse
 
 from granalytics import datasets
 from granalytics.core.errors import GranalyticsError
+from granalytics.core.files import interrupted
 from granalytics.cli._common import every, interval
 
 
@@ -53,6 +54,11 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
         except (GranalyticsError, OSError) as exc:
             print(f"{prog} bundle-sweep: error: {exc}", file=sys.stderr)
             return 2
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not interrupted(exc):
+                raise
+            print(f"{prog} bundle-sweep: interrupted; {args.dst} was left as it was", file=sys.stderr)
+            return 130
         return 0
     known = {**datasets.DATASETS, **datasets.FOREIGN, **datasets.SWEEPS}
     unknown = [n for n in args.names if n not in known]

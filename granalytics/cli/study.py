@@ -16,7 +16,7 @@ from granalytics.core.manifest import read_manifest
 from granalytics.plot import growth_figure
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.analysis.study import fit_growth_of_table, fit_surrogate, study_table
-from granalytics.cli._common import check_outputs, interval, save_figure, threshold_options, write_table
+from granalytics.cli._common import check_outputs, interval, plus_minus, save_figure, threshold_options, write_table
 
 def parse_predict(text, inputs=("gamma", "omega")) -> dict:
     """Parse ``"gamma=0.2,omega=3"`` into ``{"gamma": 0.2, "omega": 3.0}``.
@@ -93,9 +93,9 @@ def cmd_study(args) -> int:
     predictions = [parse_predict(text, inputs) for text in (args.predict or [])]
     if not os.path.isdir(args.sweep):
         raise ParameterError(f"{args.sweep}: not a folder")
-    sweep = os.path.abspath(args.sweep)
+    sweep = os.path.realpath(args.sweep)  # links resolved: an output linked into the sweep would overwrite it
     for path in (args.out, args.plot):
-        if path and os.path.commonpath([sweep, os.path.abspath(path)]) == sweep:
+        if path and os.path.commonpath([sweep, os.path.realpath(path)]) == sweep:
             raise ParameterError(f"{path}: inside the sweep folder {args.sweep} (its manifest and points are the input)")
     check_outputs(args, tables=(args.out,), plots=(args.plot,))
     conventions = ["acting", "bridge"] if args.cohesion == "both" else [args.cohesion]
@@ -114,7 +114,7 @@ def cmd_study(args) -> int:
     columns = ["point", "gamma", "omega", "alpha", "cohesion"]
     cells = table[[c for c in columns if c in table]].copy()
     for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
-        cells[metric] = [f"{m:{fmt}} ± {s:{fmt}}" for m, s in zip(table[f"{metric}_mean"], table[f"{metric}_sem"])]
+        cells[metric] = [plus_minus(m, s) for m, s in zip(table[f"{metric}_mean"], table[f"{metric}_sem"])]
         if args.replicas:
             cells[f"{metric} replica s.e."] = [f"{r:{fmt}}" for r in table[f"{metric}_replica_sem"]]
     if args.replicas:

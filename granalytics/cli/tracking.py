@@ -11,7 +11,8 @@ from granalytics.identify import DEFAULT_METHODS, accepted_params
 from granalytics.core import open_run
 from granalytics.plot import tracking_figure
 from granalytics.analysis.tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
-from granalytics.cli._common import add_cohesion_option, interval, save_figure, threshold_options, write_table
+from granalytics.cli._common import (add_cohesion_option, add_frame_loop_options, frame_loop, interval, save_figure,
+                                     OldSpelling, threshold_options, warn_if_unfinished, write_table)
 
 _OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
 
@@ -40,11 +41,14 @@ def add_track_parser(sub):
     p.add_argument("--a-agg-deg", type=float, default=None,
                    help="angle threshold A_agg in degrees (default: the method's, 20; only for methods that take it)")
     add_cohesion_option(p)
-    p.add_argument("--window-rev", "--window", dest="window", type=interval, default=None, metavar="R0:R1",
+    p.add_argument("--window-rev", dest="window", type=interval, default=None, metavar="R0:R1",
                    help="only frames within this revolution window (default: all frames)")
+    p.add_argument("--window", dest="window", type=interval, action=OldSpelling, new="--window-rev", metavar="R0:R1",
+                   why=" (the frames to track): everywhere else --window is the steady-state window")
     p.add_argument("--min-fragment", type=int, default=2,
                    help="fewest particles that count as a fragment in a coalescence or breakage (default 2)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    add_frame_loop_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_track)
     return p
@@ -68,12 +72,14 @@ def cmd_track(args):
             raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
         params = {**threshold_options(args, args.method), **accepted_params(args.method, cohesion=args.cohesion)}
         with open_run(args.run) as run:
+            warn_if_unfinished(run)
             omega = run.meta.drum_omega
             frames = run if args.window is None else run.select(revolutions=args.window)
             if len(frames) < 2:
                 raise ParameterError(f"{args.run}: tracking needs at least two frames, the selection has {len(frames)} "
                                      f"(the run has {len(run)})")
-            tracks = track_run(frames, args.method, progress=not args.quiet, min_fragment=args.min_fragment, **params)
+            tracks = track_run(frames, args.method, progress=not args.quiet, min_fragment=args.min_fragment,
+                               **frame_loop(args), **params)
         period = 2 * math.pi / abs(omega) if omega else None
         rates = event_rates(tracks, period)
         kernel = coalescence_kernel(tracks)

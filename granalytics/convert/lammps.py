@@ -22,7 +22,7 @@ from granalytics.core.errors import ValidationError
 from granalytics.core.snapshot import RunMeta, Snapshot
 from granalytics.convert._text import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps
 
-__all__ = ["DumpMapping", "read_dump_blocks", "read_liggghts"]
+__all__ = ["DumpMapping", "read_dump_blocks", "integer_column", "read_liggghts"]
 
 
 @dataclass
@@ -123,7 +123,11 @@ class DumpMapping:
 
 
 def read_dump_blocks(path, kind):
-    """Yield ``(timestep, columns, data, first_line)`` for every block of a dump file.
+    """Yield ``(timestep, columns, data, first_line, text)`` for every block of a dump file.
+
+    ``data`` holds the values as float64 (rows × columns), ``text`` the same fields as written
+    (an array of str), from which :func:`integer_column` reads ids exactly. Fields may be
+    separated by spaces or tabs, as LAMMPS' ``dump_modify format`` allows.
 
     Parameters
     ----------
@@ -141,7 +145,7 @@ def read_dump_blocks(path, kind):
     def expect(line_no, item):
         if line_no >= len(lines):
             fail(line_no, f"file ends where 'ITEM: {item}' was expected")
-        if not lines[line_no].startswith(f"ITEM: {item}"):
+        if not " ".join(lines[line_no].split()).startswith(f"ITEM: {item}"):  # tabs or runs of spaces
             fail(line_no, f"expected 'ITEM: {item}', found {lines[line_no][:60]!r}")
 
     while k < len(lines):
@@ -173,20 +177,44 @@ def read_dump_blocks(path, kind):
         if len(rows) < n:
             fail(first + len(rows), f"file ends after {len(rows)} of {n} rows of timestep {step}")
         data = np.empty((n, len(columns)))
+        fields = []
         for r, text in enumerate(rows):
-            fields = text.split()
-            if len(fields) != len(columns):
-                fail(first + r, f"{len(fields)} values for {len(columns)} columns")
+            fields.append(text.split())
+            if len(fields[-1]) != len(columns):
+                fail(first + r, f"{len(fields[-1])} values for {len(columns)} columns")
             try:
-                data[r] = [float(x) for x in fields]
+                data[r] = [float(x) for x in fields[-1]]
             except ValueError:
                 fail(first + r, f"not a number in {text[:60]!r}")
         bad = ~np.isfinite(data)
         if bad.any():
             r, c = np.argwhere(bad)[0]
             fail(first + r, f"non-finite value in column {columns[c]!r}")
-        yield step, columns, data, first
+        yield step, columns, data, first, np.array(fields, dtype=str).reshape(n, len(columns))
         k = first + n
+
+
+def integer_column(texts, path, first_line, what) -> np.ndarray:
+    """The fields ``texts`` of one column (as written, rows from ``first_line``, 0-based) as exact
+    int64: an integer is read as written (never through float64, which rounds above 2**53); a
+    number written as a float (``12.0``, ``1.2e3``) only when it is whole and at most 2**53, where
+    float64 is exact. Anything else raises :class:`DumpFormatError` naming the line."""
+    out = np.empty(len(texts), dtype=np.int64)
+    for r, text in enumerate(texts):
+        try:
+            out[r] = int(text)
+            continue
+        except OverflowError:
+            problem = "is beyond the 64-bit integers"
+        except ValueError:
+            value = float(text)  # a number: read_dump_blocks checked it
+            if value.is_integer() and abs(value) <= 2**53:
+                out[r] = int(value)
+                continue
+            problem = ("is written as a float above 2**53, where floats skip integers: write ids as integers"
+                       if value.is_integer() else "is not a whole number")
+        raise DumpFormatError(f"{path}, line {first_line + r + 1}: {what} {text!r} {problem}")
+    return out
 
 
 def _column(columns, name, path, line, what):
@@ -195,7 +223,7 @@ def _column(columns, name, path, line, what):
     return columns.index(name)
 
 
-def _particles(columns, data, path, line, mapping):
+def _particles(columns, data, text, path, line, mapping):
     def col(name, what):
         return data[:, _column(columns, name, path, line, what)]
 
@@ -205,11 +233,9 @@ def _particles(columns, data, path, line, mapping):
         radius = col("diameter", "diameter") / 2
     else:
         raise DumpFormatError(f"{path}, line {line}: the particle dump needs a 'radius' or 'diameter' column")
-    ids = col("id", "particle ids")
-    if not np.all(ids == np.round(ids)):
-        raise DumpFormatError(f"{path}, line {line}: particle ids are not integers")
+    ids = integer_column(text[:, _column(columns, "id", path, line, "particle ids")], path, line, "particle id")
     out = {
-        "ids": ids.astype(np.int64),
+        "ids": ids,
         "radius": radius,
         "position": np.column_stack([col(c, "positions") for c in ("x", "y", "z")]),
         "velocity": np.column_stack([col(c, "velocities") for c in ("vx", "vy", "vz")]),
@@ -224,7 +250,7 @@ def _particles(columns, data, path, line, mapping):
     return out
 
 
-def _contacts(columns, data, path, line, mapping, id_to_row, position):
+def _contacts(columns, data, text, path, line, mapping, id_to_row, position):
     def col(name, what):
         return data[:, _column(columns, name, path, line, what)]
 
@@ -239,9 +265,9 @@ def _contacts(columns, data, path, line, mapping, id_to_row, position):
         length[length == 0] = np.inf  # coincident centres: no direction, no normal force
         return -(force * branch).sum(axis=1) / length
 
-    id_i, id_j = col(mapping.contact_id_i, "contact_id_i"), col(mapping.contact_id_j, "contact_id_j")
     rows = []
-    for ids in (id_i, id_j):
+    for name in (mapping.contact_id_i, mapping.contact_id_j):
+        ids = integer_column(text[:, _column(columns, name, path, line, name)], path, line, f"contact particle id ({name})")
         r = np.array([id_to_row.get(int(x), -1) for x in ids], dtype=np.int64)
         if (r < 0).any():
             k = int(np.flatnonzero(r < 0)[0])
@@ -271,10 +297,10 @@ def _blocks_by_step(files, kind):
     """``{timestep: (columns, data, first_line, path)}`` over all blocks of all files."""
     blocks = {}
     for path in files:
-        for step, columns, data, line in read_dump_blocks(path, kind):
+        for step, columns, data, line, text in read_dump_blocks(path, kind):
             if step in blocks:
                 raise DumpFormatError(f"{path}, line {line}: timestep {step} already read from {blocks[step][3]}")
-            blocks[step] = (columns, data, line, path)
+            blocks[step] = (columns, data, line, path, text)
     return blocks
 
 
@@ -302,15 +328,15 @@ def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
     n0 = None
     snapshots = []
     for step in sorted(particles):
-        columns, data, line, path = particles[step]
+        columns, data, line, path, text = particles[step]
         if step not in contacts:
             raise DumpFormatError(f"{path}, line {line}: no contact dump for timestep {step}")
-        part = _particles(columns, data, path, line, mapping)
+        part = _particles(columns, data, text, path, line, mapping)
         id_to_row = {int(pid): r for r, pid in enumerate(part["ids"])}
         if len(id_to_row) != len(part["ids"]):
             raise DumpFormatError(f"{path}, line {line}: duplicate particle ids in timestep {step}")
-        ccols, cdata, cline, cpath = contacts[step]
-        cont = _contacts(ccols, cdata, cpath, cline, mapping, id_to_row, part["position"])
+        ccols, cdata, cline, cpath, ctext = contacts[step]
+        cont = _contacts(ccols, cdata, ctext, cpath, cline, mapping, id_to_row, part["position"])
         n0 = n0 or len(part["ids"])
         if len(part["ids"]) != n0:
             raise DumpFormatError(f"{path}, line {line}: timestep {step} has {len(part['ids'])} particles, the first "

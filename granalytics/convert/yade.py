@@ -3,9 +3,14 @@
 Each frame is a particle file (``# time_s=… step=… dt_s=…`` then ``id,radius,x,y,z,vx,vy,vz,
 wx,wy,wz,film_volume``) and a contact file (``id1,id2,gap,normal_force,bridge_active,
 bridge_volume``). YADE applies the capillary force only while a bridge is active (separated,
-s < s_crit), so F_coh is the normal force of active bridges and 0 otherwise; the total normal
-force is stored positive when repulsive (touching) and negative when attractive (bridge).
-Material metadata (γ, ρ, Ω, θ, α) come from a TOML file, as the CSVs do not carry them.
+s < s_crit): the force of an active bridge is its exported normal force; a touching pair with a
+bridge volume carries the bridge at s → 0⁺, which YADE neither applies nor exports, so the reader
+fills in Willett's F_cap(0⁺) from V_b, the pair radius, γ and θ (``capillary_type``
+``"Willett_numeric"``, the only one read so far); ``capillary_in_contact`` is false, so the
+"acting" convention still gives such pairs no cohesion and the "bridge" convention counts them,
+as for runs of ``sim``. The total normal force is stored positive when repulsive (touching) and
+negative when attractive (bridge). Material metadata (γ, ρ, Ω, θ, α, the capillary type) come from
+a TOML file, as the CSVs do not carry them.
 """
 
 from __future__ import annotations
@@ -18,13 +23,16 @@ import pandas as pd
 
 from granalytics.core.errors import GranalyticsError, ValidationError
 from granalytics.core.snapshot import RunMeta, Snapshot
+from granalytics.convert._capillary import effective_radius, willett_numeric_contact_force
 from granalytics.convert._text import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps
 
 __all__ = ["read_yade_csv", "PARTICLE_COLUMNS", "CONTACT_COLUMNS"]
 
 PARTICLE_COLUMNS = ["id", "radius", "x", "y", "z", "vx", "vy", "vz", "wx", "wy", "wz", "film_volume"]
 CONTACT_COLUMNS = ["id1", "id2", "gap", "normal_force", "bridge_active", "bridge_volume"]
-_META_KEYS = {"surface_tension", "density", "drum_omega", "contact_angle", "alpha"}
+_META_KEYS = {"surface_tension", "density", "drum_omega", "contact_angle", "alpha", "capillary_type"}
+#: YADE ViscElCapMat capillary types whose F_cap(0⁺) the reader can fill in
+_CAPILLARY_TYPES = {"Willett_numeric": willett_numeric_contact_force}
 
 
 def _read(path, columns):
@@ -57,6 +65,15 @@ def read_yade_csv(particle_files, contact_files, meta_toml):
     unknown = sorted(set(meta_data) - _META_KEYS)
     if unknown:
         raise ValidationError("mapping", f"unknown keys {unknown} in {meta_toml} (allowed: {sorted(_META_KEYS)})")
+    capillary_type = meta_data.pop("capillary_type", "Willett_numeric")
+    if capillary_type not in _CAPILLARY_TYPES:
+        raise ValidationError("mapping", f"{meta_toml}: capillary_type {capillary_type!r} is not read (known: "
+                              f"{', '.join(_CAPILLARY_TYPES)})")
+    gamma, theta = meta_data.get("surface_tension"), meta_data.get("contact_angle", 0.0)
+    for key, value in (("surface_tension", gamma), ("contact_angle", theta)):
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            raise ValidationError("mapping", f"{meta_toml}: {key} must be a number (the bridge force at contact "
+                                  f"needs it), got {value!r}")
     contacts = {}
     for path in contact_files:
         time, step, table = _read(path, CONTACT_COLUMNS)
@@ -90,14 +107,20 @@ def read_yade_csv(particle_files, contact_files, meta_toml):
         active = c["bridge_active"].to_numpy() != 0
         gap = c["gap"].to_numpy()
         force = c["normal_force"].to_numpy()
+        volume = c["bridge_volume"].to_numpy()
+        radius = p["radius"].to_numpy()
+        touching_wet = (gap <= 0) & (volume > 0)
+        f_cap = np.where(active, force, 0.0)
+        f_cap[touching_wet] = _CAPILLARY_TYPES[capillary_type](
+            volume[touching_wet], effective_radius(radius[rows[0][touching_wet]], radius[rows[1][touching_wet]]),
+            gamma, theta)
         try:
             snapshots.append(Snapshot(
                 time=time, step=step, ids=ids, radius=p["radius"].to_numpy(),
                 position=p[["x", "y", "z"]].to_numpy(), velocity=p[["vx", "vy", "vz"]].to_numpy(),
                 angular_velocity=p[["wx", "wy", "wz"]].to_numpy(), film_volume=p["film_volume"].to_numpy(),
                 contact_i=np.minimum(*rows), contact_j=np.maximum(*rows),
-                f_cap=np.where(active, force, 0.0), f_normal=np.where(gap > 0, -force, force), gap=gap,
-                bridge_volume=c["bridge_volume"].to_numpy(),
+                f_cap=f_cap, f_normal=np.where(gap > 0, -force, force), gap=gap, bridge_volume=volume,
             ))
         except ValidationError as exc:
             raise exc.located(f"{path} / {cpath}") from None
@@ -105,7 +128,8 @@ def read_yade_csv(particle_files, contact_files, meta_toml):
     try:
         meta = RunMeta(n_particles=first.n_particles, mean_radius=float(first.radius.mean()),
                        capillary_in_contact=False,  # YADE's ViscElCapPhys law: no capillary force in contact
-                       provenance={"source": "YADE export (docs/yade_export.py)",
+                       provenance={"source": "YADE export (docs/yade_export.py)", "capillary_type": capillary_type,
+                                   "f_cap_in_contact": "Willett F_cap(0+) filled in by the reader",
                                    "particle_files": list(map(str, particle_files)),
                                    "contact_files": list(map(str, contact_files))},
                        **meta_data)

@@ -16,9 +16,13 @@ not at the times the window asks for.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask"]
+from granalytics.core.errors import ParameterError
+
+__all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask", "check_interval"]
 
 #: fraction of the smallest frame spacing by which a frame may lie outside a window's edge
 WINDOW_TOLERANCE = 0.1
@@ -39,3 +43,22 @@ def window_mask(values, lo, hi, tolerance=None) -> np.ndarray:
     values = np.asarray(values, dtype=float)
     tol = window_tolerance(values) if tolerance is None else tolerance
     return (values >= lo - tol) & (values <= hi + tol)
+
+
+def check_interval(name, value) -> tuple[float, float]:
+    """``value`` as a closed window ``(lo, hi)``: two finite real numbers with lo <= hi.
+
+    Raises
+    ------
+    ParameterError
+        Naming ``name`` and the value (text such as ``"3:6"`` is the command line's spelling;
+        the API takes a pair of numbers).
+    """
+    numbers = (int, float, np.integer, np.floating)
+    if (isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2
+            or not all(isinstance(v, numbers) and not isinstance(v, (bool, np.bool_)) for v in value)):
+        raise ParameterError(f"{name} must be a pair of numbers (lo, hi), got {type(value).__name__} {value!r}")
+    lo, hi = float(value[0]), float(value[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+        raise ParameterError(f"{name} must be two finite numbers with lo <= hi, got {value!r}")
+    return lo, hi

@@ -22,7 +22,8 @@ import warnings
 from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
 
 __all__ = ["replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
-           "warnings_as_lines", "regular_input", "staged_outputs", "output_folder"]
+           "warnings_as_lines", "regular_input", "staged_outputs", "output_folder", "interrupted",
+           "swap_folder", "check_replaceable"]
 
 
 @contextlib.contextmanager
@@ -32,6 +33,7 @@ def replaced_atomically(path, tmp=None):
     interrupt), leaving an earlier ``path`` as it was. Temporary files ``PATH.<pid>.tmp`` that a
     killed writer on this host left behind (its pid is gone) are removed first."""
     path = os.fspath(path)
+    check_replaceable(path)
     _remove_stale_temporaries(path)
     tmp = f"{path}.{os.getpid()}.tmp" if tmp is None else os.fspath(tmp)
     try:
@@ -53,6 +55,26 @@ def _remove_stale_temporaries(path) -> None:
         if pid.isdigit() and _owner_is_dead({"host": socket.gethostname(), "pid": int(pid)}):
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
+
+
+def check_replaceable(path) -> None:
+    """Refuse (``ParameterError``) an output path that exists and is not a regular file (or a
+    link to one): a folder, or a device, FIFO or socket such as ``/dev/null``, which renaming a
+    file over it would replace (as root) or which cannot hold the output."""
+    import stat
+
+    path = os.fspath(path)
+    try:
+        mode = os.stat(path).st_mode  # through links: what a link points to
+    except FileNotFoundError:
+        return  # nothing there (or a dangling link, which the rename replaces)
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot inspect the output ({exc.strerror or one_line(exc)})") from None
+    if stat.S_ISDIR(mode):
+        raise ParameterError(f"{path}: is a folder, expected a file name")
+    if not stat.S_ISREG(mode):
+        raise ParameterError(f"{path}: exists and is not a regular file (a device, FIFO or socket); "
+                             "an output is written as a new regular file, give another name")
 
 
 def write_atomically(path, write):
@@ -93,14 +115,15 @@ def regular_input(path):
 
 @contextlib.contextmanager
 def staged_outputs(folder=None):
-    """Several output files written as one: nothing is replaced unless all of them were written.
+    """Several output files written as one: they all change together, or none does.
 
     Yields a function ``stage(target) -> path`` that gives, for each output file ``target``, a
     temporary name to write into, in a staging folder ``.staging-PID-…`` inside ``folder`` (or,
     when ``folder`` is None, in the target's own folder: renames never cross file systems); the
-    file's extension is kept, for writers that choose the format by it. When the block succeeds every staged file is renamed over its
-    target (a loop of atomic renames on one file system); when it fails or is interrupted
-    (Ctrl-C) the staging folder is deleted and no target is touched.
+    file's extension is kept, for writers that choose the format by it. When the block succeeds
+    the staged files are swapped in by :func:`_swap_in` (every earlier target set aside first and
+    put back if any rename fails; Ctrl-C held off until the swap is done or undone); when the
+    block fails or is interrupted the staging folder is deleted and no target is touched.
     """
     import shutil
     import tempfile
@@ -109,6 +132,7 @@ def staged_outputs(folder=None):
 
     def stage(target):
         target = os.fspath(target)
+        check_replaceable(target)
         base = folder if folder is not None else os.path.dirname(os.path.abspath(target))
         if base not in dirs:
             dirs[base] = tempfile.mkdtemp(prefix=f".staging-{os.getpid()}-", dir=base)
@@ -118,11 +142,80 @@ def staged_outputs(folder=None):
 
     try:
         yield stage
-        for target, tmp in staging.items():
-            os.replace(tmp, target)
+        _swap_in(staging)
     finally:
         for staging_dir in dirs.values():
             shutil.rmtree(staging_dir, ignore_errors=True)
+
+
+def _swap_in(staging) -> None:
+    """Rename each staged file over its target as one change: an existing target is first moved
+    beside its staged file (``….old``), and if any rename fails (or Ctrl-C arrives during the
+    swap) every target done so far is put back as it was and the error (the interrupt) raised."""
+    done = []  # (target, where its earlier version was set aside, or None if it had none)
+    with _interrupts_held() as held:
+        try:
+            for target, tmp in staging.items():
+                old = None
+                if os.path.lexists(target):
+                    old = tmp + ".old"
+                    os.replace(target, old)
+                done.append((target, old))
+                os.replace(tmp, target)
+            if held:
+                raise KeyboardInterrupt
+        except BaseException:
+            for target, old in reversed(done):
+                with contextlib.suppress(OSError):
+                    if old is not None:
+                        os.replace(old, target)
+                    elif os.path.lexists(target):
+                        os.unlink(target)
+            raise
+
+
+def swap_folder(new, dst) -> None:
+    """Put the finished folder ``new`` in the place of ``dst`` (a folder or nothing) as one
+    change: ``dst`` is renamed aside, ``new`` renamed to ``dst``, and only then the old one
+    deleted. Ctrl-C is held off during the renames; if the second fails, or Ctrl-C arrived
+    meanwhile, both are undone (``dst`` as it was, ``new`` still at its place) and the error (the
+    interrupt) raised. ``new`` must be on the file system of ``dst`` (made beside it)."""
+    import shutil
+
+    new, dst = os.fspath(new), os.fspath(dst)
+    aside = f"{dst}.old-{os.getpid()}" if os.path.lexists(dst) else None
+    with _interrupts_held() as held:
+        if aside is not None:
+            os.replace(dst, aside)
+        try:
+            os.replace(new, dst)
+            if held:
+                os.replace(dst, new)
+                raise KeyboardInterrupt
+        except BaseException:
+            if aside is not None:
+                os.replace(aside, dst)
+            raise
+    if aside is not None:
+        shutil.rmtree(aside, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _interrupts_held():
+    """Inside: a Ctrl-C (SIGINT) is recorded instead of raised; yields a list that is non-empty
+    once one arrived. Only the main thread receives signals; elsewhere nothing is changed."""
+    import signal
+    import threading
+
+    arrived = []
+    if threading.current_thread() is not threading.main_thread():
+        yield arrived
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
+    try:
+        yield arrived
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
@@ -157,6 +250,12 @@ def check_output_folder(path) -> None:
 
 
 _LOCK_SUFFIX = ".lock"
+
+
+def interrupted(exc) -> bool:
+    """Whether ``exc`` is a Ctrl-C: a KeyboardInterrupt, or the SystemError that a numba kernel
+    raises when the interrupt arrives while it runs ("... returned a result with an exception set")."""
+    return isinstance(exc, KeyboardInterrupt) or isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt)
 
 
 def one_line(exc) -> str:

@@ -32,6 +32,9 @@ _REQUIRED = ("point", "status", "file")
 
 def manifest_path(sweep_dir) -> str:
     """``sweep_dir/manifest.csv``."""
+    if not isinstance(sweep_dir, (str, os.PathLike)):
+        raise ParameterError(f"the sweep folder must be a path (str or path-like), got {type(sweep_dir).__name__} "
+                             f"{sweep_dir!r}")
     return os.path.join(os.fspath(sweep_dir), MANIFEST_NAME)
 
 

@@ -15,10 +15,17 @@ import numpy as np
 from granalytics.core.files import one_line
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_DATASETS, _CONTACT_LAYOUT, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import _HDF5Handle, _open_h5
-from granalytics.core._windows import window_mask
+from granalytics.core._resources import check_memory
+from granalytics.core._windows import check_interval, window_mask
 from granalytics.core.errors import ParameterError, GranalyticsError, RunFileError, ValidationError
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
 
+
+
+# bytes of one particle and one contact in memory (float64 and int64 fields; Snapshot and its checks
+# hold about twice that while a frame is read and validated)
+_PARTICLE_BYTES = 2 * 8 * sum(int(np.prod(trailing, dtype=np.int64)) for trailing, _, _ in _PARTICLE_LAYOUT.values())
+_CONTACT_BYTES = 2 * 8 * len(_CONTACT_LAYOUT)
 
 
 def _check_format(f, path) -> None:
@@ -130,10 +137,9 @@ class _FrameSequence(Sequence):
         """
         if (time is None) == (revolutions is None):
             raise ValidationError("select", "give exactly one of time=(t0, t1) or revolutions=(r0, r1)")
-        lo, hi = time if time is not None else revolutions
+        lo, hi = check_interval("select: time" if time is not None else "select: revolutions",
+                                time if time is not None else revolutions)
         values = self.times if time is not None else self.revolutions
-        if not lo <= hi:
-            raise ValidationError("select", f"empty interval [{lo}, {hi}]")
         return RunSlice(self._run, self._indices[window_mask(values, lo, hi)])
 
     def nearest(self, *, time=None, revolutions=None) -> Snapshot:
@@ -244,6 +250,8 @@ class Run(_HDF5Handle, _FrameSequence):
                 if n != n_rows:
                     raise RunFileError(f"{path}: dataset /{name}, index {min(n, n_rows)}: holds {n} contact rows, "
                                        f"but /{_CONTACT_DATASETS[0]} holds {n_rows}")
+        # the frame index (time, step, count, offset: 32 bytes a frame) is read whole
+        check_memory(f"{path}: reading the index of {n_frames} frames", 32 * n_frames)
         count = _read_index(f, "contacts/count", n_frames, path).astype(np.int64)
         if (count < 0).any():
             k = int(np.flatnonzero(count < 0)[0])
@@ -258,6 +266,9 @@ class Run(_HDF5Handle, _FrameSequence):
                 f"but the contact datasets hold {n_rows}: an entry was changed or contact rows are missing",
                 path=path,
             )
+        largest = int(count[:n_frames].max()) if n_frames else 0
+        check_memory(f"{path}: reading one frame ({n_particles} particles, up to {largest} contacts)",
+                     _PARTICLE_BYTES * n_particles + _CONTACT_BYTES * largest)
         time = _read_index(f, "frames/time", n_frames, path).astype(np.float64)
         step = _read_index(f, "frames/step", n_frames, path).astype(np.int64)
         _check_index(time, step, path)
@@ -304,6 +315,26 @@ class Run(_HDF5Handle, _FrameSequence):
         except ValidationError as exc:
             raise exc.located(self.path, index) from None
 
+    @property
+    def unfinished(self) -> str | None:
+        """Why this run is unfinished (one phrase), or None when nothing says so.
+
+        A run is unfinished when its writer did not close the file (a simulation killed, or
+        still running), when it holds fewer frames than its producer planned
+        (``provenance["planned_frames"]``), or when it comes from the simulator and records no
+        wall time (``sim`` writes it after the last frame; a copy of a stopped run keeps its
+        provenance and is unfinished too).
+        """
+        reasons = []
+        planned = self._meta.provenance.get("planned_frames")
+        if planned is not None and len(self) < planned:
+            reasons.append(f"it holds {len(self)} of the {planned} frames planned")
+        if self._writer_open:
+            reasons.append("its writer did not close it (killed, or still writing)")
+        if self._meta.provenance.get("code") == "sim" and self._meta.provenance.get("wall_time_s") is None:
+            reasons.append(f"the simulator recorded no end (no wall time) after its {len(self)} frames")
+        return "; ".join(reasons) or None
+
     def info(self) -> dict:
         """Summary of what the file holds (for ``granalytics info``)."""
         times = self._time
@@ -311,6 +342,7 @@ class Run(_HDF5Handle, _FrameSequence):
             "path": self.path,
             "format_version": int(self._file.attrs.get("format_version", 0)),
             "created_by": str(self._file.attrs.get("created_by", "")),
+            "finished": "no: " + self.unfinished if self.unfinished else "yes",
             "frames": len(self),
             "particles": self.n_particles,
             "time_first_s": float(times[0]) if len(times) else math.nan,

@@ -330,6 +330,13 @@ class Snapshot:
     def __post_init__(self):
         self.validate()
 
+    def __repr__(self):
+        """One line (the dataclass's own repr printed every array: ~500 lines for a frame)."""
+        revs = self.revolutions
+        at = f", revolution {revs:.4g}" if math.isfinite(revs) else ""
+        return (f"Snapshot(t={self.time:.6g} s, step {self.step}{at}: {self.n_particles} particles, "
+                f"{self.n_contacts} contacts)")
+
     # ------------------------------------------------------------------ validation
     def validate(self) -> None:
         """Coerce dtypes and check every invariant of the data model.
@@ -434,7 +441,12 @@ class Snapshot:
 
 def _coerce(name, value, spec, expected_len):
     kind, trailing, sign = spec
-    arr = np.asarray(value)
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError) as exc:  # a ragged nested list, an object numpy cannot take
+        raise ValidationError(name, f"must be an array of numbers of shape (n{',' if trailing else ''}"
+                              f"{','.join(map(str, trailing))}), got {type(value).__name__} that is not one "
+                              f"({str(exc).split('.')[0]})") from None
     if kind == "int":
         if arr.dtype.kind not in "iu" or arr.dtype == np.bool_:
             if arr.size == 0 and arr.dtype.kind == "f":

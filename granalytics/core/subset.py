@@ -7,8 +7,8 @@ import os
 
 import numpy as np
 
-from granalytics.core._windows import window_mask
-from granalytics.core.files import WriterLock, check_apart, replaced_atomically
+from granalytics.core._windows import check_interval, window_mask
+from granalytics.core.files import WriterLock, check_apart, check_replaceable, replaced_atomically
 from granalytics.core.reader import open_run
 from granalytics.core.writer import RunWriter
 from granalytics.core.errors import RunFileError, ValidationError
@@ -53,9 +53,7 @@ def thinned_frames(revolutions, every=1, full_window=None, window_every=1) -> np
     index = np.arange(revs.size)
     keep = index % every == 0
     if full_window is not None:
-        r0, r1 = full_window
-        if not r0 <= r1:
-            raise ValidationError("full_window", f"must be (r0, r1) with r0 <= r1, got {full_window!r}")
+        r0, r1 = check_interval("full_window", full_window)
         # the analyses' window rule (edges widened by a tenth of a frame spacing), so that a frame
         # stamped at 2.99997 revolutions belongs to [3, 6] here as in every steady state
         keep |= window_mask(revs, r0, r1) & (index % window_every == 0)
@@ -76,6 +74,7 @@ def replacing_run(dst, overwrite=False):
         another writer holds its lock.
     """
     dst = os.fspath(dst)
+    check_replaceable(dst)  # before the lock file beside it
     with WriterLock(dst):
         if os.path.exists(dst) and not overwrite:
             raise RunFileError(f"{dst}: file exists (pass overwrite=True, or --overwrite, to replace it)")
@@ -108,7 +107,12 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
     from tqdm.auto import tqdm
 
     check_apart(dst, [src], "subset")  # overwrite=True must never replace its own source
-    raw = np.asarray(frames)
+    try:
+        raw = np.asarray(frames)
+    except (ValueError, TypeError):  # a ragged nested list
+        raise ValidationError("frames", f"must be a sequence of whole frame indices, got {frames!r}") from None
+    if raw.ndim != 1:
+        raise ValidationError("frames", f"must be a flat sequence of whole frame indices, got shape {raw.shape}")
     if raw.dtype.kind == "f" and not np.array_equal(raw, np.round(raw)):
         bad = raw[raw != np.round(raw)][0]
         raise ValidationError("frames", f"must be whole frame indices, got {float(bad)!r}")
@@ -122,8 +126,13 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
         meta.provenance = {**meta.provenance, "subset_of": {
             "file": os.path.basename(os.fspath(src)), "frames_in_source": len(run),
             "frames_kept": frames.tolist(), "float_dtype": float_dtype}}
+        # the subset plans the frames it keeps; a subset of an unfinished run stays unfinished
+        # through the source's missing wall time, not through a frame count that no longer applies
+        meta.provenance.pop("planned_frames", None)
+        if run.unfinished is None:
+            meta.provenance["planned_frames"] = int(frames.size)
         with replacing_run(dst, overwrite) as tmp, RunWriter(tmp, meta, overwrite=True, float_dtype=float_dtype) as writer:
-            for k in tqdm(frames, disable=not progress, unit="frame", desc="subset"):
+            for k in tqdm(frames, disable=not progress, unit="frame", desc=f"subset {os.path.basename(os.fspath(src))}"):
                 writer.append(run[int(k)])
     return os.fspath(dst)
 

@@ -10,7 +10,7 @@ import h5py
 import numpy as np
 
 from granalytics._version import __version__
-from granalytics.core.files import WriterLock, one_line, _LOCK_SUFFIX
+from granalytics.core.files import WriterLock, check_replaceable, one_line, _LOCK_SUFFIX
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_CHUNK_ROWS, _CONTACT_DATASETS, _CONTACT_LAYOUT, _INDEX_DATASETS, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import _HDF5Handle
 from granalytics.core.reader import open_run
@@ -79,6 +79,7 @@ class RunWriter(_HDF5Handle):
             self._filter.update(compression=compression, shuffle=True)
             if compression == "gzip":
                 self._filter["compression_opts"] = int(compression_level)
+        check_replaceable(self.path)  # a device such as /dev/null, or a folder: no lock file beside it either
         # the lock exists before the file is created or truncated, and until close() is done
         lock = _lock if _lock is not None else WriterLock(self.path).acquire()
         try:

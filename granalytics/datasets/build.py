@@ -50,6 +50,15 @@ def _run_recipe(commands, dry_run, label, progress=False) -> None:
             subprocess.run(argv, cwd=root, check=True)
 
 
+def _remade(name, file, dry_run) -> str:
+    """The sha256 of the file a recipe made (said as it is), or "" for a dry run."""
+    if dry_run:
+        return ""
+    digest = file_sha256(DATASET_DIR / file)
+    _say(name, f"sha256 {digest}")
+    return digest
+
+
 def make_dataset(name: str, *, dry_run=False, progress=False) -> str:
     """Regenerate a dataset from its recipe (minutes to hours: see its ``wall_time``), resuming
     an interrupted simulation from its checkpoint; returns the new file's sha256.
@@ -59,11 +68,7 @@ def make_dataset(name: str, *, dry_run=False, progress=False) -> str:
     """
     entry = DATASETS[name]
     _run_recipe(entry["commands"], dry_run, name, progress)
-    if dry_run:
-        return ""
-    digest = file_sha256(DATASET_DIR / entry["file"])
-    _say(name, f"sha256 {digest}")
-    return digest
+    return _remade(name, entry["file"], dry_run)
 
 
 def make_foreign(name: str, *, dry_run=False, progress=False) -> str:
@@ -83,11 +88,7 @@ def make_foreign(name: str, *, dry_run=False, progress=False) -> str:
             if not dry_run:
                 subprocess.run(command, shell=True, cwd=folder, check=True)  # registry constants, never user input
     _run_recipe(entry["commands"], dry_run, name, progress)
-    if dry_run:
-        return ""
-    digest = file_sha256(DATASET_DIR / entry["file"])
-    _say(name, f"sha256 {digest}")
-    return digest
+    return _remade(name, entry["file"], dry_run)
 
 
 def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_window=None, window_every=1) -> Path:
@@ -112,7 +113,7 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     from granalytics.core import WriterLock, open_run, subset_run, thinned_frames
     from granalytics.core.manifest import read_manifest
 
-    from granalytics.core.files import check_apart
+    from granalytics.core.files import check_apart, swap_folder
 
     src, dst = Path(src), Path(dst)
     thinned_frames([], every, full_window, window_every)  # refuses bad thinning options before any work
@@ -157,9 +158,7 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
             umask = os.umask(0)
             os.umask(umask)
             tmp.chmod(0o777 & ~umask)  # mkdtemp made it private; the bundle is a normal folder
-            if dst.exists():
-                shutil.rmtree(dst)
-            tmp.rename(dst)
+            swap_folder(tmp, dst)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise

@@ -255,7 +255,7 @@ FOREIGN = {
     },
     "yade-wet-drum": {
         "file": "yade-wet-drum.h5",
-        "sha256": "42ec776aa3b41488f95a7a7c8cbe8077a95e681d0ae1e2280580266ad0b1ca52",
+        "sha256": "808e1ed839b5e7abe2eda4b6d6d7f12aaccc0ef234af47d3098f20559d547399",
         "program": "yade",
         "folder": "tests/data/yade_wet_drum",
         "program_commands": ["yade -n -x wetdrum_yade.py", "cp out/frame_particles_000012000.csv out/"
@@ -267,7 +267,8 @@ FOREIGN = {
                        "Willett bridges, R = 20 mm, 2 rad/s; 2 frames (tests/data/yade_wet_drum/README.md). YADE's "
                        "output differs in its last digits from run to run (checked 2026-12-02: LIGGGHTS remade its "
                        "dumps byte for byte, YADE not), so a remake gives a new sum. Remade 2026-12-02 on the 3-D lattice of "
-                       "benchmarks/_bench.py (246 spheres; 90 % of touching contacts cross axial layers, 35 % before)",
+                       "benchmarks/_bench.py (246 spheres; 90 % of touching contacts cross axial layers, 35 % before); "
+                       "re-converted 2026-12-03: the reader fills in Willett's F_cap(0+) of touching wet pairs",
     },
 }
 

@@ -15,6 +15,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
+from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import RunMeta, Snapshot
 
 __all__ = ["synthetic_meta", "synthetic_snapshot", "write_synthetic_run"]
@@ -170,12 +171,22 @@ def write_synthetic_run(path, n_particles=3000, revolutions=6.0, frames_per_revo
     rises over the first two revolutions and then fluctuates about a plateau, like Fig. 6 of the
     paper. Frames are independent draws (no trajectories).
 
+    The file is written whole or not at all (:func:`granalytics.core.replacing_run`): an error
+    or Ctrl-C leaves an earlier ``path`` as it was, and a link at ``path`` is replaced, not
+    written through.
+
     Returns
     -------
     str
         The path written.
+
+    Raises
+    ------
+    ParameterError
+        The run would need more memory or disk than this machine has (its size is named).
     """
-    from granalytics.core import RunWriter
+    from granalytics.core import RunWriter, replacing_run
+    from granalytics.core._resources import check_disk, check_memory
 
     meta = synthetic_meta(n_particles, alpha)
     meta.provenance["command"] = (
@@ -183,8 +194,18 @@ def write_synthetic_run(path, n_particles=3000, revolutions=6.0, frames_per_revo
         f"frames_per_revolution={frames_per_revolution}, alpha={alpha}, seed={seed})"
     )
     period = 2 * math.pi / meta.drum_omega
+    if isinstance(frames_per_revolution, bool) or not isinstance(frames_per_revolution, (int, np.integer)) \
+            or frames_per_revolution < 1:
+        raise ParameterError(f"frames_per_revolution must be a whole number >= 1, got {frames_per_revolution!r}")
+    if isinstance(revolutions, bool) or not isinstance(revolutions, (int, float, np.integer, np.floating)) \
+            or not 0 <= revolutions < math.inf:
+        raise ParameterError(f"revolutions must be a finite number >= 0, got {revolutions!r}")
     n_frames = int(round(revolutions * frames_per_revolution)) + 1
-    with RunWriter(path, meta, overwrite=overwrite) as writer:
+    # random positions and velocities hardly compress: about 100 bytes a particle and frame on disk
+    check_memory(f"a synthetic frame of {n_particles} particles", 400 * n_particles)
+    check_disk(f"{path}: a synthetic run of {n_frames} frames of {n_particles} particles",
+               100 * n_frames * n_particles, path)
+    with replacing_run(path, overwrite) as tmp, RunWriter(tmp, meta, overwrite=True) as writer:
         for k in range(n_frames):
             rev = k / frames_per_revolution
             writer.append(

@@ -4,7 +4,8 @@ frame and a ``.pvd`` collection that ParaView opens as a time series.
 Each ``.vtu`` holds the particles as points (vertex cells) with point data ``id``, ``radius``
 [m], ``velocity`` [m/s], ``angular_velocity`` [rad/s], ``film_volume`` [m³], ``granule`` (label,
 −1 free), ``granule_track`` (the granule's track id, which keeps its value while the granule
-lives, −1 free; :mod:`granalytics.analysis.tracking`) and ``granule_size`` (particles in the particle's
+lives, through the events it survives as the main branch by default, −1 free;
+:mod:`granalytics.analysis.tracking`) and ``granule_size`` (particles in the particle's
 granule, 1 when free), and every
 contact or bridge as a line cell with cell data ``kept`` (1 when the identification kept it),
 ``f_cap`` [N], ``bridge_volume`` [m³] and ``gap`` [m] (vertex cells carry 0 there). In
@@ -30,6 +31,7 @@ from granalytics.analysis.frames import map_frames
 from granalytics.identify import make_identifier
 from granalytics.identify.result import IdentificationResult
 from granalytics.analysis.tracking import track_granules
+from granalytics.analysis.tracking.linking import check_continuation
 
 __all__ = ["export_vtk", "frame_mesh", "drum_mesh"]
 
@@ -94,7 +96,7 @@ def frame_mesh(result, track=None):
     )
 
 
-def export_vtk(frames, out_dir, method="gna", *, progress=False, **params):
+def export_vtk(frames, out_dir, method="gna", *, continuation="main", progress=False, **params):
     """Write ``out_dir/frame_NNNNN.vtu`` for every frame and ``out_dir/run.pvd``.
 
     Parameters
@@ -104,6 +106,11 @@ def export_vtk(frames, out_dir, method="gna", *, progress=False, **params):
         Created if needed.
     method, params :
         Identification used for the ``granule`` fields and ``kept`` bonds.
+    continuation : {"main", "strict"}, default "main"
+        Which granule keeps its ``granule_track`` through coalescence and breakage
+        (:func:`granalytics.track_granules`): the main branch, or none.
+    progress : bool, default False
+        Show progress bars over frames.
 
     Returns
     -------
@@ -116,6 +123,7 @@ def export_vtk(frames, out_dir, method="gna", *, progress=False, **params):
     """
     import meshio
 
+    check_continuation(continuation)
     identifier = make_identifier(method, **params)
     # one identification pass (labels, sizes and kept bonds of every frame; the track ids need
     # them all), then the files (a second pass over the frames, reading only)
@@ -124,7 +132,8 @@ def export_vtk(frames, out_dir, method="gna", *, progress=False, **params):
         return (r.labels, r.sizes, r.method, r.params, r.kept), snapshot.ids, snapshot.time
 
     frame_ids, found = map_frames(frames, identified, progress=progress, desc="identify", what="export")
-    tracks = track_granules([f[0][0] for f in found], [f[1] for f in found], [f[2] for f in found])
+    tracks = track_granules([f[0][0] for f in found], [f[1] for f in found], [f[2] for f in found],
+                            continuation=continuation)
     os.makedirs(out_dir, exist_ok=True)
     collection = ET.Element("VTKFile", type="Collection", version="0.1")
     datasets = ET.SubElement(collection, "Collection")

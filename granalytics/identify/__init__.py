@@ -11,7 +11,7 @@ import inspect
 import numpy as np
 
 from granalytics.core.errors import ParameterError
-from granalytics.identify.common import Identifier, check_flag
+from granalytics.identify.common import Identifier, check_flag, check_snapshot
 from granalytics.identify.community import CommunityDetection
 from granalytics.identify.custom import CustomEdges
 from granalytics.identify.dbscan import DBSCANClustering, DBSCANIdentifier
@@ -38,7 +38,7 @@ def method_parameters(method) -> tuple:
     """Names of the constructor parameters of ``method`` (a :data:`METHODS` key)."""
     try:
         cls = METHODS[method]
-    except KeyError:
+    except (KeyError, TypeError):  # TypeError: an unhashable method (a list)
         raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}") from None
     return tuple(inspect.signature(cls).parameters)
 
@@ -60,7 +60,7 @@ def make_identifier(method="gna", **params):
     """Build the identifier object of ``method`` with ``params``."""
     try:
         cls = METHODS[method]
-    except KeyError:
+    except (KeyError, TypeError):  # TypeError: an unhashable method (a list)
         raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}") from None
     defaults = {name: p.default for name, p in inspect.signature(cls).parameters.items()}
     for name, value in params.items():  # a number or a flag where the method's default is one (e.g. text from --set)
@@ -96,10 +96,5 @@ def identify(snapshot, method="gna", **params) -> IdentificationResult:
     >>> result = identify(snapshot, c_agg=0.6, a_agg_deg=20)    # doctest: +SKIP
     >>> result.labels, result.granules                          # doctest: +SKIP
     """
-    from granalytics.core.snapshot import Snapshot
-
-    if not isinstance(snapshot, Snapshot):
-        hint = " (open the run with granalytics.open_run and pass one frame, e.g. run[0])" if isinstance(
-            snapshot, (str, bytes)) or hasattr(snapshot, "__fspath__") else ""
-        raise ParameterError(f"identify: snapshot must be a granalytics Snapshot, got {type(snapshot).__name__}{hint}")
+    check_snapshot(snapshot, "identify")
     return make_identifier(method, **params).identify(snapshot)

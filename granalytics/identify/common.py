@@ -5,6 +5,7 @@ and canonical labels. Per-contact quantities (γ, R, f = F_coh/(2πγR), co-moti
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 
@@ -40,6 +41,13 @@ class Identifier:
 
     method = ""
 
+    def __init_subclass__(cls, **kwargs):
+        """Every method's :meth:`identify` refuses anything but a Snapshot (one ParameterError,
+        not an AttributeError from deep inside the method)."""
+        super().__init_subclass__(**kwargs)
+        if "identify" in cls.__dict__:
+            cls.identify = _snapshot_checked(cls.__dict__["identify"])
+
     def params(self) -> dict:
         """The constructor parameters, by name."""
         names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
@@ -54,6 +62,26 @@ class Identifier:
     def __repr__(self):
         args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
+
+
+def check_snapshot(snapshot, where) -> None:
+    """Refuse (``ParameterError`` naming ``where``) anything but a :class:`Snapshot`; a path gets
+    the hint to open the run first."""
+    from granalytics.core.snapshot import Snapshot
+
+    if not isinstance(snapshot, Snapshot):
+        hint = " (open the run with granalytics.open_run and pass one frame, e.g. run[0])" if isinstance(
+            snapshot, (str, bytes)) or hasattr(snapshot, "__fspath__") else ""
+        raise ParameterError(f"{where}: snapshot must be a granalytics Snapshot, got {type(snapshot).__name__}{hint}")
+
+
+def _snapshot_checked(identify):
+    @functools.wraps(identify)
+    def checked(self, snapshot, *args, **kwargs):
+        check_snapshot(snapshot, f"{type(self).__name__}.identify")
+        return identify(self, snapshot, *args, **kwargs)
+
+    return checked
 
 
 def check_c_agg(c_agg) -> float:

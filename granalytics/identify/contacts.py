@@ -14,7 +14,8 @@ from granalytics.identify.cohesion import DEFAULT_COHESION, cohesive_force
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 
-__all__ = ["surface_tension", "mean_radius", "check_radius_mode", "as_number", "check_angle", "contact_strength", "co_moving",
+__all__ = ["surface_tension", "mean_radius", "check_radius_mode", "as_number", "check_angle", "contact_strength",
+           "largest_strength", "co_moving",
            "contact_table", "COMOTION_TESTS", "DEFAULT_COMOTION", "DEFAULT_RIGID_TOL", "check_comotion", "check_rigid_tol",
            "rigid_residual", "rigid_speed_scale", "co_moving_rigid", "comotion_mask", "RIGID_SCALES",
            "DEFAULT_RIGID_SCALE", "check_rigid_scale"]
@@ -73,6 +74,17 @@ def check_angle(a_agg_deg) -> float:
     if not 0 < a <= 180:
         raise ParameterError(f"a_agg_deg must be in (0, 180] degrees, got {a_agg_deg!r}")
     return a
+
+
+def largest_strength(snapshots, radius="pair", cohesion=DEFAULT_COHESION) -> float:
+    """The largest F_coh / (2πγR) (:func:`contact_strength`) over ``snapshots`` (0 without contacts).
+
+    No contact passes a cohesion threshold C_agg above it: GNA then finds no granule. In a wet
+    drum it is the force of a touching (or barely separated) bridge at its largest volume V_max,
+    F_cap(0⁺) ≈ 0.84–0.86·2πγR* (``docs/identification.md``, "The C_agg cliff").
+    """
+    return max((float(contact_strength(s, radius=radius, cohesion=cohesion).max(initial=0.0)) for s in snapshots),
+               default=0.0)
 
 
 def contact_strength(snapshot: Snapshot, radius="pair", gamma=None, cohesion=DEFAULT_COHESION) -> np.ndarray:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ast
 import io
+import operator
 import tokenize
 
 import numpy as np
@@ -49,6 +50,8 @@ _COMPARE = {ast.Lt: np.less, ast.LtE: np.less_equal, ast.Gt: np.greater, ast.GtE
             ast.Eq: np.equal, ast.NotEq: np.not_equal}
 _ARITH = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply, ast.Div: np.true_divide,
           ast.Pow: np.power, ast.Mod: np.mod}
+_EXACT = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Pow: operator.pow,
+          ast.Mod: operator.mod}
 _LOGIC = {ast.BitAnd: np.logical_and, ast.BitOr: np.logical_or}
 _UNARY = {ast.UAdd: np.positive, ast.USub: np.negative}
 _SYMBOL = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "==", ast.NotEq: "!=",
@@ -176,12 +179,63 @@ def _check(node, source, depth=0):
 
 
 def _literal(value, here=""):
-    """A numeric literal as a float64 scalar: integers too, so that arithmetic on them cannot wrap
-    around (``2**64`` in int64 is 0) and every comparison is one of real numbers."""
+    """A numeric literal: an int as a Python int (integer arithmetic stays exact, see
+    :func:`_arithmetic`), a float as a float64 scalar."""
+    if type(value) is int:
+        return value
     try:
         return np.float64(float(value))
     except OverflowError:
         _refuse(f"the number{here} is too large")
+
+
+#: the most bits an integer in a criterion may have (about 1e1233): beyond it ``**`` is refused
+MAX_INTEGER_BITS = 4096
+
+
+def _is_integer(value) -> bool:
+    """Whether ``value`` holds integers only: a Python int, a numpy integer (array), or an object
+    array of Python ints (the result of exact integer arithmetic)."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, (int, np.integer)):
+        return True
+    arr = np.asarray(value)
+    if arr.dtype.kind in "iu":
+        return True
+    return arr.dtype == object and all(type(v) is int for v in arr.flat)
+
+
+def _exact(value):
+    """An integer operand as Python ints (an object array for an array): they neither round
+    (float64 holds integers exactly only up to 2**53) nor wrap around (int64 stops at 2**63)."""
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    return np.asarray(value).astype(object)
+
+
+def _bits(value) -> int:
+    return max((abs(int(v)).bit_length() for v in np.asarray(value, dtype=object).flat), default=0)
+
+
+def _arithmetic(op, left, right):
+    """``left op right``. Integers with ``+ - * ** %`` are computed exactly (as Python ints:
+    ``id_i ** 3`` of an id above 2**21 is exact, where float64 would round it); ``/`` and any
+    float operand give float64, as in numpy."""
+    if op is ast.Div or not (_is_integer(left) and _is_integer(right)):
+        return _ARITH[op](left, right)
+    left, right = _exact(left), _exact(right)
+    if op is ast.Pow:
+        exponent = max((int(v) for v in np.asarray(right, dtype=object).flat), default=0)
+        if exponent > 0 and _bits(left) * exponent > MAX_INTEGER_BITS:
+            _refuse(f"integer power too large: a {_bits(left)}-bit number to the power {exponent} has more than "
+                    f"{MAX_INTEGER_BITS} bits")
+    if op is ast.Mod and any(int(v) == 0 for v in np.asarray(right, dtype=object).flat):
+        _refuse("integer modulo by zero")
+    result = _EXACT[op](left, right)  # Python's operators: a numpy ufunc would turn Python ints into int64
+    if _bits(result) > MAX_INTEGER_BITS:
+        _refuse(f"integer arithmetic gives a number of more than {MAX_INTEGER_BITS} bits")
+    return result
 
 
 def compile_criterion(source) -> ast.Expression:
@@ -263,17 +317,28 @@ def _evaluate(node, columns):
         if type(node.op) in _LOGIC:
             _need_bool([left, right], _SYMBOL[type(node.op)])
             return _LOGIC[type(node.op)](left, right)
-        return _ARITH[type(node.op)](left, right)
+        return _arithmetic(type(node.op), left, right)
     if isinstance(node, ast.UnaryOp):
         operand = _evaluate(node.operand, columns)
         if isinstance(node.op, (ast.Not, ast.Invert)):
             _need_bool([operand], _SYMBOL[type(node.op)])
             return np.logical_not(operand)
+        if _is_integer(operand):  # exact, as in _arithmetic: -(2**70) stays an integer
+            return -_exact(operand) if isinstance(node.op, ast.USub) else _exact(operand)
         return _UNARY[type(node.op)](operand)
-    if isinstance(node, ast.Call):
+    if isinstance(node, ast.Call):  # the functions are float functions: exact integers enter as float64
         func = FUNCTIONS[node.func.id][0]
-        return func(*(_evaluate(arg, columns) for arg in node.args))
+        return func(*(_as_float(_evaluate(arg, columns)) for arg in node.args))
     raise AssertionError(f"unchecked node {type(node).__name__}")  # _check refuses every other node
+
+
+def _as_float(value):
+    """Python-int results of exact integer arithmetic as float64 (numpy's functions have no
+    object loops); everything else as it is."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return np.float64(value)
+    arr = np.asarray(value)
+    return arr.astype(np.float64) if arr.dtype == object else value
 
 
 def _need_bool(values, op):
@@ -293,7 +358,8 @@ def evaluate_criterion(tree, table, n_contacts, source=None) -> np.ndarray:
         with np.errstate(all="ignore"):
             value = np.asarray(_evaluate(tree, columns))
         if value.dtype != np.bool_:
-            _refuse(f"the expression gives {value.dtype} values, not true/false; use a comparison, e.g. f_norm >= 0.5")
+            kind = "integer" if value.dtype == object else value.dtype
+            _refuse(f"the expression gives {kind} values, not true/false; use a comparison, e.g. f_norm >= 0.5")
     except (TypeError, ValueError, ArithmeticError) as exc:  # ParameterError included
         detail = str(exc) if isinstance(exc, ParameterError) else f"evaluation error: {_snippet(exc, 120)}"
         label = source if source is not None else ast.unparse(tree)

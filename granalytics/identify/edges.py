@@ -16,6 +16,9 @@ __all__ = ["contact_table", "edge_table", "to_networkx", "to_igraph"]
 
 def edge_table(result: IdentificationResult) -> pd.DataFrame:
     """The contacts a contact-based identification kept, with their granule label."""
+    if not isinstance(result, IdentificationResult):
+        raise ParameterError(f"edge_table: result must be an IdentificationResult (of granalytics.identify), got "
+                             f"{type(result).__name__}")
     if result.kept is None:
         raise ParameterError(f"method {result.method!r} does not select contacts")
     table = contact_table(result.snapshot, cohesion=result.params.get("cohesion", DEFAULT_COHESION))

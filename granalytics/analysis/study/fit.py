@@ -249,8 +249,6 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
     dof = n_used - 2
     if dof < 1:
         raise ParameterError(f"the growth fit needs at least three informative points, got {n_used}")
-    import warnings
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:

@@ -10,11 +10,11 @@ import warnings
 import numpy as np
 import pandas as pd
 
+from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.study.table import select_cohesion
 from granalytics.core.errors import ParameterError
 
 
-_DEFAULT_OUTPUTS = ("yield_fraction_mean", "mean_volume_norm_mean", "n_granules_norm_mean")
 
 
 # ----------------------------------------------------------------------------- the surrogate
@@ -95,8 +95,6 @@ class Surrogate:
         return out
 
     def _compute_loo(self):
-        import warnings
-
         from sklearn.base import clone
 
         errors, preds = {}, []
@@ -146,7 +144,7 @@ class Surrogate:
         return self._loo_predictions
 
 
-def fit_surrogate(table, inputs=("gamma", "omega"), outputs=_DEFAULT_OUTPUTS, *, cohesion="acting",
+def fit_surrogate(table, inputs=("gamma", "omega"), outputs=None, *, cohesion="acting",
                   n_restarts=3, random_state=0) -> Surrogate:
     """Gaussian-process regression of each output on the inputs.
 
@@ -161,6 +159,8 @@ def fit_surrogate(table, inputs=("gamma", "omega"), outputs=_DEFAULT_OUTPUTS, *,
     table : DataFrame
         :func:`study_table` output (or any table with the input and output columns).
     inputs, outputs : sequence of str
+        Columns of the table; ``outputs`` default ``<metric>_mean`` of every headline metric
+        (:data:`granalytics.analysis.metrics.HEADLINE`).
     cohesion : str, default "acting"
         When the table has several cohesion conventions, fit this one's rows.
     n_restarts : int, default 3
@@ -174,7 +174,8 @@ def fit_surrogate(table, inputs=("gamma", "omega"), outputs=_DEFAULT_OUTPUTS, *,
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
-    inputs, outputs = list(inputs), list(outputs)
+    inputs = list(inputs)
+    outputs = [f"{name}_mean" for name in HEADLINE] if outputs is None else list(outputs)
     if not inputs or not outputs:
         raise ParameterError("give at least one input and one output")
     part = select_cohesion(table, cohesion)

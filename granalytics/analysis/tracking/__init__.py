@@ -5,7 +5,8 @@ are matched by their *ids*, never by row). Every granule of every frame belongs 
 *track*; a track starts at an ``"initial"`` granule (first frame), a ``"birth"``, a
 ``"coalescence"`` or a ``"breakage"``, and ends ``"alive"`` (last frame), by ``"death"``,
 ``"coalescence"`` or ``"breakage"``. The definitions are in :func:`track_granules` and in
-``docs/tracking.md``.
+``docs/tracking.md``; ``continuation="main"`` lets the main branch keep its track through
+coalescence and breakage (the same events, other track ids).
 
 - :mod:`.linking`: :class:`GranuleTracks`, :func:`track_granules`, :func:`track_run`;
 - :mod:`.rates`: :func:`event_rates`, :func:`coalescence_kernel`, :func:`breakage_rate` (the

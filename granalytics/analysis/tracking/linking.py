@@ -36,6 +36,18 @@ _EVENT_COLUMNS = ("time_s", "frame", "kind", "parents", "children", "n_particles
 _TRACK_COLUMNS = ("track", "first_time_s", "last_time_s", "first_frame", "last_frame", "sizes", "origin", "end")
 
 
+#: Continuation rules of :func:`track_granules`: ``"main"`` (the main branch continues through
+#: coalescence and breakage) and ``"strict"`` (every coalescence and breakage starts new tracks).
+CONTINUATIONS = ("main", "strict")
+
+
+def check_continuation(continuation) -> str:
+    """``continuation`` if it is one of :data:`CONTINUATIONS`, else a one-line ParameterError."""
+    if not isinstance(continuation, str) or continuation not in CONTINUATIONS:
+        raise ParameterError(f"continuation must be 'main' or 'strict', got {continuation!r}")
+    return continuation
+
+
 @dataclass(eq=False)
 class GranuleTracks:
     """Granule tracks and events of a sequence of frames (output of :func:`track_granules`).
@@ -77,6 +89,10 @@ class GranuleTracks:
         frame k+1 (erosion; zeros in the last frame).
     min_fragment : int
         The ``min_fragment`` the tracking used.
+    continuation : {"strict", "main"}
+        The continuation rule the tracking used (:func:`track_granules`): it decides which
+        granules keep a track id, hence ``tracks``, ``labels_to_tracks`` and the ids in
+        ``events``; every other attribute, and every event but its ids, is the same under both.
     frame_indices : (K,) int array or None
         For :func:`track_run`, the index of each tracked frame in the run file.
     """
@@ -89,6 +105,7 @@ class GranuleTracks:
     from_free_by_frame: list = field(repr=False)
     to_free_by_frame: list = field(repr=False)
     min_fragment: int = 2
+    continuation: str = "strict"
     frame_indices: np.ndarray | None = field(default=None, repr=False)
 
     @property
@@ -181,7 +198,7 @@ def _gc_paused():
             gc.enable()
 
 
-def track_granules(labels_by_frame, ids_by_frame, times_s, min_fragment=2) -> GranuleTracks:
+def track_granules(labels_by_frame, ids_by_frame, times_s, min_fragment=2, continuation="strict") -> GranuleTracks:
     """Follow granules through a sequence of frames and find their births, deaths, coalescences
     and breakages.
 
@@ -201,6 +218,23 @@ def track_granules(labels_by_frame, ids_by_frame, times_s, min_fragment=2) -> Gr
         least this many particles from each of two or more granules, a breakage needs at least
         this many particles going to each of two or more granules. Smaller exchanges between
         granules are treated like exchanges with the free particles (layering and erosion).
+    continuation : {"strict", "main"}, default "strict"
+        Which granule of frame k+1, if any, keeps the track id of a granule of frame k. The
+        events are the same under both rules; only the track ids (and so the tracks) differ.
+
+        - ``"strict"``: only a granule joined to its predecessor by the single link on both
+          sides; every coalescence and every breakage ends its tracks and starts new ones (the
+          definition of the kinetics, :func:`event_rates`, :func:`coalescence_kernel`).
+        - ``"main"``: the main branch. Each granule a of frame k has a *main child*, the granule
+          of k+1 that received most of its particles, and each granule b of k+1 a *main parent*,
+          the granule of k that gave it most of its particles (links only, i.e. overlaps of at
+          least ``min_fragment``); b continues a's track when each is the other's main one. A
+          granule that sheds fragments keeps its id in the piece that kept most of it, and a
+          coalescence continues the track of its largest contributor. Ties on the overlap go to
+          the larger granule (the child's size at k+1, the parent's at k), then to the granule
+          that holds the smaller particle id, so the ids do not depend on label values or row
+          order. This is the default of the tables and exports (:func:`granalytics.particle_table`,
+          :func:`granalytics.granule_track_table`, :func:`granalytics.export_vtk`).
 
     Returns
     -------
@@ -234,15 +268,47 @@ def track_granules(labels_by_frame, ids_by_frame, times_s, min_fragment=2) -> Gr
     With ``min_fragment=1`` birth and death are literal: a birth is a granule made only of
     particles free at k, a death a granule whose particles are all free at k+1.
 
+    The events above, and the origins and ends, are those of ``continuation="strict"``. Under
+    ``"main"`` the same events are recorded, but the granule that continues keeps its id: it is
+    listed among the children of its breakage (with its parent's id) or among the parents of its
+    coalescence (with its child's id). A main track therefore never ends by breakage: it ends by
+    ``"death"``, or by ``"coalescence"`` when its main child continues another track; a track
+    starts by ``"breakage"`` when it is a fragment that did not keep its parent's id, by
+    ``"coalescence"`` when a coalescing granule continues no parent (its main parent's main
+    child is another granule).
+
     The work per step is vectorised (sort-based contingency table, bincounts); Python loops run
     only over event rows to build their lists.
     """
+    check_continuation(continuation)
     labels, ids, times = _check_frames(labels_by_frame, ids_by_frame, times_s, min_fragment)
     with _gc_paused():
-        return _track(labels, ids, times, int(min_fragment))
+        return _track(labels, ids, times, int(min_fragment), continuation)
 
 
-def _track(labels, ids, times, m):
+def _smallest_ids(labels, ids, n_labels):
+    """The smallest particle id of every granule label (int64 maximum for an unused label), from
+    one frame's labels and ids sorted by id."""
+    out = np.full(n_labels, np.iinfo(np.int64).max, dtype=np.int64)
+    member = labels >= 0
+    used, first = np.unique(labels[member], return_index=True)
+    out[used] = ids[member][first]
+    return out
+
+
+def _main_links(src, dst, overlap, dst_size, dst_first, n_src):
+    """For every granule of one side (``src`` labels of the links), the other side's granule of its
+    main link: the most shared particles, then the larger ``dst`` granule, then the ``dst``
+    granule holding the smaller particle id; −1 for a granule without links."""
+    best = np.full(n_src, -1, dtype=np.int64)
+    if src.size:
+        order = np.lexsort((dst_first[dst], -dst_size[dst], -overlap, src))
+        head = order[np.r_[True, src[order][1:] != src[order][:-1]]]
+        best[src[head]] = dst[head]
+    return best
+
+
+def _track(labels, ids, times, m, continuation="strict"):
     """:func:`track_granules` on checked input (labels with −1 = free, int64 ids, times in s)."""
     n_frames = len(labels)
 
@@ -263,11 +329,15 @@ def _track(labels, ids, times, m):
     from_free = [np.zeros_like(sizes_by_frame[0])]
     to_free = []
 
+    main = continuation == "main"
     prev_sorted = _sorted_by_id(labels[0], ids[0], 0)
+    first_b = _smallest_ids(*prev_sorted, sizes_by_frame[0].size) if main else None
     for k in range(n_frames - 1):
         cur_sorted = _sorted_by_id(labels[k + 1], ids[k + 1], k + 1)
         la, lb = _aligned(*prev_sorted, *cur_sorted)
         prev_sorted = cur_sorted
+        first_a = first_b
+        first_b = _smallest_ids(*cur_sorted, sizes_by_frame[k + 1].size) if main else None
         sa, sb = sizes_by_frame[k], sizes_by_frame[k + 1]
         ta = labels_to_tracks[k]
         ga, gb = sa.size, sb.size
@@ -294,17 +364,31 @@ def _track(labels, ids, times, m):
         dying = ea & (out_deg == 0)
         coalescing = eb & (in_deg >= 2)
         born = eb & (in_deg == 0)
-        has_pred = single_pred >= 0
-        child_of_break = np.zeros(gb, dtype=bool)
-        child_of_break[has_pred] = breaking[single_pred[has_pred]]
-        continuing = has_pred & ~child_of_break  # single link whose granule at k has a single link
-        merged_away = np.zeros(ga, dtype=bool)
-        has_succ = single_succ >= 0
-        merged_away[has_succ] = coalescing[single_succ[has_succ]]
+        if main:  # b continues a when each is the other's main link
+            ov = overlap[link]
+            pred = _main_links(lb_link, la_link, ov, sa, first_a, gb)
+            main_child = _main_links(la_link, lb_link, ov, sb, first_b, ga)
+            has_pred = pred >= 0
+            continuing = np.zeros(gb, dtype=bool)
+            continuing[has_pred] = main_child[pred[has_pred]] == np.flatnonzero(has_pred)
+            continued = np.zeros(ga, dtype=bool)
+            continued[pred[continuing]] = True
+            merged_away = ea & ~continued & ~dying  # its main child continues another track
+            broken_end = np.zeros(ga, dtype=bool)
+        else:
+            pred = single_pred
+            has_pred = pred >= 0
+            child_of_break = np.zeros(gb, dtype=bool)
+            child_of_break[has_pred] = breaking[pred[has_pred]]
+            continuing = has_pred & ~child_of_break  # single link whose granule at k has a single link
+            merged_away = np.zeros(ga, dtype=bool)
+            has_succ = single_succ >= 0
+            merged_away[has_succ] = coalescing[single_succ[has_succ]]
+            broken_end = breaking
 
         # track ids at k+1: continuations inherit, every other granule starts a new track
         tb = np.full(gb, -1, dtype=np.int64)
-        tb[continuing] = ta[single_pred[continuing]]
+        tb[continuing] = ta[pred[continuing]]
         new = eb & ~continuing
         n_new = int(new.sum())
         tb[new] = np.arange(next_track, next_track + n_new)
@@ -313,7 +397,7 @@ def _track(labels, ids, times, m):
                           np.where(born, _ORIGINS.index("birth"), _ORIGINS.index("breakage")))
         origins.append(origin[new].astype(np.int8))
         labels_to_tracks.append(tb)
-        for mask, end in ((dying, "death"), (merged_away, "coalescence"), (breaking, "breakage")):
+        for mask, end in ((dying, "death"), (merged_away, "coalescence"), (broken_end, "breakage")):
             ended_tracks.append(ta[mask])
             ended_codes.append(np.full(int(mask.sum()), _ENDS.index(end), dtype=np.int8))
 
@@ -354,7 +438,7 @@ def _track(labels, ids, times, m):
     tracks = _tracks_table(times, labels_to_tracks, sizes_by_frame, next_track, origins, ended_tracks, ended_codes)
     return GranuleTracks(events=events, tracks=tracks, labels_to_tracks=labels_to_tracks, times_s=times,
                          sizes_by_frame=sizes_by_frame, from_free_by_frame=from_free, to_free_by_frame=to_free,
-                         min_fragment=m)
+                         min_fragment=m, continuation=continuation)
 
 
 def _events_table(times, ev_kind, ev_frame, ev_parents, ev_children, ev_n, ev_psizes, ev_csizes):
@@ -407,7 +491,8 @@ def _tracks_table(times, labels_to_tracks, sizes_by_frame, n_tracks, origins, en
     }, columns=list(_TRACK_COLUMNS))
 
 
-def track_run(frames, method="gna", window=None, progress=False, *, min_fragment=2, return_labels=False, **params):
+def track_run(frames, method="gna", window=None, progress=False, *, min_fragment=2, continuation="strict",
+              return_labels=False, jobs=1, scheduler=None, **params):
     """Identify granules in every frame of a run and track them (:func:`track_granules`).
 
     Parameters
@@ -424,8 +509,13 @@ def track_run(frames, method="gna", window=None, progress=False, *, min_fragment
         Show a progress bar over frames.
     min_fragment : int, default 2
         See :func:`track_granules`.
+    continuation : {"strict", "main"}, default "strict"
+        Which granule keeps a track id through coalescence and breakage (:func:`track_granules`).
     return_labels : bool, default False
         Also return the granule labels of every frame.
+    jobs, scheduler :
+        Where the frames are analysed: ``jobs`` threads here, or a dask cluster (a scheduler's
+        address or a ``distributed.Client``); see :func:`granalytics.analysis.frames.map_frames`.
 
     Returns
     -------
@@ -441,11 +531,12 @@ def track_run(frames, method="gna", window=None, progress=False, *, min_fragment
         if not hasattr(frames, "select"):
             raise ParameterError("window needs a Run or RunSlice (open_run), not a plain sequence of snapshots")
         frames = frames.select(revolutions=tuple(window))
+    check_continuation(continuation)  # before any frame is identified
     identifier = make_identifier(method, **params)
     indices, per_frame = map_frames(frames, lambda s: (identifier.identify(s).labels, s.ids, s.time),
-                                    progress=progress, desc="track", what="track")
+                                    progress=progress, desc="track", what="track", jobs=jobs, scheduler=scheduler)
     labels, ids, times = (list(x) for x in zip(*per_frame))
-    tracks = track_granules(labels, ids, times, min_fragment=min_fragment)
+    tracks = track_granules(labels, ids, times, min_fragment=min_fragment, continuation=continuation)
     tracks.frame_indices = indices
     return (labels, tracks) if return_labels else tracks
 
