@@ -17,7 +17,8 @@ import warnings
 
 import numpy as np
 
-from granalytics.core import RunMeta, RunWriter, Snapshot, __version__, configure_threading, drum_confinement
+from granalytics.core import (RunMeta, RunWriter, Snapshot, __version__, check_disk, configure_threading,
+                              drum_confinement)
 
 from . import _kernels
 from .capillary import pair_capillary_force
@@ -29,6 +30,10 @@ from .state import State
 from .threads import ThreadGovernor
 
 __all__ = ["Simulation", "configure_threading", "PHYSICS_VERSION"]
+
+#: a lower bound of the stored size of one frame per particle [bytes] (positions, velocities,
+#: radii, films and contacts, compressed), for refusing up front a run that cannot fit on the disk
+FRAME_BYTES_PER_PARTICLE = 50
 
 #: version of the one-file checkpoint (the JSON information inside the .npz under _INFO_KEY)
 CHECKPOINT_FORMAT = 2
@@ -418,6 +423,9 @@ class Simulation:
                 isinstance(checkpoint_every, (int, np.integer)) and not isinstance(checkpoint_every, bool)
                 and checkpoint_every >= 1):
             raise ValueError(f"checkpoint_every must be a whole number of frames >= 1 (or None), got {checkpoint_every!r}")
+        # refused at once when the frames cannot fit on the disk (a typo of --revolutions 1e12)
+        check_disk(f"{n_frames} frames of {p.n_particles} particles", n_frames * p.n_particles * FRAME_BYTES_PER_PARTICLE,
+                   out)
         ckpt = f"{out}.ckpt.npz"
         meta = self.run_meta()
         meta.provenance["planned_frames"] = int(n_frames)  # a reader can tell a killed run from a finished one

@@ -177,6 +177,12 @@ def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, m
     (lambda s: ga.study_table(5), "the sweep folder must be a path"),
     (lambda s: __import__("granalytics.identify.edges", fromlist=["edge_table"]).edge_table(None),
      "edge_table: result must be an IdentificationResult"),
+    (lambda s: ga.replica_steady_state(None), "replica_steady_state: timeseries must be a list of run_stats tables"),
+    (lambda s: ga.size_distribution("abc"), "size_distribution: sizes must be granule sizes"),
+    (lambda s: ga.size_distribution(None), "size_distribution: sizes must be granule sizes"),
+    (lambda s: ga.track_granules(None, [], []), "track_granules: labels_by_frame must be a sequence"),
+    (lambda s: ga.track_granules([[0]], [[1]], ["a"]), "track_granules: times_s must be numbers"),
+    (lambda s: ga.run_stats(None), "frames must be a Run, a RunSlice or a sequence of Snapshot"),
 ])
 def test_wrong_types_get_the_librarys_error_naming_the_argument(run_file, call, words):
     """Ragged arrays, None, strings and ints ended in numpy / int() / AttributeError errors."""
@@ -195,9 +201,11 @@ def _fields(s):
 
 def test_run_select_refuses_a_window_that_is_not_two_numbers(run_file):
     with ga.open_run(run_file) as run:
-        for window in ("0:1", ("0", "1"), (0, 1, 2), (2, 1)):
+        for window in ("0:1", ("0", "1"), (0, 1, 2)):
             with pytest.raises(ga.ParameterError, match="select: revolutions must be"):
                 run.select(revolutions=window)
+        with pytest.raises(ga.ParameterError, match=r"select: revolutions \(2, 1\) is empty"):
+            run.select(revolutions=(2, 1))
 
 
 def test_a_c_agg_that_no_contact_can_pass_is_warned_of_in_one_line(capsys):

@@ -647,6 +647,10 @@ def test_a_run_ends_at_the_requested_revolutions(tmp_path):
         assert abs(run.steps[-1] - 0.006 * steps_per_rev) <= 2.5  # the requested end, to the rounding of the interval
         # the run records the frames it planned: a reader tells it from a killed one
         assert run.meta.provenance["planned_frames"] == 5 and run.unfinished is None
+    # a run whose frames cannot fit on the disk is refused before it starts, naming the size
+    with pytest.raises(ga.ParameterError, match="would need about .* of disk"):
+        sim.run(tmp_path / "huge.h5", 0.0015 * 10**12, frame_every=frame_every, progress=False)
+    assert not (tmp_path / "huge.h5").exists()
     kept = ga.subset_run(tmp_path / "r.h5", tmp_path / "sub.h5", frames=[0, 2, 4])
     with ga.open_run(kept) as run:  # a subset plans the frames it keeps
         assert run.meta.provenance["planned_frames"] == 3 and run.unfinished is None

@@ -435,3 +435,11 @@ def test_an_interrupted_sweep_says_how_to_go_on(tmp_path, monkeypatch, capsys):
     assert main([str(spec), "--out", str(tmp_path / "out"), "--quiet"]) == 130
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "interrupted" in err[0] and "the same command continues" in err[0]
+
+
+def test_a_spec_of_a_million_points_is_refused_before_any_is_built(tmp_path):
+    seeds = ", ".join(str(k) for k in range(1000))
+    gammas = ", ".join(f"{0.01 + 1e-4 * k:.6f}" for k in range(1000))
+    spec = write_spec(tmp_path / "spec.toml", f"revolutions = 1\n[grid]\nseed = [{seeds}]\ngamma = [{gammas}]\n")
+    with pytest.raises(ParameterError, match=r"1,000,000 points \(1000 × 1000\), more than the 10,000"):
+        load_spec(spec)

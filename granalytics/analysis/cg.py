@@ -288,7 +288,7 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     """
     from scipy.stats import ks_2samp, wasserstein_distance
 
-    from granalytics.analysis.stats import _combine_steady_states
+    from granalytics.analysis.stats import combine_steady_states
 
     check_cohesion(cohesion)
     groups = [_replica_group(item) for item in _run_list(runs, "compare_cg")]
@@ -316,7 +316,7 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
             raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels, or group replicas "
                                  "(granalytics compare-cg --replicas)")
         tables = [m["steady"] for m in members]
-        combined = _combine_steady_states(tables)
+        combined = combine_steady_states(tables)
         combined["std"] = pd.concat([t["std"] for t in tables], axis=1).mean(axis=1)
         combined["n_frames"] = sum(t["n_frames"] for t in tables)
         info = {"run": label, **first, "path": "; ".join(m["info"]["path"] for m in members), "n_replicas": n,

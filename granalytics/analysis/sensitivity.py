@@ -17,7 +17,7 @@ import pandas as pd
 
 from granalytics.identify import _kernels
 from granalytics.analysis.metrics import HEADLINE, GranuleCounts, metric_values
-from granalytics.core._windows import window_mask
+from granalytics.core._windows import check_interval, window_mask
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
@@ -148,9 +148,8 @@ def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
     if table.empty:
         raise ParameterError("sensitivity_summary: the table has no rows (no frame was analysed)")
     if window is not None:
-        from granalytics.analysis.stats import _window_pair
 
-        lo, hi = _window_pair(window, "sensitivity_summary: window")
+        lo, hi = check_interval("sensitivity_summary: window", window)
         table = table[window_mask(table["revolutions"], lo, hi)]
         if table.empty:
             raise ParameterError(f"no frame in the window [{lo:g}, {hi:g}] revolutions")

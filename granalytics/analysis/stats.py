@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.analysis.metrics import STEADY, GranuleCounts, metric_values
-from granalytics.core._windows import window_mask, window_tolerance
+from granalytics.core._windows import check_interval, window_mask, window_tolerance
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.identify.granules import granule_table
@@ -231,7 +231,7 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
         return replica_steady_state(timeseries, window, columns, by=by, source=source)
     if not isinstance(timeseries, pd.DataFrame):
         raise ParameterError(f"steady_state: timeseries must be a DataFrame (run_stats' result), got {type(timeseries).__name__}")
-    lo, hi = _window_pair(window, "steady_state: window")
+    lo, hi = check_interval("steady_state: window", window)
     if isinstance(columns, str):
         columns = (columns,)
     missing = [c for c in (by, *columns) if c not in timeseries]
@@ -300,15 +300,18 @@ def replica_steady_state(timeseries, window=DEFAULT_WINDOW_REV, columns=_STEADY_
     ``block_sem`` (√(Σ sem_i²)/n, what the replicas' block errors say of the same mean),
     ``replica_std`` (of the replica means), ``n_replicas``.
     """
+    if not isinstance(timeseries, (list, tuple)) or not all(isinstance(ts, pd.DataFrame) for ts in timeseries):
+        raise ParameterError(f"replica_steady_state: timeseries must be a list of run_stats tables (one per replica), "
+                             f"got {type(timeseries).__name__}")
     series = list(timeseries)
     if len(series) < 2:
         raise ParameterError(f"replica_steady_state needs at least two replicas, got {len(series)}")
-    out = _combine_steady_states([steady_state(ts, window, columns, by=by, source=source) for ts in series])
+    out = combine_steady_states([steady_state(ts, window, columns, by=by, source=source) for ts in series])
     out.index.name = "metric"
     return out
 
 
-def _combine_steady_states(tables) -> pd.DataFrame:
+def combine_steady_states(tables) -> pd.DataFrame:
     """:func:`combine_replicas` of the :func:`steady_state` tables of replicas (their ``mean``
     and ``sem`` columns, one table per replica)."""
     return combine_replicas(pd.concat([t["mean"] for t in tables], axis=1),
@@ -391,20 +394,6 @@ def blocking_sem(block_sums, block_counts, *, min_blocks=4) -> tuple:
     return best
 
 
-def _window_pair(window, name) -> tuple:
-    """``(lo, hi)`` of a window given as a pair of finite numbers lo <= hi, else ParameterError naming it."""
-    if isinstance(window, (str, bytes)) or not hasattr(window, "__len__") or len(window) != 2:
-        raise ParameterError(f"{name} must be a pair of numbers (start, stop), got {window!r}")
-    try:
-        lo, hi = (float(w) for w in window)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a pair of numbers (start, stop), got {window!r}") from None
-    if lo > hi:
-        raise ParameterError(f"{name} {window!r} is empty (start > stop)")
-    if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)):
-        raise ParameterError(f"{name} must be finite with start <= stop, got {window!r}")
-    return lo, hi
-
 
 def size_distribution(sizes, bins_per_decade=5, min_size=2) -> pd.DataFrame:
     """Distribution of particles per granule on logarithmic bins of integers.
@@ -423,6 +412,10 @@ def size_distribution(sizes, bins_per_decade=5, min_size=2) -> pd.DataFrame:
     integer bounds), ``size_center`` (geometric centre), ``count``, ``probability``
     (count / total), ``density`` (probability per integer size: probability / integers in bin).
     """
+    if isinstance(sizes, (str, bytes)) or sizes is None or (not isinstance(sizes, (list, tuple))
+                                                            and np.ndim(sizes) == 0):
+        raise ParameterError(f"size_distribution: sizes must be granule sizes (an array, or one array per frame), got "
+                             f"{type(sizes).__name__} {str(sizes)[:40]!r}")
     if isinstance(sizes, (list, tuple)) and sizes and np.ndim(sizes[0]) == 0:  # one list of sizes
         sizes = np.asarray(sizes)
     elif isinstance(sizes, (list, tuple)):  # one array of sizes per frame

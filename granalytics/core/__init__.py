@@ -35,6 +35,7 @@ through this module alone and what ``import sim.run`` loads.
 
 from granalytics._version import __version__
 from granalytics.core._threading import configure_threading
+from granalytics.core._resources import check_disk, check_memory
 from granalytics.core.cluster import dask_client
 from granalytics.core.bed import FILL_PACKING, PLANAR_FRACTION, bed_structure, drum_confinement
 from granalytics.core.errors import GranalyticsError, ParameterError, RunFileError, RunLockedError, ValidationError
@@ -48,7 +49,7 @@ from granalytics.core.subset import replacing_run, subset_run, thinned_frames
 from granalytics.core.writer import RunWriter
 
 __all__ = [
-    "__version__", "configure_threading", "dask_client",
+    "__version__", "configure_threading", "dask_client", "check_disk", "check_memory",
     "Snapshot", "RunMeta", "RunWriter", "open_run", "Run", "RunSlice", "WriterLock",
     "subset_run", "replacing_run", "thinned_frames", "FORMAT_NAME", "FORMAT_VERSION",
     "bed_structure", "drum_confinement", "PLANAR_FRACTION", "FILL_PACKING",

@@ -59,6 +59,8 @@ def check_interval(name, value) -> tuple[float, float]:
             or not all(isinstance(v, numbers) and not isinstance(v, (bool, np.bool_)) for v in value)):
         raise ParameterError(f"{name} must be a pair of numbers (lo, hi), got {type(value).__name__} {value!r}")
     lo, hi = float(value[0]), float(value[1])
-    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+    if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)):
         raise ParameterError(f"{name} must be two finite numbers with lo <= hi, got {value!r}")
+    if lo > hi:
+        raise ParameterError(f"{name} {value!r} is empty (lo > hi)")
     return lo, hi

@@ -205,6 +205,10 @@ def _number(where, spec, key, default, kind, positive=True):
     return kind(value)
 
 
+#: the most points one sweep spec may hold (each point is a simulation of minutes to hours)
+MAX_POINTS = 10_000
+
+
 def parse_spec(spec: dict, path="<spec>") -> SweepSpec:
     """Validate a sweep spec (the TOML file as a dict) and expand its grid.
 
@@ -246,6 +250,10 @@ def parse_spec(spec: dict, path="<spec>") -> SweepSpec:
             raise ParameterError(f"{where}: grid key {key!r} lists a value twice: {items!r}")
         values[key] = checked
     keys = [k for k in _NAMED if k in values] + sorted(k for k in values if k not in _NAMED)
+    n_points = math.prod(len(values[k]) for k in keys)
+    if n_points > MAX_POINTS:  # refused before a million parameter sets are built and checked
+        raise ParameterError(f"{where}: the grid has {n_points:,} points ({' × '.join(str(len(values[k])) for k in keys)}), "
+                             f"more than the {MAX_POINTS:,} a sweep may run (each is a simulation); split it")
     points = []
     for combo in itertools.product(*(values[k] for k in keys)):
         grid_values = dict(zip(keys, combo))

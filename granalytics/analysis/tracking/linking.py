@@ -126,8 +126,15 @@ class GranuleTracks:
 def _check_frames(labels_by_frame, ids_by_frame, times_s, min_fragment):
     if isinstance(min_fragment, bool) or not isinstance(min_fragment, (int, np.integer)) or min_fragment < 1:
         raise ParameterError(f"min_fragment must be an integer >= 1, got {min_fragment!r}")
+    for name, value in (("labels_by_frame", labels_by_frame), ("ids_by_frame", ids_by_frame), ("times_s", times_s)):
+        if value is None or isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+            raise ParameterError(f"track_granules: {name} must be a sequence with one entry per frame, got "
+                                 f"{type(value).__name__}")
     labels_by_frame, ids_by_frame = list(labels_by_frame), list(ids_by_frame)
-    times = np.asarray(times_s, dtype=float).reshape(-1)
+    try:
+        times = np.asarray(times_s, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ParameterError(f"track_granules: times_s must be numbers [s], got {str(times_s)[:40]!r}") from None
     n = len(labels_by_frame)
     if n == 0:
         raise ParameterError("no frames to track")
