@@ -258,7 +258,7 @@ def test_the_command_reports_failures_with_exit_1(tmp_path, scheduler, capsys, m
     import sim.sweep as sweep
 
     spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
-    monkeypatch.setattr(sweep, "run_point", failing_runner)  # the command's default runner
+    monkeypatch.setattr(sweep.runner, "run_point", failing_runner)  # the command's default runner
     code = main([str(spec), "--out", str(tmp_path / "sweep"), "--scheduler", scheduler, "--quiet"])
     out = capsys.readouterr().out
     assert code == 1

@@ -286,10 +286,6 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         single run), ``_rel_dev`` and ``_rel_dev_se`` (its standard error, from each side's replica
         s.e. where it has replicas and its block s.e.m. where not), and ``n_replicas``.
     """
-    from scipy.stats import ks_2samp, wasserstein_distance
-
-    from granalytics.analysis.stats import combine_steady_states
-
     check_cohesion(cohesion)
     groups = [_replica_group(item) for item in _run_list(runs, "compare_cg")]
     if len(groups) < 2:
@@ -300,97 +296,114 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     infos, series, dists, steady, sizes = [], [], [], {}, {}
     for k, group in enumerate(groups):
         members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
-        first = members[0]["info"]
-        for member in members[1:]:
-            other = member["info"]
-            if (other["alpha"], other["n_particles"]) != (first["alpha"], first["n_particles"]):
-                raise ParameterError(f"{other['path']}: not a replica of {first['path']} (α = {other['alpha']:g} with "
-                                     f"{other['n_particles']} particles against α = {first['alpha']:g} with "
-                                     f"{first['n_particles']})")
-        n = len(members)
-        if labels is not None:
-            label = labels[k]
-        else:
-            label = _alpha_label(first["alpha"], first["n_particles"], n)
+        label = labels[k] if labels is not None else _alpha_label(members[0]["info"]["alpha"],
+                                                                  members[0]["info"]["n_particles"], len(members))
         if label in sizes:
             raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels, or group replicas "
                                  "(granalytics compare-cg --replicas)")
-        tables = [m["steady"] for m in members]
-        combined = combine_steady_states(tables)
-        combined["std"] = pd.concat([t["std"] for t in tables], axis=1).mean(axis=1)
-        combined["n_frames"] = sum(t["n_frames"] for t in tables)
-        info = {"run": label, **first, "path": "; ".join(m["info"]["path"] for m in members), "n_replicas": n,
-                "seeds": ", ".join(str(m["info"]["seed"]) for m in members)}
-        for key in ("wall_time_s", "wall_time_per_simulated_s"):
-            info[key] = float(np.mean([m["info"][key] for m in members]))
-        info["revolutions_last"] = min(m["info"]["revolutions_last"] for m in members)
-        del info["seed"]
+        info, group_series, dist, steady[label], sizes[label] = _combine_group(members, label)
         infos.append(info)
-        for r, member in enumerate(members):
-            ts = member["timeseries"]
-            ts.insert(0, "replica", r)
-            ts.insert(0, "alpha", first["alpha"])
-            ts.insert(0, "run", label)
-            series.append(ts)
-        pooled = np.concatenate([m["sizes"] for m in members])
-        dist = size_distribution(pooled)
-        dist.insert(0, "alpha", first["alpha"])
-        dist.insert(0, "run", label)
+        series.extend(group_series)
         dists.append(dist)
-        steady[label] = combined
-        sizes[label] = pooled
-    for key, what in (("n_particles_original", "original particle counts"), ("mean_radius_original", "original mean radii")):
-        values = [i[key] for i in infos]
-        if max(values) > 1.01 * min(values):
-            warnings.warn(f"compare_cg: the runs are not coarse-grained from one system: their {what} differ ("
-                          + ", ".join(f"{i['run']}: {i[key]:.4g}" for i in infos)
-                          + "); their differences are not those of coarse-graining", stacklevel=2)
-    versions = {i["run"]: i["physics_version"] for i in infos if i["physics_version"] is not None}
-    if len(set(versions.values())) > 1:
-        warnings.warn("compare_cg: the runs were made by different simulator physics versions ("
-                      + ", ".join(f"{run}: {v}" for run, v in versions.items())
-                      + "); their differences mix coarse-graining with the change of physics", stacklevel=2)
+    _warn_if_not_one_system(infos)
     info = pd.DataFrame(infos)
     reference = info.loc[info["alpha"].idxmin(), "run"]
-    ref = steady[reference]
-    ref_row = info.set_index("run").loc[reference]
-    rows = []
-    for row in info.itertuples():
-        table = steady[row.run]
-        out = {"run": row.run, "alpha": row.alpha, "n_particles": row.n_particles, "n_replicas": row.n_replicas}
-        error = "replica_sem" if row.n_replicas > 1 else "block_sem"  # each side its run-to-run error where it has one
-        ref_error = "replica_sem" if ref_row["n_replicas"] > 1 else "block_sem"
-        for metric in CG_METRICS:
-            mean = table.loc[metric, "mean"]
-            out[f"{metric}_mean"] = mean
-            out[f"{metric}_std"] = table.loc[metric, "std"]
-            out[f"{metric}_sem"] = table.loc[metric, "block_sem"]
-            out[f"{metric}_replica_sem"] = table.loc[metric, "replica_sem"]
-            if row.run == reference:
-                dev, dev_se = (0.0, math.nan) if ref.loc[metric, "mean"] else (math.nan, math.nan)
-            else:
-                dev, dev_se = _relative_deviation(mean, table.loc[metric, error], ref.loc[metric, "mean"],
-                                                  ref.loc[metric, ref_error])
-            out[f"{metric}_rel_dev"] = dev
-            out[f"{metric}_rel_dev_se"] = dev_se
-        a, b = sizes[row.run], sizes[reference]
-        both = a.size and b.size
-        out["ks_distance"] = ks_2samp(a, b).statistic if both else math.nan
-        out["w1_log10_size"] = wasserstein_distance(np.log10(a), np.log10(b)) if both else math.nan
-        out["n_frames"] = int(table.loc["yield_fraction", "n_frames"])
-        out["n_granules_pooled"] = int(a.size)
-        out["wall_time_per_simulated_s"] = row.wall_time_per_simulated_s
-        out["speedup"] = ref_row["wall_time_per_simulated_s"] / row.wall_time_per_simulated_s
-        out["paper_speedup"] = _paper_speedup(row.alpha) / _paper_speedup(ref_row["alpha"])
-        out["method"] = method
-        out["cohesion"] = cohesion
-        out["window"] = f"{lo:g}:{hi:g}"
-        rows.append(out)
+    rows = [{**_comparison_row(row, steady, sizes, reference, info.set_index("run").loc[reference]),
+             "method": method, "cohesion": cohesion, "window": f"{lo:g}:{hi:g}"} for row in info.itertuples()]
     return CGComparison(
         runs=info, timeseries=pd.concat(series, ignore_index=True), distributions=pd.concat(dists, ignore_index=True),
         table=pd.DataFrame(rows), sizes=sizes, reference=reference, window=(lo, hi), method=method,
         cohesion=cohesion, params=dict(params),
     )
+
+
+def _combine_group(members, label):
+    """One run or group of replicas (:func:`_analyse_member` results) as one row of the comparison:
+    its info, its members' time series (tagged), its pooled size distribution, its steady state
+    over the replicas and its pooled granule sizes."""
+    from granalytics.analysis.stats import combine_steady_states
+
+    first = members[0]["info"]
+    for member in members[1:]:
+        other = member["info"]
+        if (other["alpha"], other["n_particles"]) != (first["alpha"], first["n_particles"]):
+            raise ParameterError(f"{other['path']}: not a replica of {first['path']} (α = {other['alpha']:g} with "
+                                 f"{other['n_particles']} particles against α = {first['alpha']:g} with "
+                                 f"{first['n_particles']})")
+    n = len(members)
+    tables = [m["steady"] for m in members]
+    combined = combine_steady_states(tables)
+    combined["std"] = pd.concat([t["std"] for t in tables], axis=1).mean(axis=1)
+    combined["n_frames"] = sum(t["n_frames"] for t in tables)
+    info = {"run": label, **first, "path": "; ".join(m["info"]["path"] for m in members), "n_replicas": n,
+            "seeds": ", ".join(str(m["info"]["seed"]) for m in members)}
+    for key in ("wall_time_s", "wall_time_per_simulated_s"):
+        info[key] = float(np.mean([m["info"][key] for m in members]))
+    info["revolutions_last"] = min(m["info"]["revolutions_last"] for m in members)
+    del info["seed"]
+    series = []
+    for r, member in enumerate(members):
+        ts = member["timeseries"]
+        ts.insert(0, "replica", r)
+        ts.insert(0, "alpha", first["alpha"])
+        ts.insert(0, "run", label)
+        series.append(ts)
+    pooled = np.concatenate([m["sizes"] for m in members])
+    dist = size_distribution(pooled)
+    dist.insert(0, "alpha", first["alpha"])
+    dist.insert(0, "run", label)
+    return info, series, dist, combined, pooled
+
+
+def _warn_if_not_one_system(infos) -> None:
+    """A warning when the runs are not coarse-grained from one original system, or were made by
+    different simulator physics versions."""
+    for key, what in (("n_particles_original", "original particle counts"), ("mean_radius_original", "original mean radii")):
+        values = [i[key] for i in infos]
+        if max(values) > 1.01 * min(values):
+            warnings.warn(f"compare_cg: the runs are not coarse-grained from one system: their {what} differ ("
+                          + ", ".join(f"{i['run']}: {i[key]:.4g}" for i in infos)
+                          + "); their differences are not those of coarse-graining", stacklevel=3)
+    versions = {i["run"]: i["physics_version"] for i in infos if i["physics_version"] is not None}
+    if len(set(versions.values())) > 1:
+        warnings.warn("compare_cg: the runs were made by different simulator physics versions ("
+                      + ", ".join(f"{run}: {v}" for run, v in versions.items())
+                      + "); their differences mix coarse-graining with the change of physics", stacklevel=3)
+
+
+def _comparison_row(row, steady, sizes, reference, ref_row) -> dict:
+    """The row of the comparison table of run ``row`` against the ``reference`` run: every CG
+    metric's steady state and its relative deviation (each side with its run-to-run error where it
+    has one), the size distributions' distances and the speed-up."""
+    from scipy.stats import ks_2samp, wasserstein_distance
+
+    table, ref = steady[row.run], steady[reference]
+    out = {"run": row.run, "alpha": row.alpha, "n_particles": row.n_particles, "n_replicas": row.n_replicas}
+    error = "replica_sem" if row.n_replicas > 1 else "block_sem"
+    ref_error = "replica_sem" if ref_row["n_replicas"] > 1 else "block_sem"
+    for metric in CG_METRICS:
+        mean = table.loc[metric, "mean"]
+        out[f"{metric}_mean"] = mean
+        out[f"{metric}_std"] = table.loc[metric, "std"]
+        out[f"{metric}_sem"] = table.loc[metric, "block_sem"]
+        out[f"{metric}_replica_sem"] = table.loc[metric, "replica_sem"]
+        if row.run == reference:
+            dev, dev_se = (0.0, math.nan) if ref.loc[metric, "mean"] else (math.nan, math.nan)
+        else:
+            dev, dev_se = _relative_deviation(mean, table.loc[metric, error], ref.loc[metric, "mean"],
+                                              ref.loc[metric, ref_error])
+        out[f"{metric}_rel_dev"] = dev
+        out[f"{metric}_rel_dev_se"] = dev_se
+    a, b = sizes[row.run], sizes[reference]
+    both = a.size and b.size
+    out["ks_distance"] = ks_2samp(a, b).statistic if both else math.nan
+    out["w1_log10_size"] = wasserstein_distance(np.log10(a), np.log10(b)) if both else math.nan
+    out["n_frames"] = int(table.loc["yield_fraction", "n_frames"])
+    out["n_granules_pooled"] = int(a.size)
+    out["wall_time_per_simulated_s"] = row.wall_time_per_simulated_s
+    out["speedup"] = ref_row["wall_time_per_simulated_s"] / row.wall_time_per_simulated_s
+    out["paper_speedup"] = _paper_speedup(row.alpha) / _paper_speedup(ref_row["alpha"])
+    return out
 
 
 def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT_WINDOW_REV,
