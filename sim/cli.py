@@ -271,9 +271,9 @@ def cmd_sweep(args) -> int:
     return 1 if len(failed) else 0
 
 
-def sweep_main(argv=None) -> int:
+def sweep_main(argv=None, prog="python -m sim.sweep") -> int:
     """``python -m sim.sweep SPEC.toml --out DIR ...`` and ``granalytics sweep ...`` (the same as
-    ``python -m sim sweep``)."""
-    parser = argparse.ArgumentParser(prog="python -m sim.sweep", description="Run a parameter sweep on dask.")
+    ``python -m sim sweep``); ``prog`` is the command's name in its usage and errors."""
+    parser = argparse.ArgumentParser(prog=prog, description="Run a parameter sweep on dask.")
     args = _configure_sweep(parser).parse_args(argv)
     return reporting_errors(lambda: args.func(args))  # as python -m sim sweep

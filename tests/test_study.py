@@ -125,7 +125,7 @@ def test_growth_fit_recovers_known_slope_and_onset_within_its_intervals(model):
     assert fit.weighted and fit.n_points == 36 and fit.n_no_granules == 3 and fit.confidence == 0.95
     assert fit.n_used == 33 and fit.dof == 31
     assert fit.predict([0.0, 0.027 + 1.0 / fit.beta + (fit.gamma_1 - 0.027)])[0] == 0.0
-    assert "paper ≈ 70" in fit.summary() and "γ₁" in fit.summary()
+    assert "m/N (paper ≈ 70 m/N)" in fit.summary() and "γ₁" in fit.summary()  # β carries its unit
 
 
 def test_growth_fit_intervals_cover_the_truth_about_95_percent_of_the_time():

@@ -443,3 +443,12 @@ def test_a_spec_of_a_million_points_is_refused_before_any_is_built(tmp_path):
     spec = write_spec(tmp_path / "spec.toml", f"revolutions = 1\n[grid]\nseed = [{seeds}]\ngamma = [{gammas}]\n")
     with pytest.raises(ParameterError, match=r"1,000,000 points \(1000 × 1000\), more than the 10,000"):
         load_spec(spec)
+
+
+def test_granalytics_sweep_help_names_granalytics_sweep(capsys):
+    from granalytics.cli import main as granalytics_main
+
+    with pytest.raises(SystemExit) as done:
+        granalytics_main(["sweep", "--help"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.startswith("usage: granalytics sweep")

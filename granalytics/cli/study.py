@@ -176,4 +176,4 @@ def sweep_main(argv) -> int:
     granalytics reaches into ``sim``, imported only when the command runs)."""
     from sim.cli import sweep_main as run
 
-    return run(argv)
+    return run(argv, prog="granalytics sweep")

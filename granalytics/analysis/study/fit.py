@@ -108,7 +108,7 @@ class GrowthFit:
         pct = f"{100 * self.confidence:g} %"
         verdict = "" if self.shows_growth else f"no growth law ({self.no_growth_reason()}); the fit, not a law: "
         return (f"{verdict}⟨V_g⟩/V_p = β(γ − γ₁), {self.model} model: β = {self.beta:.4g} "
-                f"[{self.beta_ci[0]:.4g}, {self.beta_ci[1]:.4g}] (paper ≈ {self.paper_beta:g}), "
+                f"[{self.beta_ci[0]:.4g}, {self.beta_ci[1]:.4g}] m/N (paper ≈ {self.paper_beta:g} m/N), "
                 f"γ₁ = {self.gamma_1:.4g} [{self.gamma_1_ci[0]:.4g}, {self.gamma_1_ci[1]:.4g}] N/m "
                 f"(paper ≈ {self.paper_gamma_1:g} N/m); {pct} intervals, {self.n_points} points "
                 f"({self.n_no_granules} without granules, {self.n_used} used, "
