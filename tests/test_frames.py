@@ -94,3 +94,31 @@ def test_frames_that_are_not_a_sequence_are_refused_by_every_analysis(bad):
     for call in (lambda: ga.run_stats(bad), lambda: ga.track_run(bad), lambda: ga.particle_table(bad)):
         with pytest.raises(ParameterError, match="frames must be a Run, a RunSlice or a sequence of Snapshot"):
             call()
+
+
+def test_the_first_frames_compilation_is_not_counted_in_the_progress_rate(frames, monkeypatch):
+    """The first frame's numba compilation made the ETA read 7 minutes: the bar's clock restarts
+    after the first frame, so its rate is that of the frames after it."""
+    import time
+
+    import granalytics.analysis.frames as loop
+
+    seen = {}
+
+    class Recorded(loop.tqdm):
+        def close(self):
+            seen.update(self.format_dict)
+            super().close()
+
+    monkeypatch.setattr(loop, "tqdm", Recorded)
+    calls = []
+
+    def work(snapshot):
+        calls.append(1)
+        if len(calls) == 1:
+            time.sleep(0.6)  # the first frame: compiling
+        return snapshot.time
+
+    map_frames(frames, work, progress=True)
+    assert seen["n"] == seen["total"] == len(frames) and seen["initial"] == 1
+    assert seen["elapsed"] < 0.4  # the 0.6 s of the first frame are not in the rate's clock

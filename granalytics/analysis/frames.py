@@ -30,6 +30,18 @@ def frame_indices(frames) -> np.ndarray:
     return np.asarray(frames.frame_indices) if hasattr(frames, "frame_indices") else np.arange(len(frames))
 
 
+def _advance(bar) -> None:
+    """One more frame done. The first frame carries numba's compilation of the kernels (seconds,
+    against milliseconds per frame after it): the bar's clock and rate restart after it, so that
+    the rate and the time left are those of the frames (the elapsed time shown then counts from
+    the end of the first frame)."""
+    bar.update(1)
+    if bar.n == 1 and not bar.disable and bar.total and bar.total > 1:
+        bar.reset()  # n = 0, the clock restarted, the rate estimates emptied
+        bar.initial = bar.n = bar.last_print_n = 1
+        bar.refresh()
+
+
 def _label(frames, desc):
     path = getattr(frames, "path", None)
     return f"{desc} {os.path.basename(path)}" if path else desc
@@ -66,7 +78,7 @@ def _on_cluster(frames, work, indices, scheduler, bar):
         try:
             for future in futures:
                 results.append(future.result())
-                bar.update(1)
+                _advance(bar)
         finally:
             client.cancel([f for f in futures if not f.done()])
     return results
@@ -122,7 +134,7 @@ def map_frames(frames, work, *, progress=False, desc="frames", jobs=1, what="ana
         elif jobs == 1:
             for snapshot in frames:
                 results.append(work(snapshot))
-                bar.update(1)
+                _advance(bar)
         else:
             with ThreadPoolExecutor(max_workers=int(jobs)) as pool:
                 pending = []
@@ -130,8 +142,8 @@ def map_frames(frames, work, *, progress=False, desc="frames", jobs=1, what="ana
                     pending.append(pool.submit(work, snapshot))
                     if len(pending) >= 2 * int(jobs):  # bound the frames held in memory
                         results.append(pending.pop(0).result())
-                        bar.update(1)
+                        _advance(bar)
                 for job in pending:
                     results.append(job.result())
-                    bar.update(1)
+                    _advance(bar)
     return indices, results
