@@ -40,18 +40,16 @@ def dask_client(scheduler=None, workers=None, *, what="this"):
         from distributed import Client, LocalCluster
     except ImportError:  # pragma: no cover - a declared dependency
         raise ParameterError(f"{what} needs dask.distributed: pip install 'dask[distributed]'") from None
+    if scheduler is not None and workers is not None:
+        raise ParameterError("--workers applies to the local cluster only; the scheduler's cluster has its own "
+                             "workers")
     if scheduler is not None and not isinstance(scheduler, str):
         if not (hasattr(scheduler, "submit") and hasattr(scheduler, "gather")):
             raise ParameterError(f"scheduler must be an address such as tcp://host:8786 or a distributed.Client, "
                                  f"got {scheduler!r}")
-        if workers is not None:
-            raise ParameterError("workers applies to a local cluster only; the client's cluster has its own workers")
         yield scheduler  # the caller's client: used as it is, left open
         return
     if scheduler is not None:
-        if workers is not None:
-            raise ParameterError("--workers applies to the local cluster only; the scheduler's cluster has its own "
-                                 "workers")
         try:
             client = Client(scheduler, timeout="20s")
         except (OSError, TimeoutError, ValueError) as exc:

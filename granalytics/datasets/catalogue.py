@@ -322,6 +322,19 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
+def _checked_file(entry, missing) -> Path:
+    """The registry ``entry``'s file under ``datasets/`` after checking that it exists (else
+    ``missing``, formatted with the entry's commands) and that its sha256 is the registry's
+    (read once)."""
+    path = DATASET_DIR / entry["file"]
+    if not path.exists():
+        raise GranalyticsError(f"{path}: " + missing.format(" && ".join(entry["commands"])))
+    digest = file_sha256(path)
+    if digest != entry["sha256"]:
+        raise GranalyticsError(f"{path}: sha256 {digest} does not match the registry ({entry['sha256']})")
+    return path
+
+
 def dataset_path(name: str) -> Path:
     """Path of a bundled dataset after checking its sha256 sum.
 
@@ -335,14 +348,7 @@ def dataset_path(name: str) -> Path:
         entry = DATASETS[name]
     except KeyError:
         raise GranalyticsError(f"unknown dataset {name!r}; available: {', '.join(DATASETS)}") from None
-    path = DATASET_DIR / entry["file"]
-    if not path.exists():
-        raise GranalyticsError(f"{path}: dataset file missing (datasets live in the source tree; "
-                               f"made by: {' && '.join(entry['commands'])})")
-    digest = file_sha256(path)
-    if digest != entry["sha256"]:
-        raise GranalyticsError(f"{path}: sha256 {digest} does not match the registry ({entry['sha256']})")
-    return path
+    return _checked_file(entry, "dataset file missing (datasets live in the source tree; made by: {})")
 
 
 def open_dataset(name: str):
@@ -358,12 +364,7 @@ def foreign_path(name: str) -> Path:
         entry = FOREIGN[name]
     except KeyError:
         raise GranalyticsError(f"unknown run {name!r}; available: {', '.join(FOREIGN)}") from None
-    path = DATASET_DIR / entry["file"]
-    if not path.exists():
-        raise GranalyticsError(f"{path}: missing (made by: {' && '.join(entry['commands'])})")
-    if file_sha256(path) != entry["sha256"]:
-        raise GranalyticsError(f"{path}: sha256 {file_sha256(path)} does not match the registry ({entry['sha256']})")
-    return path
+    return _checked_file(entry, "missing (made by: {})")
 
 
 def sweep_path(name: str) -> Path:
