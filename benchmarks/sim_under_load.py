@@ -20,7 +20,9 @@ average printed with each table) or *busy*: ``--hogs`` CPU-bound processes (a Py
 each, started and stopped by this script, each ending by itself after 15 minutes at the latest)
 run beside the measurement. Rounds alternate the modes and both states, and each table gives
 the best of the rounds with the ratios the issue asks for: the default against the best fixed
-count when idle, and against one thread when busy.
+count when idle, and against one thread when busy; then the default against the one thread of
+the same round, round by round, with their median (the rounds' background load differs, and a
+best-of-rounds ratio compares the default's best round with the one thread's luckiest).
 """
 
 from __future__ import annotations
@@ -114,7 +116,7 @@ def main():
         for system in args.systems.split(","):
             ckpt = prepare(system, args.beds, folder)
             measure(ckpt, "1", 0.5)  # compile or load the kernels outside the rounds
-            best, used, loads = {}, {}, {"idle": [], "busy": []}
+            best, used, loads, per_round = {}, {}, {"idle": [], "busy": []}, {}
             for r in range(args.rounds):
                 for state in ("idle", "busy"):
                     hogs = start_hogs(args.hogs) if state == "busy" else []
@@ -125,6 +127,7 @@ def main():
                         for mode in modes:
                             res = measure(ckpt, mode, args.seconds)
                             best[state, mode] = max(best.get((state, mode), 0.0), res["rate"])
+                            per_round.setdefault((state, mode), []).append(res["rate"])
                             used.setdefault((state, mode), set()).update(res["threads"])
                             print(f"  {system} round {r + 1} {state:>4} {mode:>4}: {res['rate'] / 1e6:.3f} M "
                                   f"particle-steps/s (threads used {res['threads']})", flush=True)
@@ -142,6 +145,11 @@ def main():
                 auto = best.get((state, "auto"), float("nan"))
                 print(f"| {state} | " + " | ".join(f"{best[state, m] / 1e6:.3f}" for m in modes)
                       + f" | {auto / max(fixed):.2f} | {auto / best[state, '1']:.2f} |")
+            if "auto" in modes and "1" in modes:  # the same round's one thread: both saw the same background load
+                for state in ("idle", "busy"):
+                    ratios = sorted(a / o for a, o in zip(per_round[state, "auto"], per_round[state, "1"]))
+                    print(f"default / 1 thread of the same round, {state}: "
+                          f"{', '.join(f'{x:.2f}' for x in ratios)} (median {ratios[len(ratios) // 2]:.2f})")
             print(f"threads the default used: idle {sorted(used.get(('idle', 'auto'), []))}, busy "
                   f"{sorted(used.get(('busy', 'auto'), []))}\n", flush=True)
 

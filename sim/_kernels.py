@@ -26,7 +26,7 @@ from .capillary import (
     effective_radius,
     viscous_force,
 )
-from .contact import CONTACT_LAWS, contact_force, rotate_spring
+from .contact import CONTACT_LAWS, contact_force, law_constants, rotate_spring
 from .drum import baffle_directions, wall_contact
 from .liquid import fill_new_bridges, migrate_events, spray
 from ._neighbour_kernels import _clear_output
@@ -39,7 +39,10 @@ KernelParams = namedtuple("KernelParams", [
     "dt",  # time step [s]
     "n_walls", "drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega",
     "gx", "gy", "gz",  # gravity [m/s²] (three scalars: a parallel loop cannot take a tuple inside a named tuple)
-    "law", "k_n", "k_t", "c_n", "c_t", "mu",  # contact law (docs/physics.md, "Contact law"; sim.contact.CONTACT_LAWS)
+    "law", "law_constants",  # contact law: its kernel id and constants (sim.contact.law_constants; docs/physics.md, "Contact law")
+    # the registered laws' ids (0, 1, …), never read: its type is part of every kernel's compiled signature, so that
+    # numba's cache, which does not see changes in other files, compiles afresh when a law is added or removed
+    "registered_laws",
     "gamma", "eta", "theta", "model", "viscous", "capillary_in_contact",  # "Liquid bridges", "Capillary models"
     "v_min",  # "Liquid migration"
     "bridge_volume",  # the fixed-bridge-volume model's V_b [m³] (0: films, spray and migration)
@@ -64,11 +67,12 @@ def kernel_params(params, n_walls: int) -> KernelParams:
     from .capillary import CAPILLARY_MODELS
 
     p = params
+    law_id, constants = law_constants(p)
     return KernelParams(
         dt=float(p.dt), n_walls=int(n_walls), drum_radius=float(p.drum_radius), drum_length=float(p.drum_length),
         n_baffles=int(p.n_baffles), baffle_height=float(p.baffle_height), drum_omega=float(p.drum_omega),
         gx=float(p.gravity[0]), gy=float(p.gravity[1]), gz=float(p.gravity[2]),
-        law=CONTACT_LAWS[p.contact_law].kernel_id, k_n=float(p.k_n), k_t=float(p.k_t), c_n=float(p.c_n), c_t=float(p.c_t), mu=float(p.friction),
+        law=law_id, law_constants=constants, registered_laws=tuple(range(len(CONTACT_LAWS))),
         gamma=float(p.surface_tension), eta=float(p.viscosity), theta=float(p.contact_angle),
         model=int(CAPILLARY_MODELS[p.capillary_model]), viscous=bool(p.viscous),
         capillary_in_contact=bool(p.capillary_in_contact), v_min=float(p.v_min), bridge_volume=float(p.bridge_volume),
@@ -388,11 +392,7 @@ def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, a
     n_baffles = kp.n_baffles
     baffle_height = kp.baffle_height
     law = kp.law
-    k_n = kp.k_n
-    k_t = kp.k_t
-    c_n = kp.c_n
-    c_t = kp.c_t
-    mu = kp.mu
+    constants = kp.law_constants
     gamma = kp.gamma
     eta = kp.eta
     theta = kp.theta
@@ -500,8 +500,8 @@ def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, a
                 twist = 0.5 * dt * (nx * (oix + ojx) + ny * (oiy + ojy) + nz * (oiz + ojz))
                 sx, sy, sz = rotate_spring(fs[k, 0], fs[k, 1], fs[k, 2], nprev[k, 0], nprev[k, 1], nprev[k, 2],
                                            nx, ny, nz, twist)
-                f_n, sx, sy, sz, tx, ty, tz = contact_force(law, u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz, k_n, k_t,
-                                                            c_n, c_t, mu, dt)
+                f_n, sx, sy, sz, tx, ty, tz = contact_force(law, constants, u, nx, ny, nz, vrx, vry, vrz, sx, sy, sz,
+                                                            ri, rj, dt)
                 fs[k, 0], fs[k, 1], fs[k, 2] = sx, sy, sz
                 nprev[k, 0], nprev[k, 1], nprev[k, 2] = nx, ny, nz
                 f_contact = bridge_table[k, 2] if v_b[k] > 0.0 else 0.0  # bridge_force at contact

@@ -20,6 +20,7 @@ import sys
 
 from granalytics.core import check_output_folder, manifest_path, one_line, warnings_as_lines
 
+from .laws import CONTACT_LAWS
 from .params import (MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,
                      sized_drum)
 
@@ -63,6 +64,33 @@ def _threads(text):
         raise argparse.ArgumentTypeError(f"must be 'auto' or a whole number, got {text!r}") from None
 
 
+def _law_parameter(text):
+    """``--law-parameter NAME=VALUE``: a contact-law parameter's name and its value as a float (the
+    name is checked against the chosen law's parameters later, in :func:`_params`)."""
+    name, sep, value = text.partition("=")
+    try:
+        if not sep:
+            raise ValueError
+        return name.strip(), float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be NAME=NUMBER, got {text!r}") from None
+
+
+def _law_changes(args, preset_law: str) -> dict:
+    """The ``SimParams`` changes of ``--contact-law`` and ``--law-parameter`` (the law is the
+    preset's, ``preset_law``, unless ``--contact-law`` names another); ValueError naming a
+    parameter the law does not have."""
+    law = CONTACT_LAWS[args.contact_law or preset_law]
+    changes = {"contact_law": args.contact_law}
+    names = [parameter.name for parameter in law.parameters]
+    for name, value in args.law_parameter or ():
+        if name not in names:
+            raise ValueError(f"--law-parameter {name}: the contact law {law.name!r} has no parameter {name!r} "
+                             f"(it has {', '.join(names)})")
+        changes[name] = value
+    return changes
+
+
 def build_parser():
     parser = _Parser(prog="python -m sim", description="Numba wet-DEM of a baffled drum granulator.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -88,6 +116,13 @@ def build_parser():
                    help="fixed bridge volume V_b of the original system [m³] (scaled by α³): YADE's ViscElCapMat "
                         "without LiqControl, every bridge has V_b from its touch to its rupture; no films, spraying "
                         "or migration (default: films, spraying and migration)")
+    p.add_argument("--contact-law", choices=tuple(CONTACT_LAWS),
+                   help=f"mechanical contact law (default the preset's, {next(iter(CONTACT_LAWS))}); its parameters "
+                        "are set by --law-parameter")
+    p.add_argument("--law-parameter", type=_law_parameter, action="append", metavar="NAME=VALUE",
+                   help="a parameter of the contact law in the original system, SI units (repeatable; scaled by "
+                        "the law's CG rule), e.g. youngs_modulus=1e7 for hertz_mindlin; the names are the law's "
+                        "(docs/physics.md, \"Contact law\")")
     p.add_argument("--no-viscous", action="store_true",
                    help="switch off the viscous (lubrication) force of the bridges, as YADE's ViscElCapMat")
     p.add_argument("--seed", type=int, help="random seed of the filling (>= 0)")
@@ -112,6 +147,7 @@ def _params(args):
     original, alpha = preset_original(args.preset)
     changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles,
                "bridge_volume": args.bridge_volume, "viscous": False if args.no_viscous else None}
+    changes.update(_law_changes(args, original.contact_law))
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha
     if args.particles is not None and (args.drum_ratio is not None or args.drum_particles is not None):

@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 
 from .capillary import CAPILLARY_MODELS
-from .contact import CONTACT_LAWS
+from .laws import CONTACT_LAWS, law_parameters
 
 __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHYSICS_VERSION", "MIN_PARTICLES",
            "check_cg_particle_count", "frame_interval_steps", "sized_drum", "DrumRule",
@@ -30,14 +30,32 @@ CAPILLARY_MODEL_NAMES = tuple(CAPILLARY_MODELS)
 MIN_STEPS_PER_CONTACT = 20
 
 
+def _with_law_parameters(cls):
+    """Give ``cls`` every registered contact law's parameters (:func:`sim.laws.law_parameters`)
+    as float fields with the law's defaults, placed after ``d_spread`` (so the field order, and
+    with it every run's recorded ``sim_config``, is that of the laws' declarations)."""
+    annotations = {}
+    for name, kind in cls.__dict__.get("__annotations__", {}).items():
+        annotations[name] = kind
+        if name == "d_spread":
+            for parameter in law_parameters():
+                annotations[parameter.name] = "float"
+                setattr(cls, parameter.name, parameter.default)
+    cls.__annotations__ = annotations
+    return cls
+
+
 @dataclass(frozen=True)
+@_with_law_parameters
 class SimParams:
     """Everything that defines a run. Defaults are Table 1 of the paper (α = 1).
 
     Material and contact (pair values)
         density [kg/m³], d_mean [m] (diameters uniform in [1 − d_spread, 1 + d_spread]·d_mean),
-        contact_law (a name of ``sim.contact.CONTACT_LAWS``, default the linear viscoelastic law with
-        Coulomb friction), k_n, k_t [N/m], c_n, c_t [N s/m], friction μ.
+        contact_law (a name of ``sim.laws.CONTACT_LAWS``, default the linear viscoelastic law with
+        Coulomb friction), and every registered law's parameters, each a field with its law's
+        default (``sim.laws.law_parameters()``; the linear law's: k_n, k_t [N/m], c_n, c_t
+        [N s/m], friction μ).
     Liquid
         surface_tension γ [N/m], viscosity η [Pa s], contact_angle θ [rad], capillary_model,
         viscous (Pitois lubrication force on/off), capillary_in_contact (YADE: False),
@@ -64,11 +82,7 @@ class SimParams:
     density: float = 2500.0
     d_mean: float = 1.5e-3
     d_spread: float = 0.2
-    k_n: float = 150.0
-    k_t: float = 120.0
-    c_n: float = 0.0011
-    c_t: float = 0.0011
-    friction: float = 0.5
+    # (here: the contact laws' parameters, added by _with_law_parameters)
     surface_tension: float = 0.1095
     viscosity: float = 0.0015
     contact_angle: float = 0.0
@@ -96,13 +110,15 @@ class SimParams:
     alpha: float = 1.0
 
     def __post_init__(self):
-        positive = ("density", "d_mean", "k_n", "k_t", "surface_tension", "dt", "drum_radius",
+        for parameter in law_parameters():
+            parameter.check(getattr(self, parameter.name))
+        positive = ("density", "d_mean", "surface_tension", "dt", "drum_radius",
                     "drum_length", "spray_interval", "alpha", "v_max_coef")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"parameter {name} must be a finite number > 0, got {value!r}")
-        nonneg = ("c_n", "c_t", "friction", "viscosity", "v_min", "spray_dose", "spray_radius",
+        nonneg = ("viscosity", "v_min", "spray_dose", "spray_radius",
                   "initial_film", "skin", "settle_time", "baffle_height", "bridge_volume")
         for name in nonneg:
             value = getattr(self, name)
@@ -155,7 +171,7 @@ class SimParams:
 
     def contact_time(self, radius=None) -> float:
         """Closed-form normal contact time of two equal spheres of ``radius`` (default the mean
-        radius) under the run's contact law (:attr:`sim.contact.ContactLaw.contact_time`; the
+        radius) under the run's contact law (:attr:`sim.laws.ContactLaw.contact_time`; the
         linear law's π/(ω₀√(1−ζ²))) [s].
 
         Raises
@@ -189,7 +205,7 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
     scaling; docs/physics.md, "Coarse-graining rules").
 
     Radii ×α, particle count ×1/α³ (rounded), γ ×α, η ×α, the contact law's parameters by its
-    own rule (:attr:`sim.contact.ContactLaw.cg_scaled`; the linear law: k_n and k_t ×α, c_n and
+    own rule (:attr:`sim.laws.ContactLaw.cg_scaled`; the linear law: k_n and k_t ×α, c_n and
     c_t ×α²), Δt ×α (unless ``scale_dt=False``); volumes per particle follow the radius (same fractions of
     V_p, so V_max, spray dose and initial film coefficients are unchanged); drum, spray zone,
     Ω, friction, contact angle, density unchanged; a fixed bridge volume V_b ×α³. Forces then scale as α².

@@ -39,13 +39,18 @@ class ThreadGovernor:
     """Chooses numba's thread count for each kernel call of a simulation by measuring.
 
     A *probe* runs each candidate count (:func:`thread_candidates`) for ``probe_s`` seconds of
-    wall time and keeps the count with the highest rate (particle-steps per second; of counts
+    wall time, in ``probe_slices`` interleaved slices (1, 2, 1, 2, …: on a machine whose other
+    load comes and goes, counts measured one after the other would compare different moments),
+    and keeps the count with the highest rate (particle-steps per second over its slices; of counts
     within ``prefer`` of each other, the smallest). The run then
     goes on at that count, measured in windows of ``window_s``; a new probe starts
     ``first_recheck_s`` seconds after a probe that changed the count, twice as long after one
     that kept it, up to ``recheck_s`` (so that a choice made in a moment of passing load is
     soon corrected, and a settled one costs little), or after the first window whose rate is
-    below ``fall`` times the rate the count was chosen at (the load changed). When the chosen count's rate drops below half the
+    below ``fall`` times the rate the count was chosen at (the load changed) — unless the count
+    is already the fewest: more threads do not help a machine that got busier, and each probe of
+    them costs the time they stall (the periodic rechecks still find a machine that got
+    freer). When the chosen count's rate drops below half the
     highest rate of the run, one warning says so, with the load average.
 
     Parameters
@@ -55,6 +60,8 @@ class ThreadGovernor:
         thread pool (``NUMBA_NUM_THREADS``).
     probe_s, window_s : float
         Probe length per candidate and measurement window [s].
+    probe_slices : int
+        Slices each candidate's probe time is cut into, interleaved with the others'.
     first_recheck_s, recheck_s : float
         Shortest and longest time between probes [s].
     fall : float
@@ -71,7 +78,8 @@ class ThreadGovernor:
         Wall clock [s] (``time.perf_counter``; replaceable for tests).
     """
 
-    def __init__(self, max_threads: int | None = None, *, probe_s: float = 0.3, window_s: float = 0.5,
+    def __init__(self, max_threads: int | None = None, *, probe_s: float = 0.3, probe_slices: int = 3,
+                 window_s: float = 0.5,
                  first_recheck_s: float = 2.0, recheck_s: float = 20.0, fall: float = 0.7, prefer: float = 1.1,
                  call_s: float = 0.05, clock=time.perf_counter):
         import numba
@@ -80,6 +88,7 @@ class ThreadGovernor:
         self.max_threads = limit if max_threads is None else max(1, min(int(max_threads), limit))
         self.candidates = thread_candidates(self.max_threads)
         self.probe_s, self.window_s, self.call_s = probe_s, window_s, call_s
+        self.probe_slices = max(1, int(probe_slices))
         self.first_recheck_s, self.recheck_s = first_recheck_s, recheck_s
         self._interval = first_recheck_s  # time to the next probe
         self.fall, self.prefer = fall, prefer
@@ -90,12 +99,20 @@ class ThreadGovernor:
         self._chosen = self.max_threads
         self.best_rate = 0.0  # the highest window rate of the run
         self.history: list[tuple[int, float]] = []  # (threads, rate) of every finished window
-        self._queue = list(self.candidates)  # counts still to probe; empty: running on the chosen one
+        self._queue = self._probe_order(first=None)  # probe slices still to run; empty: running on the chosen one
+        self._probe_work: dict[int, float] = {}  # particle-steps and wall time of each count in this probe
+        self._probe_wall: dict[int, float] = {}
         self._start_probe_at = None
         self._warned = False
         self._window_work = self._window_wall = 0.0
         self._steps_per_call: dict[int, int] = {}  # per count: a count's first call is one step
         self._calls = 0
+
+    def _probe_order(self, first):
+        """The slices of a probe: every candidate once per round, ``probe_slices`` rounds; the
+        count running now (``first``) ends each round, so that a probe starts with a change."""
+        counts = [c for c in self.candidates if c != first] + ([first] if first in self.candidates else [])
+        return counts * self.probe_slices
 
     @property
     def probing(self) -> bool:
@@ -107,7 +124,7 @@ class ThreadGovernor:
         import numba
 
         if not self._queue and self._start_probe_at is not None and self._clock() >= self._start_probe_at:
-            self._queue = [c for c in self.candidates if c != self.threads] + [self.threads]
+            self._queue = self._probe_order(first=self.threads)
             self._window_work = self._window_wall = 0.0
         if self._queue:
             self.threads = self._queue[0]
@@ -126,15 +143,23 @@ class ThreadGovernor:
             self._steps_per_call[self.threads] = max(1, min(4 * last, int(self.call_s * steps / wall_s)))
         self._window_work += steps * n_particles
         self._window_wall += wall_s
-        if self._window_wall < (self.probe_s if self._queue else self.window_s):
+        if self._window_wall < (self.probe_s / self.probe_slices if self._queue else self.window_s):
             return
         rate = self._window_work / self._window_wall
+        if self._queue:
+            self._probe_work[self.threads] = self._probe_work.get(self.threads, 0.0) + self._window_work
+            self._probe_wall[self.threads] = self._probe_wall.get(self.threads, 0.0) + self._window_wall
         self._window_work = self._window_wall = 0.0
         self.history.append((self.threads, rate))
         self.best_rate = max(self.best_rate, rate)
         if self._queue:
-            self.rates[self._queue.pop(0)] = rate
+            self._queue.pop(0)
             if not self._queue:  # probe done: the fewest threads within `prefer` of the fastest
+                for c in self.candidates:
+                    if self._probe_wall.get(c):
+                        self.rates[c] = self._probe_work[c] / self._probe_wall[c]
+                self._probe_work.clear()
+                self._probe_wall.clear()
                 fastest = max(self.rates.get(c, 0.0) for c in self.candidates)
                 chosen = min(c for c in self.candidates if self.prefer * self.rates.get(c, 0.0) >= fastest)
                 kept = self.chosen_rate > 0 and chosen == self._chosen
@@ -143,7 +168,7 @@ class ThreadGovernor:
                 self.chosen_rate = self.rates[chosen]
                 self._start_probe_at = self._clock() + self._interval
             return
-        if rate < self.fall * self.chosen_rate:
+        if rate < self.fall * self.chosen_rate and self.threads > self.candidates[0]:
             self._start_probe_at = self._clock()  # the load changed: probe again now
         if rate < 0.5 * self.best_rate and not self._warned:
             self._warned = True

@@ -142,6 +142,11 @@ def refused(result, *words):
     (["--alpha", "1e300"], ["0 particles after coarse-graining", "at least 2"]),
     (["--omega", "1e-300"], ["--revolutions", "time steps", "1e-300 rad/s"]),
     (["--revolutions", "1e308"], ["--revolutions", "time steps"]),
+    (["--law-parameter", "youngs_modulus=1e7"], ["--law-parameter youngs_modulus", "'linear_coulomb'", "k_n"]),
+    (["--contact-law", "hertz_mindlin", "--law-parameter", "k_n=200"], ["'hertz_mindlin' has no parameter 'k_n'"]),
+    (["--law-parameter", "k_n"], ["--law-parameter", "NAME=NUMBER"]),
+    (["--contact-law", "hertz_mindlin", "--law-parameter", "restitution=1.5"], ["restitution", "(0, 1]"]),
+    (["--contact-law", "hooke"], ["--contact-law", "hooke"]),
 ])
 def test_bad_option_values_are_refused_in_one_line_before_anything_is_written(cli, tmp_path, args, words):
     refused(cli("r.h5", *args), *words)
@@ -275,3 +280,18 @@ def test_no_viscous_switches_off_the_bridges_lubrication_force(flag, viscous):
     args = build_parser().parse_args(["run", "--preset", "lab-cg2", "--revolutions", "1", "--out", "x.h5", *flag])
     original, scaled = _params(args)
     assert original.viscous is viscous and scaled.viscous is viscous
+
+
+def test_contact_law_and_its_parameters_are_set_in_the_original_system_and_scaled_by_the_laws_rule():
+    from sim.cli import _params, build_parser
+
+    def params(*flags):
+        args = build_parser().parse_args(["run", "--preset", "lab-cg2", "--revolutions", "1", "--out", "x.h5", *flags])
+        return _params(args)
+
+    original, scaled = params("--law-parameter", "k_n=200", "--law-parameter", "friction=0.3")
+    assert (original.contact_law, original.k_n, original.friction) == ("linear_coulomb", 200.0, 0.3)
+    assert (scaled.k_n, scaled.friction) == (400.0, 0.3)  # the linear law: k_n ×α
+    original, scaled = params("--contact-law", "hertz_mindlin", "--law-parameter", "youngs_modulus=1e7")
+    assert scaled.contact_law == original.contact_law == "hertz_mindlin"
+    assert scaled.youngs_modulus == original.youngs_modulus == 1e7  # Hertz: E unchanged under CG

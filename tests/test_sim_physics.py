@@ -52,6 +52,38 @@ def test_normal_impact_restitution_and_contact_time(alpha):
     assert vel[:, 0].sum() == pytest.approx(0.0, abs=1e-15)  # momentum
 
 
+def _restitution(p, r, v):
+    sim, steps = head_on(p, r, v)
+    vel = sim.state.vel[np.argsort(sim.state.ids)]
+    assert vel[:, 0].sum() == pytest.approx(0.0, abs=1e-15)  # momentum
+    return (vel[1, 0] - vel[0, 0]) / (2 * v), steps
+
+
+@pytest.mark.parametrize("alpha", [1.0, 3.0])
+def test_hertz_mindlin_impact_has_hertzs_contact_time_and_a_speed_independent_restitution(alpha):
+    """The second contact law, added as one module (sim/laws/hertz_mindlin.py) and one registry
+    entry: undamped (e = 1), a head-on impact rebounds elastically after Hertz's contact time
+    2.9432·(15m*/(16E*√R*))^(2/5)·v^(−1/5); damped, its restitution is the same at 0.1 and
+    0.4 m/s (Tsuji) and near the e it was set from; under CG nothing but the radius changes and
+    t_c/Δt is the same at α = 1 and 3."""
+    from sim.laws import hertz_mindlin
+
+    original = dataclasses.replace(FREE, contact_law="hertz_mindlin", friction=0.0, restitution=1.0)
+    p = cg_scale(original, alpha) if alpha > 1 else original
+    assert (p.youngs_modulus, p.restitution) == (original.youngs_modulus, 1.0)
+    r = R * alpha
+    e, steps = _restitution(p, r, 0.05)
+    assert e == pytest.approx(1.0, abs=2e-3)
+    t_c = hertz_mindlin.contact_time(p, r, speed=0.1)
+    assert t_c / p.dt == pytest.approx(hertz_mindlin.contact_time(original, R, speed=0.1) / original.dt, rel=1e-12)
+    assert steps * p.dt == pytest.approx(t_c, rel=1.5 * p.dt / t_c)
+    damped = dataclasses.replace(p, restitution=0.7)
+    slow, _ = _restitution(damped, r, 0.05)
+    fast, _ = _restitution(damped, r, 0.2)
+    assert slow == pytest.approx(fast, rel=5e-3)
+    assert 0.6 < slow < 0.8
+
+
 def test_sphere_sliding_on_a_wall_ends_rolling_at_five_sevenths():
     p = dataclasses.replace(FREE, gravity=(0.0, 0.0, -9.81), n_particles=1)
     v0 = 0.05
@@ -371,27 +403,48 @@ def test_public_capillary_force_is_the_engine_law_for_a_tiny_bridge():
 
 
 def test_contact_law_dispatcher_and_registry():
-    """The kernels call the contact law through sim.contact.contact_force; an unregistered law is refused."""
+    """The kernels call the contact law through sim.contact.contact_force with the law's packed
+    constants: the linear law's f_n = k_n·u + c_n·v_n and sticking spring; an unregistered law is
+    refused."""
     import dataclasses
 
-    from sim.contact import CONTACT_LAWS, contact_force, mechanical_force
+    from sim.contact import LAW_CONSTANTS, contact_force, law_constants
+    from sim.laws import CONTACT_LAWS, kernel_id
     from sim.params import SimParams
 
-    args = (2e-6, 0.6, 0.8, 0.0, 0.01, -0.02, 0.005, 1e-4, -2e-4, 0.0, 150.0, 120.0, 0.0011, 0.0011, 0.5, 1e-6)
-    assert contact_force(CONTACT_LAWS["linear_coulomb"].kernel_id, *args) == mechanical_force(*args)
+    params = SimParams()
+    law, constants = law_constants(params)
+    assert law == kernel_id("linear_coulomb") == 0 and len(constants) == LAW_CONSTANTS
+    assert constants[:5] == (params.k_n, params.k_t, params.c_n, params.c_t, params.friction)
+    u, n, v, spring, dt = 2e-6, (0.6, 0.8, 0.0), (0.01, -0.02, 0.005), (4e-5, -3e-5, 0.0), 1e-6  # sticking
+    args = (u, *n, *v, *spring, 7e-4, 8e-4, dt)
+    out = contact_force(law, constants, *args)
+    assert out == CONTACT_LAWS["linear_coulomb"].force(constants, *args)
+    v_n = float(np.dot(v, n))
+    assert out[0] == pytest.approx(params.k_n * u + params.c_n * v_n, rel=1e-14)
+    v_t = np.asarray(v) - v_n * np.asarray(n)
+    assert np.allclose(out[1:4], np.asarray(spring) - params.k_t * dt * v_t, rtol=1e-14, atol=0)
     with pytest.raises(ValueError, match="contact_law must be one of"):
         dataclasses.replace(SimParams(), contact_law="hertz")
 
 
-def test_a_contact_law_object_carries_its_contact_time_and_cg_rule(monkeypatch):
-    """SimParams' contact time and cg_scale ask the run's law: a scratch law (the linear force,
-    with its own contact time and CG rule) is followed without an edit elsewhere."""
+def test_a_contact_law_object_carries_its_parameters_contact_time_and_cg_rule(monkeypatch):
+    """SimParams' fields, checks, contact time and cg_scale come from the registered laws: every
+    law parameter is a field with its law's default and bound, and a scratch law (the linear
+    force, with its own contact time and CG rule) is followed without an edit elsewhere."""
     import dataclasses
 
-    from sim.contact import CONTACT_LAWS, LINEAR_COULOMB, ContactLaw
+    from sim.laws import CONTACT_LAWS, ContactLaw, law_parameters
     from sim.params import SimParams, cg_scale
 
-    scratch = ContactLaw("scratch", LINEAR_COULOMB.kernel_id, LINEAR_COULOMB.parameters,
+    fields = {f.name: f.default for f in dataclasses.fields(SimParams)}
+    for parameter in law_parameters():
+        assert fields[parameter.name] == parameter.default
+        bad = {"positive": 0.0, "nonnegative": -1.0, "restitution": 1.5, "poisson_ratio": 0.5}[parameter.bound]
+        with pytest.raises(ValueError, match=f"parameter {parameter.name} must be a finite number"):
+            SimParams(**{parameter.name: bad})
+    linear = CONTACT_LAWS["linear_coulomb"]
+    scratch = ContactLaw("scratch", linear.parameters, linear.constants, linear.pack, linear.force,
                          contact_time=lambda params, radius: 7.0 * radius,
                          cg_scaled=lambda params, alpha: {"k_n": params.k_n * alpha**2})
     monkeypatch.setitem(CONTACT_LAWS, "scratch", scratch)
@@ -399,8 +452,8 @@ def test_a_contact_law_object_carries_its_contact_time_and_cg_rule(monkeypatch):
     assert params.contact_time(1e-3) == 7e-3
     scaled = cg_scale(params, 2.0)
     assert scaled.k_n == params.k_n * 4 and scaled.k_t == params.k_t and scaled.c_n == params.c_n
-    linear = cg_scale(SimParams(), 2.0)
-    assert (linear.k_n, linear.k_t, linear.c_n, linear.c_t) == (300.0, 240.0, 0.0011 * 4, 0.0011 * 4)
+    linear_cg = cg_scale(SimParams(), 2.0)
+    assert (linear_cg.k_n, linear_cg.k_t, linear_cg.c_n, linear_cg.c_t) == (300.0, 240.0, 0.0011 * 4, 0.0011 * 4)
 
 
 @pytest.mark.slow

@@ -172,8 +172,8 @@ def test_thread_candidates_are_powers_of_two_and_the_maximum():
 @pytest.mark.skipif(min(available_cores(), numba.config.NUMBA_NUM_THREADS) < 2, reason="needs two cores")
 def test_the_thread_governor_runs_on_the_faster_count_and_probes_again_when_the_rate_falls():
     now = [0.0]
-    gov = ThreadGovernor(max_threads=2, probe_s=1.0, window_s=1.0, first_recheck_s=10.0, recheck_s=40.0,
-                         clock=lambda: now[0])
+    gov = ThreadGovernor(max_threads=2, probe_s=1.0, probe_slices=1, window_s=1.0, first_recheck_s=10.0,
+                         recheck_s=40.0, clock=lambda: now[0])
     speed = {1: 2e6, 2: 3e6}  # particle-steps/s at each count
 
     def calls(k):
@@ -199,6 +199,34 @@ def test_the_thread_governor_runs_on_the_faster_count_and_probes_again_when_the_
     # a probe that keeps the count doubles the time to the next one, up to recheck_s
     calls(200)
     assert gov.threads == 2 and gov._interval == 40.0
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+
+
+@pytest.mark.skipif(min(available_cores(), numba.config.NUMBA_NUM_THREADS) < 2, reason="needs two cores")
+def test_the_governors_probe_interleaves_the_counts_and_a_fall_on_one_thread_starts_no_probe():
+    """A probe alternates the counts (1, 2, 1, 2), so that load which comes and goes is seen by
+    both; its rate per count is over all its slices. Once on one thread, a falling rate (the
+    machine got busier) starts no probe of more threads before the recheck is due."""
+    now = [0.0]
+    gov = ThreadGovernor(max_threads=2, probe_s=1.0, probe_slices=2, window_s=1.0, first_recheck_s=10.0,
+                         recheck_s=40.0, clock=lambda: now[0])
+    # two threads are fast only in their first slice (another program starts at t = 1.5 s)
+    speed = lambda threads: {1: 2e6, 2: 3e6 if now[0] < 1.5 else 0.5e6}[threads]
+
+    def calls(k):
+        for _ in range(k):
+            gov.begin(1000, 10**9)
+            rate = speed(gov.threads)
+            now[0] += 0.5
+            gov.end(int(rate * 0.5 / 1000), 1000, 0.5)
+
+    calls(5)  # the first call is not measured; then four slices of 0.5 s
+    assert [t for t, _ in gov.history] == [1, 2, 1, 2] and not gov.probing
+    assert gov.rates[2] == pytest.approx((3e6 + 0.5e6) / 2) and gov.threads == 1  # not 3e6 from one lucky slice
+    speed = lambda threads: {1: 0.9e6, 2: 0.3e6}[threads]  # busier still: one thread at 0.45 of its chosen rate
+    with pytest.warns(RuntimeWarning, match="slowed to 0.90M"):
+        calls(12)  # six 1-s windows, all on one thread, none a probe
+    assert gov.threads == 1 and not gov.probing and [t for t, _ in gov.history[4:]] == [1] * 6
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
 
 
@@ -262,6 +290,8 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
 
     from sim import _kernels
     from sim.capillary import CAPILLARY_MODELS
+    from sim.contact import LAW_CONSTANTS
+    from sim.laws import CONTACT_LAWS
 
     # every float parameter distinct, so that a swapped pair cannot go unnoticed
     p = dataclasses.replace(SMALL, k_n=101.0, k_t=102.0, c_n=0.0103, c_t=0.0104, friction=0.45,
@@ -272,12 +302,14 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
     kp = _kernels.kernel_params(p, 7)
     by_name = {"dt": p.dt, "n_walls": 7, "drum_radius": p.drum_radius, "drum_length": p.drum_length,
                "n_baffles": p.n_baffles, "baffle_height": 0.14, "drum_omega": 2.5, "gx": 0.1, "gy": -9.7, "gz": 0.2,
-               "law": 0, "k_n": 101.0, "k_t": 102.0, "c_n": 0.0103, "c_t": 0.0104, "mu": 0.45, "gamma": 0.31,
+               "law": 0, "law_constants": (101.0, 102.0, 0.0103, 0.0104, 0.45) + (0.0,) * (LAW_CONSTANTS - 5),
+               "registered_laws": tuple(range(len(CONTACT_LAWS))), "gamma": 0.31,
                "eta": 0.0027, "theta": 0.21, "model": CAPILLARY_MODELS["lambert"], "viscous": False,
                "capillary_in_contact": True, "v_min": 1e-15, "bridge_volume": 0.0, "spray_interval": 0.011, "spray_dose": 0.012,
                "spray_radius": 0.013, "half_skin": 0.45e-3}
     assert kp._asdict() == by_name
     assert [type(v) for v in kp] == [type(by_name[k]) for k in kp._fields]
+    assert all(type(v) is float for v in kp.law_constants)
     # the time-step kernels take the parameters and the arrays as two named structures
     for kernel in (_kernels.advance, _kernels._slot_forces):
         params = list(inspect.signature(kernel.py_func).parameters)
