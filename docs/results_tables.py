@@ -10,9 +10,12 @@ distributions) and the measured speed-ups, the granule kinetics of the lab runs 
 per particle per revolution), the replica sets (replica standard error beside the block s.e.m.,
 and the CG deviations with replica errors), and the γ × Ω study of every bundled sweep (steady
 state per point, the growth-law fit beside the paper's β and γ₁, the surrogate's leave-one-out
-error). With ``--figures DIR`` it also writes the CG figures (the paper's Figs 3–6) of the lab
-and paper-drum comparisons and the Fig 7 analogue of each sweep into DIR. ``--replica-sweep`` and
-``--gamma-runs`` add runs that are not bundled (docs/results.md says how they were made).
+error). With ``--figures DIR`` (docs/figures for the results page) it also writes, as PNG, the CG
+figures (the paper's Figs 3–6) of the lab and paper-drum comparisons into DIR/lab-drum and
+DIR/paper-drum (Fig 5 also in original-particle equivalents, ``fig5_size_distribution_original``),
+the CG deviation heatmaps over the threshold grid and the Fig 7 analogue of each sweep into DIR.
+``--replica-sweep`` and ``--gamma-runs`` add runs that are not bundled (docs/results.md says how
+they were made).
 """
 
 from __future__ import annotations
@@ -177,7 +180,19 @@ def cg_tables(figures=None):
                          for m, d in (("yield_fraction", 3), ("mean_volume_norm", 2), ("n_granules_norm", 4))]
                 print(f"| {row.run} | {cohesion} | {' | '.join(cells)} | {row.ks_distance:.3f} | {row.w1_log10_size:.3f} |")
             if figures and cohesion == "acting":
-                cmp.save(os.path.join(figures, title.replace(" ", "-")), overwrite=True, formats=("png",))
+                import matplotlib.pyplot as plt
+
+                from granalytics.plot import cg_figures
+
+                folder = os.path.join(figures, title.replace(" ", "-"))
+                os.makedirs(folder, exist_ok=True)
+                drawn, original = cg_figures(cmp), cg_figures(cmp, size_unit="original")
+                drawn["fig5_size_distribution_original"] = original.pop("fig5_size_distribution")
+                for fig in original.values():  # Figs 3, 4, 6 do not depend on the size unit
+                    plt.close(fig)
+                for key, fig in drawn.items():  # the figures of CGComparison.save, without its tables
+                    fig.savefig(os.path.join(folder, f"{key}.png"), dpi=120)
+                    plt.close(fig)
         threads = {}
         for n in names:
             with ga.open_run(dataset_path(n)) as run:
@@ -294,7 +309,8 @@ def replica_sweep_table(folder, figures=None):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--figures", help="folder for the CG figures (PNG)")
+    parser.add_argument("--figures", metavar="DIR",
+                        help="folder for the figures (PNG; docs/figures for the results page)")
     parser.add_argument("--parts", default="runs,sweeps", help="which tables: runs, sweeps or both (default)")
     parser.add_argument("--replica-sweep", metavar="DIR",
                         help="the replicas of the CG3 sweep's Ω = 2 row (not bundled), e.g. build/sweeps/gamma-lab-cg3-replicas")

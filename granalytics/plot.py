@@ -47,36 +47,145 @@ def plot_timeseries(ts, column, ax=None, window=None, label=None, ylabel=None, x
     return ax
 
 
-def plot_size_distribution(dist, ax=None, label=None):
-    """Probability density of particles per granule (:func:`~granalytics.size_distribution`), log–log."""
-    import matplotlib.pyplot as plt
+#: Axis labels of granule sizes in each unit (:data:`granalytics.analysis.stats.SIZE_UNITS`).
+SIZE_LABELS = {"particles": "particles per granule",
+               "original": "original-particle equivalents per granule (α³·n)"}
+#: A bin of a size distribution with fewer granules than this is drawn with an open marker.
+FEW_GRANULES = 3
 
-    ax = ax if ax is not None else plt.gca()
+
+def _plain_log_ticks(axis):
+    """Plain numbers on a logarithmic axis ("6", "0.2", "1e-05"), never "6×10⁰": matplotlib's own
+    choice of which minor ticks to label (all of them below a decade, some below 2.5 decades)."""
+    from matplotlib.ticker import LogFormatter
+
+    class Plain(LogFormatter):
+        def _num_to_string(self, x, vmin, vmax):
+            return f"{x:g}"
+
+    axis.set_major_formatter(Plain(labelOnlyBase=False))
+    axis.set_minor_formatter(Plain(labelOnlyBase=False, minor_thresholds=(1, 0.4)))
+
+
+def _sizes_unit(table, size_unit=None) -> str:
+    """The size unit of a table of :func:`~granalytics.size_distribution` or
+    :func:`~granalytics.coalescence_kernel` (its ``attrs``), unless given."""
+    unit = size_unit or getattr(table, "attrs", {}).get("size_unit", "particles")
+    if unit not in SIZE_LABELS:
+        from granalytics.core.errors import ParameterError
+
+        raise ParameterError(f"size_unit must be one of {', '.join(SIZE_LABELS)}, got {unit!r}")
+    return unit
+
+
+def _add_key(ax, label, **style):
+    """A legend entry that explains a style (drawn once per axes, nothing on the plot)."""
+    if label not in ax.get_legend_handles_labels()[1]:
+        if style.pop("patch", False):
+            ax.fill_between([], [], [], label=label, **style)
+        else:
+            ax.plot([], [], label=label, **style)
+
+
+def _legend_keys_last(ax, **kwargs):
+    """The axes' legend with the curves first and the keys of :func:`_add_key` (band, open
+    markers) after them."""
+    handles, labels = ax.get_legend_handles_labels()
+    keyed = [lab.startswith(("band:", "open marker:")) for lab in labels]
+    order = [i for i, k in enumerate(keyed) if not k] + [i for i, k in enumerate(keyed) if k]
+    return ax.legend([handles[i] for i in order], [labels[i] for i in order], **kwargs)
+
+
+def plot_size_distribution(dist, ax=None, label=None, *, color=None, explain=True):
+    """Probability density of granule sizes (:func:`~granalytics.size_distribution`), log–log.
+
+    The axis says the unit of the sizes (``dist.attrs["size_unit"]``: the run's particles, or
+    original-particle equivalents α³·n). Where ``dist`` has ``density_lo`` and ``density_hi``
+    (``size_distribution(..., ci=0.95)``) they are drawn as a band (a bootstrap over the
+    granules); bins with fewer than :data:`FEW_GRANULES` granules get open markers. With
+    ``explain`` the legend says what the band and the open markers are.
+    """
+    import matplotlib.pyplot as plt
     from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
 
+    ax = ax if ax is not None else plt.gca()
+    unit = _sizes_unit(dist)
     shown = dist[dist["count"] > 0]
-    ax.loglog(shown["size_center"], shown["density"], marker="o", ms=4, lw=1, label=label)
+    x, y = shown["size_center"].to_numpy(dtype=float), shown["density"].to_numpy(dtype=float)
+    line, = ax.loglog(x, y, marker="o", ms=4, lw=1, label=label, color=color)
+    few = shown["count"].to_numpy() < FEW_GRANULES
+    if few.any():
+        ax.plot(x[few], y[few], ls="none", marker="o", ms=6, mfc="white", color=line.get_color())
+        if explain:
+            _add_key(ax, f"open marker: < {FEW_GRANULES} granules in the bin", ls="none", marker="o", ms=6,
+                     mfc="white", color="0.4")
+    if "density_lo" in shown and len(shown):
+        floor = y[y > 0].min() / 3 if (y > 0).any() else 1e-12  # a band down to 0 reaches below the lowest point
+        lo = np.maximum(shown["density_lo"].to_numpy(dtype=float), floor)
+        ax.fill_between(x, lo, shown["density_hi"].to_numpy(dtype=float), color=line.get_color(), alpha=0.2, lw=0)
+        if explain:
+            ci = dist.attrs.get("ci")
+            _add_key(ax, f"band: bootstrap {ci:.0%} CI over the granules" if ci else "band: bootstrap CI over the granules",
+                     patch=True, color="0.5", alpha=0.3, lw=0)
     # granule sizes are small integers: label 2, 5, 10, 20, 50, … rather than powers of ten only
     ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
     ax.xaxis.set_major_formatter(ScalarFormatter())
     ax.xaxis.set_minor_formatter(NullFormatter())
-    ax.set_xlabel("particles per granule")
-    ax.set_ylabel("probability density")
+    _plain_log_ticks(ax.yaxis)
+    ax.set_xlabel(SIZE_LABELS[unit])
+    ax.set_ylabel("probability density [per particle]" if unit == "particles"
+                  else "probability density [per original particle]")
     return ax
 
 
-def stats_figure(ts, dist=None, window=None, title=None, x="revolutions"):
+def _steady_key(window, x="revolutions", error="block s.e.m."):
+    """Legend handles and labels of the steady-state window (shaded) and its mean ± error (a
+    line over a band), in grey: one entry each, whatever the colours of the curves."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    unit = "rev" if x == "revolutions" else "s"
+    return ([Patch(color="0.9"), (Patch(color="0.5", alpha=0.3, lw=0), Line2D([], [], color="0.3", lw=2))],
+            [f"steady-state window [{window[0]:g}, {window[1]:g}] {unit}", f"steady-state mean ± {error}"])
+
+
+def stats_figure(ts, dist=None, window=None, title=None, x="revolutions", steady=None):
     """Figure with the time series of every headline metric (granule number, mean volume, yield)
-    and the size distribution."""
+    and the size distribution.
+
+    With a ``window``, the steady-state window is shaded and its mean ± block s.e.m. drawn over
+    it (``steady``: a :func:`~granalytics.steady_state` table; default computed from ``ts``), both
+    named in the legend below the panels.
+    """
+    import warnings
+
     import matplotlib.pyplot as plt
 
     shown = list(BY_FIGURE)
     n = len(shown) + (dist is not None)
-    fig, axes = plt.subplots(1, n, figsize=(4 * n, 3.4), layout="constrained")
-    for ax, column in zip(np.atleast_1d(axes), shown):
-        plot_timeseries(ts, column, ax=ax, window=window, ylabel=METRICS[column].label, x=x)
+    fig, axes = plt.subplots(1, n, figsize=(4 * n, 3.6), layout="constrained")
+    axes = np.atleast_1d(axes)
+    if window is not None and steady is None:
+        from granalytics.analysis.stats import steady_state
+
+        with warnings.catch_warnings():  # the caller has said what is wrong with the window
+            warnings.simplefilter("ignore")
+            steady = steady_state(ts, window=window, columns=shown, by=x)
+    for ax, column in zip(axes, shown):
+        plot_timeseries(ts, column, ax=ax, window=window, ylabel=METRICS[column].label, x=x, label="per frame")
+        if steady is not None and column in steady.index:
+            mean, sem = steady.loc[column, "mean"], steady.loc[column, "sem"]
+            ax.hlines(mean, *window, color="0.3", lw=2, zorder=3)
+            if np.isfinite(sem):
+                ax.fill_between(list(window), mean - sem, mean + sem, color="0.5", alpha=0.3, lw=0, zorder=2)
+    handles, labels = axes[0].get_legend_handles_labels()
+    if window is not None:
+        more = _steady_key(window, x)
+        handles, labels = handles + more[0], labels + more[1]
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=8, frameon=False)
     if dist is not None:
-        plot_size_distribution(dist, ax=axes[-1])
+        plot_size_distribution(dist, ax=axes[-1], label="pooled over the window" if window is not None else None)
+        _legend_keys_last(axes[-1], fontsize=7)
         if window is not None:
             unit = "revolutions" if x == "revolutions" else "t [s]"
             axes[-1].set_title(f"{unit} [{window[0]:g}, {window[1]:g}]", fontsize=9)
@@ -117,7 +226,8 @@ def sensitivity_figure(summary, title=None):
         ax.set_ylabel(label)
         if METRICS[metric].log_scale:
             ax.set_yscale("log")
-    axes[1, 0].legend(fontsize=8)
+            _plain_log_ticks(ax.yaxis)
+    axes[1, 0].legend(fontsize=8, title="bars: ± std over the frames", title_fontsize=8)
     fig.text(0.5, -0.02, "heatmaps: mean over the window's frames; white cells: no granules at that pair (⟨V_g⟩ "
              "undefined); line plots: mean ± standard deviation over the frames (frame-to-frame spread, not an "
              "error of the mean)", ha="center", va="top", fontsize=8)
@@ -132,15 +242,22 @@ def comparison_figure(stats, pairs, title=None):
     import matplotlib.pyplot as plt
 
     shown = list(HEADLINE)
-    fig, axes = plt.subplots(1, len(shown) + 1, figsize=(4.3 * (len(shown) + 1), 3.6), layout="constrained")
+    fig, axes = plt.subplots(1, len(shown) + 1, figsize=(4.3 * (len(shown) + 1), 3.9), layout="constrained")
+    methods = list(dict.fromkeys(stats["method"]))
+    colour = {name: f"C{k % 10}" for k, name in enumerate(methods)}  # a method's colour in every panel
     for name, part in stats.groupby("method", sort=False):
         for ax, metric in zip(axes, shown):
             plot_timeseries(part, metric, ax=ax, label=name, ylabel=METRICS[metric].label)
-    for (a, b), part in pairs.groupby(["method_a", "method_b"], sort=False):
+            ax.lines[-1].set_color(colour[name])
+    # the pairs: other colours than the methods' (tab10 after them), dashed, in their own legend
+    for k, ((a, b), part) in enumerate(pairs.groupby(["method_a", "method_b"], sort=False)):
         plot_timeseries(part, "ari", ax=axes[-1], label=f"{a} vs {b}", ylabel="adjusted Rand index")
+        axes[-1].lines[-1].set(color=f"C{(len(methods) + k) % 10}", ls="--")
     axes[-1].set_ylim(-0.05, 1.05)
-    for ax in axes:  # below the panel, never over the curves
-        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, frameon=False)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower left", ncol=len(labels), fontsize=8, frameon=False,
+               title="method (the same colour in every panel)", title_fontsize=8)
+    axes[-1].legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, frameon=False)
     if title:
         fig.suptitle(title)
     return fig
@@ -197,12 +314,22 @@ def _replica_spread(part, column) -> pd.DataFrame:
     return pd.DataFrame({"mean": wide.mean(axis=1), "min": wide.min(axis=1), "max": wide.max(axis=1)})
 
 
-def cg_figures(comparison) -> dict:
+def cg_figures(comparison, *, size_unit="particles") -> dict:
     """The paper's Figs 3–6 for a :class:`~granalytics.analysis.cg.CGComparison`: ⟨V_g⟩/V_p, N_g/N and
-    yield against revolutions (one curve per run, the steady-state window shaded, its mean ± s.e.m.
-    as a band) and the particles-per-granule distribution pooled over the window (log axes).
-    A group of replicas is drawn as the replicas' mean at their common frames with their range
-    (min–max) as a band, and its steady-state mean ± the replica standard error.
+    yield against revolutions (one curve per run, the steady-state window shaded, its mean ± block
+    s.e.m. as a band) and the granule size distribution pooled over the window (log axes) with a
+    bootstrap 95 % band over the granules and open markers on bins of fewer than
+    :data:`FEW_GRANULES` granules. A group of replicas is drawn as the replicas' mean at their
+    common frames with their range (min–max) as a band, and its steady-state mean ± the replica
+    standard error (the errors of the comparison's table). Each run has one colour in every
+    figure; the legends name the window, the mean lines and every band.
+
+    Parameters
+    ----------
+    comparison : CGComparison
+    size_unit : {"particles", "original"}, default "particles"
+        Sizes of Fig 5 in each run's own particles, or in original-particle equivalents α³·n
+        (the unit in which the CG levels are compared: a CG3 pair is 54 original particles).
 
     Returns
     -------
@@ -211,13 +338,18 @@ def cg_figures(comparison) -> dict:
     """
     import matplotlib.pyplot as plt
 
+    from granalytics.analysis.stats import size_distribution
+
     panels = [(METRICS[m].figure_key, m, METRICS[m].label, METRICS[m].what) for m in BY_FIGURE]
     subtitle = comparison.description
+    runs = list(dict.fromkeys(comparison.table["run"]))
+    colours = {run: f"C{k % 10}" for k, run in enumerate(runs)}  # one colour per run (CG level) in every figure
+    any_group = (comparison.table["n_replicas"] > 1).any() if "n_replicas" in comparison.table else False
     figures = {}
     for name, column, ylabel, what in panels:
-        fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
-        for k, (label, part) in enumerate(comparison.timeseries.groupby("run", sort=False)):
-            colour = f"C{k}"
+        fig, ax = plt.subplots(figsize=(6, 4.3), layout="constrained")
+        for label, part in comparison.timeseries.groupby("run", sort=False):
+            colour = colours[label]
             row = comparison.table[comparison.table["run"] == label].iloc[0]
             replicas = part["replica"].nunique() if "replica" in part else 1
             if replicas > 1:  # the replicas' mean at their common frames, and their range as a band
@@ -234,28 +366,57 @@ def cg_figures(comparison) -> dict:
             ax.hlines(mean, lo, hi, color=colour, lw=2, alpha=0.8)
             if np.isfinite(sem):
                 ax.fill_between([lo, hi], mean - sem, mean + sem, color=colour, alpha=0.15, lw=0)
-        ax.axvspan(*comparison.window, color="0.93", zorder=0)
+        ax.axvspan(*comparison.window, color="0.9", zorder=0)
         ax.set_xlabel("revolutions t·Ω/2π")
         ax.set_ylabel(ylabel)
         ax.set_title(f"Effect of CG on the {what}\n{subtitle}", fontsize=9)
-        labels = ax.get_legend_handles_labels()[1]
-        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.18), frameon=False,
-                  ncol=3 if max(map(len, labels)) <= 24 else 1)  # long labels (replica groups): one per line
+        handles, labels = ax.get_legend_handles_labels()
+        error = "block s.e.m. (replica groups: replica s.e.)" if any_group else "block s.e.m."
+        more = _steady_key(comparison.window, error=error)
+        if any_group:  # the replicas' range band, in grey like the other keys
+            from matplotlib.patches import Patch
+
+            more[0].append(Patch(color="0.5", alpha=0.2, lw=0))
+            more[1].append("band over the curve: range (min–max) of the replicas")
+        handles, labels = handles + more[0], labels + more[1]
+        ax.legend(handles, labels, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.18), frameon=False,
+                  ncol=2 if max(map(len, labels)) <= 30 else 1)  # long labels (replica groups): one per line
         figures[name] = fig
-    fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
-    for k, (label, part) in enumerate(comparison.distributions.groupby("run", sort=False)):
-        if part["count"].sum():
-            plot_size_distribution(part, ax=ax, label=f"{label}: {int(part['count'].sum())} granules")
-    ax.set_title(f"Particles per granule over revolutions [{comparison.window[0]:g}, {comparison.window[1]:g}]"
+    fig, ax = plt.subplots(figsize=(6, 4.3), layout="constrained")
+    alpha = dict(zip(comparison.runs["run"], comparison.runs["alpha"])) if "alpha" in comparison.runs else {}
+    frames = dict(zip(comparison.table["run"], comparison.table["n_frames"])) if "n_frames" in comparison.table else {}
+    for label, part in comparison.distributions.groupby("run", sort=False):
+        if not part["count"].sum():
+            continue
+        sizes = comparison.sizes.get(label) if isinstance(comparison.sizes, dict) else None
+        a = alpha.get(label, part["alpha"].iloc[0] if "alpha" in part else None)
+        dist = size_distribution(sizes, ci=0.95, size_unit=size_unit, alpha=a) if sizes is not None and len(sizes) \
+            else part.copy()
+        if sizes is None and size_unit != "particles":  # no pooled sizes: convert the table itself
+            from granalytics.analysis.stats import size_unit_factor
+
+            f = size_unit_factor(size_unit, a, caller="cg_figures")
+            dist[["size_min", "size_max", "size_center"]] *= f
+            dist["density"] /= f
+            dist.attrs["size_unit"] = size_unit
+        n = int(part["count"].sum())
+        where = f" in {int(frames[label])} frames" if label in frames else ""
+        plot_size_distribution(dist, ax=ax, color=colours.get(label), label=f"{label}: {n} granules{where}")
+    what = "particles" if size_unit == "particles" else "original-particle equivalents"
+    ax.set_title(f"Granule sizes ({what}) over revolutions [{comparison.window[0]:g}, {comparison.window[1]:g}]"
                  f"\n{subtitle}", fontsize=9)
-    ax.legend(fontsize=8)
+    _legend_keys_last(ax, fontsize=7)
     figures["fig5_size_distribution"] = fig
     return dict(sorted(figures.items()))
 
 
 def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataFrame | None = None, *,
-                    n_histories=8, title=None):
+                    n_histories=8, title=None, size_unit=None, alpha=None):
     """Event rates per bin, a few granule size histories and (optionally) the coalescence kernel.
+
+    The rates are drawn with Poisson error bars (± √count over the bin's tracked time), as
+    markers and lines, or as bars per event kind when there is a single bin (a one-revolution
+    window); every legend sits below its panel, never over the tracks.
 
     Parameters
     ----------
@@ -268,6 +429,12 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
     n_histories : int, default 8
         Size histories shown: the longest-lived tracks (ties: the largest).
     title : str, optional
+    size_unit : {"particles", "original"}, optional
+        Unit of the sizes (histories and kernel classes): default the kernel's (its ``attrs``;
+        ``coalescence_kernel(..., size_unit=...)``), else the run's particles. ``"original"``:
+        original-particle equivalents α³·n.
+    alpha : float, or a run or its metadata, optional
+        The CG factor, for ``"original"`` histories (default the kernel's).
 
     Returns
     -------
@@ -277,21 +444,39 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
 
     import matplotlib.pyplot as plt
 
+    from granalytics.analysis.stats import size_unit_factor
+
+    unit = _sizes_unit(kernel if kernel is not None else None, size_unit)
+    if unit == "original" and alpha is None and kernel is not None:
+        alpha = kernel.attrs.get("alpha")
+    factor = size_unit_factor(unit, alpha, caller="tracking_figure")
     n = 3 if kernel is not None else 2
-    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4), layout="constrained")
+    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.6), layout="constrained")
     ax = axes[0]
     per_rev = rates["rate_per_rev"].notna().any()
-    for kind in KINDS:
+    n_bins = rates["bin"].nunique() if "bin" in rates else len(rates) // max(1, len(KINDS))
+    below = dict(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)
+    for k, kind in enumerate(KINDS):
         part = rates[rates["kind"] == kind]
-        if per_rev:
-            x, y = (part["rev_start"] + part["rev_end"]) / 2, part["rate_per_rev"]
+        y = part["rate_per_rev"] if per_rev else part["rate_per_s"]
+        err = np.sqrt(part["count"].to_numpy(dtype=float)) * (y / part["count"].where(part["count"] > 0)).fillna(0)
+        if n_bins == 1:  # one bin (a one-revolution window): a bar per kind, its count on top
+            height, e = float(np.nan_to_num(y.iloc[0])), float(err.iloc[0])
+            ax.bar(k, height, yerr=e, color=f"C{k}", capsize=3, label=kind)
+            ax.text(k, height + e, f"{int(part['count'].iloc[0])}", ha="center", va="bottom", fontsize=7)
         else:
-            x, y = (part["time_start_s"] + part["time_end_s"]) / 2, part["rate_per_s"]
-        ax.plot(x, y, marker="o", ms=4, lw=1, label=kind)
-    ax.set_xlabel("revolutions t·Ω/2π" if per_rev else "time [s]")
+            x = (part["rev_start"] + part["rev_end"]) / 2 if per_rev else (part["time_start_s"] + part["time_end_s"]) / 2
+            ax.errorbar(x, y, yerr=err, marker="o", ms=5, lw=1, capsize=2, color=f"C{k}", label=kind)
+    if n_bins == 1:
+        lo, hi = (rates["rev_start"].iloc[0], rates["rev_end"].iloc[0]) if per_rev else \
+            (rates["time_start_s"].iloc[0], rates["time_end_s"].iloc[0])
+        ax.set_xticks(range(len(KINDS)), list(KINDS), fontsize=8)
+        ax.set_xlabel(f"event kind ({'revolutions' if per_rev else 't [s]'} {lo:g}–{hi:g}; events on the bars)")
+    else:
+        ax.set_xlabel("revolutions t·Ω/2π" if per_rev else "time [s]")
     ax.set_ylabel("events per revolution" if per_rev else "events per second [1/s]")
-    ax.set_title("event rates", fontsize=10)
-    ax.legend(fontsize=8)
+    ax.set_title("event rates (bars: Poisson ± √count)", fontsize=10)
+    ax.legend(ncol=len(KINDS), **below)
 
     ax = axes[1]
     tr = tracks.tracks
@@ -304,8 +489,9 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
             if per_rev else 1.0
         for row in tr.iloc[np.sort(chosen)].itertuples():
             times = tracks.times_s[row.first_frame:row.last_frame + 1] * scale
-            ax.plot(times, row.sizes, marker=".", ms=3, lw=1, label=f"track {row.track} ({row.origin} → {row.end})")
-        ax.legend(fontsize=7)
+            ax.plot(times, np.asarray(row.sizes) * factor, marker=".", ms=3, lw=1,
+                    label=f"track {row.track} ({row.origin} → {row.end})")
+        ax.legend(ncol=2, **below)  # below the panel: never over the tracks
     ax.set_yscale("log")
     from matplotlib.ticker import FuncFormatter, LogLocator
 
@@ -313,7 +499,7 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
     for axis_formatter in (ax.yaxis.set_major_formatter, ax.yaxis.set_minor_formatter):
         axis_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.set_xlabel("revolutions t·Ω/2π" if per_rev else "time [s]")
-    ax.set_ylabel("particles per granule")
+    ax.set_ylabel(SIZE_LABELS[unit])
     ax.set_title(f"size histories ({tracks.n_tracks} tracks)", fontsize=10)
 
     if kernel is not None:
@@ -334,11 +520,13 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
                 ax.text(j, i, str(counts[i, j]), ha="center", va="center", fontsize=7, color="w" if dark else "k")
         if nc:
             bounds = kernel.drop_duplicates("class_i").sort_values("class_i")
-            names = [f"{lo}" if lo == hi else f"{lo}–{hi}" for lo, hi in zip(bounds["size_min_i"], bounds["size_max_i"])]
+            names = [f"{lo:g}" if lo == hi else f"{lo:g}–{hi:g}"
+                     for lo, hi in zip(bounds["size_min_i"], bounds["size_max_i"])]
             ax.set_xticks(range(nc), names, rotation=45, fontsize=7)
             ax.set_yticks(range(nc), names, fontsize=7)
-        ax.set_xlabel("size class j [particles]")
-        ax.set_ylabel("size class i [particles]")
+        what = "particles" if _sizes_unit(kernel) == "particles" else "original-particle equivalents α³·n"
+        ax.set_xlabel(f"size class j [{what}]")
+        ax.set_ylabel(f"size class i [{what}]")
         ax.set_title("coalescence kernel (events annotated)", fontsize=10)
     if title:
         fig.suptitle(title)
@@ -416,6 +604,8 @@ def growth_figure(table, fit=None, cohesion="acting"):
                     color=colour)
     if drew_band:
         ax.fill_between([], [], [], color="0.6", alpha=0.3, lw=0, label="band: replica s.e.; bars: block s.e.m.")
+    else:
+        ax.errorbar([], [], yerr=[], color="0.4", marker="o", ms=5, lw=1, capsize=3, label="bars: block s.e.m.")
     gmin, gmax = float(part["gamma"].min()), float(part["gamma"].max())
     grid = np.linspace(min(gmin, PAPER_GAMMA_1 * 0.5), gmax, 200)
     if fit is not None and fit.shows_growth:
@@ -444,6 +634,7 @@ def cg_threshold_figures(table) -> dict:
     so no relative deviation exists."""
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
+    from matplotlib.ticker import FuncFormatter
 
     from granalytics.analysis.metrics import BY_FIGURE
 
@@ -452,26 +643,29 @@ def cg_threshold_figures(table) -> dict:
     figures = {}
     for metric in BY_FIGURE:
         col = f"{metric}_rel_dev"
-        values = table.loc[table["run"].isin(runs), col].to_numpy(dtype=float)
+        values = 100 * table.loc[table["run"].isin(runs), col].to_numpy(dtype=float)  # percent, like the cells
         span = np.nanmax(np.abs(values)) if np.isfinite(values).any() else 1.0
         norm = TwoSlopeNorm(vcenter=0.0, vmin=-max(span, 1e-9), vmax=max(span, 1e-9))
         fig, axes = plt.subplots(1, len(runs), figsize=(4.8 * len(runs), 3.8), layout="constrained", squeeze=False)
         for ax, run in zip(axes[0], runs):
             part = table[table["run"] == run].pivot(index="a_agg_deg", columns="c_agg", values=col)
             c, a = part.columns.to_numpy(dtype=float), part.index.to_numpy(dtype=float)
-            grid = np.ma.masked_invalid(part.to_numpy(dtype=float))
+            grid = np.ma.masked_invalid(100 * part.to_numpy(dtype=float))
             ax.set_facecolor("0.8")
             mesh = ax.pcolormesh(np.arange(c.size + 1), np.arange(a.size + 1), grid, cmap="RdBu_r", norm=norm)
             for i in range(a.size):
                 for j in range(c.size):
                     if not np.ma.is_masked(grid[i, j]):
-                        ax.text(j + 0.5, i + 0.5, f"{100 * grid[i, j]:+.0f}", ha="center", va="center", fontsize=7)
+                        dark = abs(grid[i, j]) > 0.6 * span
+                        ax.text(j + 0.5, i + 0.5, f"{grid[i, j]:+.0f}", ha="center", va="center", fontsize=7,
+                                color="w" if dark else "k")
             ax.set_xticks(np.arange(c.size) + 0.5, [f"{x:.3g}" for x in c], fontsize=7)
             ax.set_yticks(np.arange(a.size) + 0.5, [f"{x:g}" for x in a], fontsize=7)
             ax.set_xlabel("C_agg")
             ax.set_ylabel("A_agg [deg]")
             ax.set_title(f"{run} vs {finest}", fontsize=9)
-        fig.colorbar(mesh, ax=axes[0].tolist(), label="relative deviation (cells in %)")
+        bar = fig.colorbar(mesh, ax=axes[0].tolist(), label=f"relative deviation from {finest} [%]")
+        bar.ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:+.0f}" if v else "0"))
         fig.suptitle(f"CG deviation of {METRICS[metric].label} ({METRICS[metric].figure}) at every threshold pair\n"
                      "grey: no granules in the finest run (no relative deviation)", fontsize=9)
         figures[f"cg_thresholds_{metric}"] = fig

@@ -18,7 +18,7 @@ import math
 import os
 import sys
 
-from granalytics.core import check_output_folder, manifest_path, one_line, warnings_as_lines
+from granalytics.core import check_output_folder, interrupted, manifest_path, one_line, warnings_as_lines
 
 from .laws import CONTACT_LAWS
 from .params import (MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,
@@ -196,7 +196,7 @@ def _run(args) -> int:
             print(f"sim: error: {one_line(exc)} (while settling; nothing was written)", file=sys.stderr)
             return 1
         except (KeyboardInterrupt, SystemError) as exc:
-            if not _interrupted(exc):
+            if not interrupted(exc):
                 raise
             print("sim: interrupted while settling; nothing was written", file=sys.stderr)
             return 130
@@ -207,7 +207,7 @@ def _run(args) -> int:
         print(f"sim: error: {one_line(exc)}; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 1
     except (KeyboardInterrupt, SystemError) as exc:
-        if not _interrupted(exc):
+        if not interrupted(exc):
             raise
         print(f"sim: interrupted; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 130
@@ -217,12 +217,6 @@ def _run(args) -> int:
         n_frames, t_last = len(run), float(run.times[-1])
     print(f"{out}: {n_frames} frames, t = {t_last:.4g} s ({t_last / params.revolution_period:.3g} revolutions)")
     return 0
-
-
-def _interrupted(exc) -> bool:
-    """A Ctrl-C: a KeyboardInterrupt, or the SystemError a numba kernel raises when the interrupt
-    arrives while it runs ("... returned a result with an exception set")."""
-    return isinstance(exc, KeyboardInterrupt) or isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt)
 
 
 def _what_is_left(out, ckpt) -> str:

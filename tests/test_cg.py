@@ -103,6 +103,7 @@ def test_compare_cg_cli(tmp_path, cg_runs, capsys):
     assert main(args) == 0
     printed = capsys.readouterr().out
     assert "cohesion=acting" in printed and "CG3 (300 particles)" in printed and "20.0×" in printed
+    assert "mean ± block s.e.m." in printed and "deviation ± s.e." in printed  # every error column named
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert "exists" in err and "\n" not in err

@@ -378,8 +378,30 @@ def test_stats_says_what_its_errors_are_and_why_one_is_nan(capsys):
 
     run = str(Path(__file__).parents[1] / "datasets" / "lab-cg3.h5")
     assert main(["stats", run, "--window", "3:3.25", "--window-rev", "3:3.3", "--quiet"]) == 0
-    last = capsys.readouterr().out.strip().splitlines()[-1]
-    assert last.startswith("std: over the frames of the window; sem: standard error") and "single block" in last
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert "block_sem" in lines[1] and "NaN" not in "".join(lines) and lines[3].split()[3] == "n/a"
+    assert lines[-2].startswith("std: over the frames of the window; block_sem: standard error")
+    assert lines[-1].startswith("n/a: n_granules_norm, mean_volume_norm") and "a single block" in lines[-1]
     assert main(["stats", run, "--window", "3:4", "--window-rev", "3:4", "--quiet"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
-    assert last.startswith("std: over the frames") and "NaN" not in last
+    assert last.startswith("std: over the frames") and "n/a" not in last
+
+
+def test_size_unit_original_gives_sizes_in_original_particle_equivalents(tmp_path, capsys):
+    """stats --sizes-out and track's kernel in α³·n on a CG3 run: the bins are 27 times the
+    particle-unit ones, the counts the same."""
+    from granalytics.datasets import dataset_path
+
+    run = str(dataset_path("lab-cg3"))
+    tables = {}
+    for unit in ("particles", "original"):
+        out = tmp_path / f"sizes-{unit}.csv"
+        assert main(["stats", run, "--window", "3:4", "--sizes-out", str(out), "--size-unit", unit, "--quiet"]) == 0
+        tables[unit] = pd.read_csv(out)
+        assert main(["track", run, "--window-rev", "3:3.5", "--out", str(tmp_path / f"track-{unit}"),
+                     "--size-unit", unit, "--quiet"]) == 0
+        tables[f"kernel-{unit}"] = pd.read_csv(tmp_path / f"track-{unit}" / "kernel.csv")
+    assert np.allclose(tables["original"].size_min, 27 * tables["particles"].size_min)
+    assert (tables["original"]["count"] == tables["particles"]["count"]).all()
+    assert np.allclose(tables["kernel-original"].size_min_i, 27 * tables["kernel-particles"].size_min_i)
+    assert np.allclose(tables["kernel-original"].beta_per_s, tables["kernel-particles"].beta_per_s, equal_nan=True)

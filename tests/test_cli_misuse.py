@@ -183,6 +183,30 @@ def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, m
     (lambda s: ga.track_granules(None, [], []), "track_granules: labels_by_frame must be a sequence"),
     (lambda s: ga.track_granules([[0]], [[1]], ["a"]), "track_granules: times_s must be numbers"),
     (lambda s: ga.run_stats(None), "frames must be a Run, a RunSlice or a sequence of Snapshot"),
+    # issue 33, A9 leftover: these ended in AttributeError, TypeError or numpy's ValueError
+    (lambda s: ga.granule_table(None, np.zeros(s.n_particles, int)), "granule_table: snapshot must be a granalytics Snapshot"),
+    (lambda s: ga.granule_table(s, [[1, 2], [3]]), "granule_table: labels must be a sequence of whole numbers"),
+    (lambda s: ga.cohesive_force("run.h5"), "cohesive_force: snapshot must be a granalytics Snapshot, got str (open the run"),
+    (lambda s: ga.steady_state(pd.DataFrame({"revolutions": [0.0, 1.0]}), columns=None),
+     "steady_state: columns must be a metric name or a list of them, got NoneType"),
+    (lambda s: ga.steady_state(pd.DataFrame({"revolutions": [0.0, 1.0], "yield_fraction": 0.5}), (0, 1),
+                               ["yield_fraction"], n_blocks="abc"), "steady_state: n_blocks must be a whole number"),
+    (lambda s: ga.fit_granule_growth("abc", [1, 2, 3]), "fit_granule_growth: gamma must be a list of numbers, got str"),
+    (lambda s: ga.fit_granule_growth([[1, 2], [3]], [1, 2, 3]), "fit_granule_growth: gamma must be a list of numbers"),
+    (lambda s: ga.fit_surrogate({"gamma": [1]}), "fit_surrogate: table must be a study table (a DataFrame"),
+    (lambda s: ga.fit_confinement_curve({"a": 1}, [1, 2, 3], [0.1] * 3), "fit_confinement_curve: drum_ratio must be"),
+    (lambda s: ga.confinement_table(None), "confinement_table: groups must be a list of runs"),
+    (lambda s: ga.RunWriter(None, s.meta), "RunWriter: path must be a file name (str or path-like), got NoneType"),
+    (lambda s: ga.subset_run(None, "b.h5", [0]), "subset_run: src must be a file name"),
+    (lambda s: ga.subset_run("a.h5", 5, [0]), "subset_run: dst must be a file name"),
+    (lambda s: ga.WriterLock({"a": 1}), "WriterLock: target must be a file name"),
+    (lambda s: ga.run_confinement(None), "run_confinement: meta must be a RunMeta"),
+    (lambda s: ga.wall_touching(s, "meta"), "wall_touching: meta must be a RunMeta"),
+    (lambda s: ga.CommunityDetection(resolution="abc").identify(s), "resolution must be a number > 0, got 'abc'"),
+    (lambda s: ga.track_run([s], window=5), "track_run: window must be a pair of numbers"),
+    (lambda s: ga.event_rates(None), "event_rates: tracks must be a GranuleTracks"),
+    (lambda s: ga.coalescence_kernel("tracks"), "coalescence_kernel: tracks must be a GranuleTracks"),
+    (lambda s: ga.breakage_rate([1, 2]), "breakage_rate: tracks must be a GranuleTracks"),
 ])
 def test_wrong_types_get_the_librarys_error_naming_the_argument(run_file, call, words):
     """Ragged arrays, None, strings and ints ended in numpy / int() / AttributeError errors."""
@@ -191,6 +215,22 @@ def test_wrong_types_get_the_librarys_error_naming_the_argument(run_file, call, 
     with pytest.raises(ga.GranalyticsError) as exc:
         call(snapshot)
     assert words in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_a_run_indexed_or_sliced_with_wrong_types_gets_the_librarys_error(run_file):
+    """run[None] raised a bare TypeError and RunSlice(run, "abc") int()'s ValueError."""
+    with ga.open_run(run_file) as run:
+        for key in (None, "abc", [[1, 2], [3]], {"a": 1}):
+            with pytest.raises(ga.ParameterError, match="frames are indexed by int or slice") as exc:
+                run[key]
+            assert isinstance(exc.value, TypeError)  # what Python's sequences raise for such a key
+            with pytest.raises(ga.ParameterError, match="RunSlice: indices must be a sequence of whole numbers"):
+                ga.RunSlice(run, key)
+        with pytest.raises(ga.ParameterError, match=r"RunSlice: frame indices must lie in \[0, "):
+            ga.RunSlice(run, [0, len(run)])
+        with pytest.raises(ga.ParameterError, match="RunSlice: run must be an open Run"):
+            ga.RunSlice(run_file, [0])
+        assert len(ga.RunSlice(run, [0, 2])) == 2 and len(ga.RunSlice(run, [])) == 0
 
 
 def _fields(s):

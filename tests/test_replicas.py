@@ -11,6 +11,7 @@ import pytest
 import granalytics as ga
 from granalytics.analysis.cg import compare_cg, group_replicas
 from granalytics.cli import main
+from granalytics.cli._common import plus_minus
 from granalytics.core.errors import ParameterError
 from granalytics.plot import growth_figure
 from granalytics.analysis.stats import combine_replicas
@@ -102,9 +103,21 @@ def test_group_replicas_and_the_command(replica_runs, tmp_path, capsys):
     assert main(["compare-cg", str(cg1), *map(str, cg3), "--replicas", "--window", "2:4", "--out", str(out),
                  "--quiet"]) == 0
     text = capsys.readouterr().out
-    assert "  CG3 (300 particles, 3 replicas): yield" in text and "[" in text
     table = pd.read_csv(out / "cg_table.csv")
     assert list(table["n_replicas"]) == [1, 3] and "yield_fraction_replica_sem" in table
+    # the ± is the replica s.e. (so named), the block s.e.m. its own column (issue 33, B5)
+    lines = text.splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("yield "))
+    assert "mean ± replica s.e." in lines[header] and "block s.e.m." in lines[header]
+    assert "deviation ± s.e." in lines[header]
+    group = table.iloc[1]
+    cg3_line = lines[header + 2]
+    assert cg3_line.startswith("CG3 (300 particles, 3 replicas)")
+    assert plus_minus(group["yield_fraction_mean"], group["yield_fraction_replica_sem"]) in cg3_line
+    assert f"{group['yield_fraction_sem']:#.2g}" in cg3_line
+    assert lines[header + 1].startswith("CG1") and "± n/a" in lines[header + 1] and "reference" in lines[header + 1]
+    assert any(line.startswith("n/a: CG1 (8100 particles): a single run has no replica s.e.") for line in lines)
+    assert "NaN" not in text and "nan" not in text
     assert main(["compare-cg", str(cg1), *map(str, cg3), "--replicas", "--c-agg", "0.4,0.6", "--out",
                  str(tmp_path / "grid"), "--quiet"]) != 0
 
@@ -153,6 +166,11 @@ def test_study_command_with_replicas(replica_sweep, capsys):
     assert main(["study", str(replica_sweep), "--replicas", "seed", "--cohesion", "acting", "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "6 finished points of 6" in text and "replica s.e." in text and "n_replicas" in text
+    # the ± is the replica s.e., the block s.e.m. in a column of its own; both named (issue 33, B5)
+    assert "yield_fraction ± replica s.e." in text and "yield_fraction block s.e.m." in text
+    assert main(["study", str(replica_sweep), "--cohesion", "acting", "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "yield_fraction ± block s.e.m." in text and "replica s.e." not in text
 
 
 def test_steady_state_of_a_list_is_over_replicas_and_the_stats_command_takes_replicas(replica_runs, capsys):

@@ -144,7 +144,8 @@ def test_frames_a_rounding_away_from_a_window_edge_are_inside_it():
 
 def test_a_window_the_run_does_not_cover_warns_naming_the_run():
     ts = pd.DataFrame({"revolutions": np.arange(0, 61) * 0.05, "yield_fraction": 0.5})  # 3 revolutions
-    with pytest.warns(UserWarning, match=r"cg1\.h5: the window \[3, 6\] revolutions is not covered.*1 frame$"):
+    with pytest.warns(UserWarning, match=r"cg1\.h5: the window \[3, 6\] revolutions runs past the run's end.*"
+                                         r"clipped to \[3, 3\], 1 frame$"):
         ga.steady_state(ts, columns=["yield_fraction"], source="cg1.h5")
     with pytest.raises(ParameterError, match=r"^cg1\.h5: no frame in the window \[4, 5\]"):
         ga.steady_state(ts, window=(4, 5), columns=["yield_fraction"], source="cg1.h5")
@@ -153,6 +154,44 @@ def test_a_window_the_run_does_not_cover_warns_naming_the_run():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         ga.steady_state(ts, window=(1, 3), columns=["yield_fraction"])  # covered: no warning
+
+
+@pytest.mark.parametrize("n_blocks", [None, 5])
+def test_a_window_past_the_runs_end_is_clipped_to_its_frames(n_blocks):
+    """--window 3:9 on a run ending at 6 took the frames of 3:6 but blocks of 3:9 (another s.e.m.):
+    the blocks now span the frames used, with one warning saying so."""
+    rng = np.random.default_rng(3)
+    revs = np.arange(0, 121) * 0.05 * (1 - 2e-5)  # revolution 6 stamped 5.99988
+    ts = pd.DataFrame({"revolutions": revs, "yield_fraction": 0.3 + 0.05 * rng.standard_normal(revs.size)})
+    exact = ga.steady_state(ts, window=(3, 6), columns=["yield_fraction"], n_blocks=n_blocks)
+    for window in ((3, 9), (3, 6.5), (3, 100)):
+        with pytest.warns(UserWarning, match=r"run\.h5: the window \[3, [0-9.]+\] revolutions runs past the run's "
+                                             r"end \(the run covers \[0, 6\]\): clipped to \[3, 6\], 61 frames$") as record:
+            wide = ga.steady_state(ts, window=window, columns=["yield_fraction"], n_blocks=n_blocks, source="run.h5")
+        assert len(record) == 1
+        pd.testing.assert_frame_equal(wide, exact)
+    late = pd.DataFrame({"revolutions": revs + 1, "yield_fraction": ts["yield_fraction"]})  # from 1 to 7
+    with pytest.warns(UserWarning, match=r"starts before the run.*clipped to \[1, 4\]"):
+        early = ga.steady_state(late, window=(0, 4), columns=["yield_fraction"], n_blocks=n_blocks)
+    pd.testing.assert_frame_equal(early, ga.steady_state(late, window=(1, 4), columns=["yield_fraction"],
+                                                         n_blocks=n_blocks))
+
+
+def test_the_stats_command_clips_a_window_past_the_runs_end(capsys):
+    from pathlib import Path
+
+    from granalytics.cli import main
+
+    run = str(Path(__file__).parents[1] / "datasets" / "lab-cg3.h5")
+    tables = {}
+    for window in ("3:9", "3:6"):
+        assert main(["stats", run, "--window", window, "--window-rev", "2.9:6.1", "--quiet"]) == 0
+        printed = capsys.readouterr()
+        out = printed.out.splitlines()
+        tables[window] = out[1:7]
+        assert ("clipped to the run's frames" in out[0]) == (window == "3:9")
+        assert printed.err.count("clipped to [3, 6]") == (window == "3:9")
+    assert tables["3:9"] == tables["3:6"] and "block_sem" in tables["3:6"][0]
 
 
 def test_size_distribution_log_bins():

@@ -95,12 +95,14 @@ class CGComparison:
         return (f"{self.method} ({shown}), cohesion={self.cohesion}, "
                 f"window [{self.window[0]:g}, {self.window[1]:g}] rev")
 
-    def figures(self) -> dict:
+    def figures(self, *, size_unit="particles") -> dict:
         """The figures (matplotlib), keyed by each headline metric's ``figure_key``
-        (``fig3_mean_volume``, ``fig4_granule_number``, ``fig6_yield``) and ``fig5_size_distribution``."""
+        (``fig3_mean_volume``, ``fig4_granule_number``, ``fig6_yield``) and ``fig5_size_distribution``
+        (its sizes in ``size_unit``: ``"particles"`` per granule, or ``"original"``-particle
+        equivalents α³·n)."""
         from granalytics.plot import cg_figures
 
-        return cg_figures(self)
+        return cg_figures(self, size_unit=size_unit)
 
     @staticmethod
     def check_outputs(out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
@@ -119,9 +121,10 @@ class CGComparison:
                                  f"{len(existing)} existing output file(s))")
         return paths
 
-    def save(self, out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
-        """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` and the four figures
-        (one file per format) into ``out_dir``; existing files are refused unless ``overwrite``.
+    def save(self, out_dir, *, overwrite=False, formats=("png", "pdf"), size_unit="particles") -> list:
+        """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` (sizes in particles of
+        each run, with its α) and the four figures (one file per format, Fig 5's sizes in
+        ``size_unit``, :meth:`figures`) into ``out_dir``; existing files are refused unless ``overwrite``.
         Written as one (:func:`granalytics.core.files.staged_outputs`): a failure or Ctrl-C leaves
         every earlier output in ``out_dir`` as it was, never old and new figures mixed. Returns
         the written paths."""
@@ -130,7 +133,7 @@ class CGComparison:
         paths = self.check_outputs(out_dir, overwrite=overwrite, formats=formats)
         try:
             os.makedirs(out_dir, exist_ok=True)
-            figures = self.figures()
+            figures = self.figures(size_unit=size_unit)
             try:
                 with staged_outputs(out_dir) as stage:
                     for table, path in zip((self.table, self.timeseries, self.distributions), paths):

@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.core.bed import bed_structure, run_confinement, wall_touching
+from granalytics.core._checks import check_numbers, shown
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.identify import make_identifier
@@ -132,6 +133,9 @@ def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gn
         averaged over replicas) and its error ``<metric>_err``: the replica standard error for a
         group of two or more, the block s.e.m. of the one run otherwise.
     """
+    if not isinstance(groups, (list, tuple)):
+        raise ParameterError(f"confinement_table: groups must be a list of runs or of groups of replicas, got "
+                             f"{shown(groups)}")
     groups = [_group_paths(g) for g in groups]
     if not groups:
         raise ParameterError("confinement_table: no runs")
@@ -212,7 +216,8 @@ def fit_confinement_curve(drum_ratio, values, errors) -> ConfinementFit:
     ParameterError
         Fewer than three points, or a non-positive error or D/d.
     """
-    x, y, s = (np.asarray(a, dtype=float) for a in (drum_ratio, values, errors))
+    x, y, s = (check_numbers("fit_confinement_curve", name, a, ndim=None) for name, a in
+               (("drum_ratio", drum_ratio), ("values", values), ("errors", errors)))
     if not (x.shape == y.shape == s.shape) or x.size < 3:
         raise ParameterError(f"fit_confinement_curve: needs three or more points of equal length, got {x.size}")
     if not (np.all(np.isfinite(s)) and np.all(s > 0) and np.all(x > 0)):

@@ -21,6 +21,7 @@ from tqdm.auto import tqdm
 
 from granalytics.core.cluster import dask_client
 from granalytics.core.errors import ParameterError
+from granalytics.core.files import raise_dropped_interrupt
 
 __all__ = ["frame_indices", "map_frames"]
 
@@ -34,7 +35,9 @@ def _advance(bar) -> None:
     """One more frame done. The first frame carries numba's compilation of the kernels (seconds,
     against milliseconds per frame after it): the bar's clock and rate restart after it, so that
     the rate and the time left are those of the frames (the elapsed time shown then counts from
-    the end of the first frame)."""
+    the end of the first frame). A Ctrl-C that Python dropped during the frame (in a ``__del__`` or
+    GC callback, :func:`~granalytics.core.files.interrupts_not_lost`) is raised here."""
+    raise_dropped_interrupt()
     bar.update(1)
     if bar.n == 1 and not bar.disable and bar.total and bar.total > 1:
         bar.reset()  # n = 0, the clock restarted, the rate estimates emptied

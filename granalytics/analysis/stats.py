@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.analysis.metrics import STEADY, GranuleCounts, metric_values
-from granalytics.core._windows import check_interval, window_mask, window_tolerance
+from granalytics.core._windows import check_interval, clip_window, window_mask, window_tolerance
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.identify.granules import granule_table
@@ -180,8 +180,11 @@ def check_window(axis, window, *, by="revolutions", source=None, warn=True):
     if n == 0:
         raise ParameterError(f"{where}no frame in the window [{lo:g}, {hi:g}] {unit}; {covered}")
     if warn and (hi > last + tol or lo < first - tol):
-        warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} is not covered by the run ({covered}): its "
-                      f"steady state comes from {n} frame{'s' if n > 1 else ''}", stacklevel=3)
+        used = clip_window(axis, lo, hi, tol)
+        past = "runs past the run's end" if lo >= first - tol else (
+            "starts before the run" if hi <= last + tol else "is wider than the run")
+        warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} {past} ({covered}): clipped to "
+                      f"[{used[0]:.4g}, {used[1]:.4g}], {n} frame{'s' if n > 1 else ''}", stacklevel=3)
     elif warn and n == 1:
         warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} holds a single frame: its steady state has "
                       "no spread", stacklevel=3)
@@ -202,15 +205,16 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     window : (float, float), default (3, 6)
         Closed interval, in revolutions, or in seconds with ``by="time_s"``; a frame within a
         tenth of the smallest frame spacing of an edge counts as inside (frames lie on whole time steps, so the
-        frame of revolution 6 may be stamped 5.9999). A window that the run does not cover, or
-        that holds a single frame, gives a warning.
+        frame of revolution 6 may be stamped 5.9999). A window that the run does not cover is
+        clipped to the run's frames, with a warning (``(3, 9)`` on a run that ends at revolution 6
+        gives the numbers of ``(3, 6)``); one that holds a single frame gives a warning.
     columns : sequence of str
         Metrics to average.
     by : {"revolutions", "time_s"}, default "revolutions"
         ``"time_s"`` for runs without drum rotation (static beds, hoppers).
     n_blocks : int, optional
-        Equal blocks for the standard error. Default for revolution windows: blocking with an
-        blocking (:func:`blocking_sem`): blocks of a quarter revolution (one baffle passage of the
+        Equal blocks for the standard error. Default for revolution windows: blocking
+        (:func:`blocking_sem`): blocks of a quarter revolution (one baffle passage of the
         four-baffle drum), merged pairwise level after level, the largest error over the levels
         with at least 4 blocks, so that it covers frames correlated over several passages; 5
         equal blocks for ``by="time_s"``.
@@ -220,9 +224,10 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     Returns
     -------
     DataFrame indexed by metric with columns ``mean``, ``std`` (over frames), ``sem`` (standard
-    error from block means — by default blocks of one revolution [lo, lo+1), [lo+1, lo+2), …,
-    the window's closing edge joining the last block, see ``n_blocks`` — NaN with fewer than
-    two blocks),
+    error from block means, see ``n_blocks``; the blocks start at the window's opening edge and
+    its closing edge joins the last block, an edge beyond the run's first or last frame being
+    moved onto it (with the warning), so that the error depends only on the frames used — NaN
+    with fewer than two blocks),
     ``n_frames`` (frames in the window with a finite value), ``n_blocks``.
     """
     if by not in ("revolutions", "time_s"):
@@ -234,12 +239,24 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     lo, hi = check_interval("steady_state: window", window)
     if isinstance(columns, str):
         columns = (columns,)
+    names = tuple(columns) if hasattr(columns, "__iter__") and not isinstance(columns, (bytes, dict)) else ()
+    if not (names and all(isinstance(c, str) for c in names)):
+        raise ParameterError(f"steady_state: columns must be a metric name or a list of them, got "
+                             f"{type(columns).__name__} {columns!r}")
+    if n_blocks is not None and (isinstance(n_blocks, (bool, np.bool_))
+                                 or not isinstance(n_blocks, (int, np.integer)) or n_blocks < 1):
+        raise ParameterError(f"steady_state: n_blocks must be a whole number >= 1, got {type(n_blocks).__name__} "
+                             f"{n_blocks!r}")
+    columns = names
     missing = [c for c in (by, *columns) if c not in timeseries]
     if missing:
         raise ParameterError(f"steady_state: the time series has no column {missing[0]!r} "
                              f"(it has {', '.join(map(str, timeseries.columns))})")
     axis = timeseries[by].to_numpy(dtype=float)
     mask, tol = check_window(axis, (lo, hi), by=by, source=source)
+    # the blocks span the frames the window holds: an edge beyond the run is moved onto its first or
+    # last frame, so that [3, 9] on a run ending at 6 gives the blocks, and the s.e.m., of [3, 6]
+    lo, hi = clip_window(axis, lo, hi, tol)
     inside = timeseries[mask]
     blocking = by == "revolutions" and n_blocks is None
     if blocking:  # start from one block per baffle passage (a quarter revolution)
@@ -249,8 +266,6 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
         if n_blocks is None:
             n_blocks = 5
         n_blocks = int(n_blocks)
-        if n_blocks < 1:
-            raise ParameterError(f"n_blocks must be >= 1, got {n_blocks}")
         width = (hi - lo) / n_blocks
     # blocks from the window start; the closing edge joins the last block
     # (with the window's tolerance: a frame stamped just before a block edge belongs after it)
@@ -395,7 +410,32 @@ def blocking_sem(block_sums, block_counts, *, min_blocks=4) -> tuple:
 
 
 
-def size_distribution(sizes, bins_per_decade=5, min_size=2) -> pd.DataFrame:
+#: Units of granule sizes (:func:`size_distribution`, :func:`~granalytics.coalescence_kernel`):
+#: ``"particles"``, the run's own particles; ``"original"``, original-particle equivalents α³·n
+#: (a CG particle of factor α has the volume of α³ original ones), the unit in which runs at
+#: different CG factors are compared.
+SIZE_UNITS = ("particles", "original")
+
+
+def size_unit_factor(size_unit, alpha=None, *, caller="size_distribution") -> float:
+    """The factor from the run's particles to ``size_unit``: 1 for ``"particles"``, α³ for
+    ``"original"``. ``alpha`` is the CG factor: a number, or a run or its metadata (their
+    ``alpha``); needed for ``"original"`` only."""
+    if size_unit not in SIZE_UNITS:
+        raise ParameterError(f"{caller}: size_unit must be one of {', '.join(SIZE_UNITS)}, got {size_unit!r}")
+    if size_unit == "particles":
+        return 1.0
+    if alpha is None:
+        raise ParameterError(f"{caller}: size_unit='original' needs the CG factor alpha (a number, a run or its meta)")
+    value = getattr(getattr(alpha, "meta", alpha), "alpha", alpha)
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not (math.isfinite(value) and value > 0):
+        raise ParameterError(f"{caller}: alpha must be a positive number (the CG factor), got {alpha!r}")
+    return float(value) ** 3
+
+
+def size_distribution(sizes, bins_per_decade=5, min_size=2, *, size_unit="particles", alpha=None, ci=None,
+                      n_boot=2000, seed=0) -> pd.DataFrame:
     """Distribution of particles per granule on logarithmic bins of integers.
 
     Parameters
@@ -405,13 +445,32 @@ def size_distribution(sizes, bins_per_decade=5, min_size=2) -> pd.DataFrame:
     bins_per_decade : int, default 5
     min_size : int, default 2
         Smallest granule size.
+    size_unit : {"particles", "original"}, default "particles"
+        Unit of the returned sizes: the run's particles, or original-particle equivalents α³·n
+        (for comparing runs at different CG factors). The bins are the same integer bins of the
+        run's particles either way: in ``"original"`` the bounds and centres are α³ times the
+        others and the density is per original particle (divided by α³).
+    alpha : float, or a run or its metadata
+        The CG factor, for ``size_unit="original"``.
+    ci : float, optional
+        Confidence level (e.g. 0.95) of a bootstrap over the granules: ``density_lo`` and
+        ``density_hi`` are the percentile interval of each bin's density over ``n_boot``
+        resamples of the granules with replacement (seeded: ``seed``). Granules pooled over
+        frames are not independent (a granule is counted in every frame it lives), so read the
+        interval as a lower bound on the uncertainty.
 
     Returns
     -------
     DataFrame with one row per non-empty-range bin: ``size_min``, ``size_max`` (inclusive
-    integer bounds), ``size_center`` (geometric centre), ``count``, ``probability``
-    (count / total), ``density`` (probability per integer size: probability / integers in bin).
+    integer bounds in particles; α³ times them in ``"original"``), ``size_center`` (geometric
+    centre), ``count`` (granules), ``probability`` (count / total), ``density`` (probability per
+    unit size: probability / integers in bin, / α³ in ``"original"``), and with ``ci``
+    ``density_lo``, ``density_hi``. ``attrs``: ``size_unit``, ``alpha`` (None in particles)
+    and ``ci``.
     """
+    factor = size_unit_factor(size_unit, alpha)
+    if ci is not None and (isinstance(ci, bool) or not isinstance(ci, (int, float)) or not 0 < ci < 1):
+        raise ParameterError(f"size_distribution: ci must be a confidence level between 0 and 1, got {ci!r}")
     if isinstance(sizes, (str, bytes)) or sizes is None or (not isinstance(sizes, (list, tuple))
                                                             and np.ndim(sizes) == 0):
         raise ParameterError(f"size_distribution: sizes must be granule sizes (an array, or one array per frame), got "
@@ -431,16 +490,25 @@ def size_distribution(sizes, bins_per_decade=5, min_size=2) -> pd.DataFrame:
     edges = np.unique(np.ceil(np.geomspace(min_size, top, n_bins + 1)).astype(np.int64))
     edges[0], edges[-1] = min_size, max(edges[-1], top)
     count = np.histogram(sizes, bins=edges)[0] if sizes.size else np.zeros(edges.size - 1, np.int64)
-    width = np.diff(edges)
+    width = np.diff(edges) * factor
     total = count.sum()
     probability = count / total if total else np.zeros_like(count, dtype=float)
-    return pd.DataFrame(
+    scale = factor if size_unit == "original" else 1  # integers stay integers in particles
+    out = pd.DataFrame(
         {
-            "size_min": edges[:-1],
-            "size_max": edges[1:] - 1,
-            "size_center": np.sqrt(edges[:-1] * (edges[1:] - 1)),
+            "size_min": edges[:-1] * scale,
+            "size_max": (edges[1:] - 1) * scale,
+            "size_center": np.sqrt(edges[:-1] * (edges[1:] - 1)) * factor,
             "count": count,
             "probability": probability,
             "density": probability / width,
         }
     )
+    if ci is not None:
+        if total:  # resampling the granules with replacement = a multinomial draw of the bin counts
+            draws = np.random.default_rng(seed).multinomial(total, probability, size=int(n_boot)) / total / width
+            out["density_lo"], out["density_hi"] = np.quantile(draws, [(1 - ci) / 2, (1 + ci) / 2], axis=0)
+        else:
+            out["density_lo"] = out["density_hi"] = np.nan
+    out.attrs.update(size_unit=size_unit, alpha=None if size_unit == "particles" else round(factor ** (1 / 3), 12), ci=ci)
+    return out

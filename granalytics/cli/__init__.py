@@ -17,7 +17,7 @@ import sys
 
 from granalytics._version import __version__
 from granalytics.core.errors import GranalyticsError
-from granalytics.core.files import interrupted, warnings_as_lines
+from granalytics.core.files import interrupted, interrupts_not_lost, raise_dropped_interrupt, warnings_as_lines
 from granalytics.cli import analysis, data, datasets, pbm, study, tracking
 
 __all__ = ["main", "build_parser", "COMMANDS"]
@@ -55,11 +55,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: the exit status of the last command that ran to its end (None while one runs, or before):
+#: :mod:`granalytics.__main__` tells by it a Ctrl-C after the command finished from one before it started
+finished = None
+
+
 def main(argv=None):
     """Entry point of the ``granalytics`` console script; returns the exit status."""
+    global finished
+
+    finished = None
     argv = sys.argv[1:] if argv is None else list(argv)
+    with interrupts_not_lost():  # a Ctrl-C that lands in a __del__ or GC callback is raised later, not dropped
+        return _main(argv)
+
+
+def _done(status):
+    """``status``, recorded as :data:`finished`: the command has run to its end."""
+    global finished
+
+    finished = status
+    return status
+
+
+def _main(argv):
     if argv[:1] and argv[0] in _FORWARDED:  # another command line, options and --help included
-        return _FORWARDED[argv[0]](argv[1:])
+        return _done(_FORWARDED[argv[0]](argv[1:]))
     args = build_parser().parse_args(argv)
     import matplotlib
 
@@ -69,19 +90,26 @@ def main(argv=None):
     configure_threading()
     with warnings_as_lines("granalytics"):
         try:
-            return args.func(args)
+            status = args.func(args)
         except (KeyboardInterrupt, SystemError) as exc:
             if not interrupted(exc):
                 raise
             print(f"granalytics: {args.command}: interrupted; no output was replaced (outputs are written whole "
                   "or not at all)", file=sys.stderr)
-            return 130
+            return _done(130)
         except BrokenPipeError:  # the reader went away (granalytics info RUN | head): quietly, as Unix tools do
             _silence_stdout()
-            return 141
+            return _done(141)
         except (GranalyticsError, OSError, ValueError, OverflowError) as exc:  # bad input or environment: one line
             print(f"granalytics: error: {exc}", file=sys.stderr)
-            return 2
+            return _done(2)
+        try:  # a Ctrl-C that Python dropped after the command's last output was written
+            raise_dropped_interrupt()
+        except KeyboardInterrupt:
+            print(f"granalytics: {args.command}: interrupted as it finished; the outputs it wrote are whole",
+                  file=sys.stderr)
+            return _done(130)
+        return _done(status)
 
 
 def _silence_stdout():

@@ -125,6 +125,17 @@ def setting(text):
     return method.strip(), param.strip(), parsed
 
 
+def add_size_unit_option(parser):
+    """``--size-unit``: granule sizes in the run's particles or in original-particle equivalents
+    (:data:`granalytics.analysis.stats.SIZE_UNITS`)."""
+    from granalytics.analysis.stats import SIZE_UNITS
+
+    parser.add_argument("--size-unit", choices=SIZE_UNITS, default="particles",
+                        help="granule sizes in the run's (CG) particles per granule (default), or in original-particle "
+                             "equivalents α³·n with α the run's CG factor (the unit to compare runs at several α in); "
+                             "the axes and the tables' size_unit say which")
+
+
 def add_frame_loop_options(parser):
     """``--jobs`` and ``--scheduler``: where a command analyses its frames
     (:func:`granalytics.analysis.frames.map_frames`); :func:`frame_loop` reads them."""

@@ -5,13 +5,14 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
 import warnings
 
 import numpy as np
 
 from granalytics.core._resources import check_memory
-from granalytics.core._windows import window_mask
+from granalytics.core._windows import clip_window, window_mask
 from granalytics.analysis.metrics import HEADLINE, METRICS
 from granalytics.core.errors import GranalyticsError, ParameterError
 from granalytics.core.files import WriterLock, output_folder, staged_outputs, write_atomically
@@ -20,7 +21,7 @@ from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
 from granalytics.cli._common import (threshold_options, add_cohesion_option, add_continuation_option,
-                                     add_criterion_options, add_frame_loop_options, add_gna_options, criterion_params,
+                                     add_criterion_options, add_frame_loop_options, add_gna_options, add_size_unit_option, criterion_params,
                                      check_outputs, frame_loop, gna_identifier, grid,
                                      interval, json_safe, plus_minus, progress, save_figure, selected_frames, setting,
                                      warn_if_c_agg_unreachable, warn_if_unfinished, window_axis, write_table)
@@ -58,7 +59,8 @@ def add_stats_parser(sub):
                    help="steady-state window in revolutions (default 3:6; not with --window-time)")
     p.add_argument("--out", help="time series table to write (.csv or .parquet)")
     p.add_argument("--steady-out", help="steady-state table (mean, std, block s.e.m. per metric; .csv or .parquet)")
-    p.add_argument("--sizes-out", help="particles-per-granule distribution over the window (.csv or .parquet)")
+    p.add_argument("--sizes-out", help="granule-size distribution over the window (.csv or .parquet; sizes in "
+                                        "--size-unit)")
     p.add_argument("--plot", help="figure of the time series and size distribution (.png, .pdf, .svg)")
     p.add_argument("--window-time", type=interval, metavar="T0:T1",
                    help="steady-state window in seconds instead of revolutions (any run, also without a rotating drum)")
@@ -66,6 +68,7 @@ def add_stats_parser(sub):
                    help="a replica of RUN (the same system at another seed; repeatable): the steady state is then "
                         "the mean over the replicas with the replica s.e. beside the block s.e.m. (also in --steady-out)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    add_size_unit_option(p)
     add_gna_options(p)
     add_frame_loop_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -128,7 +131,8 @@ def add_compare_cg_parser(sub):
     p = sub.add_parser("compare-cg", help="compare runs at several CG factors (paper Figs 3–6)",
                        description="Granule volume, number, size distribution and yield of runs of one system at "
                                    "several CG factors α: the paper's Figs 3–6 (PNG and PDF), a table of steady-state "
-                                   "mean ± std (block s.e.m.) with the relative deviation from the finest run, the "
+                                   "mean ± block s.e.m. (± replica s.e., the block s.e.m. beside it, with --replicas) "
+                                   "with the relative deviation from the finest run ± its s.e., the "
                                    "Kolmogorov–Smirnov distance of the size distributions, and the measured CG speed-up.")
     p.add_argument("runs", nargs="+", help="run files (.h5), at least two")
     p.add_argument("--out", required=True, help="output folder: cg_table.csv, cg_timeseries.csv, cg_sizes.csv, fig3–fig6 .png/.pdf")
@@ -149,6 +153,7 @@ def add_compare_cg_parser(sub):
                    help="another method parameter, e.g. radius=mean or eps_diameters=1.2 (repeatable)")
     add_cohesion_option(p)
     add_criterion_options(p)
+    add_size_unit_option(p)
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare_cg)
@@ -284,15 +289,18 @@ def _stats(args):
     with open_run(args.run) as run:
         frames = selected_frames(run, args)
         # the window is checked on the frame times before the analysis (its warnings come with the table)
-        in_window, _ = check_window(window_axis(frames, by), window, by=by, source=args.run, warn=False)
+        axis = window_axis(frames, by)
+        in_window, tol = check_window(axis, window, by=by, source=args.run, warn=False)
+        used = clip_window(axis, *window, tol)  # the window over the run's frames (steady_state's)
         ts, sizes = run_stats(frames, "gna", progress=progress(args), return_sizes=True, **frame_loop(args), **params)
+        meta = run.meta
     series = [ts]
     for path in args.replica:  # replicas: the steady state is over all of them (steady_state of a list)
         with open_run(path) as replica:
             series.append(run_stats(selected_frames(replica, args), "gna", progress=progress(args), **frame_loop(args),
                                     **params))
     steady = steady_state(series if args.replica else ts, window=window, by=by, source=args.run)
-    dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep])
+    dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep], size_unit=args.size_unit, alpha=meta)
     with staged_outputs() as stage:  # every output, or none (a failing figure replaces no table)
         if args.out:
             write_table(ts, args.out, stage)
@@ -316,20 +324,43 @@ def _stats(args):
         print(f"wrote the steady-state table to {args.steady_out}")
     if args.sizes_out:
         print(f"wrote size distribution to {args.sizes_out}")
-    lo, hi = window
-    print(f"steady state over {'revolutions' if by == 'revolutions' else 'time [s]'} [{lo:g}, {hi:g}] "
+    lo, hi = used
+    clipped = f" (the window {window[0]:g}:{window[1]:g} clipped to the run's frames)" if used != tuple(window) else ""
+    print(f"steady state over {'revolutions' if by == 'revolutions' else 'time [s]'} [{lo:.4g}, {hi:.4g}]{clipped} "
           f"(C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°, cohesion={args.cohesion})"
           + (f", mean over {args.run} and {len(args.replica)} replica(s):" if args.replica else ":"))
+    shown = steady if args.replica else steady.rename(columns={"sem": "block_sem"})
     with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
-        print(steady.to_string())
+        print(shown.to_string(na_rep="n/a"))
     if args.replica:
-        print("replica_sem: standard error of the mean over the replicas; replica_std: standard deviation of the "
-              "replica means; block_sem: what the replicas' block s.e.m. say of the same mean, √(Σ sem_i²)/n")
+        print("replica_sem: standard error of the mean over the replicas (std of the replica means / √n); "
+              "replica_std: standard deviation of the replica means; block_sem: what the replicas' block s.e.m. "
+              "say of the same mean, √(Σ sem_i²)/n")
     else:
-        print("std: over the frames of the window; sem: standard error of the mean from the means of its blocks"
-              + (" (NaN: the window holds a single block, too short to estimate it; widen the window)"
-                 if steady["sem"].isna().any() and (steady["n_blocks"] < 2).any() else ""))
+        print("std: over the frames of the window; block_sem: standard error of the mean from the means of its "
+              "blocks (the sem column of --steady-out)")
+    for note in _steady_error_notes(steady, by, replicas=bool(args.replica)):
+        print(note)
     return 0
+
+
+def _steady_error_notes(steady, by, *, replicas=False) -> list:
+    """Why an error of a printed steady-state table is n/a, one line per reason (none when every
+    error is there)."""
+    error = "block_sem" if replicas else "sem"
+    missing = steady[steady[error].isna()]
+    if not len(missing):
+        return []
+    empty = missing["mean"].isna()
+    notes = []
+    if empty.any():
+        notes.append(f"n/a: {', '.join(missing.index[empty])}: no frame of the window has a value (no granules)")
+    if (~empty).any():
+        blocks = "quarter revolutions" if by == "revolutions" else "blocks"
+        what = "a replica's window holds" if replicas else "the window holds"
+        notes.append(f"n/a: {', '.join(missing.index[~empty])}: no block s.e.m.: {what} a single block "
+                     f"(fewer than two {blocks} of frames), too short to estimate it; widen the window")
+    return notes
 
 
 def cmd_sensitivity(args):
@@ -450,7 +481,7 @@ def cmd_compare_cg(args):
     runs = group_replicas(args.runs) if args.replicas else args.runs
     comparison = compare_cg(runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
                             progress=not args.quiet, **params)
-    written = comparison.save(args.out, overwrite=args.overwrite)
+    written = comparison.save(args.out, overwrite=args.overwrite, size_unit=args.size_unit)
     print(f"wrote {len(written)} files to {args.out}: " + ", ".join(os.path.basename(p) for p in written))
     print(format_cg_table(comparison))
     return 0
@@ -506,31 +537,66 @@ def _compare_cg_thresholds(args, labels) -> int:
 
 
 def format_cg_table(comparison) -> str:
-    """The CG table as text: steady-state mean ± s.e.m. of each metric, its deviation from the
-    reference run, the KS distance of the size distributions and the speed-ups."""
-    lines = [f"CG comparison, {comparison.description}; deviations from {comparison.reference}"]
-    width = max(26, comparison.table["run"].str.len().max())
-    header = (f"{'run':<{width}} {'yield':>19} {'<V_g>/V_p':>21} {'N_g/N':>23} {'KS D':>6} "
-              f"{'speed-up*':>9} {'paper':>6}")
-    lines.append(header)
-    for row in comparison.table.itertuples():
-        cells = []
-        for metric in HEADLINE:
-            mean, sem, dev = (getattr(row, f"{metric}_{x}") for x in ("mean", "sem", "rel_dev"))
-            cells.append(f"{plus_minus(mean, sem)} ({dev:+.0%})")
-        lines.append(f"{row.run:<{width}} {cells[0]:>19} {cells[1]:>21} {cells[2]:>23} {row.ks_distance:>6.3f} "
-                     f"{row.speedup:>8.1f}× {row.paper_speedup:>5.1f}×")
+    """The CG table as text: the runs' size-distribution distance and speed-ups, then one block
+    per headline metric with each run's steady-state mean ± its error, the block s.e.m. (in its
+    own column where the ± is the replica s.e.) and the deviation from the reference run ± its
+    standard error. Every error column names its error; an error that cannot be estimated is
+    ``n/a`` with a note saying why."""
+    table = comparison.table
+    replicas = bool((table["n_replicas"] > 1).any())
+    width = max(26, table["run"].str.len().max())
+    lines = [f"CG comparison, {comparison.description}; deviations from {comparison.reference}",
+             f"{'run':<{width}} {'replicas':>8} {'KS D':>6} {'speed-up*':>9} {'paper':>6}"]
+    for row in table.itertuples():
+        lines.append(f"{row.run:<{width}} {row.n_replicas:>8d} {row.ks_distance:>6.3f} {row.speedup:>8.1f}× "
+                     f"{row.paper_speedup:>5.1f}×")
+    error = "replica s.e." if replicas else "block s.e.m."
+    notes = {}  # why an error is n/a -> the runs it is n/a for
+    for metric in HEADLINE:
+        label = METRICS[metric].label
+        header = f"{label:<{width}} {'mean ± ' + error:>21}"
+        if replicas:
+            header += f" {'block s.e.m.':>12}"
+        lines.append(header + f" {'deviation ± s.e.':>17}")
+        for row in table.itertuples():
+            mean, sem, rsem, dev, dev_se = (getattr(row, f"{metric}_{x}")
+                                            for x in ("mean", "sem", "replica_sem", "rel_dev", "rel_dev_se"))
+            shown_error = rsem if replicas else sem
+            if not math.isfinite(shown_error):
+                notes.setdefault(_cg_error_note(row, metric, mean, replicas), []).append(row.run)
+            shown = plus_minus(mean, shown_error)
+            if replicas and row.n_replicas == 1:  # the mean to its block s.e.m.'s figures
+                shown = plus_minus(mean, sem).split(" ± ")[0] + " ± n/a"
+            cells = f"{row.run:<{width}} {shown:>21}"
+            if replicas:
+                if not math.isfinite(sem):
+                    notes.setdefault(_cg_error_note(row, metric, mean, False), []).append(row.run)
+                cells += f" {format(sem, '#.2g') if math.isfinite(sem) else 'n/a':>12}"
+            if row.run == comparison.reference:
+                deviation = "reference"
+            else:
+                deviation = f"{dev:+.0%} ± " + (f"{dev_se:.0%}" if math.isfinite(dev_se) else "n/a")
+            lines.append(f"{cells} {deviation:>17}")
     lines.append("* wall time per simulated second recorded by the simulator in each run; runs that shared the "
                  "machine unevenly give unfair ratios (benchmarks/cg_speedup.py measures them side by side)")
-    replicated = comparison.table[comparison.table["n_replicas"] > 1]
-    if len(replicated):
-        lines.append("replicas: mean over the replicas ± replica s.e. [block s.e.m.]; deviation ± its s.e.")
-        for row in replicated.itertuples():
-            cells = []
-            for metric in HEADLINE:
-                mean, rsem, sem, dev, dev_se = (getattr(row, f"{metric}_{x}")
-                                                for x in ("mean", "replica_sem", "sem", "rel_dev", "rel_dev_se"))
-                cells.append(f"{METRICS[metric].label} {plus_minus(mean, rsem)} [{sem:#.2g}] "
-                             f"({dev:+.0%} ± {dev_se:.0%})")
-            lines.append(f"  {row.run}: " + "; ".join(cells))
+    if replicas:
+        lines.append("± replica s.e.: standard deviation of a group's replica means / √n (the run-to-run error); "
+                     "block s.e.m.: standard error of the mean from the means of blocks of the window, combined "
+                     "over the replicas as √(Σ sem²)/n; deviation ± s.e.: from each side's replica s.e., or its "
+                     "block s.e.m. for a single run")
+    else:
+        lines.append("± block s.e.m.: standard error of the mean from the means of blocks of the window; "
+                     "deviation ± s.e.: from the two runs' block s.e.m.")
+    for note, runs in notes.items():
+        lines.append(f"n/a: {', '.join(dict.fromkeys(runs))}: {note}")
     return "\n".join(lines)
+
+
+def _cg_error_note(row, metric, mean, replica) -> str:
+    """Why an error of the CG table is n/a (the note's text, without the run)."""
+    if replica and row.n_replicas == 1:
+        return "a single run has no replica s.e. (its block s.e.m. is beside it, and its deviations use it)"
+    if not math.isfinite(mean):
+        return f"no granules in the window, no {METRICS[metric].label} to average"
+    return ("no block s.e.m.: the window holds fewer than two blocks (quarter revolutions) of frames, too short "
+            "to estimate it; widen --window")

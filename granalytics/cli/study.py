@@ -9,7 +9,7 @@ import os
 
 import pandas as pd
 
-from granalytics.analysis.metrics import HEADLINE, METRICS
+from granalytics.analysis.metrics import HEADLINE
 from granalytics.identify import DEFAULT_METHODS
 from granalytics.core.errors import ParameterError
 from granalytics.core.manifest import read_manifest
@@ -113,14 +113,23 @@ def cmd_study(args) -> int:
         print(f"  left out: {row.point} ({row.status}{': ' + error if error else ''})")
     columns = ["point", "gamma", "omega", "alpha", "cohesion"]
     cells = table[[c for c in columns if c in table]].copy()
-    for metric, fmt in ((name, METRICS[name].fmt) for name in HEADLINE):
-        cells[metric] = [plus_minus(m, s) for m, s in zip(table[f"{metric}_mean"], table[f"{metric}_sem"])]
+    for metric in HEADLINE:  # the ± is the replica s.e. where there are replicas, the block s.e.m. beside it
         if args.replicas:
-            cells[f"{metric} replica s.e."] = [f"{r:{fmt}}" for r in table[f"{metric}_replica_sem"]]
+            cells[f"{metric} ± replica s.e."] = [plus_minus(m, r) for m, r in zip(table[f"{metric}_mean"],
+                                                                                table[f"{metric}_replica_sem"])]
+            cells[f"{metric} block s.e.m."] = [f"{e:#.2g}" if e == e else "n/a" for e in table[f"{metric}_sem"]]
+        else:
+            cells[f"{metric} ± block s.e.m."] = [plus_minus(m, e) for m, e in zip(table[f"{metric}_mean"],
+                                                                                table[f"{metric}_sem"])]
     if args.replicas:
         cells.insert(1, "n_replicas", table["n_replicas"])
     with pd.option_context("display.width", 160, "display.max_rows", 200, "display.max_colwidth", 60):
         print(cells.to_string(index=False))
+    print("block s.e.m.: standard error of the mean from the means of blocks of the window"
+          + (" (a group's combined as √(Σ sem²)/n); replica s.e.: standard deviation of a group's replica means / √n "
+             "(n/a for a point without replicas)" if args.replicas else "")
+          + ("; n/a: the window of a point holds fewer than two blocks (quarter revolutions) of frames, or no granules"
+             if table[[f"{m}_sem" for m in HEADLINE]].isna().any().any() else ""))
     if args.out:
         write_table(table, args.out)
         print(f"wrote the study table ({len(table)} rows) to {args.out}")
@@ -147,7 +156,8 @@ def cmd_study(args) -> int:
             for point in predictions:
                 row = model.predict(point).iloc[0]
                 where = ", ".join(f"{k}={point[k]:g}" for k in inputs)
-                values = ", ".join(f"{name} = {row[name]:.4g} ± {row[name + '_std']:.2g}" for name in model.outputs)
+                values = ", ".join(f"{name} = {row[name]:.4g} ± {row[name + '_std']:.2g} (GP std)"
+                                   for name in model.outputs)
                 print(f"prediction at {where}{f' (cohesion={conv})' if conv else ''}: {values}")
     if args.plot:
         import matplotlib.pyplot as plt

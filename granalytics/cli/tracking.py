@@ -11,7 +11,7 @@ from granalytics.identify import DEFAULT_METHODS, accepted_params
 from granalytics.core import open_run
 from granalytics.plot import tracking_figure
 from granalytics.analysis.tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
-from granalytics.cli._common import (add_cohesion_option, add_frame_loop_options, frame_loop, interval, save_figure,
+from granalytics.cli._common import (add_cohesion_option, add_frame_loop_options, add_size_unit_option, frame_loop, interval, save_figure,
                                      OldSpelling, threshold_options, warn_if_unfinished, write_table)
 
 _OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
@@ -48,6 +48,7 @@ def add_track_parser(sub):
     p.add_argument("--min-fragment", type=int, default=2,
                    help="fewest particles that count as a fragment in a coalescence or breakage (default 2)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    add_size_unit_option(p)
     add_frame_loop_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_track)
@@ -73,7 +74,7 @@ def cmd_track(args):
         params = {**threshold_options(args, args.method), **accepted_params(args.method, cohesion=args.cohesion)}
         with open_run(args.run) as run:
             warn_if_unfinished(run)
-            omega = run.meta.drum_omega
+            omega, meta = run.meta.drum_omega, run.meta
             frames = run if args.window is None else run.select(revolutions=args.window)
             if len(frames) < 2:
                 raise ParameterError(f"{args.run}: tracking needs at least two frames, the selection has {len(frames)} "
@@ -82,10 +83,10 @@ def cmd_track(args):
                                **frame_loop(args), **params)
         period = 2 * math.pi / abs(omega) if omega else None
         rates = event_rates(tracks, period)
-        kernel = coalescence_kernel(tracks)
-        breakage = breakage_rate(tracks)
+        kernel = coalescence_kernel(tracks, size_unit=args.size_unit, alpha=meta)
+        breakage = breakage_rate(tracks, size_unit=args.size_unit, alpha=meta)
         setting = ", ".join(f"{k}={v}" for k, v in params.items())
-        fig = tracking_figure(tracks, rates, kernel, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
+        fig = tracking_figure(tracks, rates, kernel, size_unit=args.size_unit, alpha=meta, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
                                                            f"min_fragment={args.min_fragment}")
         try:
             with staged_outputs(args.out) as stage:

@@ -22,7 +22,7 @@ import numpy as np
 
 from granalytics.core.errors import ParameterError
 
-__all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask", "check_interval"]
+__all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask", "clip_window", "check_interval"]
 
 #: fraction of the smallest frame spacing by which a frame may lie outside a window's edge
 WINDOW_TOLERANCE = 0.1
@@ -43,6 +43,23 @@ def window_mask(values, lo, hi, tolerance=None) -> np.ndarray:
     values = np.asarray(values, dtype=float)
     tol = window_tolerance(values) if tolerance is None else tolerance
     return (values >= lo - tol) & (values <= hi + tol)
+
+
+def clip_window(values, lo, hi, tolerance=None) -> tuple[float, float]:
+    """The window [lo, hi] clipped to the span of the finite ``values``: an edge that lies
+    beyond the first or last value by more than ``tolerance`` (default
+    :func:`window_tolerance`) is moved onto that value; an edge within it stays as given.
+
+    What depends on the window's width besides its frames (the blocks of a block s.e.m.) then
+    depends on the frames only: [3, 9] on a run that ends at revolution 6 is [3, 6] (its last
+    frame's stamp), the same blocks as the window [3, 6] itself."""
+    values = np.asarray(values, dtype=float)
+    finite = values[np.isfinite(values)]
+    if not finite.size:
+        return float(lo), float(hi)
+    tol = window_tolerance(values) if tolerance is None else tolerance
+    first, last = float(finite.min()), float(finite.max())
+    return (first if lo < first - tol else float(lo)), (last if hi > last + tol else float(hi))
 
 
 def check_interval(name, value) -> tuple[float, float]:

@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from granalytics.core._checks import check_meta, check_snapshot
 from granalytics.core.errors import ParameterError, ValidationError
 from granalytics.core.snapshot import Snapshot
 
@@ -200,6 +201,7 @@ def run_confinement(meta) -> DrumConfinement | None:
     ValidationError
         The recorded values are not numbers.
     """
+    check_meta("run_confinement", meta)
     recorded = meta.sim_config.get("confinement") if isinstance(meta.sim_config, dict) else None
     if recorded is not None:
         try:
@@ -239,6 +241,8 @@ def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> n
     ParameterError
         The run has no drum description.
     """
+    check_snapshot("wall_touching", snapshot)
+    check_meta("wall_touching", meta)
     params = _drum_params(meta)
     needed = ("drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega")
     if params is None or not all(k in params for k in needed):

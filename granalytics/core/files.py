@@ -19,11 +19,12 @@ import sys
 import time as _time
 import warnings
 
+from granalytics.core._checks import check_path
 from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
 
 __all__ = ["replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
            "warnings_as_lines", "regular_input", "staged_outputs", "output_folder", "interrupted",
-           "swap_folder", "check_replaceable"]
+           "swap_folder", "check_replaceable", "interrupts_not_lost", "raise_dropped_interrupt"]
 
 
 @contextlib.contextmanager
@@ -38,6 +39,7 @@ def replaced_atomically(path, tmp=None):
     tmp = f"{path}.{os.getpid()}.tmp" if tmp is None else os.fspath(tmp)
     try:
         yield tmp
+        raise_dropped_interrupt()  # a Ctrl-C that Python dropped meanwhile replaces nothing
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -153,6 +155,7 @@ def _swap_in(staging) -> None:
     beside its staged file (``….old``), and if any rename fails (or Ctrl-C arrives during the
     swap) every target done so far is put back as it was and the error (the interrupt) raised."""
     done = []  # (target, where its earlier version was set aside, or None if it had none)
+    raise_dropped_interrupt()
     with _interrupts_held() as held:
         try:
             for target, tmp in staging.items():
@@ -184,6 +187,7 @@ def swap_folder(new, dst) -> None:
 
     new, dst = os.fspath(new), os.fspath(dst)
     aside = f"{dst}.old-{os.getpid()}" if os.path.lexists(dst) else None
+    raise_dropped_interrupt()
     with _interrupts_held() as held:
         if aside is not None:
             os.replace(dst, aside)
@@ -254,8 +258,64 @@ _LOCK_SUFFIX = ".lock"
 
 def interrupted(exc) -> bool:
     """Whether ``exc`` is a Ctrl-C: a KeyboardInterrupt, or the SystemError that a numba kernel
-    raises when the interrupt arrives while it runs ("... returned a result with an exception set")."""
-    return isinstance(exc, KeyboardInterrupt) or isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt)
+    raises when the interrupt arrives while it runs ("... returned a result with an exception set"),
+    however deep the chain: an interrupt inside numba's unpickling of a cached kernel comes as a
+    SystemError caused by a SystemError caused by the KeyboardInterrupt."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        if not isinstance(exc, SystemError) and seen:
+            return False
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+#: Ctrl-Cs that Python dropped inside :func:`interrupts_not_lost` (raised where they could not
+#: propagate), waiting for :func:`raise_dropped_interrupt`
+_DROPPED = []
+
+
+@contextlib.contextmanager
+def interrupts_not_lost():
+    """Inside: a Ctrl-C is never dropped. Python raises the KeyboardInterrupt of a SIGINT in
+    whatever code runs when it arrives; in a ``__del__`` method or a weakref or garbage-collection
+    callback (an llvmlite object freed, a WeakValueDictionary entry removed) it cannot propagate,
+    is printed as "Exception ignored in ..." and dropped, and a command went on to finish with
+    exit status 0. Here such an interrupt is recorded instead (nothing printed) and raised by
+    :func:`raise_dropped_interrupt` at the next point that checks: after each frame of the frame
+    loop, before any output replaces an earlier one, and when the command returns. Only the main
+    thread receives signals; elsewhere nothing is changed."""
+    import sys
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = sys.unraisablehook
+
+    def record(unraisable):
+        if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt):
+            _DROPPED.append(unraisable.exc_type)
+            return
+        previous(unraisable)
+
+    _DROPPED.clear()
+    sys.unraisablehook = record
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous
+        _DROPPED.clear()
+
+
+def raise_dropped_interrupt() -> None:
+    """Raise the KeyboardInterrupt of a Ctrl-C that Python dropped inside
+    :func:`interrupts_not_lost`; nothing if there was none."""
+    if _DROPPED:
+        _DROPPED.clear()
+        raise KeyboardInterrupt
 
 
 def one_line(exc) -> str:
@@ -279,7 +339,7 @@ class WriterLock:
     """
 
     def __init__(self, target):
-        self.target = os.fspath(target)
+        self.target = check_path("WriterLock", "target", target)
         self.path = self.target + _LOCK_SUFFIX
         self._record = None
 

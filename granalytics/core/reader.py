@@ -16,6 +16,7 @@ from granalytics.core.files import one_line
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_DATASETS, _CONTACT_LAYOUT, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import _HDF5Handle, _open_h5
 from granalytics.core._resources import check_memory
+from granalytics.core._checks import FrameKeyError, check_indices, shown
 from granalytics.core._windows import check_interval, window_mask
 from granalytics.core.errors import ParameterError, GranalyticsError, RunFileError, ValidationError
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
@@ -82,7 +83,7 @@ class _FrameSequence(Sequence):
             if not -n <= key < n:
                 raise IndexError(f"frame {key} out of range for {n} frames")
             return self._run.frame(int(self._indices[key]))
-        raise TypeError(f"frames are indexed by int or slice, not {type(key).__name__}")
+        raise FrameKeyError(f"frames are indexed by int or slice, not {type(key).__name__}")
 
     def __iter__(self):
         for k in self._indices:
@@ -364,8 +365,14 @@ class RunSlice(_FrameSequence):
     """A lazy selection of frames of a :class:`Run` (from slicing or :meth:`Run.select`)."""
 
     def __init__(self, run: Run, indices):
+        if not isinstance(run, Run):
+            raise ParameterError(f"RunSlice: run must be an open Run (granalytics.open_run), got {shown(run)}")
+        indices = check_indices("RunSlice", "indices", indices)
+        if indices.size and not (0 <= indices.min() and indices.max() < len(run)):
+            raise ParameterError(f"RunSlice: frame indices must lie in [0, {len(run)}) for the {len(run)} frames of "
+                                 f"{run.path}, got {indices.min()}..{indices.max()}")
         self._run = run
-        self._indices = np.asarray(indices, dtype=np.int64)
+        self._indices = indices
 
     def __repr__(self):
         return f"RunSlice({self._run.path!r}, frames={len(self)})"

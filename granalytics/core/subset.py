@@ -8,6 +8,7 @@ import os
 import numpy as np
 
 from granalytics.core._windows import check_interval, window_mask
+from granalytics.core._checks import check_path
 from granalytics.core.files import WriterLock, check_apart, check_replaceable, replaced_atomically
 from granalytics.core.reader import open_run
 from granalytics.core.writer import RunWriter
@@ -106,6 +107,7 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
     """
     from tqdm.auto import tqdm
 
+    src, dst = check_path("subset_run", "src", src), check_path("subset_run", "dst", dst)
     check_apart(dst, [src], "subset")  # overwrite=True must never replace its own source
     try:
         raw = np.asarray(frames)

@@ -10,7 +10,8 @@ import h5py
 import numpy as np
 
 from granalytics._version import __version__
-from granalytics.core.files import WriterLock, check_replaceable, one_line, _LOCK_SUFFIX
+from granalytics.core._checks import check_path
+from granalytics.core.files import WriterLock, check_replaceable, one_line, raise_dropped_interrupt, _LOCK_SUFFIX
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_CHUNK_ROWS, _CONTACT_DATASETS, _CONTACT_LAYOUT, _INDEX_DATASETS, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import _HDF5Handle
 from granalytics.core.reader import open_run
@@ -66,7 +67,7 @@ class RunWriter(_HDF5Handle):
         if not isinstance(meta, RunMeta):
             raise ValidationError("meta", f"must be a RunMeta, got {type(meta).__name__}")
         meta.validate()  # fields may have been changed since construction
-        self.path = os.fspath(path)
+        self.path = check_path("RunWriter", "path", path)
         self.meta = meta
         if float_dtype not in ("float64", "float32"):
             raise ValidationError("float_dtype", f"must be 'float64' or 'float32', got {float_dtype!r}")
@@ -167,6 +168,7 @@ class RunWriter(_HDF5Handle):
                     writer.append(run[k])
                 writer._file.flush()
                 _check_continued(run, writer, n_frames, path)
+            raise_dropped_interrupt()  # a Ctrl-C that Python dropped meanwhile replaces nothing
             os.replace(tmp, path)  # the open handle follows the file to its new name
         except BaseException:
             if writer is not None:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from granalytics.core._checks import check_snapshot
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 
@@ -71,5 +72,6 @@ def cohesive_force(snapshot: Snapshot, cohesion: str = DEFAULT_COHESION) -> np.n
     -------
     (M,) float array [N], ≥ 0; ``snapshot.f_cap`` itself (no copy) where every force counts.
     """
+    check_snapshot("cohesive_force", snapshot)
     counts = cohesion_counts(snapshot, cohesion)
     return snapshot.f_cap if counts.all() else np.where(counts, snapshot.f_cap, 0.0)

@@ -13,6 +13,7 @@ import numpy as np
 
 from granalytics.identify import _kernels
 from granalytics.identify.contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
+from granalytics.core import _checks
 from granalytics.core.errors import ParameterError
 
 #: the paper's thresholds, the defaults of every method that filters contacts by them (GNA, the
@@ -66,13 +67,8 @@ class Identifier:
 
 def check_snapshot(snapshot, where) -> None:
     """Refuse (``ParameterError`` naming ``where``) anything but a :class:`Snapshot`; a path gets
-    the hint to open the run first."""
-    from granalytics.core.snapshot import Snapshot
-
-    if not isinstance(snapshot, Snapshot):
-        hint = " (open the run with granalytics.open_run and pass one frame, e.g. run[0])" if isinstance(
-            snapshot, (str, bytes)) or hasattr(snapshot, "__fspath__") else ""
-        raise ParameterError(f"{where}: snapshot must be a granalytics Snapshot, got {type(snapshot).__name__}{hint}")
+    the hint to open the run first (:func:`granalytics.core._checks.check_snapshot`)."""
+    _checks.check_snapshot(where, snapshot)
 
 
 def _snapshot_checked(identify):

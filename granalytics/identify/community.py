@@ -24,6 +24,7 @@ from granalytics.identify import _kernels
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.identify.contacts import as_number
 from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
 from granalytics.identify.result import IdentificationResult
 
@@ -76,7 +77,7 @@ class CommunityDetection(Identifier):
         c_agg = check_c_agg(self.c_agg)
         if self.a_agg_deg is not None:
             check_angle(self.a_agg_deg)
-        if not (math.isfinite(float(self.resolution)) and self.resolution > 0):
+        if not (math.isfinite(as_number("resolution", self.resolution, "a number > 0")) and self.resolution > 0):
             raise ParameterError(f"resolution must be > 0, got {self.resolution!r}")
         f = contact_strength(snapshot, self.radius, self.surface_tension, check_cohesion(self.cohesion))
         keep = f > 0

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from granalytics.core._checks import check_indices, check_snapshot
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 
@@ -35,7 +36,9 @@ def granule_table(snapshot: Snapshot, labels) -> pd.DataFrame:
     - ``liquid_volume_m3``: film + bridge liquid [m³];
     - ``liquid_solid_ratio``: liquid volume / solid volume.
     """
-    labels = np.asarray(labels)
+    check_snapshot("granule_table", snapshot)
+    if not (isinstance(labels, np.ndarray) and labels.dtype.kind in "iu"):  # a list, or not whole numbers
+        labels = check_indices("granule_table", "labels", labels)
     if labels.shape != (snapshot.n_particles,):
         raise ParameterError(f"labels must have shape ({snapshot.n_particles},), got {labels.shape}")
     g = int(labels.max()) + 1 if labels.size else 0

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from granalytics.analysis.study.table import select_cohesion
+from granalytics.core._checks import check_numbers
 from granalytics.core.errors import ParameterError
 
 
@@ -172,8 +173,8 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
         raise ParameterError(f"model must be 'hinge' or 'linear', got {model!r}")
     if not 0 < confidence < 1:
         raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
-    g = np.asarray(gamma, dtype=float).ravel()
-    v = np.asarray(mean_volume_norm, dtype=float).ravel()
+    g = check_numbers("fit_granule_growth", "gamma", gamma, ndim=None).ravel()
+    v = check_numbers("fit_granule_growth", "mean_volume_norm", mean_volume_norm, ndim=None).ravel()
     if g.shape != v.shape:
         raise ParameterError(f"{g.size} γ values for {v.size} volumes")
     if not np.isfinite(g).all():
@@ -185,7 +186,7 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
     weighted = False
     s = np.ones_like(g)
     if sem is not None:
-        s_in = np.asarray(sem, dtype=float).ravel()
+        s_in = check_numbers("fit_granule_growth", "sem", sem, ndim=None).ravel()
         if s_in.shape != g.shape:
             raise ParameterError(f"{s_in.size} sems for {g.size} points")
         if (s_in < 0).any():

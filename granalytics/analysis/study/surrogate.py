@@ -12,6 +12,7 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.study.table import select_cohesion
+from granalytics.core._checks import shown
 from granalytics.core.errors import ParameterError
 
 
@@ -174,6 +175,14 @@ def fit_surrogate(table, inputs=("gamma", "omega"), outputs=None, *, cohesion="a
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
+    if not isinstance(table, pd.DataFrame):
+        raise ParameterError(f"fit_surrogate: table must be a study table (a DataFrame, study_table's result), got "
+                             f"{shown(table)}")
+    for name, value in (("inputs", inputs), ("outputs", outputs)):
+        if value is None and name == "outputs":
+            continue
+        if not (isinstance(value, (list, tuple, pd.Index, np.ndarray)) and all(isinstance(v, str) for v in value)):
+            raise ParameterError(f"fit_surrogate: {name} must be a list of column names, got {shown(value)}")
     inputs = list(inputs)
     outputs = [f"{name}_mean" for name in HEADLINE] if outputs is None else list(outputs)
     if not inputs or not outputs:

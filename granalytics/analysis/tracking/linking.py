@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from granalytics.core._windows import check_interval
 from granalytics.core.errors import ParameterError
 
 
@@ -46,6 +47,14 @@ def check_continuation(continuation) -> str:
     if not isinstance(continuation, str) or continuation not in CONTINUATIONS:
         raise ParameterError(f"continuation must be 'main' or 'strict', got {continuation!r}")
     return continuation
+
+
+def check_tracks(where, tracks) -> None:
+    """Refuse (``ParameterError`` naming ``where``) anything but a :class:`GranuleTracks` (the
+    result of :func:`track_granules` or :func:`track_run`)."""
+    if not isinstance(tracks, GranuleTracks):
+        raise ParameterError(f"{where}: tracks must be a GranuleTracks (track_run's or track_granules' result), got "
+                             f"{type(tracks).__name__}")
 
 
 @dataclass(eq=False)
@@ -535,9 +544,10 @@ def track_run(frames, method="gna", window=None, progress=False, *, min_fragment
     from granalytics.identify import make_identifier
 
     if window is not None:
+        window = check_interval("track_run: window", window)
         if not hasattr(frames, "select"):
             raise ParameterError("window needs a Run or RunSlice (open_run), not a plain sequence of snapshots")
-        frames = frames.select(revolutions=tuple(window))
+        frames = frames.select(revolutions=window)
     check_continuation(continuation)  # before any frame is identified
     identifier = make_identifier(method, **params)
     indices, per_frame = map_frames(frames, lambda s: (identifier.identify(s).labels, s.ids, s.time),

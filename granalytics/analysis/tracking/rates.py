@@ -3,7 +3,9 @@ the empirical coalescence kernel β(i, j) on logarithmic size classes (:func:`co
 and the selection (breakage) rate S(i) (:func:`breakage_rate`), the two rate functions of a
 population balance.
 
-Units: SI, time in seconds (``_s`` suffix); granule sizes in particles.
+Units: SI, time in seconds (``_s`` suffix); granule sizes in particles, or with
+``size_unit="original"`` in original-particle equivalents α³·n (the unit in which runs at
+different CG factors are compared).
 """
 
 from __future__ import annotations
@@ -15,12 +17,14 @@ from itertools import combinations
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.tracking.linking import GranuleTracks, KINDS
+from granalytics.analysis.stats import size_unit_factor
+from granalytics.analysis.tracking.linking import GranuleTracks, KINDS, check_tracks
 from granalytics.core._windows import window_tolerance
 from granalytics.core.errors import ParameterError
 
 
-def _steps(tracks):
+def _steps(tracks, where):
+    check_tracks(where, tracks)
     t = np.asarray(tracks.times_s, dtype=float)
     if t.size < 2:
         raise ParameterError("rates need at least two tracked frames (one frame interval)")
@@ -59,7 +63,7 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
         ``rate_per_rev`` (events per revolution, NaN without a period). Rates are NaN in a bin
         with no tracked time.
     """
-    t, dt = _steps(tracks)
+    t, dt = _steps(tracks, "event_rates")
     if dt.max() > 1.5 * dt.min():
         warnings.warn(f"the tracked frames are {dt.min():.3g}–{dt.max():.3g} s apart (a run thinned outside a "
                       "window?): events between frames further apart go uncounted, so rates of bins with other "
@@ -144,7 +148,19 @@ def _mean_numbers(tracks, classify, n_classes, dt):
     return total / dt.sum()
 
 
-def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4) -> pd.DataFrame:
+def _in_unit(table, columns, size_unit, alpha, caller):
+    """``columns`` of a class table converted from the run's particles to ``size_unit``; the unit
+    and the CG factor recorded in ``attrs``."""
+    factor = size_unit_factor(size_unit, alpha, caller=caller)
+    if size_unit == "original":
+        for column in columns:
+            table[column] = table[column] * factor
+    table.attrs.update(size_unit=size_unit, alpha=None if size_unit == "particles" else round(factor ** (1 / 3), 12))
+    return table
+
+
+def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, size_unit="particles",
+                       alpha=None) -> pd.DataFrame:
     """Empirical coalescence kernel β(i, j) on logarithmic size classes.
 
     β(i, j) = r(i, j) / (N_i·N_j) for i ≠ j and r(i, i) / (N_i²/2) for i = j, where r(i, j) is
@@ -167,20 +183,26 @@ def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade
         classes of integers from the smallest to the largest tracked granule.
     bins_per_decade : float, default 4
         Classes per decade of size, for the default classes.
+    size_unit : {"particles", "original"}, default "particles"
+        Unit of the returned class bounds: the run's particles, or original-particle equivalents
+        α³·n (``size_min_i`` … are then α³ times the others). The classes themselves, and
+        ``size_bins``, are in the run's particles either way; β is per pair of granules in both.
+    alpha : float, or a run or its metadata
+        The CG factor (its ``alpha``), for ``size_unit="original"``.
 
     Returns
     -------
     DataFrame
         One row per unordered pair of classes i <= j (empty cells included). Columns
         ``class_i``, ``class_j``; ``size_min_i``, ``size_max_i``, ``size_min_j``,
-        ``size_max_j`` (inclusive bounds [particles]); ``n_events`` (coalescence events with a
+        ``size_max_j`` (inclusive bounds [particles, or α³·n in ``"original"``]); ``n_events`` (coalescence events with a
         parent pair in the cell); ``n_pairs`` (parent pairs in the cell); ``n_binary`` (weighted
         binary coalescences); ``rate_per_s`` (n_binary / tracked time [1/s]); ``n_mean_i``,
         ``n_mean_j`` (time-averaged granule numbers); ``beta_per_s`` (β [1/s per pair of
         granules]; NaN where a class is never populated). Read β only where ``n_events`` is
         large enough: a cell with a handful of events is noise.
     """
-    t, dt = _steps(tracks)
+    t, dt = _steps(tracks, "coalescence_kernel")
     edges, classify = _size_classes(tracks, size_bins, bins_per_decade)
     nc = edges.size - 1
     n_mean = _mean_numbers(tracks, classify, nc, dt)
@@ -206,7 +228,7 @@ def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade
     pairs = np.where(iu == ju, n_mean[iu] ** 2 / 2, n_mean[iu] * n_mean[ju])
     with np.errstate(divide="ignore", invalid="ignore"):
         beta = np.where(pairs > 0, rate / pairs, np.nan)
-    return pd.DataFrame({
+    table = pd.DataFrame({
         "class_i": iu, "class_j": ju,
         "size_min_i": edges[iu], "size_max_i": edges[iu + 1] - 1,
         "size_min_j": edges[ju], "size_max_j": edges[ju + 1] - 1,
@@ -217,9 +239,12 @@ def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade
         "n_mean_i": n_mean[iu], "n_mean_j": n_mean[ju],
         "beta_per_s": beta,
     })
+    return _in_unit(table, ("size_min_i", "size_max_i", "size_min_j", "size_max_j"), size_unit, alpha,
+                    "coalescence_kernel")
 
 
-def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4) -> pd.DataFrame:
+def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, size_unit="particles",
+                  alpha=None) -> pd.DataFrame:
     """Empirical selection (breakage) rate S(i) on logarithmic size classes.
 
     S(i) = (breakage events of granules of class i per unit time) / N_i, with the size of the
@@ -232,6 +257,9 @@ def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4) -
     size_bins : int array, optional
         Class edges in particles per granule (see :func:`coalescence_kernel`).
     bins_per_decade : float, default 4
+    size_unit, alpha
+        As in :func:`coalescence_kernel`: ``size_min``, ``size_max`` in original-particle
+        equivalents α³·n with ``size_unit="original"``.
 
     Returns
     -------
@@ -241,7 +269,7 @@ def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4) -
         events), ``rate_per_s`` (n_events / tracked time [1/s]), ``n_mean`` (time-averaged
         number of granules), ``selection_rate_per_s`` (S(i) [1/s]; NaN where N_i = 0).
     """
-    t, dt = _steps(tracks)
+    t, dt = _steps(tracks, "breakage_rate")
     edges, classify = _size_classes(tracks, size_bins, bins_per_decade)
     nc = edges.size - 1
     n_mean = _mean_numbers(tracks, classify, nc, dt)
@@ -255,7 +283,7 @@ def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4) -
     with np.errstate(divide="ignore", invalid="ignore"):
         selection = np.where(n_mean > 0, rate / n_mean, np.nan)
         fragments_mean = np.where(n_events > 0, fragments / n_events, np.nan)
-    return pd.DataFrame({
+    table = pd.DataFrame({
         "class": np.arange(nc),
         "size_min": edges[:-1], "size_max": edges[1:] - 1,
         "n_events": n_events.astype(np.int64),
@@ -264,4 +292,5 @@ def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4) -
         "n_mean": n_mean,
         "selection_rate_per_s": selection,
     })
+    return _in_unit(table, ("size_min", "size_max"), size_unit, alpha, "breakage_rate")
 
