@@ -1,4 +1,5 @@
 import json
+import os
 import subprocess
 import sys
 
@@ -405,3 +406,15 @@ def test_size_unit_original_gives_sizes_in_original_particle_equivalents(tmp_pat
     assert (tables["original"]["count"] == tables["particles"]["count"]).all()
     assert np.allclose(tables["kernel-original"].size_min_i, 27 * tables["kernel-particles"].size_min_i)
     assert np.allclose(tables["kernel-original"].beta_per_s, tables["kernel-particles"].beta_per_s, equal_nan=True)
+
+
+def test_info_names_the_simulators_contact_law(capsys):
+    """A run of our simulator says which contact law made it (bundled runs predate the names:
+    the linear law, the only one then); a run of another code says nothing of it."""
+    from granalytics.datasets import dataset_path
+
+    assert main(["info", str(dataset_path("lab-cg3"))]) == 0
+    lines = [line.split() for line in capsys.readouterr().out.splitlines()]
+    assert ["contact", "law", "linear_coulomb"] == next(line[:3] for line in lines if line[:2] == ["contact", "law"])
+    assert main(["info", os.path.join(os.path.dirname(str(dataset_path("lab-cg3"))), "yade-wet-drum.h5")]) == 0
+    assert "contact law" not in capsys.readouterr().out

@@ -187,6 +187,10 @@ def cmd_info(args):
         print(f"  {'bed (last frame)':<{width}}  {bed.describe()}")
     if drum is not None:
         print(f"  {'drum':<{width}}  {drum.describe()}")
+    sim_params = (meta.get("sim_config") or {}).get("params")
+    if isinstance(sim_params, dict) and sim_params:  # a run of our simulator; runs before laws had names: the linear one
+        law = sim_params.get("contact_law", "linear_coulomb")
+        print(f"  {'contact law':<{width}}  {law} (the simulator's; its parameters in sim_config.params)")
     print("run metadata (SI units; contact_angle in rad)")
     for key, value in meta.items():
         if key in ("sim_config", "provenance"):
