@@ -20,9 +20,11 @@ import sys
 
 from granalytics.core import check_output_folder, interrupted, manifest_path, one_line, warnings_as_lines
 
+from .cg_rules import CG_RULES, DEFAULT_CG_RULE
 from .laws import CONTACT_LAWS
+from .threads import check_threads
 from .params import (MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,
-                     sized_drum)
+                     similar_system, sized_drum)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -102,6 +104,15 @@ def build_parser():
     p.add_argument("--out", required=True, help="run file to write (.h5); the checkpoint is OUT.ckpt.npz")
     p.add_argument("--overwrite", action="store_true", help="replace --out if it exists (refused otherwise)")
     p.add_argument("--alpha", type=float, help="CG factor α >= 1 (default: the preset's)")
+    p.add_argument("--cg-rule", choices=tuple(CG_RULES),
+                   help=f"coarse-graining rule (default {DEFAULT_CG_RULE}): "
+                        + "; ".join(f"{rule.name}: {rule.description}" for rule in CG_RULES.values()))
+    p.add_argument("--twin", action="store_true",
+                   help="run the α = 1 twin of the coarse-grained system instead: the same system with every length "
+                        "÷ α under the same gravity (times ÷ √α, forces ÷ α³; sim.params.similar_system), recorded "
+                        "as α = 1. Its dimensionless groups are the CG run's, so its statistics must equal the CG "
+                        "run's within replica errors; under --cg-rule bond it is the original system with Ω, η × √α "
+                        "and the spray interval and settling time ÷ √α")
     p.add_argument("--gamma", type=float, help="surface tension of the original system [N/m] (scaled by α)")
     p.add_argument("--omega", type=float, help="drum angular velocity [rad/s], not 0")
     p.add_argument("--particles", type=int,
@@ -146,7 +157,8 @@ def build_parser():
 def _params(args):
     original, alpha = preset_original(args.preset)
     changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles,
-               "bridge_volume": args.bridge_volume, "viscous": False if args.no_viscous else None}
+               "bridge_volume": args.bridge_volume, "viscous": False if args.no_viscous else None,
+               "cg_rule": args.cg_rule}
     changes.update(_law_changes(args, original.contact_law))
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha
@@ -156,7 +168,13 @@ def _params(args):
     original = sized_drum(args.preset, original, alpha, drum_ratio=args.drum_ratio, drum_particles=args.drum_particles)
     check_cg_particle_count(original.n_particles, alpha,
                             f"--particles {args.particles}" if args.particles is not None else None)
-    return original, (original if alpha == 1 else cg_scale(original, alpha))
+    params = original if alpha == 1 else cg_scale(original, alpha)
+    if args.twin:
+        if alpha == 1:
+            raise ValueError("--twin is the α = 1 twin of a coarse-grained run: give a CG preset or --alpha > 1")
+        twin = dataclasses.replace(similar_system(params, 1 / alpha), alpha=1.0)
+        return twin, twin
+    return original, params
 
 
 def _run(args) -> int:
@@ -170,11 +188,7 @@ def _run(args) -> int:
     if not args.resume and os.path.exists(out) and not args.overwrite:
         raise ValueError(f"{out} exists; give --overwrite to replace it, or --resume to continue it from its checkpoint")
     original, params = _params(args)
-    if args.threads != "auto":
-        import numba
-
-        if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
-            raise ValueError(f"--threads must be 'auto' or in [1, {numba.config.NUMBA_NUM_THREADS}], got {args.threads}")
+    check_threads(args.threads, "--threads")  # before the settling, not after it
     frame_every = frame_interval_steps(args.revolutions, args.frame_every_rev, params,
                                        names=("--revolutions", "--frame-every-rev"))
     check_output_folder(out)  # a missing or read-only folder now, not after the settling

@@ -11,10 +11,11 @@ import math
 from dataclasses import dataclass
 
 from .capillary import CAPILLARY_MODELS
+from .cg_rules import CG_RULES, DEFAULT_CG_RULE, cg_rule
 from .laws import CONTACT_LAWS, law_parameters
 
 __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHYSICS_VERSION", "MIN_PARTICLES",
-           "check_cg_particle_count", "frame_interval_steps", "sized_drum", "DrumRule",
+           "check_cg_particle_count", "frame_interval_steps", "similar_system", "sized_drum", "DrumRule",
            "FILL_FRACTION", "FILL_PACKING"]
 
 #: The simulator's physics version, raised by every change that alters trajectories on purpose
@@ -22,8 +23,10 @@ __all__ = ["SimParams", "cg_scale", "PRESETS", "preset", "preset_original", "PHY
 #: resumed across versions; docs/simulator.md, "Physics versions"). 1: up to 2026-11-30; 2: a
 #: pair's friction spring and previous normal re-oriented when a rebuild swaps the pair's particles;
 #: 3 (2026-12-02): a 3-D initial packing (jittered bcc lattice, sim.packing) instead of a simple
-#: cubic lattice that kept every run a stack of planar monolayers, and the settled-bed check.
-PHYSICS_VERSION = 3
+#: cubic lattice that kept every run a stack of planar monolayers, and the settled-bed check; 4: the
+#: particles re-sorted by the Morton rank of their cell at each rebuild (the forces are summed in
+#: another order: trajectories differ in their last bits, then chaotically; statistics unchanged).
+PHYSICS_VERSION = 4
 
 CAPILLARY_MODEL_NAMES = tuple(CAPILLARY_MODELS)
 #: Δt must resolve the contact of the smallest particles with at least this many steps
@@ -75,7 +78,9 @@ class SimParams:
         dry, before t = 0), seed.
     CG
         alpha (CG factor of *these* parameters), and the original (α = 1) values are recovered
-        by :func:`cg_scale` metadata.
+        by :func:`cg_scale` metadata; cg_rule (a name of ``sim.cg_rules.CG_RULES``, default
+        ``weber``, Table 2): the rule by which these parameters were, or will be, coarse-grained
+        (recorded at α = 1 too, where it changes nothing).
     """
 
     n_particles: int = 5000
@@ -108,6 +113,7 @@ class SimParams:
     settle_time: float = 0.3
     seed: int = 0
     alpha: float = 1.0
+    cg_rule: str = DEFAULT_CG_RULE
 
     def __post_init__(self):
         for parameter in law_parameters():
@@ -130,6 +136,11 @@ class SimParams:
             raise ValueError(f"parameter contact_angle must be in [0, π/2) rad, got {self.contact_angle!r}")
         if self.contact_law not in CONTACT_LAWS:
             raise ValueError(f"parameter contact_law must be one of {tuple(CONTACT_LAWS)}, got {self.contact_law!r}")
+        if self.cg_rule not in CG_RULES:
+            raise ValueError(f"parameter cg_rule must be one of {tuple(CG_RULES)}, got {self.cg_rule!r}")
+        if self.cg_rule not in CONTACT_LAWS[self.contact_law].cg_rules:
+            raise ValueError(f"the contact law {self.contact_law!r} has no CG rule {self.cg_rule!r} (it has "
+                             f"{', '.join(CONTACT_LAWS[self.contact_law].cg_rules)})")
         if self.capillary_model not in CAPILLARY_MODEL_NAMES:
             raise ValueError(f"parameter capillary_model must be one of {CAPILLARY_MODEL_NAMES}, got {self.capillary_model!r}")
         if not (isinstance(self.n_particles, int) and self.n_particles > 0):
@@ -201,14 +212,17 @@ class SimParams:
 
 
 def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimParams:
-    """Coarse-grain the *original* (α = 1) parameters by a factor α (Table 2 of the paper, Weber
-    scaling; docs/physics.md, "Coarse-graining rules").
+    """Coarse-grain the *original* (α = 1) parameters by a factor α under their rule
+    ``params.cg_rule`` (:mod:`sim.cg_rules`; docs/physics.md, "Coarse-graining rules").
 
-    Radii ×α, particle count ×1/α³ (rounded), γ ×α, η ×α, the contact law's parameters by its
-    own rule (:attr:`sim.laws.ContactLaw.cg_scaled`; the linear law: k_n and k_t ×α, c_n and
-    c_t ×α²), Δt ×α (unless ``scale_dt=False``); volumes per particle follow the radius (same fractions of
-    V_p, so V_max, spray dose and initial film coefficients are unchanged); drum, spray zone,
-    Ω, friction, contact angle, density unchanged; a fixed bridge volume V_b ×α³. Forces then scale as α².
+    Radii ×α, particle count ×1/α³ (rounded), Verlet skin ×α, a fixed bridge volume V_b ×α³;
+    γ and η × α^(f−1), Δt × α^((4−f)/2) (unless ``scale_dt=False``) and the contact law's
+    parameters by its own rule (:attr:`sim.laws.ContactLaw.cg_scaled`; the linear law: k_n, k_t
+    × α^(f−1), c_n, c_t × α^((f+2)/2)), where every force scales as α^f: f = 2 for ``weber``
+    (Table 2 of the paper: γ, η, k ×α; c ×α²; Δt ×α), f = 3 for ``bond`` (γ, η, k ×α²; c ×α^2.5;
+    Δt ×α^0.5). Volumes per particle follow the radius (same fractions of V_p, so V_max, spray
+    dose and initial film coefficients are unchanged); drum, spray zone, Ω, gravity, friction,
+    contact angle, density, spray interval and settling time unchanged.
 
     Raises
     ------
@@ -219,17 +233,53 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
         raise ValueError(f"cg_scale expects original (alpha = 1) parameters, got alpha = {params.alpha}")
     if not (math.isfinite(alpha) and alpha >= 1):
         raise ValueError(f"CG factor alpha must be >= 1, got {alpha!r}")
+    rule = cg_rule(params.cg_rule)
+    liquid = rule.surface_tension(alpha)
     return dataclasses.replace(
         params,
         alpha=float(alpha),
         n_particles=max(1, int(round(params.n_particles / alpha**3))),
         d_mean=params.d_mean * alpha,
-        surface_tension=params.surface_tension * alpha,
-        viscosity=params.viscosity * alpha,
-        **CONTACT_LAWS[params.contact_law].cg_scaled(params, alpha),
-        dt=params.dt * alpha if scale_dt else params.dt,
+        surface_tension=params.surface_tension * liquid,
+        viscosity=params.viscosity * liquid,
+        **CONTACT_LAWS[params.contact_law].cg_scaled(params, alpha, rule),
+        dt=params.dt * rule.time_step(alpha) if scale_dt else params.dt,
         skin=params.skin * alpha,
         bridge_volume=params.bridge_volume * alpha**3,
+    )
+
+
+def similar_system(params: SimParams, length_factor: float) -> SimParams:
+    """The dynamically similar system with every length × λ = ``length_factor`` under the same
+    gravity: times × √λ (Δt, revolution period, spray interval, settling time), masses and forces
+    × λ³ (the contact law's parameters as the ``bond`` rule scales them, γ × λ², η × λ^1.5),
+    volumes × λ³, particle count, α, rule and dimensionless parameters unchanged.
+
+    Every dimensionless group (Bond, Froude, Weber, capillary, restitution, t_c/Δt, D/d, fill) is
+    that of ``params``, so the two runs are one run in other units: ``similar_system(cg, 1/α)``
+    of a ``bond``-rule CG run (with ``alpha`` set to 1) is its α = 1 *twin*, whose statistics
+    must equal the CG run's within replica errors (``benchmarks/cg_twin.py``).
+    """
+    lam = float(length_factor)
+    if not (math.isfinite(lam) and lam > 0):
+        raise ValueError(f"length_factor must be a finite number > 0, got {length_factor!r}")
+    root = math.sqrt(lam)
+    return dataclasses.replace(
+        params,
+        d_mean=params.d_mean * lam,
+        **CONTACT_LAWS[params.contact_law].cg_scaled(params, lam, CG_RULES["bond"]),
+        surface_tension=params.surface_tension * lam**2,
+        viscosity=params.viscosity * lam**1.5,
+        v_min=params.v_min * lam**3,
+        spray_interval=params.spray_interval * root,
+        spray_radius=params.spray_radius * lam,
+        bridge_volume=params.bridge_volume * lam**3,
+        drum_radius=params.drum_radius * lam,
+        drum_length=params.drum_length * lam,
+        drum_omega=params.drum_omega / root,
+        dt=params.dt * root,
+        skin=params.skin * lam,
+        settle_time=params.settle_time * root,
     )
 
 

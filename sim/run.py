@@ -27,7 +27,7 @@ from .neighbours import empty_slots, rebuild
 from .packing import check_settled_bed, insertion_positions, settled_bed_report
 from .params import PHYSICS_VERSION, SimParams
 from .state import State
-from .threads import ThreadGovernor
+from .threads import ThreadGovernor, check_threads
 
 __all__ = ["Simulation", "configure_threading", "PHYSICS_VERSION"]
 
@@ -165,17 +165,10 @@ class Simulation:
     def threads(self, value) -> None:
         import numba
 
-        if value == "auto":
-            self._governor = ThreadGovernor()
-        elif value is None:
-            self._governor = None
-        elif isinstance(value, (int, np.integer)) and not isinstance(value, bool) and \
-                1 <= value <= numba.config.NUMBA_NUM_THREADS:
-            self._governor = None
-            numba.set_num_threads(int(value))
-        else:
-            raise ValueError(f"threads must be 'auto' or a whole number in [1, {numba.config.NUMBA_NUM_THREADS}], "
-                             f"got {value!r}")
+        value = check_threads(int(value) if isinstance(value, np.integer) else value)
+        self._governor = ThreadGovernor() if value == "auto" else None
+        if isinstance(value, int):
+            numba.set_num_threads(value)
         self._threads = value
 
     def _advance(self, n_steps: int, settling: bool = False, on_steps=None) -> None:

@@ -15,7 +15,7 @@ import os
 import time
 import warnings
 
-__all__ = ["ThreadGovernor", "available_cores", "thread_candidates"]
+__all__ = ["ThreadGovernor", "available_cores", "thread_candidates", "check_threads"]
 
 
 def available_cores() -> int:
@@ -24,6 +24,17 @@ def available_cores() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # no sched_getaffinity (macOS, Windows)
         return os.cpu_count() or 1
+
+
+def check_threads(value, name="threads"):
+    """``value`` if it is ``"auto"``, ``None`` or a whole number in [1, ``NUMBA_NUM_THREADS``];
+    else a ``ValueError`` naming ``name`` (the attribute, or the command line's option)."""
+    import numba
+
+    if value in ("auto", None) or (isinstance(value, int) and not isinstance(value, bool)
+                                   and 1 <= value <= numba.config.NUMBA_NUM_THREADS):
+        return value
+    raise ValueError(f"{name} must be 'auto' or a whole number in [1, {numba.config.NUMBA_NUM_THREADS}], got {value!r}")
 
 
 def thread_candidates(max_threads: int) -> list[int]:

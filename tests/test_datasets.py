@@ -26,6 +26,19 @@ def _expected_name(sim_command):
     return f"{preset.removeprefix('lab-')}-{size}{'-fr' if _option(sim_command, '--omega') else ''}-seed{seed}"
 
 
+def test_the_registry_knows_todays_physics_version_and_says_which_runs_are_older(capsys):
+    from granalytics.datasets import PHYSICS_RECHECKS, SIMULATOR_PHYSICS_VERSION, physics_note
+
+    assert SIMULATOR_PHYSICS_VERSION == PHYSICS_VERSION
+    assert physics_note("x", {"physics_version": PHYSICS_VERSION}) == f"physics version {PHYSICS_VERSION} (today's)"
+    old = physics_note("lab-cg3-seed2", {"physics_version": PHYSICS_VERSION - 1})
+    assert f"today's is {PHYSICS_VERSION}" in old
+    assert old.endswith(PHYSICS_RECHECKS.get("lab-cg3", "not rechecked with today's simulator"))
+    assert _main(["list"]) == 0
+    listed = capsys.readouterr().out
+    assert listed.count("physics version") == len(DATASETS) + len(ga.datasets.SWEEPS)
+
+
 @pytest.mark.parametrize("name", sorted(DATASETS))
 def test_bundled_dataset_matches_registry_and_its_recipe(name):
     path = dataset_path(name)
@@ -39,7 +52,9 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
         assert meta.sim_config["params"]["seed"] == seed  # a replica is the preset at another seed
         revolutions = float(_option(sim_command, "--revolutions"))
         assert run.revolutions[-1] == pytest.approx(revolutions, abs=1e-3)  # the whole run, last frame included
-        assert meta.provenance["physics_version"] == PHYSICS_VERSION  # every dataset of today's force laws
+        # the registry says which physics version made the file; an older one than today's is said by
+        # `datasets list`, with the recheck of its statistics where one was made
+        assert meta.provenance["physics_version"] == entry["physics_version"] <= PHYSICS_VERSION
         assert meta.provenance["wall_time_s"] > 0  # the simulator's wall time, for CG speed-ups
         kept = meta.provenance["subset_of"]["frames_kept"]
         assert len(run) == len(kept)

@@ -72,7 +72,10 @@ def test_unknown_reader_is_refused():
 @pytest.mark.parametrize("name", ["liggghts-wet-drum", "yade-wet-drum"])
 def test_bundled_runs_of_other_codes_match_their_raw_output(name, tmp_path):
     """The converted LIGGGHTS and YADE runs in datasets/ are the conversion of their raw output
-    (made by the real programs, kept in tests/data/): re-converted here without the programs."""
+    (made by the real programs, kept in tests/data/): re-converted here without the programs.
+    Positions are copied (exact); the YADE reader computes Willett's F_cap(0+) of touching wet
+    pairs with exp/log, whose last bits differ between CPUs: f_cap is compared to rtol 1e-12
+    (measured: 0 on the machine that bundled it; libm differences are a few ulp, ~1e-16)."""
     import shlex
 
     from granalytics.datasets import FOREIGN, foreign_path
@@ -87,6 +90,7 @@ def test_bundled_runs_of_other_codes_match_their_raw_output(name, tmp_path):
     with ga.open_run(foreign_path(name)) as bundled, ga.open_run(out) as again:
         assert len(bundled) == len(again) >= 2
         for a, b in zip(bundled, again):
-            assert np.array_equal(a.position, b.position) and np.array_equal(a.f_cap, b.f_cap)
+            assert np.array_equal(a.position, b.position) and np.array_equal(a.contact_i, b.contact_i)
+            np.testing.assert_allclose(b.f_cap, a.f_cap, rtol=1e-12, atol=0)
         result = ga.identify(bundled[len(bundled) - 1], c_agg=0.3)
         assert result.labels.shape == (bundled.n_particles,)

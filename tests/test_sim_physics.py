@@ -446,7 +446,7 @@ def test_a_contact_law_object_carries_its_parameters_contact_time_and_cg_rule(mo
     linear = CONTACT_LAWS["linear_coulomb"]
     scratch = ContactLaw("scratch", linear.parameters, linear.constants, linear.pack, linear.force,
                          contact_time=lambda params, radius: 7.0 * radius,
-                         cg_scaled=lambda params, alpha: {"k_n": params.k_n * alpha**2})
+                         cg_scaled=lambda params, alpha, rule: {"k_n": params.k_n * alpha**2})
     monkeypatch.setitem(CONTACT_LAWS, "scratch", scratch)
     params = dataclasses.replace(SimParams(), contact_law="scratch")
     assert params.contact_time(1e-3) == 7e-3

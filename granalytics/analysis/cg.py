@@ -28,7 +28,7 @@ from granalytics.core.errors import ParameterError
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 
-__all__ = ["compare_cg", "compare_cg_thresholds", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
+__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
 
 #: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
@@ -205,6 +205,16 @@ def _seed(meta):
     return ((meta.sim_config or {}).get("params") or {}).get("seed")
 
 
+def cg_rule_of(meta):
+    """The CG rule a run of our simulator was coarse-grained by (``sim_config.params.cg_rule``;
+    ``"weber"``, Table 2, for runs made before the rule was a choice); None for a run of another
+    code, which does not say."""
+    params = (meta.sim_config or {}).get("params")
+    if not isinstance(params, dict) or not params:
+        return None
+    return str(params.get("cg_rule", "weber"))
+
+
 def _recorded(value) -> float:
     """A provenance number as a float, NaN where the run does not record it."""
     return math.nan if value is None else float(value)
@@ -239,6 +249,7 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
             "wall_time_per_simulated_s": _recorded(provenance.get("wall_time_per_simulated_s")),
             "physics_version": provenance.get("physics_version"),
             "seed": _seed(meta),
+            "cg_rule": cg_rule_of(meta),
         }
     finally:
         if run is not item:
@@ -367,6 +378,11 @@ def _warn_if_not_one_system(infos) -> None:
             warnings.warn(f"compare_cg: the runs are not coarse-grained from one system: their {what} differ ("
                           + ", ".join(f"{i['run']}: {i[key]:.4g}" for i in infos)
                           + "); their differences are not those of coarse-graining", stacklevel=3)
+    rules = {i["run"]: i["cg_rule"] for i in infos if i["alpha"] > 1 and i["cg_rule"] is not None}
+    if len(set(rules.values())) > 1:
+        warnings.warn("compare_cg: the coarse-grained runs were made under different CG rules ("
+                      + ", ".join(f"{run}: {rule}" for run, rule in rules.items())
+                      + "); their deviations mix the two rules", stacklevel=3)
     versions = {i["run"]: i["physics_version"] for i in infos if i["physics_version"] is not None}
     if len(set(versions.values())) > 1:
         warnings.warn("compare_cg: the runs were made by different simulator physics versions ("

@@ -40,7 +40,7 @@ from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, frame_stats, steady_state
 
 __all__ = ["CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", "confinement_table",
-           "ConfinementFit", "fit_confinement_curve", "decompose_cg", "BED_COLUMNS"]
+           "ConfinementFit", "fit_confinement_curve", "decompose_cg", "BED_COLUMNS", "bed_flow"]
 
 #: the smallest D/d (of the simulated particles: D/(α·d) for a CG run) at which the acting yield
 #: at the paper's thresholds is within 5 % and within 10 % of its large-drum value y∞, with the
@@ -49,7 +49,30 @@ __all__ = ["CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", 
 CONFINEMENT_RULE = {"within_5pc": (62.0, 9.0), "within_10pc": (31.0, 4.0)}
 
 #: per-frame bed columns of :func:`confinement_timeseries` beside the headline metrics
-BED_COLUMNS = ("wall_share", "coordination")
+BED_COLUMNS = ("wall_share", "coordination", "bed_angle_deg", "kinetic_energy_norm")
+
+
+def bed_flow(snapshot, meta) -> tuple[float, float]:
+    """How the bed flows in one frame: its angle and its agitation, both comparable between drums.
+
+    Returns
+    -------
+    bed_angle_deg : float
+        How far the drum carries the bed up [degrees]: the azimuth, about the drum axis, of the
+        bed's centre of mass from the drum's lowest point (gravity along −y), positive towards the
+        side the wall rises on (+x for Ω > 0 about +z). 0 for a bed at rest; it grows with the
+        bed's dynamic angle of repose and with what the baffles lift.
+    kinetic_energy_norm : float
+        The translational kinetic energy per unit mass, Σ½m v² / Σm [J/kg], over (Ω·R_d)², the
+        square of the drum's rim speed: 0 at rest, independent of the units of a similar system.
+    """
+    params = (meta.sim_config or {}).get("params") or {}
+    mass = snapshot.radius**3  # one density: masses ∝ r³
+    x, y = (mass @ snapshot.position[:, :2]) / mass.sum()
+    angle = math.degrees(math.atan2(x, -y))
+    ke = 0.5 * float(np.sum(mass * np.einsum("ij,ij->i", snapshot.velocity, snapshot.velocity))) / float(mass.sum())
+    rim = abs(meta.drum_omega) * float(params.get("drum_radius", math.nan))
+    return angle * (1.0 if meta.drum_omega >= 0 else -1.0), ke / rim**2 if rim > 0 else math.nan
 
 
 def confinement_warning(drum_ratio, rule=None) -> str | None:
@@ -73,8 +96,9 @@ def confinement_warning(drum_ratio, rule=None) -> str | None:
 def confinement_timeseries(frames, meta, method="gna", *, progress=False, jobs=1, scheduler=None,
                            **params) -> pd.DataFrame:
     """:func:`~granalytics.run_stats`' time series with the bed's share of particles touching a
-    wall (``wall_share``, :func:`~granalytics.wall_touching`) and its coordination number
-    (``coordination``, touching particle contacts per particle, walls not counted) per frame.
+    wall (``wall_share``, :func:`~granalytics.wall_touching`), its coordination number
+    (``coordination``, touching particle contacts per particle, walls not counted), its angle
+    and its kinetic energy per mass over the rim speed squared (:func:`bed_flow`) per frame.
 
     Parameters
     ----------
@@ -95,6 +119,7 @@ def confinement_timeseries(frames, meta, method="gna", *, progress=False, jobs=1
         row = frame_stats(snapshot, identifier.identify(snapshot))
         row["wall_share"] = float(wall_touching(snapshot, meta).mean())
         row["coordination"] = bed_structure(snapshot).coordination
+        row["bed_angle_deg"], row["kinetic_energy_norm"] = bed_flow(snapshot, meta)
         return row
 
     frame_ids, rows = map_frames(frames, one_frame, progress=progress, desc="confinement", jobs=jobs,

@@ -163,6 +163,7 @@ def add_compare_cg_parser(sub):
 def cmd_info(args):
     from granalytics.core.bed import bed_structure, run_confinement
     from granalytics.analysis.confinement import confinement_warning
+    from granalytics.analysis.cg import cg_rule_of
 
     with open_run(args.run) as run:
         warn_if_unfinished(run)
@@ -170,6 +171,7 @@ def cmd_info(args):
         meta = run.meta.to_dict()
         bed = bed_structure(run[len(run) - 1]) if len(run) else None
         drum = run_confinement(run.meta)
+        rule = cg_rule_of(run.meta)
     if bed is not None and bed.planar and meta.get("drum_omega"):
         warnings.warn(f"{args.run}: planar drum run, its granules and statistics are those of stacked 2-D monolayers: "
                       f"{bed.describe()} (last frame)")
@@ -191,6 +193,7 @@ def cmd_info(args):
     if isinstance(sim_params, dict) and sim_params:  # a run of our simulator; runs before laws had names: the linear one
         law = sim_params.get("contact_law", "linear_coulomb")
         print(f"  {'contact law':<{width}}  {law} (the simulator's; its parameters in sim_config.params)")
+        print(f"  {'CG rule':<{width}}  {rule} (α = {meta.get('alpha', 1):g}; {_RULE_SAYS.get(rule, '')})")
     print("run metadata (SI units; contact_angle in rad)")
     for key, value in meta.items():
         if key in ("sim_config", "provenance"):
@@ -199,6 +202,11 @@ def cmd_info(args):
                 value = value[:97] + "..."
         print(f"  {key:<{width}}  {_shown(value)}")
     return 0
+
+
+#: what ``info`` says of a CG rule
+_RULE_SAYS = {"weber": "forces × α²: the Weber number kept, the Bond number × 1/α",
+              "bond": "forces × α³: the Bond and Froude numbers kept, the Weber number × 1/α"}
 
 
 def _shown(value):

@@ -38,6 +38,8 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
     if args.command == "list":
         for name, entry in {**datasets.DATASETS, **datasets.FOREIGN, **datasets.SWEEPS}.items():
             print(f"{name:<20} {entry.get('file', entry.get('dir')):<28} {entry['description']}")
+            if "physics_version" in entry:  # a run of our simulator
+                print(f"{'':<21}{datasets.physics_note(name, entry)}")
             for command in entry["commands"]:
                 print(f"{'':<21}$ {command}")
         print("\nnot bundled (the 100 MB budget): the confinement runs of docs/confinement_study.py; the first command "

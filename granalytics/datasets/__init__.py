@@ -44,10 +44,10 @@ gamma-omega-lab-cg3
 """
 
 from granalytics.datasets.build import bundle_sweep, make_dataset, make_foreign, make_sweep
-from granalytics.datasets.catalogue import (CONFINEMENT, DATASET_DIR, DATASETS, FOREIGN, NOT_BUNDLED, REPLICAS,
+from granalytics.datasets.catalogue import (PHYSICS_RECHECKS, SIMULATOR_PHYSICS_VERSION, physics_note, CONFINEMENT, DATASET_DIR, DATASETS, FOREIGN, NOT_BUNDLED, REPLICAS,
                                             SWEEPS, confinement_groups, dataset_path, file_sha256, foreign_path,
                                             open_dataset, replica_paths, sweep_path)
 
-__all__ = ["DATASETS", "REPLICAS", "replica_paths", "CONFINEMENT", "confinement_groups", "NOT_BUNDLED", "FOREIGN",
+__all__ = ["SIMULATOR_PHYSICS_VERSION", "PHYSICS_RECHECKS", "physics_note", "DATASETS", "REPLICAS", "replica_paths", "CONFINEMENT", "confinement_groups", "NOT_BUNDLED", "FOREIGN",
            "foreign_path", "make_foreign", "SWEEPS", "dataset_path", "open_dataset", "make_dataset", "sweep_path",
            "bundle_sweep", "make_sweep", "file_sha256", "DATASET_DIR"]

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from granalytics.core.errors import GranalyticsError
 
-__all__ = ["DATASETS", "REPLICAS", "replica_paths", "CONFINEMENT", "confinement_groups", "NOT_BUNDLED", "FOREIGN",
+__all__ = ["SIMULATOR_PHYSICS_VERSION", "PHYSICS_RECHECKS", "physics_note", "DATASETS", "REPLICAS", "replica_paths", "CONFINEMENT", "confinement_groups", "NOT_BUNDLED", "FOREIGN",
            "foreign_path", "SWEEPS", "dataset_path", "open_dataset", "sweep_path", "file_sha256", "DATASET_DIR"]
 
 
@@ -312,6 +312,31 @@ SWEEPS = {
                        "(thinned before the window from the bundled copy on 2026-12-02, as gamma-omega-lab-cg3)",
     },
 }
+
+
+#: the simulator's physics version today (``sim.params.PHYSICS_VERSION``: granalytics does not
+#: import the simulator; tests/test_datasets.py keeps the two equal)
+SIMULATOR_PHYSICS_VERSION = 4
+
+#: the physics version that made each registered run or sweep (its files record it too)
+for _entry in (*DATASETS.values(), *CONFINEMENT.values(), *SWEEPS.values()):
+    _entry.setdefault("physics_version", 3)
+
+#: bundled sets of an older physics version remade with today's simulator (their recipes' own
+#: commands) and compared: set -> what the comparison found
+#: (``python benchmarks/dataset_recheck.py table``; window [3, 6], three seeds each)
+PHYSICS_RECHECKS: dict = {}
+
+
+def physics_note(name: str, entry: dict) -> str:
+    """One line on the physics version that made a registered run, and, where it is older than
+    today's, whether its statistics still hold (:data:`PHYSICS_RECHECKS`)."""
+    version = entry["physics_version"]
+    if version == SIMULATOR_PHYSICS_VERSION:
+        return f"physics version {version} (today's)"
+    replica_set = next((s for s, names in REPLICAS.items() if name in names), name)
+    found = PHYSICS_RECHECKS.get(replica_set, "not rechecked with today's simulator")
+    return f"physics version {version} (today's is {SIMULATOR_PHYSICS_VERSION}; a rerun differs in its trajectory): {found}"
 
 
 def file_sha256(path: Path) -> str:

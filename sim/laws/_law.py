@@ -90,8 +90,12 @@ class ContactLaw:
         spheres of ``radius`` [m]; Δt ≤ t_c/20 is required. Raises ``ValueError`` where there is
         none (an overdamped contact).
     cg_scaled : callable
-        ``cg_scaled(params, alpha) -> {field: value}``: the law's parameters in the system
-        coarse-grained by α from the original ``params`` (:func:`sim.params.cg_scale`).
+        ``cg_scaled(params, alpha, rule) -> {field: value}``: the law's parameters in the system
+        coarse-grained by α under ``rule`` (a :class:`sim.cg_rules.CGRule`) from the original
+        ``params`` (:func:`sim.params.cg_scale`).
+    cg_rules : tuple of str
+        The names of the CG rules (:data:`sim.cg_rules.CG_RULES`) ``cg_scaled`` implements;
+        ``SimParams`` refuses any other with this law.
     """
 
     name: str
@@ -101,3 +105,4 @@ class ContactLaw:
     force: object
     contact_time: Callable
     cg_scaled: Callable
+    cg_rules: tuple = ("weber",)

@@ -72,11 +72,14 @@ def contact_time(params, radius) -> float:
     return math.pi / (w0 * math.sqrt(1 - zeta**2))
 
 
-def cg_scaled(params, alpha) -> dict:
-    """Table 2 of the paper (Weber scaling): k_n, k_t ×α; c_n, c_t ×α²; friction unchanged."""
-    return {"k_n": params.k_n * alpha, "k_t": params.k_t * alpha,
-            "c_n": params.c_n * alpha**2, "c_t": params.c_t * alpha**2}
+def cg_scaled(params, alpha, rule) -> dict:
+    """k_n, k_t × the rule's stiffness factor α^(f−1), c_n, c_t × its damping factor α^((f+2)/2)
+    (``weber``, Table 2 of the paper: ×α and ×α²; ``bond``: ×α² and ×α^2.5); friction unchanged.
+    Restitution and t_c/Δt are then those of the original system."""
+    stiffness, damping = rule.stiffness(alpha), rule.damping(alpha)
+    return {"k_n": params.k_n * stiffness, "k_t": params.k_t * stiffness,
+            "c_n": params.c_n * damping, "c_t": params.c_t * damping}
 
 
 LAW = ContactLaw("linear_coulomb", PARAMETERS, ("k_n", "k_t", "c_n", "c_t", "mu"), pack, force,
-                 contact_time, cg_scaled)
+                 contact_time, cg_scaled, cg_rules=("weber", "bond"))
