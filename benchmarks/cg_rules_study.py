@@ -5,7 +5,7 @@ CG run is its original system in other units.
 Usage::
 
     python benchmarks/cg_rules_study.py run [--seeds 0-4] [--systems cg1,cg3-bond,...] [--dir build/cg-rules]
-    python benchmarks/cg_rules_study.py table [--seeds 0-4] [--window 3:6] [--dir build/cg-rules]
+    python benchmarks/cg_rules_study.py table [--seeds 0-4] [--window 3:6] [--dir build/cg-rules] [--figures DIR]
     python benchmarks/cg_rules_study.py paper [--window 3:6]
 
 ``run`` makes the missing runs one after the other on one thread (``python -m sim run``; an
@@ -141,6 +141,29 @@ def table(groups, window, reference="cg1", twin_pairs=(("cg3-bond", "twin3-bond"
         print(f"| {label} | {np.nanmean(times):.0f} | {ref_cost / np.nanmean(times):.2f}× |")
 
 
+def size_table(groups, window, figures=None, reference="cg1"):
+    """The pooled granule sizes of the window (angle test) in original-particle equivalents α³·n:
+    mean, median, 90th percentile and the KS distance to the reference; with ``figures`` the
+    CG comparison's figures (Figs 3-6, sizes in α³·n) are written there."""
+    from scipy.stats import ks_2samp
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cg = ga.compare_cg(list(groups.values()), list(groups), window=window, mixed_systems=True)  # the twin
+    alphas = cg.runs.set_index("run")["alpha"]
+    ref = cg.sizes[reference] * alphas[reference] ** 3
+    print(f"\n### granule sizes in original-particle equivalents α³·n (angle test, pooled over the window and the "
+          f"seeds; KS distance to {reference})\n")
+    print("| system | granules | mean | median | 90th percentile | KS distance |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for label, sizes in cg.sizes.items():
+        original = sizes * alphas[label] ** 3
+        print(f"| {label} | {sizes.size} | {original.mean():.1f} | {np.median(original):.0f} | "
+              f"{np.percentile(original, 90):.0f} | {ks_2samp(original, ref).statistic:.3f} |")
+    if figures:
+        print("\n" + "\n".join(str(p) for p in cg.save(figures, overwrite=True, size_unit="original")))
+
+
 def lab_table(args):
     window = tuple(float(x) for x in args.window.split(":"))
     groups = {}
@@ -149,6 +172,7 @@ def lab_table(args):
         if paths:
             groups[system] = paths
     table(groups, window)
+    size_table(groups, window, args.figures)
 
 
 def paper_table(args):
@@ -172,6 +196,7 @@ def main(argv=None):
         p.add_argument("--systems", default=",".join(SYSTEMS))
         p.add_argument("--dir", default="build/cg-rules")
         p.add_argument("--window", default="3:6")
+        p.add_argument("--figures", default=None, help="write the CG comparison's figures here (table)")
     args = parser.parse_args(argv)
     {"run": make_runs, "table": lab_table, "paper": paper_table}[args.what](args)
 

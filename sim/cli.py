@@ -18,7 +18,7 @@ import math
 import os
 import sys
 
-from granalytics.core import check_output_folder, interrupted, manifest_path, one_line, warnings_as_lines
+from granalytics.core import check_not_open_elsewhere, check_output_folder, interrupted, manifest_path, one_line, warnings_as_lines
 
 from .cg_rules import CG_RULES, DEFAULT_CG_RULE
 from .laws import CONTACT_LAWS
@@ -191,8 +191,14 @@ def _run(args) -> int:
     check_threads(args.threads, "--threads")  # before the settling, not after it
     frame_every = frame_interval_steps(args.revolutions, args.frame_every_rev, params,
                                        names=("--revolutions", "--frame-every-rev"))
-    check_output_folder(out)  # a missing or read-only folder now, not after the settling
-    from .run import Simulation
+    from .run import Simulation, check_room
+
+    # a missing or read-only folder, a name too long, a file another process has open, frames that
+    # cannot fit on the disk: refused now, not after the settling
+    check_output_folder(out)
+    if not args.resume:
+        check_not_open_elsewhere(out)
+    check_room(params, round(args.revolutions / args.frame_every_rev) + 1, out)
 
     if args.resume:
         if not os.path.exists(ckpt):

@@ -29,7 +29,7 @@ from .params import PHYSICS_VERSION, SimParams
 from .state import State
 from .threads import ThreadGovernor, check_threads
 
-__all__ = ["Simulation", "configure_threading", "PHYSICS_VERSION"]
+__all__ = ["Simulation", "configure_threading", "check_room", "PHYSICS_VERSION"]
 
 #: a lower bound of the stored size of one frame per particle [bytes] (positions, velocities,
 #: radii, films and contacts, compressed), for refusing up front a run that cannot fit on the disk
@@ -39,6 +39,13 @@ FRAME_BYTES_PER_PARTICLE = 50
 CHECKPOINT_FORMAT = 2
 _INFO_KEY = "checkpoint_info"
 
+
+
+def check_room(params, n_frames, out) -> None:
+    """Refuse (``ParameterError``) a run whose ``n_frames`` frames cannot fit on the disk of
+    ``out`` (a typo such as ``--revolutions 1e12``), before any work."""
+    check_disk(f"{n_frames} frames of {params.n_particles} particles",
+               n_frames * params.n_particles * FRAME_BYTES_PER_PARTICLE, out)
 
 
 class Simulation:
@@ -416,9 +423,7 @@ class Simulation:
                 isinstance(checkpoint_every, (int, np.integer)) and not isinstance(checkpoint_every, bool)
                 and checkpoint_every >= 1):
             raise ValueError(f"checkpoint_every must be a whole number of frames >= 1 (or None), got {checkpoint_every!r}")
-        # refused at once when the frames cannot fit on the disk (a typo of --revolutions 1e12)
-        check_disk(f"{n_frames} frames of {p.n_particles} particles", n_frames * p.n_particles * FRAME_BYTES_PER_PARTICLE,
-                   out)
+        check_room(p, n_frames, out)
         ckpt = f"{out}.ckpt.npz"
         meta = self.run_meta()
         meta.provenance["planned_frames"] = int(n_frames)  # a reader can tell a killed run from a finished one

@@ -150,10 +150,13 @@ def test_runs_of_different_simulator_physics_versions_are_flagged(tmp_path, cg_r
         compare_cg([new, versioned("same.h5", 2), cg_runs[0]], labels=["a", "b", "c"], window=(2, 3))
 
 
-def test_runs_of_different_systems_are_flagged(tmp_path, cg_runs):
+def test_runs_of_different_systems_are_refused_or_with_mixed_systems_flagged(tmp_path, cg_runs):
     other = write_run(tmp_path / "other.h5", 100, 3.0, seed=5)  # 2 700 original particles, not 8 100
-    with pytest.warns(UserWarning, match="not coarse-grained from one system.*original particle counts.*8100.*2700"):
+    with pytest.raises(ga.ParameterError, match="not coarse-grained from one system.*original particle counts.*8100"
+                                                ".*2700.*mixed_systems=True"):
         compare_cg([cg_runs[0], other], labels=["cg1", "other"], window=(2, 4))
+    with pytest.warns(UserWarning, match="not coarse-grained from one system.*original particle counts.*8100.*2700"):
+        compare_cg([cg_runs[0], other], labels=["cg1", "other"], window=(2, 4), mixed_systems=True)
 
 
 def test_cg_deviation_at_every_threshold_pair(tmp_path, cg_runs, capsys):

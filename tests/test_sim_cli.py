@@ -295,3 +295,42 @@ def test_contact_law_and_its_parameters_are_set_in_the_original_system_and_scale
     original, scaled = params("--contact-law", "hertz_mindlin", "--law-parameter", "youngs_modulus=1e7")
     assert scaled.contact_law == original.contact_law == "hertz_mindlin"
     assert scaled.youngs_modulus == original.youngs_modulus == 1e7  # Hertz: E unchanged under CG
+
+
+def test_a_run_file_another_process_has_open_is_neither_truncated_nor_replaced(cli, tmp_path):
+    """Hostile round four, B1: --overwrite of a run file that another process reads truncated it
+    to 0 bytes before HDF5 refused to lock it. Now it is refused before the settling, whole."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "held.h5"
+    assert cli("held.h5")[0] == 0
+    before = target.read_bytes()
+    reader = subprocess.Popen([sys.executable, "-c", "import h5py, sys, time; f = h5py.File(sys.argv[1], 'r'); "
+                               "print('open', flush=True); time.sleep(60)", str(target)],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert reader.stdout.readline().strip() == "open"
+        refused(cli("held.h5", "--overwrite"), "another process has the file open")
+        assert target.read_bytes() == before
+    finally:
+        reader.kill()
+        reader.wait()
+    assert not [p.name for p in tmp_path.iterdir() if ".new-" in p.name]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--revolutions", "1e12", "--frame-every-rev", "0.05"], ["frames of", "of disk", "refused before starting"]),
+])
+def test_a_run_that_cannot_fit_is_refused_before_the_settling(cli, tmp_path, monkeypatch, args, words):
+    import sim.run
+
+    monkeypatch.setattr(sim.run.Simulation, "_fill", lambda *a, **k: pytest.fail("settled before refusing"))
+    refused(cli("big.h5", *args), *words)
+
+
+def test_an_out_name_too_long_for_the_file_system_is_refused_before_the_settling(cli, monkeypatch):
+    import sim.run
+
+    monkeypatch.setattr(sim.run.Simulation, "_fill", lambda *a, **k: pytest.fail("settled before refusing"))
+    refused(cli("a" * 250 + ".h5"), "file name is too long")

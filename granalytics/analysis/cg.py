@@ -20,6 +20,7 @@ import pandas as pd
 
 from granalytics.core.bed import run_confinement
 from granalytics.analysis.confinement import confinement_warning
+from granalytics.analysis.system import check_one_system, check_replicas, run_identity
 from granalytics.core.files import staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE, METRICS
 from granalytics.core._windows import check_interval, window_mask
@@ -200,11 +201,6 @@ def group_replicas(paths) -> list:
     return list(groups.values())
 
 
-def _seed(meta):
-    """The simulator's filling seed of a run (None when the run does not say: other codes)."""
-    return ((meta.sim_config or {}).get("params") or {}).get("seed")
-
-
 def cg_rule_of(meta):
     """The CG rule a run of our simulator was coarse-grained by (``sim_config.params.cg_rule``;
     ``"weber"``, Table 2, for runs made before the rule was a choice); None for a run of another
@@ -241,14 +237,13 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
         pooled = np.concatenate([s for s, keep in zip(frame_sizes, inside) if keep] or [np.zeros(0, np.int64)])
         provenance = meta.provenance
         info = {
-            "path": os.fspath(run.path), "alpha": meta.alpha, "n_particles": meta.n_particles,
+            **run_identity(run), "path": os.fspath(run.path),
             "n_particles_original": meta.n_particles_original, "mean_radius_original": meta.mean_radius_original,
             "revolutions_last": float(revs[-1]),
             # None: recorded as not measured (RunMeta checks that these are numbers or None)
             "wall_time_s": _recorded(provenance.get("wall_time_s")),
             "wall_time_per_simulated_s": _recorded(provenance.get("wall_time_per_simulated_s")),
             "physics_version": provenance.get("physics_version"),
-            "seed": _seed(meta),
             "cg_rule": cg_rule_of(meta),
         }
     finally:
@@ -267,7 +262,7 @@ def _relative_deviation(mean, se, ref_mean, ref_se):
 
 
 def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", cohesion=DEFAULT_COHESION,
-               progress=False, **params) -> CGComparison:
+               progress=False, mixed_systems=False, **params) -> CGComparison:
     """Compare runs of one system at several CG factors (paper §3.1, Figs 3–6).
 
     Parameters
@@ -288,6 +283,11 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         Which force is F_coh (:mod:`granalytics.identify.cohesion`).
     progress : bool
         Progress bars over frames.
+    mixed_systems : bool, default False
+        Compare runs that are not coarse-grained from one original system (their original
+        parameters differ in more than the seed, α and the CG rule, e.g. a twin, another γ or
+        drum) with a warning; refused otherwise. Replicas of a group must always be one system at
+        different seeds (a copy of a run is refused).
     **params
         Method parameters, e.g. ``c_agg=0.6, a_agg_deg=20`` (the paper's, and GNA's defaults).
 
@@ -307,7 +307,7 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     if labels is not None and len(labels) != len(groups):
         raise ParameterError(f"{len(labels)} labels for {len(groups)} runs")
     lo, hi = check_interval("window", window)
-    infos, series, dists, steady, sizes = [], [], [], {}, {}
+    infos, systems, series, dists, steady, sizes = [], [], [], [], {}, {}
     for k, group in enumerate(groups):
         members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
         label = labels[k] if labels is not None else _alpha_label(members[0]["info"]["alpha"],
@@ -315,11 +315,12 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         if label in sizes:
             raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels, or group replicas "
                                  "(granalytics compare-cg --replicas)")
+        systems.append(members[0]["info"]["system"])
         info, group_series, dist, steady[label], sizes[label] = _combine_group(members, label)
         infos.append(info)
         series.extend(group_series)
         dists.append(dist)
-    _warn_if_not_one_system(infos)
+    _warn_if_not_one_system(infos, systems, mixed_systems)
     info = pd.DataFrame(infos)
     reference = info.loc[info["alpha"].idxmin(), "run"]
     rows = [{**_comparison_row(row, steady, sizes, reference, info.set_index("run").loc[reference]),
@@ -338,12 +339,7 @@ def _combine_group(members, label):
     from granalytics.analysis.stats import combine_steady_states
 
     first = members[0]["info"]
-    for member in members[1:]:
-        other = member["info"]
-        if (other["alpha"], other["n_particles"]) != (first["alpha"], first["n_particles"]):
-            raise ParameterError(f"{other['path']}: not a replica of {first['path']} (α = {other['alpha']:g} with "
-                                 f"{other['n_particles']} particles against α = {first['alpha']:g} with "
-                                 f"{first['n_particles']})")
+    check_replicas([m["info"] for m in members])
     n = len(members)
     tables = [m["steady"] for m in members]
     combined = combine_steady_states(tables)
@@ -354,7 +350,7 @@ def _combine_group(members, label):
     for key in ("wall_time_s", "wall_time_per_simulated_s"):
         info[key] = float(np.mean([m["info"][key] for m in members]))
     info["revolutions_last"] = min(m["info"]["revolutions_last"] for m in members)
-    del info["seed"]
+    del info["seed"], info["system"], info["content"]
     series = []
     for r, member in enumerate(members):
         ts = member["timeseries"]
@@ -369,15 +365,11 @@ def _combine_group(members, label):
     return info, series, dist, combined, pooled
 
 
-def _warn_if_not_one_system(infos) -> None:
-    """A warning when the runs are not coarse-grained from one original system, or were made by
-    different simulator physics versions."""
-    for key, what in (("n_particles_original", "original particle counts"), ("mean_radius_original", "original mean radii")):
-        values = [i[key] for i in infos]
-        if max(values) > 1.01 * min(values):
-            warnings.warn(f"compare_cg: the runs are not coarse-grained from one system: their {what} differ ("
-                          + ", ".join(f"{i['run']}: {i[key]:.4g}" for i in infos)
-                          + "); their differences are not those of coarse-graining", stacklevel=3)
+def _warn_if_not_one_system(infos, systems, mixed_systems) -> None:
+    """Refuse (or warn about) runs that are not coarse-grained from one original system
+    (:func:`~granalytics.analysis.system.check_one_system`); warn when they were made under
+    different CG rules or simulator physics versions."""
+    check_one_system([{**i, "system": s} for i, s in zip(infos, systems)], mixed_systems=mixed_systems)
     rules = {i["run"]: i["cg_rule"] for i in infos if i["alpha"] > 1 and i["cg_rule"] is not None}
     if len(set(rules.values())) > 1:
         warnings.warn("compare_cg: the coarse-grained runs were made under different CG rules ("

@@ -14,6 +14,7 @@ import numpy as np
 from granalytics.core._resources import check_memory
 from granalytics.core._windows import clip_window, window_mask
 from granalytics.analysis.metrics import HEADLINE, METRICS
+from granalytics.analysis.system import check_replicas, run_identity
 from granalytics.core.errors import GranalyticsError, ParameterError
 from granalytics.core.files import WriterLock, output_folder, staged_outputs, write_atomically
 from granalytics.identify import DEFAULT_METHODS, accepted_params
@@ -142,6 +143,9 @@ def add_compare_cg_parser(sub):
                         "their mean, with the replica standard error beside the block s.e.m. (one label per group)")
     p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
                    help="steady-state window in revolutions (default 3:6)")
+    p.add_argument("--mixed-systems", action="store_true",
+                   help="compare runs that are not coarse-grained from one original system (their original "
+                        "parameters differ in more than seed, α and CG rule) with a warning instead of a refusal")
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna, the paper's)")
     p.add_argument("--c-agg", type=grid, default=None, metavar="C",
@@ -307,6 +311,12 @@ def _stats(args):
         ts, sizes = run_stats(frames, "gna", progress=progress(args), return_sizes=True, **frame_loop(args), **params)
         meta = run.meta
     series = [ts]
+    if args.replica:  # one system at other seeds, and no copy of a run (before the replicas' analysis)
+        identities = []
+        for path in [args.run, *args.replica]:
+            with open_run(path) as replica:
+                identities.append(run_identity(replica))
+        check_replicas(identities)
     for path in args.replica:  # replicas: the steady state is over all of them (steady_state of a list)
         with open_run(path) as replica:
             series.append(run_stats(selected_frames(replica, args), "gna", progress=progress(args), **frame_loop(args),
@@ -492,7 +502,7 @@ def cmd_compare_cg(args):
     CGComparison.check_outputs(args.out, overwrite=args.overwrite)  # before minutes of analysis
     runs = group_replicas(args.runs) if args.replicas else args.runs
     comparison = compare_cg(runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
-                            progress=not args.quiet, **params)
+                            progress=not args.quiet, mixed_systems=args.mixed_systems, **params)
     written = comparison.save(args.out, overwrite=args.overwrite, size_unit=args.size_unit)
     print(f"wrote {len(written)} files to {args.out}: " + ", ".join(os.path.basename(p) for p in written))
     print(format_cg_table(comparison))

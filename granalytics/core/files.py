@@ -22,7 +22,7 @@ import warnings
 from granalytics.core._checks import check_path
 from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
 
-__all__ = ["replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
+__all__ = ["check_not_open_elsewhere", "replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
            "warnings_as_lines", "regular_input", "staged_outputs", "output_folder", "interrupted",
            "swap_folder", "check_replaceable", "interrupts_not_lost", "raise_dropped_interrupt"]
 
@@ -251,6 +251,29 @@ def check_output_folder(path) -> None:
         raise ParameterError(f"{path}: the folder {folder} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise ParameterError(f"{path}: the folder {folder} is not writable")
+    try:
+        longest = os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        longest = 255
+    # the longest name written beside it: the writer's lock, staging and checkpoint files
+    if len(os.path.basename(os.fspath(path)).encode()) + 16 > longest:
+        raise ParameterError(f"{path}: the file name is too long for its file system ({longest} bytes at most, with "
+                             "room for the .ckpt.npz and .lock files beside it)")
+
+
+def check_not_open_elsewhere(path) -> None:
+    """Refuse (:class:`RunFileError`) to replace an HDF5 file ``path`` that another process holds
+    open (HDF5's file lock); anything else, including a file that is not HDF5, passes."""
+    import h5py
+
+    if not os.path.isfile(path):
+        return
+    try:
+        h5py.File(path, "r+").close()
+    except OSError as exc:
+        if "lock" in str(exc).lower():
+            raise RunFileError(f"{path}: another process has the file open; close it there first (it was not "
+                               "replaced)") from None
 
 
 _LOCK_SUFFIX = ".lock"

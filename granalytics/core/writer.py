@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -11,7 +12,7 @@ import numpy as np
 
 from granalytics._version import __version__
 from granalytics.core._checks import check_path
-from granalytics.core.files import WriterLock, check_replaceable, one_line, raise_dropped_interrupt, _LOCK_SUFFIX
+from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_replaceable, one_line, raise_dropped_interrupt, _LOCK_SUFFIX
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_CHUNK_ROWS, _CONTACT_DATASETS, _CONTACT_LAYOUT, _INDEX_DATASETS, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import _HDF5Handle
 from granalytics.core.reader import open_run
@@ -83,11 +84,16 @@ class RunWriter(_HDF5Handle):
         check_replaceable(self.path)  # a device such as /dev/null, or a folder: no lock file beside it either
         # the lock exists before the file is created or truncated, and until close() is done
         lock = _lock if _lock is not None else WriterLock(self.path).acquire()
+        replacing, created = False, self.path
         try:
-            if os.path.exists(self.path) and not overwrite:
+            replacing = os.path.exists(self.path)
+            if replacing and not overwrite:
                 raise RunFileError(f"{self.path}: file exists (pass overwrite=True to replace it)")
+            # an existing file is never truncated: the new one is written beside it and swapped in
+            # (a process that has the old one open keeps reading it whole)
+            created = f"{self.path}.new-{os.getpid()}" if replacing else self.path
             try:
-                self._file = h5py.File(self.path, "w", libver="latest")
+                self._file = h5py.File(created, "w", libver="latest")
             except OSError as exc:
                 raise RunFileError(f"{self.path}: cannot create run file ({one_line(exc)})") from None
             self._file.attrs["format"] = FORMAT_NAME
@@ -95,8 +101,14 @@ class RunWriter(_HDF5Handle):
             self._file.attrs["created_by"] = f"granalytics {__version__}"
             _write_meta(self._file.create_group("meta"), meta)
             self._file.flush()
+            if replacing:
+                check_not_open_elsewhere(self.path)
+                os.replace(created, self.path)
         except BaseException:
             self._discard()
+            if created != self.path:
+                with contextlib.suppress(OSError):
+                    os.unlink(created)
             if _lock is None:
                 lock.release()
             raise
