@@ -3,6 +3,9 @@
 # Use inside a YADE script:
 #     exec(open("yade_export.py").read())
 #     O.engines += [PyRunner(iterPeriod=5000, command="granalytics_export('out/frame')")]
+# Appended after NewtonIntegrator as here, a frame's positions are one step ahead of its contacts and
+# of the time it records; placed between InteractionLoop and NewtonIntegrator (as
+# benchmarks/yade_same_drum.py does), positions, contacts and forces are of one instant, O.time.
 # Each call writes out/frame_particles_<step>.csv and out/frame_contacts_<step>.csv; convert with
 #     granalytics convert out/frame_particles_*.csv --from yade --contacts out/frame_contacts_*.csv \
 #         --mapping map.toml --dt-s <O.dt> --out run.h5

@@ -432,7 +432,7 @@ def test_ctrl_c_inside_the_final_renames_changes_no_output(run_file, tmp_path, m
     argv = {"stats": ["stats", run_file, "--window", "0:2", "--out", str(out / "ts.csv"), "--steady-out",
                       str(out / "steady.csv"), "--sizes-out", str(out / "sizes.csv"), "--plot", str(out / "p.png")],
             "track": ["track", run_file, "--out", str(out)],
-            "compare-cg": ["compare-cg", *runs, "--window", "1:2", "--out", str(out)]}[command]
+            "compare-cg": ["compare-cg", *runs, "--window", "1:2", "--mixed-systems", "--out", str(out)]}[command]
     out.mkdir()
     assert main([*argv, "--quiet"]) == 0
     before = _digest(out)

@@ -47,9 +47,10 @@ def run_identity(run) -> dict:
 
 
 def _differences(a: dict, b: dict) -> list:
-    """The parameters in which two systems differ, as ``name: a vs b`` texts (numbers equal to 1e-12)."""
+    """The parameters in which two systems differ, as ``name: a vs b`` texts (numbers equal to 1e-12);
+    a parameter only one of them records (a run of an older simulator) is not compared."""
     out = []
-    for key in sorted(set(a) | set(b)):
+    for key in sorted(set(a) & set(b)):
         x, y = a.get(key), b.get(key)
         same = (math.isclose(x, y, rel_tol=1e-12, abs_tol=0.0) if isinstance(x, float) and isinstance(y, float)
                 else x == y)

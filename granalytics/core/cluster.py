@@ -16,7 +16,7 @@ __all__ = ["dask_client"]
 
 
 @contextlib.contextmanager
-def dask_client(scheduler=None, workers=None, *, what="this"):
+def dask_client(scheduler=None, workers=None, *, what="this", timeout_s=20.0):
     """A ``distributed.Client`` for the duration of the block.
 
     Parameters
@@ -29,12 +29,16 @@ def dask_client(scheduler=None, workers=None, *, what="this"):
         Worker processes of the local cluster (default: the CPU count); only without ``scheduler``.
     what : str
         What needs dask, for the error when dask.distributed is missing.
+    timeout_s : float, default 20
+        How long a scheduler's address may take to answer dask's handshake, and then to have a
+        worker [s].
 
     Raises
     ------
     ParameterError
         dask.distributed missing, ``workers`` given with a scheduler or not a positive integer,
-        or a scheduler that cannot be reached (naming its address).
+        a scheduler that cannot be reached, an address where something else answers (a silent
+        socket, an HTTP server) or a scheduler without workers (naming its address).
     """
     try:
         from distributed import Client, LocalCluster
@@ -50,11 +54,13 @@ def dask_client(scheduler=None, workers=None, *, what="this"):
         yield scheduler  # the caller's client: used as it is, left open
         return
     if scheduler is not None:
+        client = _connect(Client, scheduler, timeout_s)
         try:
-            client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise ParameterError(f"cannot connect to the dask scheduler {scheduler} ({one_line(exc)})") from None
-        try:
+            try:
+                client.wait_for_workers(1, timeout=timeout_s)
+            except (OSError, TimeoutError) as exc:
+                raise ParameterError(f"the dask scheduler {scheduler} has no workers (none joined within "
+                                     f"{timeout_s:g} s)") from exc
             yield client
         finally:
             client.close()
@@ -66,3 +72,33 @@ def dask_client(scheduler=None, workers=None, *, what="this"):
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
+
+
+def _connect(client_class, address, timeout_s):
+    """A client of the scheduler at ``address``, made in a thread that is given up after
+    ``timeout_s`` (dask's own timeout does not cover a handshake that never comes: a silent
+    socket would hang forever, and an HTTP server's reply is read as a gigantic message)."""
+    import threading
+
+    result = {}
+
+    def connect():
+        try:
+            result["client"] = client_class(address, timeout=f"{timeout_s:g}s")
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller below
+            result["error"] = exc
+
+    thread = threading.Thread(target=connect, daemon=True)  # a daemon: a hung handshake does not block the exit
+    thread.start()
+    thread.join(timeout_s + 5)
+    if thread.is_alive():
+        raise ParameterError(f"no dask scheduler answered at {address} within {timeout_s:g} s (something listens "
+                             "there, but it does not speak dask's protocol)")
+    error = result.get("error")
+    if isinstance(error, MemoryError):
+        raise ParameterError(f"{address} is not a dask scheduler (its reply is not dask's protocol)")
+    if isinstance(error, (OSError, TimeoutError, ValueError)):
+        raise ParameterError(f"cannot connect to the dask scheduler {address} ({one_line(error)})")
+    if error is not None:
+        raise error
+    return result["client"]
