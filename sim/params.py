@@ -163,6 +163,36 @@ class SimParams:
                 f"parameter dt = {self.dt:.3g} s is above t_c/{MIN_STEPS_PER_CONTACT} = {t_c / MIN_STEPS_PER_CONTACT:.3g} s, "
                 f"where t_c = {t_c:.3g} s is the contact time of the smallest particles (R = {r_min:.3g} m); "
                 f"that is {t_c / self.dt:.3g} steps per contact")
+        self._check_stability(r_min, t_c)
+
+    def _check_stability(self, r_min: float, t_c: float) -> None:
+        """Refuse (ValueError naming the parameter) values the explicit integration cannot resolve
+        or that leave the models' range, for the lightest pair (two particles of radius r_min):
+        the contact law's own limits (:attr:`sim.laws.ContactLaw.check`); a capillary force at
+        contact, 2πRγ, above what the contact carries at 10 % overlap (m*(π/t_c)²·0.1R: the
+        bridges would crush the particles into each other); a viscous force whose damping at the
+        gap floor, 6πηR*²/(10⁻³R*), exceeds m*/Δt (explicit damping unstable); a fixed bridge
+        volume above 0.1 R³ (beyond Willett's fits)."""
+        m_pair = self.density * 4 / 3 * math.pi * r_min**3 / 2
+        CONTACT_LAWS[self.contact_law].check(self, r_min, m_pair)
+        capillary = 2 * math.pi * r_min * self.surface_tension
+        carried = m_pair * (math.pi / t_c) ** 2 * 0.1 * r_min
+        if capillary > carried:
+            raise ValueError(f"parameter surface_tension = {self.surface_tension:.3g} N/m: the capillary force at contact of "
+                             f"the smallest particles, 2πRγ = {capillary:.3g} N, exceeds what their contact carries at 10 % "
+                             f"overlap ({carried:.3g} N): stiffen the contact law or lower γ")
+        if self.viscous:
+            r_star = r_min / 2
+            damping = 6 * math.pi * self.viscosity * r_star * 1e3
+            if damping * self.dt > m_pair:
+                raise ValueError(f"parameter viscosity = {self.viscosity:.3g} Pa s: the viscous force's damping at the gap "
+                                 f"floor ({damping:.3g} N s/m) times Δt exceeds the smallest pair's mass "
+                                 f"({damping * self.dt / m_pair:.3g}×): the explicit integration would be unstable; lower "
+                                 "η or Δt")
+        if self.bridge_volume > 0.1 * r_min**3:
+            raise ValueError(f"parameter bridge_volume = {self.bridge_volume:.3g} m³ is above 0.1 R³ = {0.1 * r_min**3:.3g} m³ "
+                             f"of the smallest particles (R = {r_min:.3g} m), beyond the range of Willett's capillary "
+                             "force fits (V/R³ ≤ 0.1)")
 
     # ---- derived quantities
     @property

@@ -334,3 +334,41 @@ def test_an_out_name_too_long_for_the_file_system_is_refused_before_the_settling
 
     monkeypatch.setattr(sim.run.Simulation, "_fill", lambda *a, **k: pytest.fail("settled before refusing"))
     refused(cli("a" * 250 + ".h5"), "file name is too long")
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--law-parameter", "c_t=0.3"], ["parameter c_t = 0.3", "explicit dashpot is unstable"]),
+    (["--law-parameter", "c_t=10"], ["parameter c_t = 10", "explicit dashpot is unstable"]),
+    (["--law-parameter", "k_t=1e5"], ["parameter k_t", "fewer than 20"]),
+    (["--gamma", "1e6"], ["parameter surface_tension = 1e+06", "10 % overlap"]),
+    (["--bridge-volume", "1000"], ["parameter bridge_volume = 1e+03", "Willett"]),
+])
+def test_physics_that_cannot_run_is_refused_naming_the_parameter(cli, monkeypatch, args, words):
+    """Hostile round four, B6: these ran until "particle 53 left the drum" or "increase the skin",
+    or silently (a bridge volume of 1000 m³)."""
+    import sim.run
+
+    monkeypatch.setattr(sim.run.Simulation, "_fill", lambda *a, **k: pytest.fail("settled before refusing"))
+    refused(cli("x.h5", *args), *words)
+
+
+def test_the_stability_checks_pass_every_preset_under_both_rules_and_fail_just_beyond_their_limit():
+    import math
+
+    from sim.params import PRESETS, SimParams, cg_scale, preset_original
+
+    for name in PRESETS:
+        for rule in ("weber", "bond"):
+            original, alpha = preset_original(name)
+            original = dataclasses.replace(original, cg_rule=rule)
+            if alpha > 1:
+                cg_scale(original, alpha)
+    p = SimParams()
+    r_min = p.r_mean * (1 - p.d_spread)
+    m_t = 2 / 7 * p.density * 4 / 3 * math.pi * r_min**3 / 2
+    dataclasses.replace(p, c_t=0.99 * m_t / p.dt)
+    with pytest.raises(ValueError, match="parameter c_t"):
+        dataclasses.replace(p, c_t=1.01 * m_t / p.dt)
+    dataclasses.replace(p, bridge_volume=0.099 * r_min**3)
+    with pytest.raises(ValueError, match="parameter bridge_volume"):
+        dataclasses.replace(p, bridge_volume=0.101 * r_min**3)

@@ -445,11 +445,11 @@ def test_a_contact_law_object_carries_its_parameters_contact_time_and_cg_rule(mo
             SimParams(**{parameter.name: bad})
     linear = CONTACT_LAWS["linear_coulomb"]
     scratch = ContactLaw("scratch", linear.parameters, linear.constants, linear.pack, linear.force,
-                         contact_time=lambda params, radius: 7.0 * radius,
+                         contact_time=lambda params, radius: 0.5 * radius,
                          cg_scaled=lambda params, alpha, rule: {"k_n": params.k_n * alpha**2})
     monkeypatch.setitem(CONTACT_LAWS, "scratch", scratch)
     params = dataclasses.replace(SimParams(), contact_law="scratch")
-    assert params.contact_time(1e-3) == 7e-3
+    assert params.contact_time(1e-3) == 5e-4
     scaled = cg_scale(params, 2.0)
     assert scaled.k_n == params.k_n * 4 and scaled.k_t == params.k_t and scaled.c_n == params.c_n
     linear_cg = cg_scale(SimParams(), 2.0)

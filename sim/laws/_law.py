@@ -96,6 +96,11 @@ class ContactLaw:
     cg_rules : tuple of str
         The names of the CG rules (:data:`sim.cg_rules.CG_RULES`) ``cg_scaled`` implements;
         ``SimParams`` refuses any other with this law.
+    check : callable, optional
+        ``check(params, radius, pair_mass)``: raise ``ValueError`` naming a parameter whose value
+        the explicit integration cannot resolve for the lightest pair (two spheres of ``radius``
+        [m], reduced mass ``pair_mass`` [kg]) beyond the contact-time rule Δt ≤ t_c/20 that
+        ``SimParams`` applies to every law.
     """
 
     name: str
@@ -106,3 +111,4 @@ class ContactLaw:
     contact_time: Callable
     cg_scaled: Callable
     cg_rules: tuple = ("weber",)
+    check: Callable = lambda params, radius, pair_mass: None

@@ -72,6 +72,22 @@ def contact_time(params, radius) -> float:
     return math.pi / (w0 * math.sqrt(1 - zeta**2))
 
 
+def check(params, radius, pair_mass) -> None:
+    """The tangential spring–dashpot of the lightest pair, whose sticking mode has the effective
+    mass (2/7)·m* of two rolling solid spheres: its half period π/ω_t, ω_t = √(k_t/((2/7)m*)),
+    must span 20 time steps as the normal contact does, and its dashpot c_t·Δt must stay below
+    (2/7)·m* (an explicit dashpot beyond that amplifies instead of damping)."""
+    m_t = 2 / 7 * pair_mass
+    half_period = math.pi / math.sqrt(params.k_t / m_t)
+    if half_period < 20 * params.dt:
+        raise ValueError(f"parameter k_t = {params.k_t:.3g} N/m: the tangential oscillation of the smallest particles "
+                         f"lasts {half_period / params.dt:.3g} time steps, fewer than 20: lower k_t or Δt")
+    if params.c_t * params.dt > m_t:
+        raise ValueError(f"parameter c_t = {params.c_t:.3g} N s/m: c_t·Δt is {params.c_t * params.dt / m_t:.3g} times the "
+                         f"tangential effective mass (2/7)m* = {m_t:.3g} kg of the smallest particles; above 1 the explicit "
+                         "dashpot is unstable: lower c_t or Δt")
+
+
 def cg_scaled(params, alpha, rule) -> dict:
     """k_n, k_t × the rule's stiffness factor α^(f−1), c_n, c_t × its damping factor α^((f+2)/2)
     (``weber``, Table 2 of the paper: ×α and ×α²; ``bond``: ×α² and ×α^2.5); friction unchanged.
@@ -82,4 +98,4 @@ def cg_scaled(params, alpha, rule) -> dict:
 
 
 LAW = ContactLaw("linear_coulomb", PARAMETERS, ("k_n", "k_t", "c_n", "c_t", "mu"), pack, force,
-                 contact_time, cg_scaled, cg_rules=("weber", "bond"))
+                 contact_time, cg_scaled, cg_rules=("weber", "bond"), check=check)
