@@ -277,3 +277,19 @@ def test_track_window_is_the_old_spelling_of_window_rev(run_file, tmp_path, caps
     assert main(["track", run_file, "--out", str(tmp_path / "new"), "--window-rev", "1:2", "--quiet"]) == 0
     assert "old spelling" not in capsys.readouterr().err
     assert (pd.read_csv(tmp_path / "old" / "tracks.csv").equals(pd.read_csv(tmp_path / "new" / "tracks.csv")))
+
+
+def test_usage_errors_are_one_line_and_a_misspelt_option_gets_a_suggestion(capsys):
+    """Round four, C6: a usage error printed a 14-line usage block before its line, and --cagg got
+    no hint."""
+    from granalytics.cli import main
+
+    for argv, words in ((["stats", "datasets/lab-cg3.h5", "--window", "3-6"], "argument --window"),
+                        (["stats", "datasets/lab-cg3.h5", "--cagg", "0.4"], "--cagg: did you mean --c-agg?")):
+        try:
+            status = main(argv)
+        except SystemExit as exc:  # argparse's own errors exit from the parser
+            status = exc.code
+        assert status == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0] and err[0].endswith("(see granalytics stats --help)"), err

@@ -45,9 +45,34 @@ COMMANDS = {
 _FORWARDED = {"sweep": study.sweep_main, "datasets": datasets.forwarded_main}
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with its usage errors in one line, ``PROG: error: MESSAGE (see PROG --help)``,
+    instead of the usage block before it (its subcommands' parsers are of this class too)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _unrecognized(parser, args, extras) -> str:
+    """The one-line error for options the command does not have, with the closest it has."""
+    import difflib
+
+    command = parser._subparsers._group_actions[0].choices.get(getattr(args, "command", None))
+    known = list(command._option_string_actions) if command is not None else []
+    hints = []
+    for token in extras:
+        name = token.split("=", 1)[0]
+        close = difflib.get_close_matches(name, known, n=1, cutoff=0.6) if name.startswith("-") else []
+        if close:
+            hints.append(f"{name}: did you mean {close[0]}?")
+    prog = command.prog if command is not None else parser.prog
+    return (f"{prog}: error: unrecognized arguments: {' '.join(extras)}" + (f" ({'; '.join(hints)})" if hints else "")
+            + f" (see {prog} --help)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``granalytics`` argument parser with every command of :data:`COMMANDS`."""
-    parser = argparse.ArgumentParser(prog="granalytics", description="Granule analytics for wet-granulation DEM runs.")
+    parser = _Parser(prog="granalytics", description="Granule analytics for wet-granulation DEM runs.")
     parser.add_argument("--version", action="version", version=f"granalytics {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in COMMANDS.values():
@@ -81,7 +106,11 @@ def _done(status):
 def _main(argv):
     if argv[:1] and argv[0] in _FORWARDED:  # another command line, options and --help included
         return _done(_FORWARDED[argv[0]](argv[1:]))
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, extras = parser.parse_known_args(argv)
+    if extras:
+        print(_unrecognized(parser, args, extras), file=sys.stderr)
+        return _done(2)
     import matplotlib
 
     matplotlib.use("Agg")  # the command line only writes figures to files
