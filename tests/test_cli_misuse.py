@@ -293,3 +293,20 @@ def test_usage_errors_are_one_line_and_a_misspelt_option_gets_a_suggestion(capsy
         assert status == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0] and err[0].endswith("(see granalytics stats --help)"), err
+
+
+def test_a_dump_or_a_foreign_hdf5_file_points_to_convert(tmp_path, capsys):
+    """Round four, C7: 'not a run file' said nothing of granalytics convert."""
+    import h5py
+
+    from granalytics.cli import main
+
+    dump = tmp_path / "atoms.dump"
+    dump.write_text("ITEM: TIMESTEP\n0\n")
+    foreign = tmp_path / "foreign.h5"
+    with h5py.File(foreign, "w") as f:
+        f["x"] = [1, 2]
+    for path in (dump, foreign):
+        assert main(["stats", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert "granalytics convert" in err and "docs/readers.md" in err

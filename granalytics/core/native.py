@@ -13,6 +13,9 @@ from granalytics.core.files import one_line
 from granalytics.core.format import _CHUNK_CACHE_BYTES, _SWMR_READ_ATTEMPTS
 from granalytics.core.errors import RunFileError
 
+#: how a message tells the user what to do with another code's output
+CONVERT_HINT = ("; output of LIGGGHTS/LAMMPS or YADE is read by `granalytics convert` into a run file "
+                "(docs/readers.md)")
 
 
 class _HDF5Handle:
@@ -138,7 +141,7 @@ def _open_h5(path):
         return h5py.File(path, "r", rdcc_nbytes=_CHUNK_CACHE_BYTES), False
     except OSError as exc:
         if "already open for write" not in str(exc):
-            raise RunFileError(f"{path}: cannot read as HDF5 ({one_line(exc)})") from None
+            raise RunFileError(f"{path}: cannot read as HDF5 ({one_line(exc)}){CONVERT_HINT}") from None
     try:
         fapl = _swmr_fapl()
         if fapl is None:
@@ -146,6 +149,6 @@ def _open_h5(path):
         fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
         return h5py.File(fid), True
     except Exception as exc:
-        raise RunFileError(f"{path}: cannot read as HDF5 ({one_line(exc)})") from None
+        raise RunFileError(f"{path}: cannot read as HDF5 ({one_line(exc)}){CONVERT_HINT}") from None
 
 

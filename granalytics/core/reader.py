@@ -14,7 +14,7 @@ import numpy as np
 
 from granalytics.core.files import one_line
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_DATASETS, _CONTACT_LAYOUT, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
-from granalytics.core.native import _HDF5Handle, _open_h5
+from granalytics.core.native import CONVERT_HINT, _HDF5Handle, _open_h5
 from granalytics.core._resources import check_memory
 from granalytics.core._checks import FrameKeyError, check_indices, shown
 from granalytics.core._windows import check_interval, window_mask
@@ -37,7 +37,7 @@ def _check_format(f, path) -> None:
     if fmt != FORMAT_NAME or not isinstance(fmt, str) or info is None or info.encoding != "utf-8":
         stored = f" stored as {info.encoding} bytes" if isinstance(fmt, str) and info is not None else ""
         raise RunFileError(f"{path}: not a granalytics run file (attribute 'format' is {fmt!r}{stored}; "
-                           f"a run file's is the UTF-8 string {FORMAT_NAME!r})")
+                           f"a run file's is the UTF-8 string {FORMAT_NAME!r}){CONVERT_HINT}")
     version = f.attrs.get("format_version")
     if isinstance(version, (bool, np.bool_)) or not isinstance(version, (int, np.integer)) or version < 1:
         raise RunFileError(f"{path}: attribute 'format_version' must be an integer >= 1, got "
