@@ -298,15 +298,16 @@ def test_info_prints_the_confinement_and_warns_below_the_rule(monkeypatch, capsy
     assert len(warned) == 1 and path in warned[0]
 
 
-def test_compare_cg_warns_for_each_run_below_the_rule(monkeypatch):
+def test_compare_cg_warns_once_for_each_system_below_the_rule(monkeypatch):
     import granalytics.analysis.confinement as confinement
-    from granalytics.datasets import dataset_path
+    from granalytics.datasets import dataset_path, replica_paths
 
     monkeypatch.setattr(confinement, "CONFINEMENT_RULE", {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)})
-    runs = [dataset_path("lab-cg1"), dataset_path("lab-cg3")]
-    with pytest.warns(UserWarning, match=r"lab-cg3.h5: D/d = 11.2 is below 25") as caught:
+    runs = [dataset_path("lab-cg1"), replica_paths("lab-cg3")]
+    with pytest.warns(UserWarning, match=r"lab-cg3.h5 \(and its 2 replica\(s\)\): D/d = 11.2 is below 25") as caught:
         ga.compare_cg(runs, window=(3.0, 3.5))
     assert any("lab-cg1.h5: D/d = 33.6 is below 50" in str(w.message) for w in caught)
+    assert sum("D/d = 11.2" in str(w.message) for w in caught) == 1  # not once per replica
 
 
 def test_the_command_line_runs_the_rigid_test_and_the_size_floor(tmp_path, capsys):

@@ -225,8 +225,6 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
         if len(run) == 0:
             raise ParameterError(f"{run.path}: the run has no frames")
         drum = run_confinement(meta)
-        if drum is not None and (warning := confinement_warning(drum.drum_ratio)):
-            warnings.warn(f"{os.fspath(run.path)}: {warning}", stacklevel=3)
         if getattr(run, "unfinished", None):
             warnings.warn(f"{os.fspath(run.path)}: unfinished run: {run.unfinished}; its steady state is that of the "
                           "frames it holds", stacklevel=3)
@@ -245,6 +243,7 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
             "wall_time_per_simulated_s": _recorded(provenance.get("wall_time_per_simulated_s")),
             "physics_version": provenance.get("physics_version"),
             "cg_rule": cg_rule_of(meta),
+            "drum_ratio": drum.drum_ratio if drum is not None else math.nan,
         }
     finally:
         if run is not item:
@@ -310,6 +309,9 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     infos, systems, series, dists, steady, sizes = [], [], [], [], {}, {}
     for k, group in enumerate(groups):
         members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
+        if warning := confinement_warning(members[0]["info"]["drum_ratio"]):  # once per system, not per replica
+            more = f" (and its {len(members) - 1} replica(s))" if len(members) > 1 else ""
+            warnings.warn(f"{members[0]['info']['path']}{more}: {warning}", stacklevel=2)
         label = labels[k] if labels is not None else _alpha_label(members[0]["info"]["alpha"],
                                                                   members[0]["info"]["n_particles"], len(members))
         if label in sizes:
