@@ -390,7 +390,9 @@ def cg_figures(comparison, *, size_unit="particles") -> dict:
             continue
         sizes = comparison.sizes.get(label) if isinstance(comparison.sizes, dict) else None
         a = alpha.get(label, part["alpha"].iloc[0] if "alpha" in part else None)
-        dist = size_distribution(sizes, ci=0.95, size_unit=size_unit, alpha=a) if sizes is not None and len(sizes) \
+        floor = (getattr(comparison, "params", None) or {}).get("min_size") or 2  # the smallest size that can occur
+        dist = size_distribution(sizes, ci=0.95, size_unit=size_unit, alpha=a, min_size=floor) \
+            if sizes is not None and len(sizes) \
             else part.copy()
         if sizes is None and size_unit != "particles":  # no pooled sizes: convert the table itself
             from granalytics.analysis.stats import size_unit_factor

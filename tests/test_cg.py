@@ -183,3 +183,19 @@ def test_cg_deviation_at_every_threshold_pair(tmp_path, cg_runs, capsys):
                                                      "cg_thresholds_n_granules_norm.png",
                                                      "cg_thresholds_yield_fraction.png"]
     assert "largest |deviation|" in capsys.readouterr().out
+
+
+def test_size_bins_start_at_the_smallest_size_that_can_occur():
+    """Round four, C1: with --min-size 3, CG1 and CG2 kept a first bin [2, 3] of density count/2
+    and CG3 an empty [2, 2] bin: the small-size end differed by 2x for no physical reason."""
+    from granalytics.datasets import dataset_path
+    from granalytics.plot import cg_figures
+
+    cg = compare_cg([dataset_path("lab-cg2"), dataset_path("lab-cg3")], window=(3.0, 4.0), min_size=3,
+                    comotion="rigid")
+    first = cg.distributions.groupby("run")["size_min"].min()
+    assert (first == 3).all(), first
+    fig5 = cg_figures(cg)["fig5_size_distribution"]
+    for line in fig5.axes[0].get_lines():
+        if len(line.get_xdata()):
+            assert min(line.get_xdata()) >= 3

@@ -318,7 +318,8 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
             raise ParameterError(f"two runs are labelled {label!r}; pass distinct labels, or group replicas "
                                  "(granalytics compare-cg --replicas)")
         systems.append(members[0]["info"]["system"])
-        info, group_series, dist, steady[label], sizes[label] = _combine_group(members, label)
+        info, group_series, dist, steady[label], sizes[label] = _combine_group(members, label,
+                                                                               params.get("min_size") or 2)
         infos.append(info)
         series.extend(group_series)
         dists.append(dist)
@@ -334,7 +335,7 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     )
 
 
-def _combine_group(members, label):
+def _combine_group(members, label, min_size=2):
     """One run or group of replicas (:func:`_analyse_member` results) as one row of the comparison:
     its info, its members' time series (tagged), its pooled size distribution, its steady state
     over the replicas and its pooled granule sizes."""
@@ -361,7 +362,7 @@ def _combine_group(members, label):
         ts.insert(0, "run", label)
         series.append(ts)
     pooled = np.concatenate([m["sizes"] for m in members])
-    dist = size_distribution(pooled)
+    dist = size_distribution(pooled, min_size=min_size)  # bins from the smallest size that can occur
     dist.insert(0, "alpha", first["alpha"])
     dist.insert(0, "run", label)
     return info, series, dist, combined, pooled

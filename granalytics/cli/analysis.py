@@ -322,7 +322,8 @@ def _stats(args):
             series.append(run_stats(selected_frames(replica, args), "gna", progress=progress(args), **frame_loop(args),
                                     **params))
     steady = steady_state(series if args.replica else ts, window=window, by=by, source=args.run)
-    dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep], size_unit=args.size_unit, alpha=meta)
+    dist = size_distribution([s for s, keep in zip(sizes, in_window) if keep], size_unit=args.size_unit, alpha=meta,
+                             min_size=args.min_size or 2)  # the bins start at the smallest size that can occur
     with staged_outputs() as stage:  # every output, or none (a failing figure replaces no table)
         if args.out:
             write_table(ts, args.out, stage)
