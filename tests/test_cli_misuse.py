@@ -267,16 +267,12 @@ def test_a_c_agg_that_no_contact_can_pass_is_warned_of_in_one_line(capsys):
     assert "every C_agg of the grid (from 0.9) is above the largest" in capsys.readouterr().err
 
 
-def test_track_window_is_the_old_spelling_of_window_rev(run_file, tmp_path, capsys):
-    """In track --window selected frames (an alias of --window-rev), everywhere else it is the
-    steady-state window: one name, one meaning; the old spelling still works, with one warning line."""
-    assert main(["track", run_file, "--out", str(tmp_path / "old"), "--window", "1:2", "--quiet"]) == 0
-    err = capsys.readouterr().err.strip().splitlines()
-    assert err[0] == ("granalytics: warning: --window is the old spelling of --window-rev (the frames to track): "
-                      "everywhere else --window is the steady-state window; use --window-rev")
+def test_track_window_is_retired_for_window_rev(run_file, tmp_path, capsys):
+    """In track --window selected frames, everywhere else it is the steady-state window: one name,
+    one meaning. The old spelling is gone (round four, C8); the error names the new one."""
+    assert main(["track", run_file, "--out", str(tmp_path / "old"), "--window", "1:2", "--quiet"]) == 2
+    assert "--window: did you mean --window-rev?" in capsys.readouterr().err
     assert main(["track", run_file, "--out", str(tmp_path / "new"), "--window-rev", "1:2", "--quiet"]) == 0
-    assert "old spelling" not in capsys.readouterr().err
-    assert (pd.read_csv(tmp_path / "old" / "tracks.csv").equals(pd.read_csv(tmp_path / "new" / "tracks.csv")))
 
 
 def test_usage_errors_are_one_line_and_a_misspelt_option_gets_a_suggestion(capsys):

@@ -551,14 +551,14 @@ def test_cli_writes_consistent_tables_and_refuses_to_overwrite(run_file, tmp_pat
 
     with pytest.raises(ParameterError, match="--overwrite"):
         args.func(args)
-    again = parse(["track", run_file, "--out", str(out), "--window", "0.2:1", "--min-fragment", "3", "--overwrite",
+    again = parse(["track", run_file, "--out", str(out), "--window-rev", "0.2:1", "--min-fragment", "3", "--overwrite",
                    "--quiet"])
     assert again.func(again) == 0
     assert pd.read_csv(out / "tracks.csv")["first_frame"].max() <= 3  # 4 frames in the window
     bad = parse(["track", run_file, "--out", str(out), "--min-fragment", "0", "--overwrite", "--quiet"])
     with pytest.raises(ParameterError, match="min-fragment"):
         bad.func(bad)
-    short = parse(["track", run_file, "--out", str(tmp_path / "x"), "--window", "0.9:1", "--quiet"])
+    short = parse(["track", run_file, "--out", str(tmp_path / "x"), "--window-rev", "0.9:1", "--quiet"])
     with pytest.raises(ParameterError, match="at least two frames"):
         short.func(short)
 

@@ -47,7 +47,12 @@ _FORWARDED = {"sweep": study.sweep_main, "datasets": datasets.forwarded_main}
 
 class _Parser(argparse.ArgumentParser):
     """argparse with its usage errors in one line, ``PROG: error: MESSAGE (see PROG --help)``,
-    instead of the usage block before it (its subcommands' parsers are of this class too)."""
+    instead of the usage block before it, and without abbreviated options (``--window`` is not
+    ``--window-rev``); its subcommands' parsers are of this class too."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")

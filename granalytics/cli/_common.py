@@ -29,22 +29,6 @@ def interval(text):
     return lo, hi
 
 
-class OldSpelling(argparse.Action):
-    """The old spelling of an option (``option_strings``), still working: stores into the new
-    option's ``dest`` and prints one warning line naming the new spelling ``new`` (and ``why``)."""
-
-    def __init__(self, option_strings, dest, new, why="", **kwargs):
-        self.new, self.why = new, why
-        super().__init__(option_strings, dest, help=f"old spelling of {new} (deprecated)", **kwargs)
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        import sys
-
-        print(f"granalytics: warning: {option_string} is the old spelling of {self.new}{self.why}; use {self.new}",
-              file=sys.stderr)
-        setattr(namespace, self.dest, values)
-
-
 #: the largest frame stride an option accepts (a run has far fewer frames)
 MAX_EVERY = 10**9
 

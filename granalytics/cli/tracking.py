@@ -12,7 +12,7 @@ from granalytics.core import open_run
 from granalytics.plot import tracking_figure
 from granalytics.analysis.tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
 from granalytics.cli._common import (add_cohesion_option, add_frame_loop_options, add_size_unit_option, frame_loop, interval, save_figure,
-                                     OldSpelling, threshold_options, warn_if_unfinished, write_table)
+                                     threshold_options, warn_if_unfinished, write_table)
 
 _OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
 
@@ -43,8 +43,6 @@ def add_track_parser(sub):
     add_cohesion_option(p)
     p.add_argument("--window-rev", dest="window", type=interval, default=None, metavar="R0:R1",
                    help="only frames within this revolution window (default: all frames)")
-    p.add_argument("--window", dest="window", type=interval, action=OldSpelling, new="--window-rev", metavar="R0:R1",
-                   why=" (the frames to track): everywhere else --window is the steady-state window")
     p.add_argument("--min-fragment", type=int, default=2,
                    help="fewest particles that count as a fragment in a coalescence or breakage (default 2)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
