@@ -41,6 +41,13 @@ _INFO_KEY = "checkpoint_info"
 
 
 
+def _kernels_cached() -> bool:
+    """Whether numba's cache holds the step kernel (``sim/__pycache__/_kernels.advance-*.nbi``)."""
+    import glob
+
+    return bool(glob.glob(os.path.join(os.path.dirname(__file__), "__pycache__", "_kernels.advance-*.nbi")))
+
+
 def check_room(params, n_frames, out) -> None:
     """Refuse (``ParameterError``) a run whose ``n_frames`` frames cannot fit on the disk of
     ``out`` (a typo such as ``--revolutions 1e12``), before any work."""
@@ -140,9 +147,14 @@ class Simulation:
         from tqdm.auto import tqdm
 
         settle_steps = int(round(p.settle_time / p.dt))
-        with tqdm(total=settle_steps, unit="step", unit_scale=True, disable=not progress,
+        first = min(settle_steps, 1)  # the first step compiles (or loads) the kernels, outside the bar's rate
+        if progress and first and not _kernels_cached():
+            print("compiling the simulator's kernels (the first run of this installation: about a minute; later "
+                  "runs load them from numba's cache)", file=sys.stderr, flush=True)
+        self._advance(first, settling=True)
+        with tqdm(total=settle_steps, initial=first, unit="step", unit_scale=True, disable=not progress,
                   desc=f"settling {n} particles α={p.alpha:g}") as bar:
-            self._advance(settle_steps, settling=True, on_steps=bar.update)
+            self._advance(settle_steps - first, settling=True, on_steps=bar.update)
         self.state.step = 0
         self.settled_bed = settled_bed_report(p, self.snapshot())
         check_settled_bed(self.settled_bed, p.settle_time)

@@ -372,3 +372,22 @@ def test_the_stability_checks_pass_every_preset_under_both_rules_and_fail_just_b
     dataclasses.replace(p, bridge_volume=0.099 * r_min**3)
     with pytest.raises(ValueError, match="parameter bridge_volume"):
         dataclasses.replace(p, bridge_volume=0.101 * r_min**3)
+
+
+def test_the_first_run_says_it_compiles_and_the_bar_does_not_count_the_compilation(monkeypatch, capsys):
+    """Round four, C9: a first run compiled for ~70 s under a bar whose ETA read 660:06:18. Now the
+    first step (the compilation) runs before the bar, and a cold cache is said in one line."""
+    import sim.run
+
+    calls = []
+    original_advance = sim.run.Simulation._advance
+
+    def advance(self, n, settling=False, on_steps=None):
+        calls.append((n, on_steps is None))
+        return original_advance(self, n, settling, on_steps)
+
+    monkeypatch.setattr(sim.run.Simulation, "_advance", advance)
+    monkeypatch.setattr(sim.run, "_kernels_cached", lambda: False)
+    sim.run.Simulation(sim.cli.cg_scale(TINY, 3.0), TINY, progress=True, threads=1)
+    assert calls[0] == (1, True) and calls[1][1] is False  # one step outside the bar, then the bar's steps
+    assert "compiling the simulator's kernels (the first run of this installation" in capsys.readouterr().err
