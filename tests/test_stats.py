@@ -267,3 +267,23 @@ def test_replica_steady_state_reports_the_run_to_run_error():
     assert out["block_sem"] < out["replica_sem"] / 5 and out["n_replicas"] == 4
     with pytest.raises(ParameterError, match="at least two replicas"):
         ga.replica_steady_state(series[:1])
+
+
+def test_a_window_whose_statistics_still_drift_is_said_not_to_be_a_steady_state():
+    """Round four, C13: stats --window 1:2 on a run whose yield still rose reported a steady state."""
+    import warnings
+
+    revs = np.arange(0, 2.0001, 0.05)
+    rng = np.random.default_rng(0)
+    rising = pd.DataFrame({"revolutions": revs, "time_s": revs * 3.14,
+                           "yield_fraction": 0.1 + 0.2 * revs + rng.normal(0, 0.01, revs.size),
+                           "n_granules_norm": 0.1 + rng.normal(0, 0.005, revs.size),
+                           "mean_volume_norm": 3 + rng.normal(0, 0.05, revs.size)})
+    with pytest.warns(UserWarning, match=r"run.h5: the window \[0, 2\] revolutions is not a steady state: "
+                                         r"yield_fraction changes by \+0.4"):
+        ga.steady_state(rising, window=(0, 2), columns=("yield_fraction", "n_granules_norm", "mean_volume_norm"),
+                        source="run.h5")
+    steady = rising.assign(yield_fraction=0.5 + rng.normal(0, 0.01, revs.size))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ga.steady_state(steady, window=(0, 2), columns=("yield_fraction", "n_granules_norm", "mean_volume_norm"))
