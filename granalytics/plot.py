@@ -106,7 +106,7 @@ def plot_size_distribution(dist, ax=None, label=None, *, color=None, explain=Tru
     ``explain`` the legend says what the band and the open markers are.
     """
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
     ax = ax if ax is not None else plt.gca()
     unit = _sizes_unit(dist)
@@ -127,9 +127,11 @@ def plot_size_distribution(dist, ax=None, label=None, *, color=None, explain=Tru
             ci = dist.attrs.get("ci")
             _add_key(ax, f"band: bootstrap {ci:.0%} CI over the granules" if ci else "band: bootstrap CI over the granules",
                      patch=True, color="0.5", alpha=0.3, lw=0)
-    # granule sizes are small integers: label 2, 5, 10, 20, 50, … rather than powers of ten only
-    ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-    ax.xaxis.set_major_formatter(ScalarFormatter())
+    # granule sizes are small integers: label 2, 5, 10, 20, 50, … rather than powers of ten only; in
+    # original-particle equivalents (α³ times larger, more decades) 1, 3, 10, 30, …, 1k, 3k: labels
+    # that do not run into each other
+    ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0) if unit == "particles" else (1.0, 3.0)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / 1000:g}k" if v >= 1000 else f"{v:g}"))
     ax.xaxis.set_minor_formatter(NullFormatter())
     _plain_log_ticks(ax.yaxis)
     ax.set_xlabel(SIZE_LABELS[unit])

@@ -199,3 +199,11 @@ def test_size_bins_start_at_the_smallest_size_that_can_occur():
     for line in fig5.axes[0].get_lines():
         if len(line.get_xdata()):
             assert min(line.get_xdata()) >= 3
+
+
+def test_the_description_names_every_threshold_the_identification_used(cg_runs):
+    """Round four, C2: figures named C_agg only when it was not the default."""
+    cg = compare_cg(cg_runs[:2], labels=["cg1", "cg3"], window=(2, 4))
+    assert "c_agg=0.6, a_agg_deg=20, min_size=2" in cg.description
+    rigid = compare_cg(cg_runs[:2], labels=["cg1", "cg3"], window=(2, 4), comotion="rigid", min_size=3)
+    assert "rigid_tol=" in rigid.description and "min_size=3" in rigid.description

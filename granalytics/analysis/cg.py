@@ -90,8 +90,17 @@ class CGComparison:
 
     @property
     def description(self) -> str:
-        """One line naming the identification: method, thresholds, cohesion convention, window."""
-        shown = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.params.items())
+        """One line naming the identification: method, its thresholds (the defaults it used
+        included: C_agg and A_agg, or the rigid tolerance, and the size floor), cohesion
+        convention, window."""
+        from granalytics.identify import make_identifier
+
+        identifier = make_identifier(self.method, **self.params)
+        rigid = getattr(identifier, "comotion", None) == "rigid"
+        names = ("c_agg", "rigid_tol" if rigid else "a_agg_deg", "comotion" if rigid else None, "min_size")
+        effective = {k: getattr(identifier, k) for k in names if k and getattr(identifier, k, None) is not None}
+        effective.update({k: v for k, v in self.params.items() if v is not None})
+        shown = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in effective.items())
         shown = shown or "its default parameters"
         return (f"{self.method} ({shown}), cohesion={self.cohesion}, "
                 f"window [{self.window[0]:g}, {self.window[1]:g}] rev")

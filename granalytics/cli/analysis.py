@@ -336,7 +336,10 @@ def _stats(args):
 
             from granalytics.plot import stats_figure
 
-            fig = stats_figure(ts, dist, window=window, x=by, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion}")
+            test = (f"rigid_tol={args.rigid_tol:g}" if args.comotion == "rigid" else f"A_agg={args.a_agg_deg:g}°")
+            fig = stats_figure(ts, dist, window=window, x=by,
+                               title=f"{os.path.basename(args.run)}: GNA C_agg={args.c_agg:g}, {test}, "
+                                     f"min_size={args.min_size}, cohesion={args.cohesion}")
             try:
                 save_figure(fig, args.plot, stage)
             finally:
