@@ -219,3 +219,22 @@ def test_the_rule_is_recorded_printed_by_info_and_compare_cg_warns_when_rules_di
     with pytest.warns(UserWarning, match="made under different CG rules .*: weber, .*: bond"):
         cg = ga.compare_cg([str(reference), *paths], ["cg1", "weber", "bond"], window=(0, 1))
     assert list(cg.runs["cg_rule"]) == ["weber", "weber", "bond"]
+
+
+def test_info_and_compare_cg_warn_where_a_rule_is_measured_outside_the_tolerance(capsys):
+    import granalytics as ga
+    from granalytics.analysis.cg import CG_RULE_DEVIATION, cg_rule_warning
+    from granalytics.cli import main as ga_main
+    from granalytics.datasets import dataset_path
+
+    weber3 = CG_RULE_DEVIATION["weber"][3.0][0]
+    assert abs(weber3) > 0.1 and abs(CG_RULE_DEVIATION["bond"][3.0][0]) < 0.1
+    assert f"{100 * weber3:+.0f} %" in cg_rule_warning("weber", 3.0) and "--cg-rule bond" in cg_rule_warning("weber", 3.0)
+    assert cg_rule_warning("bond", 3.0) is None and cg_rule_warning("weber", 1.0) is None
+    assert cg_rule_warning(None, 3.0) is None  # another code's run: its rule is unknown
+    assert "measured up to α = 3" in cg_rule_warning("bond", 4.0)
+    assert ga_main(["info", str(dataset_path("lab-cg3"))]) == 0
+    err = capsys.readouterr().err
+    assert err.count("CG rule weber at α = 3 moves the steady yield") == 1
+    with pytest.warns(UserWarning, match="lab-cg3.h5 \\(and its 2 replica\\(s\\)\\): CG rule weber at α = 3"):
+        ga.compare_cg([dataset_path("lab-cg1"), ga.datasets.replica_paths("lab-cg3")], window=(3.0, 3.5))

@@ -29,7 +29,7 @@ from granalytics.core.errors import ParameterError
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 
-__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
+__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "cg_rule_warning", "CG_RULE_DEVIATION", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
 
 #: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
@@ -210,6 +210,42 @@ def group_replicas(paths) -> list:
     return list(groups.values())
 
 
+#: the relative deviation of the steady yield (angle test, acting cohesion, C_agg 0.6, A_agg 20°,
+#: window [3, 6]) of a CG run from the α = 1 run at the same confinement (D/d 11.2 of the simulated
+#: particles, lab drum), by rule and α, with its replica standard error: mean over seeds 0-4
+#: (docs/results.md, "CG rules"; benchmarks/cg_rules_study.py table)
+CG_RULE_DEVIATION = {
+    "weber": {1.0: (0.0, 0.0), 2.0: (-0.18, 0.02), 3.0: (-0.26, 0.03)},
+    "bond": {1.0: (0.0, 0.0), 2.0: (-0.05, 0.01), 3.0: (-0.03, 0.02)},
+}
+#: the largest |yield deviation| a CG rule may have before info and compare-cg warn
+CG_RULE_TOLERANCE = 0.10
+
+
+def cg_rule_warning(rule, alpha) -> str | None:
+    """One line when a run's CG rule at its α is measured (:data:`CG_RULE_DEVIATION`, linear in α
+    between the measured factors) to move the yield by more than :data:`CG_RULE_TOLERANCE`, or
+    when α lies beyond the measured factors; None otherwise (α = 1, a rule within the tolerance,
+    or a run of another code, whose rule is unknown)."""
+    if rule is None or alpha is None or alpha <= 1 or rule not in CG_RULE_DEVIATION:
+        return None
+    measured = CG_RULE_DEVIATION[rule]
+    top = max(measured)
+    if alpha > top + 1e-9:
+        return (f"CG rule {rule} at α = {alpha:g}: the rules are measured up to α = {top:g} only (docs/results.md, "
+                f"'CG rules'); its error on the statistics is not known here")
+    alphas = sorted(measured)
+    deviation = float(np.interp(alpha, alphas, [measured[a][0] for a in alphas]))
+    if abs(deviation) <= CG_RULE_TOLERANCE:
+        return None
+    better = [r for r, m in CG_RULE_DEVIATION.items()
+              if abs(float(np.interp(alpha, sorted(m), [m[a][0] for a in sorted(m)]))) <= CG_RULE_TOLERANCE]
+    return (f"CG rule {rule} at α = {alpha:g} moves the steady yield by about {100 * deviation:+.0f} % against α = 1 "
+            f"at equal confinement (docs/results.md, 'CG rules')"
+            + (f"; the rule {better[0]} keeps it within {100 * CG_RULE_TOLERANCE:.0f} % (--cg-rule {better[0]})"
+               if better else ""))
+
+
 def cg_rule_of(meta):
     """The CG rule a run of our simulator was coarse-grained by (``sim_config.params.cg_rule``;
     ``"weber"``, Table 2, for runs made before the rule was a choice); None for a run of another
@@ -318,9 +354,11 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     infos, systems, series, dists, steady, sizes = [], [], [], [], {}, {}
     for k, group in enumerate(groups):
         members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
-        if warning := confinement_warning(members[0]["info"]["drum_ratio"]):  # once per system, not per replica
-            more = f" (and its {len(members) - 1} replica(s))" if len(members) > 1 else ""
-            warnings.warn(f"{members[0]['info']['path']}{more}: {warning}", stacklevel=2)
+        more = f" (and its {len(members) - 1} replica(s))" if len(members) > 1 else ""
+        first = members[0]["info"]
+        for warning in (confinement_warning(first["drum_ratio"]), cg_rule_warning(first["cg_rule"], first["alpha"])):
+            if warning:  # once per system, not per replica
+                warnings.warn(f"{first['path']}{more}: {warning}", stacklevel=2)
         label = labels[k] if labels is not None else _alpha_label(members[0]["info"]["alpha"],
                                                                   members[0]["info"]["n_particles"], len(members))
         if label in sizes:

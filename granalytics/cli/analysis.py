@@ -167,7 +167,7 @@ def add_compare_cg_parser(sub):
 def cmd_info(args):
     from granalytics.core.bed import bed_structure, run_confinement
     from granalytics.analysis.confinement import confinement_warning
-    from granalytics.analysis.cg import cg_rule_of
+    from granalytics.analysis.cg import cg_rule_of, cg_rule_warning
 
     with open_run(args.run) as run:
         warn_if_unfinished(run)
@@ -180,6 +180,8 @@ def cmd_info(args):
         warnings.warn(f"{args.run}: planar drum run, its granules and statistics are those of stacked 2-D monolayers: "
                       f"{bed.describe()} (last frame)")
     if drum is not None and (warning := confinement_warning(drum.drum_ratio)):
+        warnings.warn(f"{args.run}: {warning}")
+    if warning := cg_rule_warning(rule, meta.get("alpha")):
         warnings.warn(f"{args.run}: {warning}")
     if args.json:
         print(json.dumps(json_safe({"file": info, "meta": meta, "bed_last_frame": bed.to_dict() if bed else None,
