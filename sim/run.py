@@ -17,7 +17,7 @@ import warnings
 
 import numpy as np
 
-from granalytics.core import (RunMeta, RunWriter, Snapshot, __version__, check_disk, configure_threading,
+from granalytics.core import (RunMeta, RunWriter, Snapshot, __version__, check_disk, check_memory, configure_threading,
                               drum_confinement)
 
 from . import _kernels
@@ -34,6 +34,8 @@ __all__ = ["Simulation", "configure_threading", "check_room", "PHYSICS_VERSION"]
 #: a lower bound of the stored size of one frame per particle [bytes] (positions, velocities,
 #: radii, films and contacts, compressed), for refusing up front a run that cannot fit on the disk
 FRAME_BYTES_PER_PARTICLE = 50
+#: memory of the simulation state per particle, its slots (walls and about ten pairs) included [bytes]
+STATE_BYTES_PER_PARTICLE = 4000
 
 #: version of the one-file checkpoint (the JSON information inside the .npz under _INFO_KEY)
 CHECKPOINT_FORMAT = 2
@@ -49,8 +51,10 @@ def _kernels_cached() -> bool:
 
 
 def check_room(params, n_frames, out) -> None:
-    """Refuse (``ParameterError``) a run whose ``n_frames`` frames cannot fit on the disk of
-    ``out`` (a typo such as ``--revolutions 1e12``), before any work."""
+    """Refuse (``ParameterError``) a run whose state cannot fit in memory (``--particles 1e15``) or
+    whose ``n_frames`` frames cannot fit on the disk of ``out`` (``--revolutions 1e12``), before
+    any work."""
+    check_memory(f"a simulation of {params.n_particles} particles", params.n_particles * STATE_BYTES_PER_PARTICLE)
     check_disk(f"{n_frames} frames of {params.n_particles} particles",
                n_frames * params.n_particles * FRAME_BYTES_PER_PARTICLE, out)
 
