@@ -223,6 +223,16 @@ class Simulation:
             if governor is not None:
                 governor.end(done, p.n_particles, _time.perf_counter() - t0)
 
+    def _check_finite(self) -> None:
+        """RuntimeError when a particle's position or velocity is no longer a finite number (an
+        unstable integration), naming it, before the frame or a checkpoint is written."""
+        s = self.state
+        bad = np.flatnonzero(~(np.isfinite(s.pos).all(axis=1) & np.isfinite(s.vel).all(axis=1)))
+        if bad.size:
+            raise RuntimeError(f"the simulation became unstable at step {s.step}: particle id {s.ids[bad[0]]} has "
+                               f"position {s.pos[bad[0]].tolist()} m and velocity {s.vel[bad[0]].tolist()} m/s "
+                               f"({bad.size} particles not finite); check Δt and the forces' parameters")
+
     def _bridge_table(self) -> np.ndarray:
         """The cache of bridge constants for the state's current slot list (a new one after a
         rebuild or when the state was replaced): derived data, never checkpointed."""
@@ -358,6 +368,7 @@ class Simulation:
             state = State.from_arrays(arrays)
             params = SimParams.from_dict(info.pop("params"))
             original = SimParams.from_dict(info.pop("original"))
+            state.check(n_walls(params.n_baffles))  # never hand the kernels indices past the arrays
             liquid_initial = float(info.pop("liquid_initial"))
             if "frames" in info or "frame_every" in info:
                 frames, frame_every = int(info["frames"]), int(info["frame_every"])
@@ -472,6 +483,7 @@ class Simulation:
                 frame_t0, frame_step0 = _time.perf_counter(), self.state.step
                 self.advance(writer.n_frames * frame_every - self.state.step)
                 frame_wall = _time.perf_counter() - frame_t0
+                self._check_finite()
                 writer.append(self.snapshot(meta))
                 if checkpoint_every is not None and writer.n_frames % checkpoint_every == 0:
                     self.save_checkpoint(ckpt, {"frames": writer.n_frames, "frame_every": frame_every,

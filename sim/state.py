@@ -89,6 +89,39 @@ class State:
         """Every field as a numpy array (counters as 0-d arrays), by name."""
         return {f.name: np.asarray(getattr(self, f.name)) for f in dataclasses.fields(self)}
 
+    def check(self, n_walls: int) -> None:
+        """Refuse (ValueError naming the field and the first offending index) a state that the
+        kernels would read out of bounds or that holds a non-finite number: array shapes that do not
+        agree with the particle count N, the wall count ``n_walls`` and the slot count, body
+        indices outside [0, N + n_walls), CSR lists that are not monotone or point past the slots,
+        NaN or infinity in a float field."""
+        n = self.n_particles
+        n_bodies = n + n_walls
+        n_slots = int(np.shape(self.pair_i)[0]) if np.ndim(self.pair_i) else -1
+        shapes = {"ids": (n,), "pos": (n, 3), "vel": (n, 3), "omega": (n, 3), "mass": (n,), "inertia": (n,),
+                  "x_ref": (n, 3), "film": (n_bodies,), "part_start": (n + 1,), "body_start": (n_bodies + 1,)}
+        shapes.update({name: (n_slots,) + np.shape(getattr(self, name))[1:] for name in SLOT_FIELDS})
+        for name, shape in shapes.items():
+            if np.shape(getattr(self, name)) != shape:
+                raise ValueError(f"state field {name} has shape {np.shape(getattr(self, name))}, expected {shape} "
+                                 f"({n} particles, {n_walls} walls, {n_slots} slots)")
+        for name, upper in (("pair_i", n_bodies), ("pair_j", n_bodies), ("part_slots", n_slots),
+                            ("body_slots", n_slots)):
+            values = np.asarray(getattr(self, name))
+            bad = np.flatnonzero((values < 0) | (values >= upper))
+            if bad.size:
+                raise ValueError(f"state field {name}[{bad[0]}] = {values[bad[0]]} is outside [0, {upper})")
+        for name, slots in (("part_start", "part_slots"), ("body_start", "body_slots")):
+            start = np.asarray(getattr(self, name))
+            if start[0] != 0 or (np.diff(start) < 0).any() or start[-1] != np.shape(getattr(self, slots))[0]:
+                raise ValueError(f"state field {name} is not a list of slot ranges of {slots} (it must rise from 0 "
+                                 f"to {np.shape(getattr(self, slots))[0]})")
+        for f in dataclasses.fields(self):
+            values = np.asarray(getattr(self, f.name))
+            if values.dtype.kind == "f" and not np.isfinite(values).all():
+                bad = [int(k) for k in np.argwhere(~np.isfinite(values))[0]]
+                raise ValueError(f"state field {f.name}{list(bad)} is {values[tuple(bad)]}: not a finite number")
+
     @classmethod
     def from_arrays(cls, arrays) -> "State":
         """Inverse of :meth:`to_arrays`.

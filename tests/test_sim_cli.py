@@ -392,3 +392,44 @@ def test_the_first_run_says_it_compiles_and_the_bar_does_not_count_the_compilati
     sim.run.Simulation(sim.cli.cg_scale(TINY, 3.0), TINY, progress=True, threads=1)
     assert calls[0] == (1, True) and calls[1][1] is False  # one step outside the bar, then the bar's steps
     assert "compiling the simulator's kernels (the first run of this installation" in capsys.readouterr().err
+
+
+def _rewrite_checkpoint(path, change):
+    """Apply ``change(arrays)`` to the arrays of the checkpoint ``path`` (kept in its format)."""
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {name: data[name] for name in data.files}
+    change(arrays)
+    with open(path, "wb") as f:
+        np.savez(f, **arrays)
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda a: a["pair_j"].__setitem__(-1, 10**6), ["state field pair_j", "is outside [0,"]),
+    (lambda a: a["part_slots"].__setitem__(0, 10**7), ["state field part_slots[0]", "is outside"]),
+    (lambda a: a["pos"].__setitem__((3, 1), np.nan), ["state field pos[3, 1] is nan", "not a finite number"]),
+])
+def test_a_checkpoint_that_points_past_its_arrays_or_holds_nan_is_refused_naming_the_file(cli, tmp_path, change,
+                                                                                           words):
+    """Hostile round four, B5: a checkpoint whose contacts pointed past the particles crashed the
+    simulator (SIGSEGV) and NaN in one was reported without naming the file."""
+    assert cli("a.h5")[0] == 0
+    _rewrite_checkpoint(tmp_path / "a.h5.ckpt.npz", change)
+    before = files(tmp_path)
+    message = refused(cli("a.h5", "--resume", "--revolutions", "0.006"), *words)
+    assert "a.h5.ckpt.npz" in message
+    assert files(tmp_path) == before
+
+
+def test_a_simulation_that_becomes_unstable_stops_naming_the_particle(cli, tmp_path, monkeypatch, capsys):
+    import sim.run
+
+    original = sim.run.Simulation._advance
+
+    def advance(self, n, settling=False, on_steps=None):
+        original(self, n, settling, on_steps)
+        if not settling and self.state.step > 700:
+            self.state.vel[5, 0] = np.inf  # what an unstable integration ends in
+
+    monkeypatch.setattr(sim.run.Simulation, "_advance", advance)
+    code, err = cli("unstable.h5")
+    assert code == 1 and len(err) == 1 and "became unstable at step" in err[0] and "not finite" in err[0], err
