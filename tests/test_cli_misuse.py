@@ -306,3 +306,12 @@ def test_a_dump_or_a_foreign_hdf5_file_points_to_convert(tmp_path, capsys):
         assert main(["stats", str(path)]) == 2
         err = capsys.readouterr().err
         assert "granalytics convert" in err and "docs/readers.md" in err
+
+
+@pytest.mark.parametrize("command", ["stats", "sensitivity"])
+def test_rigid_options_without_the_rigid_test_are_refused(command, capsys):
+    """Round four, B7: --rigid-tol without --comotion rigid was accepted and ignored."""
+    from granalytics.cli import main
+
+    assert main([command, "datasets/lab-cg3.h5", "--rigid-tol", "0.3", "--quiet"]) == 2
+    assert "--rigid-tol set the rigid co-motion test: give --comotion rigid too" in capsys.readouterr().err

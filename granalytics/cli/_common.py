@@ -162,23 +162,41 @@ def add_criterion_options(parser, grid_tol=False):
                         help="co-motion test: 'angle' = the paper's (velocities or angular velocities within A_agg), "
                              "'rigid' = the pair moves as one rigid body, |v_j - v_i - w x (r_j - r_i)| < "
                              f"rigid_tol·V (default {DEFAULT_COMOTION})")
+    # None: not given (resolve_rigid_options fills the default, and refuses them without --comotion rigid)
     if grid_tol:
-        parser.add_argument("--rigid-tol", type=grid, default=grid("0.05,0.1,0.2,0.4,0.8"), metavar="GRID",
+        parser.add_argument("--rigid-tol", type=grid, default=None, metavar="GRID",
                             help="tolerances of the rigid test, with --comotion rigid (default 0.05,0.1,0.2,0.4,0.8)")
     else:
-        parser.add_argument("--rigid-tol", type=float, default=DEFAULT_RIGID_TOL,
-                            help=f"tolerance of the rigid test (default {DEFAULT_RIGID_TOL:g})")
-    parser.add_argument("--rigid-scale", choices=RIGID_SCALES, default=DEFAULT_RIGID_SCALE,
+        parser.add_argument("--rigid-tol", type=float, default=None,
+                            help=f"tolerance of the rigid test, with --comotion rigid (default {DEFAULT_RIGID_TOL:g})")
+    parser.add_argument("--rigid-scale", choices=RIGID_SCALES, default=None,
                         help="V of the rigid test: 'granular' = sqrt(g·d) of each pair (d = R_i + R_j), 'drum' = the "
                              f"rim speed Ω·R_d (default {DEFAULT_RIGID_SCALE})")
     parser.add_argument("--min-size", type=int, default=2,
                         help="fewest particles of a granule; smaller groups count as free particles (default 2)")
 
 
+def resolve_rigid_options(args, grid_tol=False) -> None:
+    """Refuse ``--rigid-tol`` / ``--rigid-scale`` without ``--comotion rigid`` (they would be
+    ignored without a word), then fill in their defaults where they were not given."""
+    from granalytics.identify.contacts import DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL
+
+    given = [name for name, value in (("--rigid-tol", args.rigid_tol), ("--rigid-scale", args.rigid_scale))
+             if value is not None]
+    if given and args.comotion != "rigid":
+        raise ParameterError(f"{' and '.join(given)} set the rigid co-motion test: give --comotion rigid too (the "
+                             f"angle test, --comotion {args.comotion}, uses --a-agg-deg)")
+    if args.rigid_tol is None:  # grid_tol: the sensitivity pass's grid of tolerances
+        args.rigid_tol = grid("0.05,0.1,0.2,0.4,0.8") if grid_tol else DEFAULT_RIGID_TOL
+    if args.rigid_scale is None:
+        args.rigid_scale = DEFAULT_RIGID_SCALE
+
+
 def criterion_params(args) -> dict:
     """GNA's co-motion and size-floor parameters from :func:`add_criterion_options`' options
     (only those that differ from the defaults with ``--comotion angle``, so a method without them
     is not handed them)."""
+    resolve_rigid_options(args)
     out = {"comotion": args.comotion, "min_size": args.min_size}
     if args.comotion == "rigid":
         out.update(rigid_tol=args.rigid_tol, rigid_scale=args.rigid_scale)

@@ -21,7 +21,7 @@ from granalytics.identify import DEFAULT_METHODS, accepted_params
 from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
-from granalytics.cli._common import (threshold_options, add_cohesion_option, add_continuation_option,
+from granalytics.cli._common import (resolve_rigid_options, threshold_options, add_cohesion_option, add_continuation_option,
                                      add_criterion_options, add_frame_loop_options, add_gna_options, add_size_unit_option, criterion_params,
                                      check_outputs, frame_loop, gna_identifier, grid,
                                      interval, json_safe, plus_minus, progress, save_figure, selected_frames, setting,
@@ -400,6 +400,7 @@ def cmd_sensitivity(args):
     bad = [a for a in args.a_agg_deg if not 0 < a <= 180]
     if bad:
         raise ParameterError(f"--a-agg-deg values must be in (0, 180] degrees, got {bad[0]:g}")
+    resolve_rigid_options(args, grid_tol=True)
     if (args.rigid_tol <= 0).any():
         raise ParameterError(f"--rigid-tol values must be > 0, got min {args.rigid_tol.min():g}")
     rigid = args.comotion == "rigid"
