@@ -315,3 +315,23 @@ def test_rigid_options_without_the_rigid_test_are_refused(command, capsys):
 
     assert main([command, "datasets/lab-cg3.h5", "--rigid-tol", "0.3", "--quiet"]) == 2
     assert "--rigid-tol set the rigid co-motion test: give --comotion rigid too" in capsys.readouterr().err
+
+
+def test_inputs_no_analysis_can_use_are_refused_in_one_line(tmp_path, capsys):
+    """Round four, B7: pbm --c-agg 1e9 wrote NaN with exit 0; --min-fragment larger than the run,
+    a CG factor of 0.5 or 1e6 and study --predict gamma=-1 were accepted without a word."""
+    from granalytics import RunMeta, ValidationError
+    from granalytics.cli import main
+    from granalytics.cli.study import parse_predict
+
+    assert main(["pbm", "datasets/lab-cg3.h5", "--c-agg", "1e9", "--fit-window", "2:4", "--predict", "4:6",
+                 "--out", str(tmp_path / "pbm"), "--quiet"]) == 2
+    assert "no granule in the fit window" in capsys.readouterr().err and not (tmp_path / "pbm").exists()
+    assert main(["track", "datasets/lab-cg3.h5", "--out", str(tmp_path / "t"), "--window-rev", "3:3.5",
+                 "--min-fragment", "1000", "--quiet"]) == 2
+    assert "larger than the run's 111 particles" in capsys.readouterr().err
+    for alpha in (0.5, 1e6):
+        with pytest.raises(ValidationError, match="a CG factor must be in"):
+            RunMeta(surface_tension=0.1, density=2500.0, drum_omega=2.0, n_particles=10, mean_radius=1e-3, alpha=alpha)
+    with pytest.raises(ga.ParameterError, match="gamma is a surface tension"):
+        parse_predict("gamma=-1,omega=2")

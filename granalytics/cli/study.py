@@ -42,6 +42,10 @@ def parse_predict(text, inputs=("gamma", "omega")) -> dict:
             raise ParameterError(f"--predict: {key} must be a number, got {value.strip()!r}") from None
         if not math.isfinite(number):
             raise ParameterError(f"--predict: {key} must be a finite number, got {value.strip()!r}")
+        if key == "gamma" and number <= 0:
+            raise ParameterError(f"--predict: gamma is a surface tension [N/m] and must be > 0, got {number:g}")
+        if key == "omega" and number == 0:
+            raise ParameterError("--predict: omega must be non-zero [rad/s] (a study's runs turn the drum)")
         values[key] = number
     missing = [k for k in inputs if k not in values]
     if missing:

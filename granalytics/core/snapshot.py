@@ -47,6 +47,10 @@ def json_problem(value) -> str | None:
     return None
 
 
+#: the largest CG factor a run may record (a CG particle standing for a million original ones)
+MAX_ALPHA = 100.0
+
+
 @dataclass
 class RunMeta:
     """Metadata of a run: what CG-aware statistics need, plus provenance.
@@ -113,6 +117,9 @@ class RunMeta:
         self.density = positive("density")
         self.mean_radius = positive("mean_radius")
         self.alpha = positive("alpha")
+        if not 1.0 <= self.alpha <= MAX_ALPHA:  # 0.5 would make original particles larger; 1e6 a meaningless run
+            raise ValidationError("alpha", f"a CG factor must be in [1, {MAX_ALPHA:g}] (particles α times the "
+                                           f"original's), got {self.alpha!r}")
         self.drum_omega = number("drum_omega")
         if not math.isfinite(self.drum_omega):
             raise ValidationError("drum_omega", f"must be finite, got {self.drum_omega!r}")

@@ -284,6 +284,11 @@ def pbm_from_run(run, fit_window, predict_window, *, method="gna", min_fragment=
                                  "frame(s), at least two are needed")
         sets[name] = frames
     fit_tracks = track_run(sets["fit_window"], method, progress=progress, min_fragment=min_fragment, **params)
+    if not any(len(sizes) for sizes in fit_tracks.sizes_by_frame):
+        shown = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items())
+        raise ParameterError(f"{os.path.basename(str(run.path))}: no granule in the fit window {fit_window[0]:g}:"
+                             f"{fit_window[1]:g} with {method} ({shown or 'its defaults'}): there are no rates to fit "
+                             "(a threshold above every contact's cohesion finds none)")
     rates = fit_pbm_rates(fit_tracks, n, size_bins, bins_per_decade=bins_per_decade)
     frames = sets["predict_window"]
     pred_tracks = track_run(frames, method, progress=progress, min_fragment=min_fragment, **params)

@@ -147,6 +147,10 @@ def _check_frames(labels_by_frame, ids_by_frame, times_s, min_fragment):
     n = len(labels_by_frame)
     if n == 0:
         raise ParameterError("no frames to track")
+    most = max(np.size(labels) for labels in labels_by_frame)
+    if min_fragment > most:
+        raise ParameterError(f"min_fragment {min_fragment} is larger than the run's {most} particles: no coalescence or "
+                             "breakage could ever be counted")
     if len(ids_by_frame) != n or times.size != n:
         raise ParameterError(f"got {n} label arrays, {len(ids_by_frame)} id arrays and {times.size} times; "
                              "expected one of each per frame")
