@@ -112,3 +112,19 @@ def test_an_unknown_capillary_type_is_refused(tmp_path):
     mapping.write_text((DATA / "meta.toml").read_text() + 'capillary_type = "Rabinovich"\n')
     with pytest.raises(ValidationError, match="capillary_type 'Rabinovich' is not read"):
         read_yade_csv(PARTICLES, CONTACTS, mapping)
+
+
+def test_a_fractional_particle_or_contact_id_is_refused_naming_the_line(tmp_path):
+    """Round three and four, B8: an id 11.5 was read as 11 without a word (the LAMMPS reader refuses it)."""
+    text = gzip.open(PARTICLES[-1], "rt").read().splitlines()
+    bad = tmp_path / "p.csv"
+    bad.write_text("\n".join(text[:4] + [text[4].split(",", 1)[0] + ".5," + text[4].split(",", 1)[1]] + text[5:])
+                   + "\n")
+    with pytest.raises(GranalyticsError, match=r"p.csv, line 5: particle id .*\.5 is not a whole number"):
+        read_yade_csv([bad], CONTACTS[-1:], DATA / "meta.toml")
+    text = gzip.open(CONTACTS[-1], "rt").read().splitlines()
+    bad = tmp_path / "c.csv"
+    bad.write_text("\n".join(text[:5] + [text[5].split(",", 1)[0] + ".5," + text[5].split(",", 1)[1]] + text[6:])
+                   + "\n")
+    with pytest.raises(GranalyticsError, match=r"c.csv, line 6: id1 .*\.5 is not a whole number"):
+        read_yade_csv(PARTICLES[-1:], [bad], DATA / "meta.toml")

@@ -35,6 +35,20 @@ _META_KEYS = {"surface_tension", "density", "drum_omega", "contact_angle", "alph
 _CAPILLARY_TYPES = {"Willett_numeric": willett_numeric_contact_force}
 
 
+def _whole_numbers(values, path, what, first_line):
+    """``values`` (read as numbers) as int64, refusing (DumpFormatError naming the line) one that is
+    not a whole number within float64's exact integers (an id 11.5 was read as 11)."""
+    values = np.asarray(values)
+    if values.dtype.kind in "iu":
+        return values.astype(np.int64)
+    as_float = values.astype(float)
+    bad = np.flatnonzero(~np.isfinite(as_float) | (as_float != np.round(as_float)) | (np.abs(as_float) > 2**53))
+    if bad.size:
+        k = int(bad[0])
+        raise DumpFormatError(f"{path}, line {first_line + k}: {what} {float(values[k]):g} is not a whole number")
+    return as_float.astype(np.int64)
+
+
 def _read(path, columns):
     lines = read_complete_lines(path)  # refuses a file whose last line was cut
     header = lines[0] if lines else ""
@@ -95,11 +109,12 @@ def read_yade_csv(particle_files, contact_files, meta_toml):
         if step not in contacts:
             raise DumpFormatError(f"{path}: no contact file for step {step}")
         c, cpath = contacts[step]
-        ids = p["id"].to_numpy().astype(np.int64)
+        ids = _whole_numbers(p["id"].to_numpy(), path, "particle id", first_line=3)
         row = {int(pid): k for k, pid in enumerate(ids)}
         rows = []
         for name in ("id1", "id2"):
-            r = np.array([row.get(int(x), -1) for x in c[name]], dtype=np.int64)
+            r = np.array([row.get(int(x), -1) for x in _whole_numbers(c[name].to_numpy(), cpath, name, first_line=3)],
+                         dtype=np.int64)
             if (r < 0).any():
                 k = int(np.flatnonzero(r < 0)[0])
                 raise DumpFormatError(f"{cpath}, line {k + 3}: particle id {int(c[name].iloc[k])} is not in {path}")
