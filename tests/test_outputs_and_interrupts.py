@@ -705,3 +705,17 @@ def test_a_ctrl_c_after_the_command_finished_is_ignored_while_the_process_exits(
             "status = main(); print(status, signal.getsignal(signal.SIGINT) is signal.SIG_IGN)")
     done = subprocess.run([sys.executable, "-c", code, run_file], capture_output=True, text=True, timeout=120)
     assert done.stdout.strip().splitlines()[-1] == "0 True", done.stderr
+
+
+def test_bundle_sweep_overwrite_never_deletes_other_files_in_the_folder(sweep, tmp_path, capsys):
+    """Round three and four, B8: --overwrite of a folder that held the user's other files (a
+    bundle made into an existing folder, notes beside it) deleted them with the old bundle."""
+    dst = tmp_path / "bundle"
+    assert main(["datasets", "bundle-sweep", str(sweep), str(dst)]) == 0
+    (dst / "notes.txt").write_text("mine")
+    before = _digest(dst)
+    assert main(["datasets", "bundle-sweep", str(sweep), str(dst), "--overwrite"]) == 2
+    assert "holds files that are not a bundle's (notes.txt)" in capsys.readouterr().err
+    assert _digest(dst) == before
+    (dst / "notes.txt").unlink()
+    assert main(["datasets", "bundle-sweep", str(sweep), str(dst), "--overwrite"]) == 0

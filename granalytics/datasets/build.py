@@ -124,6 +124,12 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
             raise GranalyticsError(f"{dst}: exists and is not a folder")
         if dst.exists() and not overwrite:
             raise GranalyticsError(f"{dst}: exists (pass overwrite=True, or --overwrite, to replace it)")
+        if dst.is_dir():  # --overwrite replaces a bundle, never the user's other files beside it
+            others = sorted(p.name for p in dst.iterdir() if p.name not in ("manifest.csv", "points"))
+            if others:
+                raise GranalyticsError(f"{dst}: holds files that are not a bundle's ({', '.join(others[:3])}"
+                                       f"{' …' if len(others) > 3 else ''}); --overwrite replaces only a bundle "
+                                       "(manifest.csv and points/): bundle into a new folder")
         table = read_manifest(src)
         done = table[table.status == "done"].copy()
         if done.empty:
