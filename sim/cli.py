@@ -18,7 +18,7 @@ import math
 import os
 import sys
 
-from granalytics.core import check_not_open_elsewhere, check_output_folder, interrupted, manifest_path, one_line, warnings_as_lines
+from granalytics.core import check_not_open_elsewhere, check_output_folder, interrupted, terminate_as_interrupt, manifest_path, one_line, warnings_as_lines
 
 from .cg_rules import CG_RULES, DEFAULT_CG_RULE
 from .laws import CONTACT_LAWS
@@ -258,7 +258,8 @@ def main(argv=None):
             print(f"{name:<11} {p.n_particles:>7} particles  α={p.alpha:g}  R_d={p.drum_radius:.4f} m  "
                   f"L={p.drum_length:.4f} m  Δt={p.dt:.1e} s  r_s={p.spray_radius:.4f} m")
         return 0
-    return reporting_errors(lambda: args.func(args) if args.command == "sweep" else _run(args))
+    with terminate_as_interrupt():  # kill PID: the run stops as with Ctrl-C (its checkpoint kept, its lock released)
+        return reporting_errors(lambda: args.func(args) if args.command == "sweep" else _run(args))
 
 
 def reporting_errors(command) -> int:

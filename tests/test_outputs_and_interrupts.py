@@ -719,3 +719,21 @@ def test_bundle_sweep_overwrite_never_deletes_other_files_in_the_folder(sweep, t
     assert _digest(dst) == before
     (dst / "notes.txt").unlink()
     assert main(["datasets", "bundle-sweep", str(sweep), str(dst), "--overwrite"]) == 0
+
+
+def test_sigterm_is_cleaned_up_as_a_ctrl_c(tmp_path, capsys):
+    """Round four, B7: SIGTERM left .staging-* folders and *.lock files that nothing cleaned. The
+    command lines now raise it as a KeyboardInterrupt, so the clean-up of a Ctrl-C runs."""
+    import signal
+
+    from granalytics.core import terminate_as_interrupt
+    from granalytics.core.files import staged_outputs
+
+    target = tmp_path / "out.csv"
+    with pytest.raises(KeyboardInterrupt):
+        with terminate_as_interrupt(), staged_outputs() as stage:
+            with open(stage(str(target)), "w") as f:
+                f.write("half")
+            os.kill(os.getpid(), signal.SIGTERM)
+    assert not list(tmp_path.iterdir())  # no staging folder, no output
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored

@@ -17,7 +17,8 @@ import sys
 
 from granalytics._version import __version__
 from granalytics.core.errors import GranalyticsError
-from granalytics.core.files import interrupted, interrupts_not_lost, raise_dropped_interrupt, warnings_as_lines
+from granalytics.core.files import (interrupted, interrupts_not_lost, raise_dropped_interrupt, terminate_as_interrupt,
+                                    warnings_as_lines)
 from granalytics.cli import analysis, data, datasets, pbm, study, tracking
 
 __all__ = ["main", "build_parser", "COMMANDS"]
@@ -96,7 +97,8 @@ def main(argv=None):
 
     finished = None
     argv = sys.argv[1:] if argv is None else list(argv)
-    with interrupts_not_lost():  # a Ctrl-C that lands in a __del__ or GC callback is raised later, not dropped
+    # a Ctrl-C that lands in a __del__ or GC callback is raised later, not dropped; SIGTERM cleans up as Ctrl-C
+    with interrupts_not_lost(), terminate_as_interrupt():
         return _main(argv)
 
 

@@ -22,7 +22,7 @@ import warnings
 from granalytics.core._checks import check_path
 from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
 
-__all__ = ["check_not_open_elsewhere", "replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
+__all__ = ["check_not_open_elsewhere", "terminate_as_interrupt", "replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
            "warnings_as_lines", "regular_input", "staged_outputs", "output_folder", "interrupted",
            "swap_folder", "check_replaceable", "interrupts_not_lost", "raise_dropped_interrupt"]
 
@@ -277,6 +277,29 @@ def check_not_open_elsewhere(path) -> None:
 
 
 _LOCK_SUFFIX = ".lock"
+
+
+@contextlib.contextmanager
+def terminate_as_interrupt():
+    """Inside, SIGTERM (``kill PID``, a batch system's time limit) is raised as a KeyboardInterrupt,
+    so that the clean-up of a Ctrl-C runs for it too: staged outputs and ``.staging-*`` folders
+    removed, lock files released. Only the main thread receives signals; elsewhere nothing is
+    changed."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def raise_interrupt(signum, frame):
+        raise KeyboardInterrupt("SIGTERM")
+
+    previous = signal.signal(signal.SIGTERM, raise_interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def interrupted(exc) -> bool:
