@@ -22,6 +22,7 @@ from granalytics.analysis.study import (
     study_table,
 )
 from granalytics.cli.study import add_study_parser, parse_predict
+from granalytics.core.manifest import file_sha256
 from granalytics.plot import growth_figure
 from granalytics.datasets.synthetic import synthetic_snapshot
 
@@ -55,7 +56,8 @@ def sweep_dir(tmp_path_factory):
         write_point(root / "points" / f"{name}.h5", gamma, omega, seed=i)
         rows.append({"point": name, "status": "done", "gamma": gamma, "omega": omega, "alpha": ALPHA, "seed": 0,
                      "particles": 1200, "preset": "lab-cg2", "revolutions": 6.0, "frame_every_rev": 0.5,
-                     "wall_time_s": 1.0, "resumed": False, "file": f"points/{name}.h5", "sha256": "x", "error": "",
+                     "wall_time_s": 1.0, "resumed": False, "file": f"points/{name}.h5",
+                     "sha256": file_sha256(root / "points" / f"{name}.h5"), "error": "",
                      "finished_utc": ""})
     rows.append({**rows[0], "point": "gamma=0.5_omega=2", "status": "failed", "gamma": 0.5, "file": "points/none.h5",
                  "error": "RuntimeError: boom"})
@@ -342,3 +344,28 @@ def test_one_rule_for_no_growth_reported_and_never_drawn():
         fit_granule_growth(gamma, flat, np.r_[-0.1, np.full(gamma.size - 1, 0.1)])
     with pytest.warns(UserWarning, match="1 sem\\(s\\) zero or NaN at points with granules"):
         fit_granule_growth(gamma, 50 * np.maximum(0, gamma - 0.03) + 1, np.r_[np.nan, np.full(gamma.size - 1, 0.1)])
+
+
+
+def test_a_replaced_point_file_or_one_outside_the_folder_is_refused(sweep_dir, tmp_path):
+    """Round four, B2: study read a sweep whose point file was replaced by another point (γ 0.03
+    twice, γ 0.01 gone) and followed a manifest entry ../outside/x.h5."""
+    import shutil
+
+    copy = tmp_path / "sweep"
+    shutil.copytree(sweep_dir, copy)
+    manifest = pd.read_csv(copy / "manifest.csv")
+    first, second = manifest["file"][0], manifest["file"][1]
+    shutil.copyfile(copy / second, copy / first)  # another point's file under this point's name
+    with pytest.raises(ParameterError, match="its sha256 is not the one the manifest records"):
+        study_table(copy, window=(3, 6))
+    manifest.loc[0, "sha256"] = file_sha256(copy / first)  # the sum updated too: its own parameters tell
+    manifest.to_csv(copy / "manifest.csv", index=False)
+    with pytest.raises(ParameterError, match="the run's omega is .*, the manifest's point .* says"):
+        study_table(copy, window=(3, 6))
+    (tmp_path / "outside").mkdir()
+    shutil.copyfile(sweep_dir / second, tmp_path / "outside" / "x.h5")
+    manifest.loc[0, "file"] = "../outside/x.h5"
+    manifest.to_csv(copy / "manifest.csv", index=False)
+    with pytest.raises(ParameterError, match="lies outside the sweep folder"):
+        study_table(copy, window=(3, 6))

@@ -41,7 +41,7 @@ from granalytics.core.bed import FILL_PACKING, PLANAR_FRACTION, bed_structure, d
 from granalytics.core.errors import GranalyticsError, ParameterError, RunFileError, RunLockedError, ValidationError
 from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_output_folder, interrupted, terminate_as_interrupt, one_line, regular_input, warnings_as_lines
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION
-from granalytics.core.manifest import (MANIFEST_COLUMNS, NAMED_PARAMETERS, manifest_path, manifest_rows, read_manifest,
+from granalytics.core.manifest import (MANIFEST_COLUMNS, NAMED_PARAMETERS, file_sha256, manifest_path, manifest_rows, read_manifest,
                                        write_manifest)
 from granalytics.core.reader import Run, RunSlice, open_run
 from granalytics.core.snapshot import RunMeta, Snapshot
@@ -54,6 +54,6 @@ __all__ = [
     "subset_run", "replacing_run", "thinned_frames", "FORMAT_NAME", "FORMAT_VERSION",
     "bed_structure", "drum_confinement", "PLANAR_FRACTION", "FILL_PACKING",
     "check_output_folder", "check_not_open_elsewhere", "interrupted", "terminate_as_interrupt", "one_line", "regular_input", "warnings_as_lines",
-    "MANIFEST_COLUMNS", "NAMED_PARAMETERS", "manifest_path", "manifest_rows", "read_manifest", "write_manifest",
+    "MANIFEST_COLUMNS", "NAMED_PARAMETERS", "file_sha256", "manifest_path", "manifest_rows", "read_manifest", "write_manifest",
     "GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError",
 ]

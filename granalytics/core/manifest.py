@@ -18,9 +18,21 @@ from granalytics.core.errors import ParameterError
 from granalytics.core.files import one_line, write_atomically
 
 __all__ = ["MANIFEST_NAME", "NAMED_PARAMETERS", "MANIFEST_COLUMNS", "manifest_path", "read_manifest",
-           "write_manifest", "manifest_rows"]
+           "write_manifest", "manifest_rows", "file_sha256"]
 
 MANIFEST_NAME = "manifest.csv"
+
+
+def file_sha256(path) -> str:
+    """The sha256 of a file's bytes (hex), read in blocks of 1 MiB: what a manifest records of each
+    point and a registry of each dataset."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 #: canonical order of the named parameters in point names and manifest columns (others follow, sorted)
 NAMED_PARAMETERS = ("gamma", "omega", "alpha", "seed", "particles")
 #: manifest columns after ``point``, ``status`` and the parameters

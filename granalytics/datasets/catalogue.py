@@ -6,10 +6,10 @@ made it, the code version and the wall time, and the functions that hand a check
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 from granalytics.core.errors import GranalyticsError
+from granalytics.core.manifest import file_sha256
 
 __all__ = ["SIMULATOR_PHYSICS_VERSION", "PHYSICS_RECHECKS", "physics_note", "DATASETS", "REPLICAS", "replica_paths", "CONFINEMENT", "confinement_groups", "NOT_BUNDLED", "FOREIGN",
            "foreign_path", "SWEEPS", "dataset_path", "open_dataset", "sweep_path", "file_sha256", "DATASET_DIR"]
@@ -337,14 +337,6 @@ def physics_note(name: str, entry: dict) -> str:
     replica_set = next((s for s, names in REPLICAS.items() if name in names), name)
     found = PHYSICS_RECHECKS.get(replica_set, "not rechecked with today's simulator")
     return f"physics version {version} (today's is {SIMULATOR_PHYSICS_VERSION}; a rerun differs in its trajectory): {found}"
-
-
-def file_sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def _checked_file(entry, missing) -> Path:

@@ -6,13 +6,12 @@ finished point, finished points skipped, a failing point recorded with its one-l
 from __future__ import annotations
 
 import datetime
-import hashlib
 import os
 import time
 import uuid
 from dataclasses import dataclass
 
-from granalytics.core import (ParameterError, WriterLock, dask_client, manifest_path, manifest_rows, one_line,
+from granalytics.core import (ParameterError, WriterLock, dask_client, file_sha256, manifest_path, manifest_rows, one_line,
                               read_manifest, warnings_as_lines, write_manifest)
 
 from ..params import PHYSICS_VERSION, SimParams, frame_interval_steps
@@ -96,14 +95,6 @@ def _error_cell(exc) -> str:
     return text if len(text) <= 500 else text[:497] + "..."
 
 
-def _sha256(path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def _execute(runner, task: PointTask) -> dict:
     """Run one point on a worker; never raises for a failing point (the error is returned).
 
@@ -115,7 +106,7 @@ def _execute(runner, task: PointTask) -> dict:
         if not os.path.isfile(task.out):
             raise RuntimeError(f"the point runner wrote no run file {task.out}")
         wall_time_s = float(info.get("wall_time_s", time.perf_counter() - t0))
-        return {"status": "done", "wall_time_s": wall_time_s, "sha256": _sha256(task.out),
+        return {"status": "done", "wall_time_s": wall_time_s, "sha256": file_sha256(task.out),
                 "error": "", "resumed": bool(info.get("resumed", False))}
     except Exception as exc:  # reported in the manifest; the sweep goes on
         return {"status": "failed", "wall_time_s": time.perf_counter() - t0, "sha256": "", "error": _error_cell(exc),
@@ -126,7 +117,7 @@ def _is_complete(out_dir, row) -> bool:
     if not row or row.get("status") != "done" or not row.get("sha256"):
         return False
     path = os.path.join(out_dir, row.get("file") or "")
-    return os.path.isfile(path) and _sha256(path) == row["sha256"]
+    return os.path.isfile(path) and file_sha256(path) == row["sha256"]
 
 
 def _same(a, b) -> bool:

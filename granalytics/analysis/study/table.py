@@ -9,6 +9,7 @@ run files ``points/<point>.h5``. This module reads only those files; it does not
 
 from __future__ import annotations
 
+import math
 import os
 
 import pandas as pd
@@ -16,7 +17,7 @@ import pandas as pd
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.core.errors import ParameterError
-from granalytics.core.manifest import MANIFEST_COLUMNS, read_manifest
+from granalytics.core.manifest import MANIFEST_COLUMNS, file_sha256, read_manifest
 from granalytics.identify.cohesion import check_cohesion
 
 
@@ -37,6 +38,37 @@ def _original_values(meta):
     gamma = original.get("surface_tension", meta.surface_tension / meta.alpha)
     omega = original.get("drum_omega", meta.drum_omega)
     return float(gamma), float(omega)
+
+
+def _checked_point_file(sweep_dir, record) -> str:
+    """The run file of a manifest row, refused (ParameterError) when it lies outside the sweep
+    folder (``../outside/x.h5``) or its bytes are not those whose sha256 the manifest records (a
+    point file replaced by another one)."""
+    folder = os.path.realpath(os.fspath(sweep_dir))
+    path = os.path.join(os.fspath(sweep_dir), record["file"])
+    if os.path.commonpath([folder, os.path.realpath(path)]) != folder:
+        raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: point {record['point']}'s file "
+                             f"{record['file']!r} lies outside the sweep folder")
+    recorded = record.get("sha256")
+    if isinstance(recorded, str) and recorded and os.path.isfile(path) and file_sha256(path) != recorded:
+        raise ParameterError(f"{path}: its sha256 is not the one the manifest records for point {record['point']} "
+                             "(the file was replaced or changed after the sweep)")
+    return path
+
+
+def _check_point_parameters(path, record, meta) -> None:
+    """Refuse a point file whose own parameters (γ and Ω of its original system, α, seed) are not
+    the manifest row's: another point's file under this point's name."""
+    params = (meta.sim_config or {}).get("params") or {}
+    gamma, omega = _original_values(meta)
+    own = {"gamma": gamma, "omega": omega, "alpha": float(meta.alpha), "seed": params.get("seed")}
+    for key, value in own.items():
+        listed = record.get(key)
+        if listed is None or value is None or (isinstance(listed, float) and math.isnan(listed)):
+            continue
+        if not math.isclose(float(listed), float(value), rel_tol=1e-9, abs_tol=0.0):
+            raise ParameterError(f"{path}: the run's {key} is {value:g}, the manifest's point {record['point']} says "
+                                 f"{float(listed):g} (another point's file?)")
 
 
 def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("acting", "bridge"), *,
@@ -111,9 +143,10 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
         if not isinstance(record.get("file"), str) or not record["file"]:
             raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: point {record['point']} is "
                                  f"done but its file field is empty ({record.get('file')!r})")
-        path = os.path.join(os.fspath(sweep_dir), record["file"])
+        path = _checked_point_file(sweep_dir, record)
         with open_run(path) as run:
             meta = run.meta
+            _check_point_parameters(path, record, meta)
             frames = run.select(revolutions=(lo, hi))
             if not len(frames):
                 revs = run.revolutions
