@@ -235,6 +235,6 @@ def test_info_and_compare_cg_warn_where_a_rule_is_measured_outside_the_tolerance
     assert "measured up to α = 3" in cg_rule_warning("bond", 4.0)
     assert ga_main(["info", str(dataset_path("lab-cg3"))]) == 0
     err = capsys.readouterr().err
-    assert err.count("CG rule weber at α = 3 moves the steady yield") == 1
+    assert err.count("CG rule weber at α = 3 moved the steady yield") == 1
     with pytest.warns(UserWarning, match="lab-cg3.h5 \\(and its 2 replica\\(s\\)\\): CG rule weber at α = 3"):
         ga.compare_cg([dataset_path("lab-cg1"), ga.datasets.replica_paths("lab-cg3")], window=(3.0, 3.5))
