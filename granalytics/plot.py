@@ -657,11 +657,15 @@ def cg_threshold_figures(table) -> dict:
             grid = np.ma.masked_invalid(100 * part.to_numpy(dtype=float))
             ax.set_facecolor("0.8")
             mesh = ax.pcolormesh(np.arange(c.size + 1), np.arange(a.size + 1), grid, cmap="RdBu_r", norm=norm)
+            error = (100 * table[table["run"] == run].pivot(index="a_agg_deg", columns="c_agg",
+                                                             values=f"{metric}_rel_dev_se").to_numpy(dtype=float)
+                     if f"{metric}_rel_dev_se" in table else np.full(grid.shape, np.nan))
             for i in range(a.size):
                 for j in range(c.size):
                     if not np.ma.is_masked(grid[i, j]):
                         dark = abs(grid[i, j]) > 0.6 * span
-                        ax.text(j + 0.5, i + 0.5, f"{grid[i, j]:+.0f}", ha="center", va="center", fontsize=7,
+                        shown = f"{grid[i, j]:+.0f}" + (f"\n±{error[i, j]:.0f}" if np.isfinite(error[i, j]) else "")
+                        ax.text(j + 0.5, i + 0.5, shown, ha="center", va="center", fontsize=6,
                                 color="w" if dark else "k")
             ax.set_xticks(np.arange(c.size) + 0.5, [f"{x:.3g}" for x in c], fontsize=7)
             ax.set_yticks(np.arange(a.size) + 0.5, [f"{x:g}" for x in a], fontsize=7)
@@ -670,7 +674,8 @@ def cg_threshold_figures(table) -> dict:
             ax.set_title(f"{run} vs {finest}", fontsize=9)
         bar = fig.colorbar(mesh, ax=axes[0].tolist(), label=f"relative deviation from {finest} [%]")
         bar.ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:+.0f}" if v else "0"))
-        fig.suptitle(f"CG deviation of {METRICS[metric].label} ({METRICS[metric].figure}) at every threshold pair\n"
+        fig.suptitle(f"CG deviation of {METRICS[metric].label} ({METRICS[metric].figure}) at every threshold pair [%]\n"
+                     "± its standard error (from both runs' block s.e.m.)\n"
                      "grey: no granules in the finest run (no relative deviation)", fontsize=9)
         figures[f"cg_thresholds_{metric}"] = fig
     return figures

@@ -207,3 +207,20 @@ def test_the_description_names_every_threshold_the_identification_used(cg_runs):
     assert "c_agg=0.6, a_agg_deg=20, min_size=2" in cg.description
     rigid = compare_cg(cg_runs[:2], labels=["cg1", "cg3"], window=(2, 4), comotion="rigid", min_size=3)
     assert "rigid_tol=" in rigid.description and "min_size=3" in rigid.description
+
+
+def test_threshold_grid_deviations_carry_their_standard_error():
+    """Round four, C12: cg_thresholds.csv and its heatmaps had no error on the deviations."""
+    from granalytics import compare_cg_thresholds
+    from granalytics.datasets import dataset_path
+
+    table = compare_cg_thresholds([dataset_path("lab-cg2"), dataset_path("lab-cg3")], [0.4, 0.6], [20],
+                                  window=(3.0, 4.5))
+    cg3 = table[table["alpha"] == 3.0]
+    assert (cg3["yield_fraction_rel_dev_se"] > 0).all() and (cg3["yield_fraction_sem"] > 0).all()
+    ratio = cg3["yield_fraction_mean"] / table[table["alpha"] == 2.0]["yield_fraction_mean"].to_numpy()
+    expected = ratio * np.hypot(cg3["yield_fraction_sem"] / cg3["yield_fraction_mean"],
+                                table[table["alpha"] == 2.0]["yield_fraction_sem"].to_numpy()
+                                / table[table["alpha"] == 2.0]["yield_fraction_mean"].to_numpy())
+    assert np.allclose(cg3["yield_fraction_rel_dev_se"], expected)
+    assert table[table["alpha"] == 2.0]["yield_fraction_rel_dev_se"].isna().all()

@@ -467,6 +467,24 @@ def _comparison_row(row, steady, sizes, reference, ref_row) -> dict:
     return out
 
 
+def _grid_block_sems(table, lo) -> pd.DataFrame:
+    """The block s.e.m. of each headline metric at every threshold pair of a sensitivity table
+    (blocks of a quarter revolution from the window's start ``lo``, :func:`blocking_sem`)."""
+    from granalytics.analysis.stats import blocking_sem
+
+    rows = []
+    for (a_agg, c_agg), part in table.groupby(["a_agg_deg", "c_agg"]):
+        block = np.floor((part["revolutions"].to_numpy() - lo + 1e-9) / 0.25).astype(int)
+        row = {"a_agg_deg": a_agg, "c_agg": c_agg}
+        for metric in BY_FIGURE:
+            values = part[metric].to_numpy(dtype=float)
+            ok = np.isfinite(values)
+            grouped = pd.Series(values[ok]).groupby(block[ok])
+            row[f"{metric}_sem"] = blocking_sem(grouped.sum().to_numpy(), grouped.size().to_numpy())[0]
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
 def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT_WINDOW_REV,
                           cohesion=DEFAULT_COHESION, radius="pair", progress=False) -> pd.DataFrame:
     """Does the CG agreement survive other thresholds? The deviation of each headline statistic
@@ -489,9 +507,10 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
     -------
     DataFrame
         One row per run and threshold pair: ``run``, ``alpha``, ``c_agg``, ``a_agg_deg``,
-        ``n_frames``, and for each headline metric ``<metric>_mean`` (over the window's frames)
-        and ``<metric>_rel_dev`` ((run − finest)/finest; 0 for the finest run, NaN where the
-        finest is 0).
+        ``n_frames``, and for each headline metric ``<metric>_mean`` (over the window's frames),
+        ``<metric>_sem`` (its block s.e.m., quarter-revolution blocks as :func:`steady_state`),
+        ``<metric>_rel_dev`` ((run − finest)/finest; 0 for the finest run, NaN where the finest
+        is 0) and ``<metric>_rel_dev_se`` (its standard error from both block s.e.m.s).
     """
     from granalytics.analysis.sensitivity import sensitivity, sensitivity_summary
 
@@ -512,7 +531,7 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
             if not len(frames):
                 raise ParameterError(f"{run.path}: no frame in the window [{lo:g}, {hi:g}] revolutions")
             table = sensitivity(frames, c_agg, a_agg_deg, radius=radius, cohesion=cohesion, progress=progress)
-            summary = sensitivity_summary(table)
+            summary = sensitivity_summary(table).merge(_grid_block_sems(table, lo), on=["a_agg_deg", "c_agg"])
             summary.insert(0, "alpha", run.meta.alpha)
             summary.insert(0, "run", label)
             rows.append(summary)
@@ -521,9 +540,15 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
     keys = ["a_agg_deg", "c_agg"]
     ref = out[out["run"] == finest].set_index(keys)
     for metric in BY_FIGURE:
-        base = ref.loc[pd.MultiIndex.from_frame(out[keys]), f"{metric}_mean"].to_numpy()
+        at = pd.MultiIndex.from_frame(out[keys])
+        base, base_se = (ref.loc[at, f"{metric}_{s}"].to_numpy() for s in ("mean", "sem"))
+        mean, se = out[f"{metric}_mean"].to_numpy(), out[f"{metric}_sem"].to_numpy()
         with np.errstate(divide="ignore", invalid="ignore"):
-            out[f"{metric}_rel_dev"] = np.where(base != 0, (out[f"{metric}_mean"].to_numpy() - base) / base, np.nan)
+            ratio = np.where(base != 0, mean / base, np.nan)
+            out[f"{metric}_rel_dev"] = ratio - 1
+            # the finest run's own row has no error of the deviation (it is 0 by definition)
+            out[f"{metric}_rel_dev_se"] = np.where(out["run"] == finest, np.nan,
+                                                   np.abs(ratio) * np.hypot(se / mean, base_se / base))
     columns = ["run", "alpha", "c_agg", "a_agg_deg", "n_frames"]
-    columns += [f"{m}_{s}" for m in BY_FIGURE for s in ("mean", "rel_dev")]
+    columns += [f"{m}_{s}" for m in BY_FIGURE for s in ("mean", "sem", "rel_dev", "rel_dev_se")]
     return out[columns].sort_values(["alpha", "a_agg_deg", "c_agg"]).reset_index(drop=True)
