@@ -229,10 +229,16 @@ def sensitivity_figure(summary, title=None):
         if METRICS[metric].log_scale:
             ax.set_yscale("log")
             _plain_log_ticks(ax.yaxis)
-    axes[1, 0].legend(fontsize=8, title="bars: ± std over the frames", title_fontsize=8)
-    fig.text(0.5, -0.02, "heatmaps: mean over the window's frames; white cells: no granules at that pair (⟨V_g⟩ "
+    # the legend below the panels, where it covers no curve
+    handles, labels = axes[1, 0].get_legend_handles_labels()
+    middle = axes[1, len(shown) // 2]
+    middle.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=min(len(labels), 6),
+                  fontsize=8, title="bars: ± std over the frames", title_fontsize=8, frameon=False)
+    fig.text(0.5, -0.01, "heatmaps: mean over the window's frames; white cells: no granules at that pair (⟨V_g⟩ "
              "undefined); line plots: mean ± standard deviation over the frames (frame-to-frame spread, not an "
-             "error of the mean)", ha="center", va="top", fontsize=8)
+             "error of the mean)\nthe cliff: a contact is kept when F_coh ≥ C_agg·2πγR, so every statistic falls "
+             "to 0 at C_agg above the largest F_coh/(2πγR) of the run (docs/identification.md)",
+             ha="center", va="top", fontsize=8)
     if title:
         fig.suptitle(title)
     return fig

@@ -320,9 +320,9 @@ def save_figure(fig, path, stage=None):
     ext = os.path.splitext(path)[1].lstrip(".").lower() or "png"
     try:
         if stage is not None:
-            fig.savefig(stage(path), dpi=120, format=ext)
+            fig.savefig(stage(path), dpi=120, format=ext, bbox_inches="tight")  # notes below the axes included
         else:
-            write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=ext))
+            write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=ext, bbox_inches="tight"))
     except (OSError, ValueError) as exc:
         raise GranalyticsError(f"{path}: cannot write plot ({exc})") from None
     print(f"wrote plot to {path}")

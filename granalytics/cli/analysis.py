@@ -432,6 +432,9 @@ def cmd_sensitivity(args):
     import pandas as pd
 
     shown = summary[["rigid_tol" if rigid else "a_agg_deg", "c_agg", *(f"{name}_mean" for name in HEADLINE)]]
+    print(f"mean over the frames of revolutions [{args.window[0]:g}, {args.window[1]:g}] at each threshold pair "
+          f"(cohesion={args.cohesion}; F_coh >= C_agg·2πγR keeps a contact, so above the largest F_coh/(2πγR) of "
+          "the run nothing is kept)")
     with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120, "display.max_rows", 40):
         print(shown.to_string(index=False))
     return 0
