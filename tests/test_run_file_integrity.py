@@ -695,3 +695,25 @@ def test_a_small_file_declaring_2e8_particles_is_refused_at_once(tmp_path, run_p
         assert time.monotonic() - t0 < 10
         err = capsys.readouterr().err.strip()
         assert "\n" not in err and "200000000 particles" in err and "GB of memory" in err
+
+
+def test_a_particle_set_that_changes_between_frames_is_refused(tmp_path):
+    """Round four, B2: convert accepted frames with new or renumbered ids, and track then reported
+    births and deaths of a granule that never changed. The writer, which every producer uses,
+    refuses them."""
+    import dataclasses
+
+    from granalytics import RunWriter, ValidationError
+    from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
+
+    meta = synthetic_meta(50)
+    first = synthetic_snapshot(50, meta=meta, time=0.0, step=0)
+    with RunWriter(tmp_path / "ok.h5", meta) as writer:
+        writer.append(first)
+        shuffled = np.random.default_rng(0).permutation(50)  # the same ids in another order: allowed
+        writer.append(dataclasses.replace(first, time=1.0, step=1, ids=first.ids[shuffled]))
+    renumbered = dataclasses.replace(first, time=1.0, step=1, ids=first.ids + 1000)
+    with pytest.raises(ValidationError, match="the particle set changed: id 1000 is not in frame 0"):
+        with RunWriter(tmp_path / "bad.h5", meta) as writer:
+            writer.append(first)
+            writer.append(renumbered)

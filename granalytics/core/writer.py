@@ -114,6 +114,7 @@ class RunWriter(_HDF5Handle):
             raise
         self._lock = lock
         self._n_particles = None
+        self._ids = None  # frame 0's particle ids, sorted: every later frame must hold the same ones
         self._n_frames = 0
         self._n_contact_rows = 0
         self._last_time = -math.inf
@@ -224,6 +225,14 @@ class RunWriter(_HDF5Handle):
                 "radius", f"particle count changed from {self._n_particles} to {n}; a run holds a fixed particle set",
                 frame=frame, path=self.path,
             )
+        ids = np.sort(np.asarray(snapshot.ids))
+        if self._ids is not None and not np.array_equal(ids, self._ids):
+            new = np.setdiff1d(ids, self._ids)
+            raise ValidationError(
+                "ids", f"the particle set changed: id {int(new[0])} is not in frame 0 ({new.size} new ids); a run "
+                       "holds a fixed particle set (the same ids in every frame)",
+                frame=frame, path=self.path,
+            )
         if not snapshot.time > self._last_time:
             raise ValidationError(
                 "time", f"must increase from frame to frame: {snapshot.time!r} after {self._last_time!r}",
@@ -241,6 +250,7 @@ class RunWriter(_HDF5Handle):
             )
         if self._n_particles is None:
             self._create_datasets(n)
+            self._ids = ids
         f = self._file
         m = snapshot.n_contacts
         start, stop = self._n_contact_rows, self._n_contact_rows + m
