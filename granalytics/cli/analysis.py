@@ -609,8 +609,10 @@ def format_cg_table(comparison) -> str:
             else:
                 deviation = f"{dev:+.0%} ± " + (f"{dev_se:.0%}" if math.isfinite(dev_se) else "n/a")
             lines.append(f"{cells} {deviation:>17}")
-    lines.append("* wall time per simulated second recorded by the simulator in each run; runs that shared the "
-                 "machine unevenly give unfair ratios (benchmarks/cg_speedup.py measures them side by side)")
+    lines.append("* speed-up: the reference's wall time per simulated second over this run's, as the simulator "
+                 "recorded them (a group: the mean over its replicas). Each run's wall time depends on what else ran "
+                 "on the machine then, so a single run, a replica group and another machine give other ratios; the "
+                 "load-free ratio is measured side by side by benchmarks/cg_speedup.py (docs/results.md, 'Speed-up')")
     if replicas:
         lines.append("± replica s.e.: standard deviation of a group's replica means / √n (the run-to-run error); "
                      "block s.e.m.: standard error of the mean from the means of blocks of the window, combined "
