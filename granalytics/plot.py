@@ -253,14 +253,31 @@ def comparison_figure(stats, pairs, title=None):
     fig, axes = plt.subplots(1, len(shown) + 1, figsize=(4.3 * (len(shown) + 1), 3.9), layout="constrained")
     methods = list(dict.fromkeys(stats["method"]))
     colour = {name: f"C{k % 10}" for k, name in enumerate(methods)}  # a method's colour in every panel
-    for name, part in stats.groupby("method", sort=False):
+    series = {name: part for name, part in stats.groupby("method", sort=False)}
+    same_as = {}  # a method whose every statistic equals an earlier one's: drawn dotted over it, and said
+    for k, name in enumerate(methods):
+        for earlier in methods[:k]:
+            if earlier not in same_as and all(
+                    np.allclose(series[name][m].to_numpy(dtype=float), series[earlier][m].to_numpy(dtype=float),
+                                equal_nan=True) for m in shown):
+                same_as[name] = earlier
+                break
+    for name, part in series.items():
+        label = f"{name} (identical to {same_as[name]})" if name in same_as else name
         for ax, metric in zip(axes, shown):
-            plot_timeseries(part, metric, ax=ax, label=name, ylabel=METRICS[metric].label)
-            ax.lines[-1].set_color(colour[name])
-    # the pairs: other colours than the methods' (tab10 after them), dashed, in their own legend
+            plot_timeseries(part, metric, ax=ax, label=label, ylabel=METRICS[metric].label)
+            line = ax.lines[-1]
+            line.set_color(colour[name])
+            if name in same_as:  # on top of the one it equals, visible through it
+                line.set(ls=":", lw=2.5, marker="x", ms=4)
+    # the pairs: other colours than the methods' (tab10 after them), each its own dash pattern so that
+    # overlapping curves stay visible, in their own legend
+    dashes = ("--", "-.", ":", (0, (5, 1, 1, 1)), (0, (3, 2)), (0, (1, 2)))
     for k, ((a, b), part) in enumerate(pairs.groupby(["method_a", "method_b"], sort=False)):
-        plot_timeseries(part, "ari", ax=axes[-1], label=f"{a} vs {b}", ylabel="adjusted Rand index")
-        axes[-1].lines[-1].set(color=f"C{(len(methods) + k) % 10}", ls="--")
+        identical = np.allclose(part["ari"].to_numpy(dtype=float), 1.0)
+        plot_timeseries(part, "ari", ax=axes[-1], label=f"{a} vs {b}" + (" (identical: ARI 1)" if identical else ""),
+                        ylabel="adjusted Rand index")
+        axes[-1].lines[-1].set(color=f"C{(len(methods) + k) % 10}", ls=dashes[k % len(dashes)], lw=1.5)
     axes[-1].set_ylim(-0.05, 1.05)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower left", ncol=len(labels), fontsize=8, frameon=False,
