@@ -18,6 +18,7 @@ import math
 import os
 import sys
 
+from granalytics.core.errors import RunWriteError, exit_after_write_failure
 from granalytics.core import check_not_open_elsewhere, check_output_folder, interrupted, terminate_as_interrupt, manifest_path, one_line, warnings_as_lines
 
 from .cg_rules import CG_RULES, DEFAULT_CG_RULE
@@ -271,6 +272,8 @@ def reporting_errors(command) -> int:
             return command()
         except (ValueError, OSError, OverflowError) as exc:
             print(f"sim: error: {one_line(exc)}", file=sys.stderr)
+            if isinstance(exc, RunWriteError):  # HDF5 cannot close the broken file: no interpreter shutdown
+                exit_after_write_failure(2)
             return 2
 
 

@@ -738,3 +738,22 @@ def test_sigterm_is_cleaned_up_as_a_ctrl_c(tmp_path, capsys):
             os.kill(os.getpid(), signal.SIGTERM)
     assert not list(tmp_path.iterdir())  # no staging folder, no output
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored
+
+
+def test_a_disk_that_fills_during_subset_is_one_line_not_a_crash(tmp_path):
+    """Round four, B5: a file-size limit (or a full disk) during subset ended in 11 tracebacks and
+    a segmentation fault (exit 139) as the interpreter closed the broken HDF5 file."""
+    import resource
+    import subprocess
+    import sys
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (200 * 1024, 200 * 1024))
+
+    out = tmp_path / "sub.h5"
+    done = subprocess.run([sys.executable, "-m", "granalytics", "subset", "datasets/lab-cg3.h5", "--out", str(out),
+                           "--quiet"], capture_output=True, text=True, preexec_fn=limit)
+    err = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(err) == 1, (done.returncode, err)
+    assert "the disk is full or a file-size limit was reached" in err[0]
+    assert not list(tmp_path.iterdir())  # nothing left: no partial file, no lock

@@ -17,6 +17,7 @@ import sys
 
 from granalytics._version import __version__
 from granalytics.core.errors import GranalyticsError
+from granalytics.core.errors import RunWriteError, exit_after_write_failure
 from granalytics.core.files import (interrupted, interrupts_not_lost, raise_dropped_interrupt, terminate_as_interrupt,
                                     warnings_as_lines)
 from granalytics.cli import analysis, data, datasets, pbm, study, tracking
@@ -138,6 +139,8 @@ def _main(argv):
             return _done(141)
         except (GranalyticsError, OSError, ValueError, OverflowError) as exc:  # bad input or environment: one line
             print(f"granalytics: error: {exc}", file=sys.stderr)
+            if isinstance(exc, RunWriteError):  # HDF5 cannot close the broken file: no interpreter shutdown
+                exit_after_write_failure(2)
             return _done(2)
         try:  # a Ctrl-C that Python dropped after the command's last output was written
             raise_dropped_interrupt()

@@ -7,7 +7,8 @@ and exit status 2; the Python API lets them propagate.
 
 from __future__ import annotations
 
-__all__ = ["GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError"]
+__all__ = ["GranalyticsError", "ValidationError", "RunFileError", "RunWriteError", "RunLockedError", "ParameterError",
+           "exit_after_write_failure"]
 
 
 class GranalyticsError(Exception):
@@ -66,6 +67,26 @@ class ValidationError(GranalyticsError, ValueError):
 
 class RunFileError(GranalyticsError, OSError):
     """A run file cannot be opened, is not a granalytics run, or is structurally broken."""
+
+
+class RunWriteError(RunFileError):
+    """HDF5 could not write a run file (a full disk, a file-size limit). The HDF5 library cannot
+    close such a file cleanly: a command line reports it and ends the process at once
+    (:func:`exit_after_write_failure`) instead of letting the interpreter's exit crash in it."""
+
+
+def exit_after_write_failure(status: int) -> None:
+    """End the process with ``status`` without the interpreter's shutdown (streams flushed), after
+    a :class:`RunWriteError`: closing the broken HDF5 file at exit would be a segmentation fault."""
+    import os
+    import sys
+
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except Exception:  # noqa: BLE001 - nothing more to do at this point
+            pass
+    os._exit(status)
 
 
 class RunLockedError(RunFileError, ValueError):

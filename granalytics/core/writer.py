@@ -16,9 +16,17 @@ from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_r
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_CHUNK_ROWS, _CONTACT_DATASETS, _CONTACT_LAYOUT, _INDEX_DATASETS, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import _HDF5Handle
 from granalytics.core.reader import open_run
-from granalytics.core.errors import GranalyticsError, RunFileError, ValidationError
+from granalytics.core.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
 
+
+
+def _write_failure(exc) -> str:
+    """HDF5's reason for a failed write, in a few words (its message spans lines)."""
+    import re
+
+    found = re.search(r"error message = '([^']*)'", str(exc))
+    return found.group(1) if found else one_line(exc)[:120]
 
 
 class RunWriter(_HDF5Handle):
@@ -269,7 +277,14 @@ class RunWriter(_HDF5Handle):
             self._append_scalar(f["contacts/count"], frame, m)
             self._append_scalar(f["frames/step"], frame, snapshot.step)
             self._append_scalar(f["frames/time"], frame, snapshot.time)  # commit point: written last
-        except BaseException:  # e.g. Ctrl-C or a full disk: drop the partial frame
+        except RuntimeError as exc:  # HDF5 could not write: a full disk or a file-size limit
+            if "write failed" not in str(exc) and "errno" not in str(exc):
+                self._trim()
+                raise
+            self._abandon()
+            raise RunWriteError(f"{self.path}: cannot write frame {frame} ({_write_failure(exc)}): the disk is full or "
+                                "a file-size limit was reached; the file is incomplete") from None
+        except BaseException:  # e.g. Ctrl-C: drop the partial frame
             self._trim()
             raise
         self._n_contact_rows = stop
@@ -313,6 +328,24 @@ class RunWriter(_HDF5Handle):
                     f[name].flush()
         except Exception:  # the file stays readable: a reader ignores a partial frame
             pass
+
+    def _abandon(self) -> None:
+        """After a failed write: close the HDF5 file whatever it says (an HDF5 file left open in
+        that state crashes the interpreter when it exits), release the lock; the file is not
+        compacted or trimmed (writing is what failed)."""
+        import contextlib as _contextlib
+
+        if self._file is not None:
+            fid = self._file.id
+            with _contextlib.suppress(Exception):
+                objects = fid.get_obj_ids()
+            for oid in locals().get("objects", ()):  # every dataset and group, then the file itself
+                with _contextlib.suppress(Exception):
+                    while oid.valid:
+                        oid._close()
+        self._file = None
+        with _contextlib.suppress(Exception):
+            self._lock.release()
 
     def _discard(self) -> None:
         """Close the HDF5 file without compacting it; the lock is not touched."""
