@@ -26,7 +26,7 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :func:`coalescence_kernel`, :func:`breakage_rate`
 - parameter studies (paper §3.2, Fig 7): :func:`study_table`, :func:`fit_granule_growth`,
   :class:`GrowthFit`, :func:`fit_surrogate`, :class:`Surrogate` (sweeps run with
-  ``granalytics sweep`` / ``python -m sim sweep``)
+  ``python -m sim sweep``)
 - errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
   :class:`RunLockedError`, :class:`ParameterError`
 """

@@ -1,6 +1,6 @@
 """sim: the reference Numba wet-DEM simulator of a baffled drum granulator.
 
-It writes runs through :class:`granalytics.core.RunWriter` (the run-file contract, the only part of granalytics it imports); granalytics imports sim only in its lazy `granalytics sweep` command.
+It writes runs through :class:`granalytics.core.RunWriter` (the run-file contract, the only part of granalytics it imports); granalytics never imports sim.
 
 Public force laws (numpy arrays in, SI units):
 

@@ -1,5 +1,5 @@
 """Command line: ``python -m sim run --preset lab-cg3 --revolutions 2 --out run.h5``, ``python -m sim presets``,
-``python -m sim sweep SPEC.toml --out DIR`` (also ``python -m sim.sweep …`` and ``granalytics sweep …``).
+``python -m sim sweep SPEC.toml --out DIR`` (also ``python -m sim.sweep …``).
 
 Overrides (``--gamma``, ``--omega``, ``--seed``, ``--particles``) apply to the *original*
 (α = 1) system; the run is then coarse-grained by the preset's α or ``--alpha`` (Table 2), so
@@ -18,8 +18,8 @@ import math
 import os
 import sys
 
-from granalytics.core.errors import RunWriteError, exit_after_write_failure
-from granalytics.core import check_not_open_elsewhere, check_output_folder, interrupted, terminate_as_interrupt, manifest_path, one_line, warnings_as_lines
+from granalytics.core import (RunWriteError, check_not_open_elsewhere, check_output_folder, exit_after_write_failure,
+                              interrupted, manifest_path, one_line, terminate_as_interrupt, warnings_as_lines)
 
 from .cg_rules import CG_RULES, DEFAULT_CG_RULE
 from .laws import CONTACT_LAWS
@@ -326,8 +326,8 @@ def cmd_sweep(args) -> int:
 
 
 def sweep_main(argv=None, prog="python -m sim.sweep") -> int:
-    """``python -m sim.sweep SPEC.toml --out DIR ...`` and ``granalytics sweep ...`` (the same as
-    ``python -m sim sweep``); ``prog`` is the command's name in its usage and errors."""
+    """``python -m sim.sweep SPEC.toml --out DIR ...`` (the same as ``python -m sim sweep``); ``prog``
+    is the command's name in its usage and errors."""
     parser = argparse.ArgumentParser(prog=prog, description="Run a parameter sweep on dask.")
     args = _configure_sweep(parser).parse_args(argv)
     return reporting_errors(lambda: args.func(args))  # as python -m sim sweep

@@ -2,7 +2,7 @@
 
 One module per command group, each adding its commands to the parser and running them:
 :mod:`.analysis` (info, identify, stats, sensitivity, compare-methods, compare-cg), :mod:`.data`
-(subset, export-vtk, convert, synthetic, table), :mod:`.tracking` (track), :mod:`.study` (study, sweep) and
+(subset, export-vtk, convert, synthetic, table), :mod:`.tracking` (track), :mod:`.study` (study) and
 :mod:`.datasets` (datasets); shared option and output helpers in :mod:`._common`. Library modules
 never import this package.
 
@@ -36,7 +36,6 @@ COMMANDS = {
     "track": tracking.add_track_parser,
     "pbm": pbm.add_pbm_parser,
     "study": study.add_study_parser,
-    "sweep": study.add_sweep_parser,
     "export-vtk": data.add_export_vtk_parser,
     "convert": data.add_convert_parser,
     "datasets": datasets.add_datasets_parser,
@@ -44,7 +43,7 @@ COMMANDS = {
     "table": data.add_table_parser,
 }
 #: commands whose arguments are another program's command line (parsed there, --help included)
-_FORWARDED = {"sweep": study.sweep_main, "datasets": datasets.forwarded_main}
+_FORWARDED = {"datasets": datasets.forwarded_main}
 
 
 class _Parser(argparse.ArgumentParser):

@@ -172,22 +172,3 @@ def cmd_study(args) -> int:
         plt.close(fig)
     return 0
 
-
-def add_sweep_parser(sub):
-    """Add the ``sweep`` command to ``sub``: its arguments are those of ``python -m sim sweep``
-    (:func:`sweep_main` receives them unparsed)."""
-    p = sub.add_parser("sweep", help="run a parameter sweep of the simulator on dask (same as python -m sim sweep)",
-                       description="Run a parameter sweep of the bundled simulator on dask: the arguments are those of "
-                                   "'python -m sim sweep' (SPEC.toml --out DIR [--workers N] [--scheduler ADDR]); "
-                                   "see docs/parameter_studies.md.", add_help=False)
-    p.add_argument("sweep_args", nargs=argparse.REMAINDER, help="SPEC.toml --out DIR [--workers N] [--scheduler ADDR]")
-    # forwarded by main() before parsing (see sweep_main)
-    return p
-
-
-def sweep_main(argv) -> int:
-    """``granalytics sweep …``: the simulator's sweep command line (the only place where
-    granalytics reaches into ``sim``, imported only when the command runs)."""
-    from sim.cli import sweep_main as run
-
-    return run(argv, prog="granalytics sweep")

@@ -38,7 +38,8 @@ from granalytics.core._threading import configure_threading
 from granalytics.core._resources import check_disk, check_memory
 from granalytics.core.cluster import dask_client
 from granalytics.core.bed import FILL_PACKING, PLANAR_FRACTION, bed_structure, drum_confinement
-from granalytics.core.errors import GranalyticsError, ParameterError, RunFileError, RunLockedError, ValidationError
+from granalytics.core.errors import (GranalyticsError, ParameterError, RunFileError, RunLockedError, RunWriteError,
+                                     ValidationError, exit_after_write_failure)
 from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_output_folder, interrupted, terminate_as_interrupt, one_line, regular_input, warnings_as_lines
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION
 from granalytics.core.manifest import (MANIFEST_COLUMNS, NAMED_PARAMETERS, file_sha256, manifest_path, manifest_rows, read_manifest,
@@ -49,6 +50,7 @@ from granalytics.core.subset import replacing_run, subset_run, thinned_frames
 from granalytics.core.writer import RunWriter
 
 __all__ = [
+    "RunWriteError", "exit_after_write_failure",
     "__version__", "configure_threading", "dask_client", "check_disk", "check_memory",
     "Snapshot", "RunMeta", "RunWriter", "open_run", "Run", "RunSlice", "WriterLock",
     "subset_run", "replacing_run", "thinned_frames", "FORMAT_NAME", "FORMAT_VERSION",
