@@ -34,12 +34,8 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 import importlib
 import sys
 import types
-import warnings
 
-from granalytics import _moved
 from granalytics._version import __version__
-
-_moved.install()
 
 #: public name -> the module that defines it (imported on first use, PEP 562: ``import granalytics``
 #: loads no analysis module, so that the simulator, which needs only :mod:`granalytics.core`,
@@ -76,8 +72,6 @@ _SUBMODULES = {
     "datasets": ".datasets", "core": ".core", "convert": ".convert", "export": ".export",
     "analysis": ".analysis", "edges": ".identify.edges", "table": ".analysis.table",
 }
-#: old public submodules, moved into the core layer: they still resolve, with a DeprecationWarning
-_MOVED_SUBMODULES = ("files", "manifest")
 
 
 def __getattr__(name):
@@ -85,9 +79,6 @@ def __getattr__(name):
         value = getattr(importlib.import_module(_EXPORTS[name], __name__), name)
     elif name in _SUBMODULES:
         value = importlib.import_module(_SUBMODULES[name], __name__)
-    elif name in _MOVED_SUBMODULES:
-        warnings.warn(_moved.moved_warning(f"granalytics.{name}"), DeprecationWarning, stacklevel=2)
-        return importlib.import_module(_moved.MOVED[f"granalytics.{name}"])  # not cached: warns every time
     else:
         raise AttributeError(f"module 'granalytics' has no attribute {name!r}")
     globals()[name] = value  # once

@@ -89,7 +89,7 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
 
 #: the layers of granalytics, lowest first: a module imports only modules of its own layer or of a
 #: lower one (docs/architecture.md). ``io`` is the deprecated forward to core and convert.
-LAYERS = {"_version": 0, "_moved": 0, "core": 0, "identify": 1, "convert": 1, "io": 2, "analysis": 2,
+LAYERS = {"_version": 0, "core": 0, "identify": 1, "convert": 1, "analysis": 2,
           "export": 3, "plot": 3, "datasets": 3, "cli": 4, "__main__": 4}
 #: the upward edges, inside a method: a CG comparison's ``figures()`` and a PBM prediction's
 #: ``figure()`` draw themselves with granalytics.plot (as a pandas object's ``.plot()`` does)
@@ -118,42 +118,6 @@ def test_identify_and_convert_know_nothing_of_each_other():
     offenders = [f"{name} imports {module}" for name, path in _modules("granalytics")
                  for module, _ in _imports(name, path) if {_layer(name), _layer(module)} == {"identify", "convert"}]
     assert offenders == []
-
-
-def test_every_old_module_path_still_imports_with_a_deprecation_warning():
-    """A fresh interpreter (the warning is given when the old path is first imported): every old
-    path gives the new module itself, its own spec kept, and a DeprecationWarning naming the new path."""
-    import importlib.util
-    import subprocess
-    import sys
-
-    from granalytics._moved import MOVED
-
-    assert all(importlib.util.find_spec(new) is not None for new in MOVED.values())
-    code = ("import importlib, warnings\n"
-            "from granalytics._moved import MOVED\n"
-            "bad = []\n"
-            "for old, new in MOVED.items():\n"
-            "    with warnings.catch_warnings(record=True) as caught:\n"
-            "        warnings.simplefilter('always')\n"
-            "        module = importlib.import_module(old)\n"
-            "    ok = module is importlib.import_module(new) and module.__spec__.name == new\n"
-            "    ok = ok and any(w.category is DeprecationWarning and new in str(w.message) for w in caught)\n"
-            "    bad += [] if ok else [old]\n"
-            "print(','.join(bad))\n")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == ""
-
-
-def test_the_old_public_submodules_forward_with_a_warning():
-    import granalytics
-    from granalytics.core import files, manifest
-
-    with pytest.warns(DeprecationWarning, match="granalytics.core.files"):
-        assert granalytics.files is files
-    with pytest.warns(DeprecationWarning, match="granalytics.core.manifest"):
-        assert granalytics.manifest is manifest
 
 
 def test_the_lazy_package_still_exports_every_public_name():
