@@ -1,6 +1,7 @@
 """Confinement against coarse-graining: the tables and figure of docs/results.md, "Confinement".
 
 Usage: python docs/confinement_study.py [--figures DIR] [--parts table,decomposition,passrate,minsize]
+       python docs/confinement_study.py --check-rule
 
 Every run on the α = 1 confinement curve is a run of the lab drum's geometry rule sized for a
 particle count (``python -m sim run --preset lab-cg1 --drum-particles N``) or a D/d
@@ -217,12 +218,38 @@ def figure(results, path):
     print(f"\nwrote {path}")
 
 
+def check_rule() -> int:
+    """Whether :data:`granalytics.CONFINEMENT_RULE` is the fit of the α = 1 runs (window [3, 6],
+    angle test), and whether each confinement group is one system at several seeds; prints both,
+    returns 1 where either fails (the runs take hours, so this is a check to run, not a test)."""
+    import granalytics.analysis.confinement as confinement
+
+    failed = 0
+    fit = fits(tables((3.0, 6.0))["angle"])["yield_fraction"]
+    for key, fraction in (("within_5pc", 0.05), ("within_10pc", 0.10)):
+        x, err = fit.within(fraction)
+        ok = confinement.CONFINEMENT_RULE[key] == (round(x), round(err))
+        failed += not ok
+        print(f"{key}: fit {x:.0f} ± {err:.0f}, CONFINEMENT_RULE {confinement.CONFINEMENT_RULE[key]}: "
+              f"{'agrees' if ok else 'DIFFERS'}")
+    for label, paths in confinement_groups().items():
+        systems = {repr(sorted((k, v) for k, v in ga.open_run(p).meta.sim_config["params"].items() if k != "seed"))
+                   for p in paths}
+        failed += len(systems) != 1
+        print(f"{label}: {len(paths)} run(s), {'one system' if len(systems) == 1 else 'SEVERAL systems'}")
+    return 1 if failed else 0
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figures", help="folder for confinement_yield.png")
     parser.add_argument("--parts", default="table,decomposition,passrate,minsize",
                         help="which parts: table, decomposition, passrate, minsize (default all)")
+    parser.add_argument("--check-rule", action="store_true",
+                        help="only check that CONFINEMENT_RULE is the fit of the runs and each group one system")
     args = parser.parse_args()
+    if args.check_rule:
+        raise SystemExit(check_rule())
     parts = set(args.parts.split(","))
     if parts & {"table", "decomposition"}:
         for wname, window in WINDOWS.items():

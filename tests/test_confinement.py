@@ -3,7 +3,6 @@ confinement of a run (D/d, L/d, bed depth, wall contacts), the rigid co-motion t
 size floor and the confinement curve's fit and rule."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -333,25 +332,3 @@ def test_the_command_line_runs_the_rigid_test_and_the_size_floor(tmp_path, capsy
     assert main(["sensitivity", path, "--window", "3:3.5", "--comotion", "rigid", "--rigid-tol", "0.1,0.4",
                  "--c-agg", "0.6", "--quiet"]) == 0
     assert "rigid_tol" in capsys.readouterr().out
-
-
-@pytest.mark.slow
-def test_the_rule_is_the_fit_of_the_alpha_1_runs():
-    """CONFINEMENT_RULE is what docs/confinement_study.py measures (where the runs are made)."""
-    import importlib.util
-
-    import granalytics.analysis.confinement as confinement
-    from granalytics.datasets import confinement_groups
-
-    try:
-        confinement_groups()
-    except ga.GranalyticsError as exc:
-        pytest.skip(f"the confinement runs are not bundled and not made here: {exc}")
-    path = Path(__file__).resolve().parents[1] / "docs" / "confinement_study.py"
-    spec = importlib.util.spec_from_file_location("confinement_study", path)
-    study = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(study)
-    fit = study.fits(study.tables((3.0, 6.0))["angle"])["yield_fraction"]
-    for key, fraction in (("within_5pc", 0.05), ("within_10pc", 0.10)):
-        x, err = fit.within(fraction)
-        assert confinement.CONFINEMENT_RULE[key] == (round(x), round(err))

@@ -89,29 +89,6 @@ def test_confinement_recipes_name_their_runs():
         assert name not in DATASETS
 
 
-def test_confinement_runs_are_the_lab_rule_at_alpha_1_grouped_by_system():
-    from granalytics.datasets import CONFINEMENT, confinement_groups
-
-    try:
-        groups = confinement_groups()
-    except GranalyticsError as exc:
-        pytest.skip(f"the confinement runs are not bundled and not made here: {exc}")
-    assert sum(len(paths) for paths in groups.values()) == len(CONFINEMENT) > 0
-    for label, paths in groups.items():
-        systems = set()
-        for path in paths:
-            with ga.open_run(path) as run:
-                params = dict(run.meta.sim_config["params"])
-                assert run.meta.alpha == 1 and params["drum_length"] / params["drum_radius"] == pytest.approx(0.7)
-                drum = ga.run_confinement(run.meta)
-                assert drum == ga.drum_confinement(params["drum_radius"], params["drum_length"], params["d_mean"],
-                                                   run.meta.n_particles)  # recorded = computed
-                params.pop("seed")
-                params.setdefault("bridge_volume", 0.0)  # runs made before the field existed
-                systems.add(repr(sorted(params.items())))
-        assert len(systems) == 1, f"{label}: its replicas differ in more than the seed"
-
-
 def test_replica_sets_are_one_system_at_different_seeds():
     from granalytics.datasets import REPLICAS, replica_paths
 
