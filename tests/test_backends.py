@@ -6,7 +6,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import granalytics as ga
-from granalytics.identify import _kernels
+from granalytics.identify import kernels as _kernels
 from granalytics.identify import BACKENDS
 from conftest import make_snapshot
 

@@ -23,7 +23,7 @@ from granalytics.analysis.confinement import confinement_warning
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
 from granalytics.core.files import staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE, METRICS
-from granalytics.core._windows import check_interval, window_mask
+from granalytics.core.windows import check_interval, window_mask
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
 from granalytics.core.errors import ParameterError
 from granalytics.core import open_run

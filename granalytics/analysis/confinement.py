@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.core.bed import bed_structure, run_confinement, wall_touching
-from granalytics.core._checks import check_numbers, shown
+from granalytics.core.checks import check_numbers, shown
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.identify import make_identifier

@@ -15,9 +15,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from granalytics.identify import _kernels
+from granalytics.identify import kernels as _kernels
 from granalytics.analysis.metrics import HEADLINE, GranuleCounts, metric_values
-from granalytics.core._windows import check_interval, window_mask
+from granalytics.core.windows import check_interval, window_mask
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames

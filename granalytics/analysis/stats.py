@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE, STEADY, GranuleCounts, metric_values
-from granalytics.core._windows import check_interval, clip_window, window_mask, window_tolerance
+from granalytics.core.windows import check_interval, clip_window, window_mask, window_tolerance
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.identify.granules import granule_table
@@ -147,7 +147,7 @@ def run_stats(frames, method="gna", *, progress=False, return_sizes=False, jobs=
 def check_window(axis, window, *, by="revolutions", source=None, warn=True):
     """The frames of a steady-state window: ``(mask, tolerance)`` over the frame times ``axis``
     (revolutions, or seconds with ``by="time_s"``), with the edge tolerance of
-    :func:`granalytics.core._windows.window_tolerance`.
+    :func:`granalytics.core.windows.window_tolerance`.
 
     Raises
     ------

@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 
 from granalytics.core._resources import check_memory
-from granalytics.core._windows import clip_window, window_mask
+from granalytics.core.windows import clip_window, window_mask
 from granalytics.analysis.metrics import HEADLINE, METRICS
 from granalytics.analysis.system import check_replicas, run_identity
 from granalytics.core.errors import GranalyticsError, ParameterError

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from granalytics.core._checks import check_meta, check_snapshot
+from granalytics.core.checks import check_meta, check_snapshot
 from granalytics.core.errors import ParameterError, ValidationError
 from granalytics.core.snapshot import Snapshot
 

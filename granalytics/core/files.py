@@ -19,7 +19,7 @@ import sys
 import time as _time
 import warnings
 
-from granalytics.core._checks import check_path
+from granalytics.core.checks import check_path
 from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
 
 __all__ = ["check_not_open_elsewhere", "terminate_as_interrupt", "replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",

@@ -7,8 +7,8 @@ import os
 
 import numpy as np
 
-from granalytics.core._windows import check_interval, window_mask
-from granalytics.core._checks import check_path
+from granalytics.core.windows import check_interval, window_mask
+from granalytics.core.checks import check_path
 from granalytics.core.files import WriterLock, check_apart, check_replaceable, replaced_atomically
 from granalytics.core.reader import open_run
 from granalytics.core.writer import RunWriter

@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 
 from granalytics._version import __version__
-from granalytics.core._checks import check_path
+from granalytics.core.checks import check_path
 from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_replaceable, one_line, raise_dropped_interrupt, _LOCK_SUFFIX
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_CHUNK_ROWS, _CONTACT_DATASETS, _CONTACT_LAYOUT, _INDEX_DATASETS, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import _HDF5Handle

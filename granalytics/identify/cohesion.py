@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from granalytics.core._checks import check_snapshot
+from granalytics.core.checks import check_snapshot
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 

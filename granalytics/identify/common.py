@@ -11,9 +11,9 @@ import math
 
 import numpy as np
 
-from granalytics.identify import _kernels
+from granalytics.identify import kernels as _kernels
 from granalytics.identify.contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
-from granalytics.core import _checks
+from granalytics.core import checks
 from granalytics.core.errors import ParameterError
 
 #: the paper's thresholds, the defaults of every method that filters contacts by them (GNA, the
@@ -67,8 +67,8 @@ class Identifier:
 
 def check_snapshot(snapshot, where) -> None:
     """Refuse (``ParameterError`` naming ``where``) anything but a :class:`Snapshot`; a path gets
-    the hint to open the run first (:func:`granalytics.core._checks.check_snapshot`)."""
-    _checks.check_snapshot(where, snapshot)
+    the hint to open the run first (:func:`granalytics.core.checks.check_snapshot`)."""
+    checks.check_snapshot(where, snapshot)
 
 
 def _snapshot_checked(identify):

@@ -20,7 +20,7 @@ import random
 
 import numpy as np
 
-from granalytics.identify import _kernels
+from granalytics.identify import kernels as _kernels
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from granalytics.identify import _kernels
+from granalytics.identify import kernels as _kernels
 from granalytics.identify.cohesion import DEFAULT_COHESION, cohesive_force
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot

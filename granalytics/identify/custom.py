@@ -24,7 +24,7 @@ import tokenize
 import numpy as np
 
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
-from granalytics.identify import _kernels
+from granalytics.identify import kernels as _kernels
 from granalytics.identify.contacts import contact_table
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot

@@ -32,7 +32,7 @@ import math
 import networkx as nx
 import numpy as np
 
-from granalytics.identify import _kernels
+from granalytics.identify import kernels as _kernels
 from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts_all
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from granalytics.core._checks import check_indices, check_snapshot
+from granalytics.core.checks import check_indices, check_snapshot
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.identify.cohesion import DEFAULT_COHESION
-from granalytics.identify import _kernels
+from granalytics.identify import kernels as _kernels
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, mean_radius

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from granalytics.analysis.study.table import select_cohesion
-from granalytics.core._checks import check_numbers
+from granalytics.core.checks import check_numbers
 from granalytics.core.errors import ParameterError
 
 

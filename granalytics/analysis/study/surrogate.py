@@ -12,7 +12,7 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.study.table import select_cohesion
-from granalytics.core._checks import shown
+from granalytics.core.checks import shown
 from granalytics.core.errors import ParameterError
 
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from granalytics.core._windows import check_interval
+from granalytics.core.windows import check_interval
 from granalytics.core.errors import ParameterError
 
 

@@ -19,7 +19,7 @@ import pandas as pd
 
 from granalytics.analysis.stats import size_unit_factor
 from granalytics.analysis.tracking.linking import GranuleTracks, KINDS, check_tracks
-from granalytics.core._windows import window_tolerance
+from granalytics.core.windows import window_tolerance
 from granalytics.core.errors import ParameterError
 
 
@@ -81,7 +81,7 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
     if not (math.isfinite(width) and width > 0):
         raise ParameterError(f"bin_width must be positive, got {bin_width!r}")
     # bin edges with the windows' tolerance: a first frame stamped 2.9999 revolutions opens the bin
-    # [3, 4), not an empty [2, 3) (frames lie on whole time steps; granalytics.core._windows)
+    # [3, 4), not an empty [2, 3) (frames lie on whole time steps; granalytics.core.windows)
     tol = window_tolerance(x)
     start = math.floor((x[0] + tol) / width) * width
     n_bins = max(1, math.ceil((x[-1] - tol - start) / width - 1e-9))
