@@ -18,6 +18,18 @@ DOCUMENTED = {
     (0.03, 0, "yade"): {"yield_fraction_acting": 0.2989, "mean_volume_norm_acting": 2.784,
                         "yield_fraction_bridge": 0.7471, "mean_volume_norm_bridge": 11.84,
                         "separated_share": 0.3352, "coordination": 2.852},
+    (0.1095, 0, "sim"): {"yield_fraction_acting": 0.2821, "mean_volume_norm_acting": 2.684,
+                         "yield_fraction_bridge": 0.822, "mean_volume_norm_bridge": 13.17,
+                         "separated_share": 0.2186, "coordination": 3.727},
+    (0.1095, 0, "yade"): {"yield_fraction_acting": 0.3029, "mean_volume_norm_acting": 2.813,
+                          "yield_fraction_bridge": 0.8847, "mean_volume_norm_bridge": 25.89,
+                          "separated_share": 0.1951, "coordination": 3.539},
+    (0.444, 0, "sim"): {"yield_fraction_acting": 0.3581, "mean_volume_norm_acting": 3.182,
+                        "yield_fraction_bridge": 0.9136, "mean_volume_norm_bridge": 67.39,
+                        "separated_share": 0.1432, "coordination": 4.846},
+    (0.444, 0, "yade"): {"yield_fraction_acting": 0.3124, "mean_volume_norm_acting": 3.08,
+                         "yield_fraction_bridge": 0.9372, "mean_volume_norm_bridge": 43.02,
+                         "separated_share": 0.1267, "coordination": 4.389},
 }
 
 
