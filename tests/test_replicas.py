@@ -13,6 +13,7 @@ from granalytics.analysis.cg import compare_cg, group_replicas
 from granalytics.cli import main
 from granalytics.cli._common import plus_minus
 from granalytics.core.errors import ParameterError
+from granalytics.core.manifest import file_sha256
 from granalytics.plot import growth_figure
 from granalytics.analysis.stats import combine_replicas
 from granalytics.analysis.study import study_table
@@ -133,7 +134,8 @@ def replica_sweep(tmp_path_factory):
             name = f"gamma={gamma:g}_omega=2_seed={seed}"
             write_point(root / "points" / f"{name}.h5", gamma, 2.0, seed=seed + 7)
             rows.append({"point": name, "status": "done", "gamma": gamma, "omega": 2.0, "seed": seed,
-                         "physics_version": 3, "file": f"points/{name}.h5", "sha256": f"{seed}" * 64,
+                         "physics_version": 3, "file": f"points/{name}.h5",
+                         "sha256": file_sha256(root / "points" / f"{name}.h5"),
                          "source_sha256": f"{seed + 1}" * 64})  # bookkeeping differs per point, as in a bundle
     pd.DataFrame(rows).to_csv(root / "manifest.csv", index=False)
     return root
