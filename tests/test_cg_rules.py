@@ -14,6 +14,8 @@ from sim.cg_rules import CG_RULES, cg_rule
 from sim.params import SimParams, cg_scale, similar_system, preset_original, sized_drum
 from sim.run import Simulation
 
+from test_sim_physics import _restitution  # noqa: E402  (the head-on impact of the closed-form tests)
+
 R = 0.75e-3
 FREE = SimParams(n_particles=2, n_baffles=0, gravity=(0.0, 0.0, 0.0), drum_omega=0.0,
                  drum_radius=0.05, drum_length=0.05, viscous=False, friction=0.0)
@@ -75,20 +77,6 @@ def test_a_law_without_the_rule_is_refused(monkeypatch):
         SimParams(contact_law="hertz_mindlin", cg_rule="bond")
 
 
-def _head_on(p, r, v):
-    sim = Simulation.from_particles(p, [[-r - 1e-5 * r / R, 0, 0.025], [r + 1e-5 * r / R, 0, 0.025]], [r, r],
-                                    velocity=[[v, 0, 0], [-v, 0, 0]])
-    in_contact = 0
-    for _ in range(5000):
-        sim.advance(1)
-        if np.linalg.norm(sim.state.pos[1] - sim.state.pos[0]) < 2 * r:
-            in_contact += 1
-        elif in_contact:
-            break
-    vel = sim.state.vel[np.argsort(sim.state.ids)]
-    return (vel[1, 0] - vel[0, 0]) / (2 * v), in_contact
-
-
 @pytest.mark.parametrize("rule", list(CG_RULES))
 def test_two_particle_closed_forms_at_alpha_1_and_3(rule):
     """Restitution and contact time in steps are the original's; the capillary force at any
@@ -96,10 +84,10 @@ def test_two_particle_closed_forms_at_alpha_1_and_3(rule):
     scales as α (it depends on V_b/R³ only)."""
     original = dataclasses.replace(FREE, cg_rule=rule)
     f = CG_RULES[rule].force_exponent
-    e1, steps1 = _head_on(original, R, 0.05)
+    e1, steps1 = _restitution(original, R, 0.05)
     scaled = dataclasses.replace(cg_scale(original, 3.0), drum_radius=0.05, drum_length=0.05)
     r3 = 3 * R
-    e3, steps3 = _head_on(scaled, r3, 0.05)
+    e3, steps3 = _restitution(scaled, r3, 0.05)
     assert e3 == pytest.approx(e1, rel=2e-3) and 0.5 < e1 < 1
     assert abs(steps3 - steps1) <= 1  # t_c/Δt is the original's (127 steps)
     v_b, v_b3 = 0.02 * R**3, 0.02 * r3**3
