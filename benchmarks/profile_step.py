@@ -118,7 +118,7 @@ def component_costs(sim, reps):
     kp = _kernels.kernel_params(p, sim.n_walls)
     body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(sim.n_walls)])
     arrays = _kernels.kernel_arrays(s, body_key)
-    baffle_dir = np.empty((max(p.n_baffles, 1), 2))
+    baffle_dir = np.empty((p.n_baffles + 1, 2))
     baffle_directions(p.n_baffles, 0.3, baffle_dir)
     n_wb, n_pb = _kernels.event_blocks(n, sim.n_walls, s.pair_i.shape[0])
     blocks = np.zeros(n_wb + n_pb, dtype=np.int64)

@@ -63,7 +63,7 @@ import sys
 _FIELDS = ("x", "y", "z", "r")
 
 
-def prepare(run_path, folder):
+def prepare(run_path, folder, cylinder_segments=96, wall_bridges=True):
     """Write the settled bed, the physics and the mapping of our run ``run_path`` to ``folder``.
 
     Parameters
@@ -72,6 +72,11 @@ def prepare(run_path, folder):
         Our fixed-bridge-volume run (``python -m sim run --bridge-volume ...``).
     folder : str
         Folder to write ``bed.csv``, ``setup.json`` and ``meta.toml`` to (made if missing).
+    cylinder_segments : int
+        Flat segments of the facet cylinder (96: the recipe's; more make the wall smoother).
+    wall_bridges : bool
+        Whether spheres form capillary bridges with the walls (True, as in our simulator; False:
+        the walls' material has ``Capillar=False``, the switch of the wall experiments).
     """
     import numpy as np
 
@@ -96,7 +101,8 @@ def prepare(run_path, folder):
             "n_baffles": params["n_baffles"], "baffle_height": params["baffle_height"], "omega": params["drum_omega"],
             "gravity": params["gravity"], "dt": params["dt"], "alpha": float(run.meta.alpha),
             "revolutions": float(run.revolutions[-1]), "frame_every_steps": every, "n_frames": len(steps) - 1,
-            "r_min": float(frame.radius.min()),
+            "r_min": float(frame.radius.min()), "cylinder_segments": int(cylinder_segments),
+            "wall_bridges": bool(wall_bridges),
             # YADE runs this file as its own script (no __file__ of ours there): the exporter's path
             "exporter": os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs",
                                                       "yade_export.py")),
@@ -196,9 +202,15 @@ def run_yade():  # pragma: no cover - runs inside YADE
         density=setup["density"], kn=setup["kn_material"], cn=setup["cn_material"], ks=setup["ks_material"],
         cs=setup["cs_material"], frictionAngle=math.atan(setup["friction"]), Capillar=True,
         CapillarType="Willett_numeric", gamma=setup["gamma"], theta=theta, Vb=vb))
+    sphere_mat = mat
+    if not setup.get("wall_bridges", True):  # the walls' own material: no bridges with them
+        mat = O.materials.append(ViscElCapMat(  # noqa: F821
+            density=setup["density"], kn=setup["kn_material"], cn=setup["cn_material"], ks=setup["ks_material"],
+            cs=setup["cs_material"], frictionAngle=math.atan(setup["friction"]), Capillar=False))
     rd, length = setup["drum_radius"], setup["drum_length"]
     # wallMask 4: the side only (1 and 2 are facetCylinder's fans at -z and +z)
-    walls = geom.facetCylinder((0, 0, length / 2), rd, length, segmentsNumber=96, wallMask=4, material=mat)
+    walls = geom.facetCylinder((0, 0, length / 2), rd, length, segmentsNumber=setup.get("cylinder_segments", 96),
+                               wallMask=4, material=mat)
     corners = [2 * math.pi * k / 3 + math.pi / 2 for k in range(3)]  # circumradius 2 R_d = inradius R_d
     for z in (0.0, length):
         walls.append(facet([(2 * rd * math.cos(a), 2 * rd * math.sin(a), z) for a in corners],  # noqa: F821
@@ -215,7 +227,7 @@ def run_yade():  # pragma: no cover - runs inside YADE
         next(f)
         for line in f:
             x, y, z, r = map(float, line.split(","))
-            O.bodies.append(sphere((x, y, z), r, material=mat))  # noqa: F821
+            O.bodies.append(sphere((x, y, z), r, material=sphere_mat))  # noqa: F821
     os.makedirs("out", exist_ok=True)
     every = setup["frame_every_steps"]
     steps = setup["n_frames"] * every  # our run's frames: the last one at its last revolution
@@ -247,9 +259,23 @@ def run_yade():  # pragma: no cover - runs inside YADE
           f"python {setup['recipe']} convert {os.getcwd()} yade.h5")
 
 
+def _prepare_command(argv):
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="yade_same_drum.py prepare", description=prepare.__doc__.splitlines()[0])
+    parser.add_argument("run", help="our fixed-bridge-volume run (.h5)")
+    parser.add_argument("folder", help="folder of the YADE case")
+    parser.add_argument("--cylinder-segments", type=int, default=96, help="flat segments of the cylinder (96)")
+    parser.add_argument("--no-wall-bridges", action="store_true", help="no capillary bridges with the walls")
+    args = parser.parse_args(argv)
+    if args.cylinder_segments < 3:
+        parser.error(f"--cylinder-segments: {args.cylinder_segments} is below 3")
+    prepare(args.run, args.folder, args.cylinder_segments, not args.no_wall_bridges)
+
+
 if __name__ == "__main__" and "O" not in globals():
-    if len(sys.argv) == 4 and sys.argv[1] == "prepare":
-        prepare(sys.argv[2], sys.argv[3])
+    if len(sys.argv) >= 4 and sys.argv[1] == "prepare":
+        _prepare_command(sys.argv[2:])
     elif len(sys.argv) in (4, 5) and sys.argv[1] == "convert" and sys.argv[4:] in ([], ["--overwrite"]):
         convert(sys.argv[2], sys.argv[3], overwrite=len(sys.argv) == 5)
     else:

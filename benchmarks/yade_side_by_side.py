@@ -1,12 +1,14 @@
 """Granule statistics and bed dynamics of our simulator beside YADE on the same drum, from the same
 settled beds (the runs of ``benchmarks/yade_series.py``; never needed by the tests).
 
-Usage: python benchmarks/yade_side_by_side.py [KEEP] [--window R0:R1] [--c-agg C] [--a-agg DEG]
+Usage: python benchmarks/yade_side_by_side.py [KEEP ...] [--window R0:R1] [--c-agg C] [--a-agg DEG]
 
-KEEP (default benchmarks/yade_runs) holds, for every case TAG = g<γ>-s<seed> (γ [N/m] of the
-original system), our run ``sim-TAG.h5`` and YADE's converted run ``yade-TAG.h5`` (the float32
-subsets that ``yade_series.py`` keeps). For every run, over the steady window (default [1, 3]
-revolutions), per frame:
+Each folder KEEP (default benchmarks/yade_runs and its walls/ folder) holds runs named
+``LABEL-g<γ>-s<seed>.h5`` (γ [N/m] of the original system): ``sim`` (ours) and ``yade`` (YADE's
+converted run, on our run's settled bed), the float32 subsets that ``yade_series.py`` keeps, and
+the wall experiments' runs, e.g. ``sim-f96`` (ours in YADE's 96-facet polygon,
+``benchmarks/wall_runs.py``) or ``yade-seg384`` (YADE with a 384-segment cylinder). For every
+run, over the steady window (default [1, 3] revolutions), per frame:
 
 - the yield and ⟨V_g⟩/V_p under the "acting" and the "bridge" cohesion conventions (GNA at
   C_agg = 0.6, A_agg = 20°; ``granalytics.run_stats``);
@@ -16,7 +18,11 @@ revolutions), per frame:
 - the kinetic energy per particle [J]: translational, m = ρ·4/3·π·r³;
 - the bed angle [deg] (``granalytics.bed_flow``: the azimuth of the bed's centre of mass about the
   drum axis from the drum's lowest point, computed with our run's metadata for both codes, as the
-  drum is the same).
+  drum is the same);
+- the wall share: the fraction of particles within 0.1 r of the cylinder (a gap to the circle of
+  radius R_d below 0.1 r), and their wall slip: the mean of (v_θ − Ω·ρ)/(Ω·R_d), v_θ the
+  azimuthal velocity at the centre's distance ρ from the axis (0: carried with the wall; −1: at
+  rest in the lab while the wall turns).
 
 Printed as a Markdown table, per γ and code: the mean over the seeds present of each run's
 window mean ± the replica standard error (standard deviation of the run means / √n,
@@ -31,6 +37,7 @@ import math
 import os
 import re
 
+import numpy as np
 import pandas as pd
 
 import granalytics as ga
@@ -41,16 +48,26 @@ METRICS = {
     "yield_fraction_bridge": "bridge yield", "mean_volume_norm_bridge": "bridge ⟨V_g⟩/V_p",
     "separated_share": "separated wet share", "coordination": "touching coordination",
     "kinetic_energy_j": "KE per particle [J]", "bed_angle_deg": "bed angle [°]",
+    "wall_share": "wall share", "wall_slip": "wall slip",
 }
 
 
 def dynamics(snapshot, density, drum_meta):
-    """Separated wet share, touching coordination, kinetic energy per particle [J] and bed angle
-    [deg] of one frame (``drum_meta``: the metadata of our run, which names the drum)."""
+    """Separated wet share, touching coordination, kinetic energy per particle [J], bed angle
+    [deg], wall share and wall slip of one frame (``drum_meta``: the metadata of our run, which
+    names the drum)."""
     wet = snapshot.bridge_volume > 0
     separated = wet & (snapshot.gap > 0)
     mass = density * 4.0 / 3.0 * math.pi * snapshot.radius**3
+    drum_radius, omega = drum_meta.sim_config["params"]["drum_radius"], drum_meta.drum_omega
+    x, y = snapshot.position[:, 0], snapshot.position[:, 1]
+    rho = np.hypot(x, y)
+    near = drum_radius - (rho + snapshot.radius) < 0.1 * snapshot.radius
+    v_theta = (x * snapshot.velocity[:, 1] - y * snapshot.velocity[:, 0]) / rho
+    slip = (v_theta - omega * rho) / (omega * drum_radius)
     return {
+        "wall_share": float(near.mean()),
+        "wall_slip": float(slip[near].mean()) if near.any() else float("nan"),
         "separated_share": separated.sum() / max(wet.sum(), 1),
         "coordination": ga.bed_structure(snapshot).coordination,
         "kinetic_energy_j": float((0.5 * mass * (snapshot.velocity**2).sum(axis=1)).mean()),
@@ -74,46 +91,58 @@ def time_series(path, window, drum_meta, gna):
     return pd.concat([series.reset_index(drop=True), per_frame], axis=1)
 
 
+def find_runs(folders):
+    """``{(γ, label): {seed: path}}`` of the runs ``LABEL-g<γ>-s<seed>.h5`` in ``folders``."""
+    runs = {}
+    for folder in folders:
+        for path in sorted(glob.glob(os.path.join(folder, "*-g*-s*.h5"))):
+            match = re.fullmatch(r"(.+)-g([0-9.e+-]+)-s(\d+)\.h5", os.path.basename(path))
+            if match is None:
+                print(f"skipped {path}: not a name LABEL-g<γ>-s<seed>.h5")
+                continue
+            runs.setdefault((float(match.group(2)), match.group(1)), {})[int(match.group(3))] = path
+    return runs
+
+
+def drum_of(runs):
+    """The metadata of one of our runs (every case is the same drum; YADE's converted runs do not
+    name its radius)."""
+    for cases in runs.values():
+        for path in cases.values():
+            with ga.open_run(path) as run:
+                if (run.meta.sim_config or {}).get("params"):
+                    return run.meta
+    raise SystemExit("no run of our simulator among the runs: the drum's radius is unknown")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("keep", nargs="?", default="benchmarks/yade_runs",
-                        help="folder of the pairs sim-TAG.h5, yade-TAG.h5 (default benchmarks/yade_runs)")
+    parser.add_argument("keep", nargs="*", default=["benchmarks/yade_runs", "benchmarks/yade_runs/walls"],
+                        help="folders of the runs LABEL-g<γ>-s<seed>.h5 (default benchmarks/yade_runs and its walls/)")
     parser.add_argument("--window", default="1:3", help="steady window R0:R1 [revolutions] (default 1:3)")
     parser.add_argument("--c-agg", type=float, default=0.6, help="GNA C_agg (default 0.6)")
     parser.add_argument("--a-agg", type=float, default=20.0, help="GNA A_agg [deg] (default 20)")
     args = parser.parse_args()
     window = tuple(float(x) for x in args.window.split(":"))
     gna = {"c_agg": args.c_agg, "a_agg_deg": args.a_agg}
-    series = {}  # (γ, code) -> [time series per seed]
-    seeds = {}
-    for yade in sorted(glob.glob(os.path.join(args.keep, "yade-g*-s*.h5"))):
-        tag = os.path.basename(yade)[len("yade-"):-len(".h5")]
-        match = re.fullmatch(r"g([0-9.e+-]+)-s(\d+)", tag)
-        ours = os.path.join(args.keep, f"sim-{tag}.h5")
-        if match is None or not os.path.exists(ours):
-            print(f"skipped {yade}: " + ("not a case name" if match is None else f"no {ours}"))
-            continue
-        gamma = float(match.group(1))
-        seeds.setdefault(gamma, []).append(int(match.group(2)))
-        with ga.open_run(ours) as run:
-            drum_meta = run.meta
-        for code, path in (("sim", ours), ("yade", yade)):
-            series.setdefault((gamma, code), []).append(time_series(path, window, drum_meta, gna))
-    if not series:
-        raise SystemExit(f"{args.keep}: no pair sim-TAG.h5, yade-TAG.h5")
+    runs = find_runs(args.keep)
+    if not runs:
+        raise SystemExit(f"{', '.join(args.keep)}: no run LABEL-g<γ>-s<seed>.h5")
+    drum_meta = drum_of(runs)
     print(f"window [{window[0]:g}, {window[1]:g}] revolutions, GNA C_agg = {args.c_agg:g}, A_agg = {args.a_agg:g}°; "
           "mean over seeds ± replica s.e. (none with one seed)\n")
-    print("| γ [N/m] | code | seeds | " + " | ".join(METRICS.values()) + " |")
+    print("| γ [N/m] | run | seeds | " + " | ".join(METRICS.values()) + " |")
     print("| --- | --- | --- | " + " | ".join("---" for _ in METRICS) + " |")
-    for (gamma, code), runs in sorted(series.items()):
-        if len(runs) > 1:
-            table = ga.replica_steady_state(runs, window=window, columns=list(METRICS))
+    for (gamma, label), cases in sorted(runs.items()):
+        series = [time_series(path, window, drum_meta, gna) for _, path in sorted(cases.items())]
+        if len(series) > 1:
+            table = ga.replica_steady_state(series, window=window, columns=list(METRICS))
             cells = [f"{table.loc[m, 'mean']:.4g} ± {table.loc[m, 'replica_sem']:.2g}" for m in METRICS]
         else:
-            table = ga.steady_state(runs[0], window=window, columns=list(METRICS))
+            table = ga.steady_state(series[0], window=window, columns=list(METRICS))
             cells = [f"{table.loc[m, 'mean']:.4g}" for m in METRICS]
         cells = [c.replace("nan", "n/a") for c in cells]
-        print(f"| {gamma:g} | {code} | {','.join(map(str, sorted(seeds[gamma])))} | " + " | ".join(cells) + " |")
+        print(f"| {gamma:g} | {label} | {','.join(map(str, sorted(cases)))} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -27,7 +27,7 @@ from .capillary import (
     viscous_force,
 )
 from .contact import CONTACT_LAWS, contact_force, law_constants, rotate_spring
-from .drum import baffle_directions, wall_contact
+from .drum import baffle_directions, facet_reach, wall_contact
 from .liquid import fill_new_bridges, migrate_events, spray
 from ._neighbour_kernels import _clear_output
 
@@ -37,7 +37,7 @@ from ._neighbour_kernels import _clear_output
 #: two swapped floats would run silently with wrong physics). Built only by :func:`kernel_params`.
 KernelParams = namedtuple("KernelParams", [
     "dt",  # time step [s]
-    "n_walls", "drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega",
+    "n_walls", "drum_radius", "drum_length", "n_baffles", "baffle_height", "cylinder_facets", "drum_omega",
     "gx", "gy", "gz",  # gravity [m/s²] (three scalars: a parallel loop cannot take a tuple inside a named tuple)
     "law", "law_constants",  # contact law: its kernel id and constants (sim.contact.law_constants; docs/physics.md, "Contact law")
     # the registered laws' ids (0, 1, …), never read: its type is part of every kernel's compiled signature, so that
@@ -70,7 +70,8 @@ def kernel_params(params, n_walls: int) -> KernelParams:
     law_id, constants = law_constants(p)
     return KernelParams(
         dt=float(p.dt), n_walls=int(n_walls), drum_radius=float(p.drum_radius), drum_length=float(p.drum_length),
-        n_baffles=int(p.n_baffles), baffle_height=float(p.baffle_height), drum_omega=float(p.drum_omega),
+        n_baffles=int(p.n_baffles), baffle_height=float(p.baffle_height),
+        cylinder_facets=int(p.cylinder_facets), drum_omega=float(p.drum_omega),
         gx=float(p.gravity[0]), gy=float(p.gravity[1]), gz=float(p.gravity[2]),
         law=law_id, law_constants=constants, registered_laws=tuple(range(len(CONTACT_LAWS))),
         gamma=float(p.surface_tension), eta=float(p.viscosity), theta=float(p.contact_angle),
@@ -158,7 +159,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     fixed_volume = kp.bridge_volume
     sprayed = 0.0
     done = 0
-    baffle_dir = np.empty((max(n_baffles, 1), 2))
+    baffle_dir = np.empty((n_baffles + 1, 2))
     # the list must be rebuilt before a step in which some particle starts more than half the
     # skin away from where it was at the last rebuild; checking before each step makes the
     # trajectory independent of how the steps are split into calls
@@ -391,6 +392,7 @@ def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, a
     drum_length = kp.drum_length
     n_baffles = kp.n_baffles
     baffle_height = kp.baffle_height
+    cylinder_facets = kp.cylinder_facets
     law = kp.law
     constants = kp.law_constants
     gamma = kp.gamma
@@ -403,6 +405,8 @@ def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, a
     n_slots = pair_i.shape[0]
     n_wall_blocks = event_blocks(n_particles, n_walls, n_slots)[0]
     inner_radius = drum_radius * (1.0 - baffle_height)
+    # the cylinder's reach: R_d (smooth), or a facet polygon's inradius less a margin (facet_reach)
+    cylinder_reach = facet_reach(drum_radius, cylinder_facets)
     for blk in prange(block_lo, block_hi):
         lo, hi = _block_slots(blk, n_wall_blocks, n_particles, n_walls, n_slots)
         if block_events[blk] != 0:
@@ -424,7 +428,7 @@ def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, a
                     ri = radius[i]
                     r2 = px * px + py * py
                     reach = ri + 1e-9 * inner_radius
-                    cylinder_apart = math.sqrt(r2) + ri - drum_radius < 0.0
+                    cylinder_apart = math.sqrt(r2) + ri - cylinder_reach < 0.0
                     baffles_apart = r2 < (inner_radius - reach) * (inner_radius - reach) and inner_radius > reach
                     low_apart = ri - pz < 0.0
                     high_apart = ri - (drum_length - pz) < 0.0
@@ -440,7 +444,8 @@ def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, a
                     if apart:
                         continue  # stays dead, outputs zero
                 ok, nx, ny, nz, u, wvx, wvy = wall_contact(
-                    w, px, py, pz, ri, drum_radius, drum_length, n_baffles, baffle_height, omega_drum, baffle_dir)
+                    w, px, py, pz, ri, drum_radius, drum_length, n_baffles, baffle_height, cylinder_facets, omega_drum,
+                    baffle_dir)
                 if not ok:
                     u = -1.0
                 rj = math.inf

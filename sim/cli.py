@@ -49,6 +49,8 @@ def _check_options(args) -> None:
         ("--alpha", args.alpha, args.alpha is None or (finite(args.alpha) and args.alpha >= 1), "a finite number >= 1"),
         ("--particles", args.particles, args.particles is None or args.particles >= 1, "a whole number >= 1"),
         ("--seed", args.seed, args.seed is None or args.seed >= 0, "a whole number >= 0"),
+        ("--cylinder-facets", args.cylinder_facets, args.cylinder_facets is None or args.cylinder_facets == 0 or
+         args.cylinder_facets >= 3, "0 (smooth) or a whole number >= 3"),
         ("--bridge-volume", args.bridge_volume, args.bridge_volume is None or (finite(args.bridge_volume) and
                                                                             args.bridge_volume > 0), "a finite volume > 0 [m³]"),
     ]
@@ -116,6 +118,9 @@ def build_parser():
                         "and the spray interval and settling time ÷ √α")
     p.add_argument("--gamma", type=float, help="surface tension of the original system [N/m] (scaled by α)")
     p.add_argument("--omega", type=float, help="drum angular velocity [rad/s], not 0")
+    p.add_argument("--cylinder-facets", type=int, metavar="N",
+                   help="make the cylinder a polygon of N flat facets turning with the drum, as YADE's facetCylinder "
+                        "(default 0: the smooth cylinder)")
     p.add_argument("--particles", type=int,
                    help=f"particle count of the original system (scaled by 1/α³, at least {MIN_PARTICLES} after scaling)")
     p.add_argument("--drum-ratio", type=float, metavar="D/d",
@@ -159,7 +164,7 @@ def _params(args):
     original, alpha = preset_original(args.preset)
     changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles,
                "bridge_volume": args.bridge_volume, "viscous": False if args.no_viscous else None,
-               "cg_rule": args.cg_rule}
+               "cg_rule": args.cg_rule, "cylinder_facets": args.cylinder_facets}
     changes.update(_law_changes(args, original.contact_law))
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha

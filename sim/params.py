@@ -71,6 +71,8 @@ class SimParams:
         the dry settling included) until it ruptures; no films, no spraying, no migration.
     Drum
         drum_radius R_d [m], drum_length L [m], n_baffles, baffle_height (fraction of R_d),
+        cylinder_facets (0: the smooth cylinder; N >= 3: a polygon of N flat facets with its
+        vertices on R_d, turning with the drum, as YADE's ``facetCylinder``),
         drum_omega Ω [rad/s] about +z, gravity [m/s²], fill_fraction (bed volume / drum volume at
         packing 0.6, used only to document presets), n_particles.
     Numerics
@@ -106,6 +108,7 @@ class SimParams:
     drum_length: float = 0.045
     n_baffles: int = 4
     baffle_height: float = 0.15
+    cylinder_facets: int = 0
     drum_omega: float = 2.0
     gravity: tuple = (0.0, -9.81, 0.0)
     dt: float = 3e-6
@@ -147,6 +150,8 @@ class SimParams:
             raise ValueError(f"parameter n_particles must be a positive integer, got {self.n_particles!r}")
         if not (isinstance(self.n_baffles, int) and self.n_baffles >= 0):
             raise ValueError(f"parameter n_baffles must be a non-negative integer, got {self.n_baffles!r}")
+        if not (isinstance(self.cylinder_facets, int) and (self.cylinder_facets == 0 or self.cylinder_facets >= 3)):
+            raise ValueError(f"parameter cylinder_facets must be 0 (smooth) or an integer >= 3, got {self.cylinder_facets!r}")
         if not self.baffle_height < 1:
             raise ValueError(f"parameter baffle_height must be < 1 (fraction of the drum radius), got {self.baffle_height!r}")
         if len(self.gravity) != 3:

@@ -258,7 +258,7 @@ def test_the_force_passes_count_every_blocks_events_and_reset_only_the_last_step
     bounds += [n * n_walls + b * _kernels.PAIR_BLOCK for b in range(1, n_pb)] + [n_slots]
     blocks = np.zeros(n_wb + n_pb, dtype=np.int64)
     _kernels.count_block_events(s.created, s.ruptured, n, n_walls, blocks)
-    baffle_dir = np.empty((p.n_baffles, 2))
+    baffle_dir = np.empty((p.n_baffles + 1, 2))
     events_seen = 0
     for step in range(300):
         # drive the system hard (a fast drum) so that contacts form and bridges break every step
@@ -297,11 +297,11 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
     p = dataclasses.replace(SMALL, k_n=101.0, k_t=102.0, c_n=0.0103, c_t=0.0104, friction=0.45,
                             surface_tension=0.31, viscosity=0.0027, contact_angle=0.21, v_min=1e-15,
                             spray_interval=0.011, spray_dose=0.012, spray_radius=0.013, skin=0.9e-3,
-                            baffle_height=0.14, drum_omega=2.5, gravity=(0.1, -9.7, 0.2),
+                            baffle_height=0.14, cylinder_facets=5, drum_omega=2.5, gravity=(0.1, -9.7, 0.2),
                             capillary_model="lambert", viscous=False, capillary_in_contact=True)
     kp = _kernels.kernel_params(p, 7)
     by_name = {"dt": p.dt, "n_walls": 7, "drum_radius": p.drum_radius, "drum_length": p.drum_length,
-               "n_baffles": p.n_baffles, "baffle_height": 0.14, "drum_omega": 2.5, "gx": 0.1, "gy": -9.7, "gz": 0.2,
+               "n_baffles": p.n_baffles, "baffle_height": 0.14, "cylinder_facets": 5, "drum_omega": 2.5, "gx": 0.1, "gy": -9.7, "gz": 0.2,
                "law": 0, "law_constants": (101.0, 102.0, 0.0103, 0.0104, 0.45) + (0.0,) * (LAW_CONSTANTS - 5),
                "registered_laws": tuple(range(len(CONTACT_LAWS))), "gamma": 0.31,
                "eta": 0.0027, "theta": 0.21, "model": CAPILLARY_MODELS["lambert"], "viscous": False,
