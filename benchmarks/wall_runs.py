@@ -5,11 +5,12 @@ run in parallel, each kept as the float32 subset that ``benchmarks/yade_side_by_
 
 Usage (from anywhere; the commands run in the repository root)::
 
-    python benchmarks/wall_runs.py --cylinder-facets 96 [--gammas 0.03,0.1095,0.444] [--seeds 0-4]
-        [--workers 2] [--revolutions 3] [--out build/walls] [--keep benchmarks/yade_runs/walls]
+    python benchmarks/wall_runs.py [--cylinder-facets 96] [--no-wall-bridges] [--gammas 0.03,0.1095,0.444]
+        [--seeds 0-4] [--workers 2] [--revolutions 3] [--out build/walls] [--keep benchmarks/yade_runs/walls]
 
-Each case TAG = ``sim-f<N>-g<γ>-s<seed>`` runs ``python -m sim run --preset lab-cg2 --bridge-volume
-1e-12 --no-viscous --gamma γ --seed S --revolutions R --cylinder-facets N --threads 1 --quiet --out
+Each case TAG = ``LABEL-g<γ>-s<seed>`` (LABEL ``sim``, then ``-f<N>`` for N facets, ``-drywalls``
+without wall bridges) runs ``python -m sim run --preset lab-cg2 --bridge-volume 1e-12 --no-viscous
+--gamma γ --seed S --revolutions R --cylinder-facets N [--no-wall-bridges] --threads 1 --quiet --out
 OUT/TAG.h5`` (the command of ``benchmarks/yade_series.py``'s step (a) with the wall switched) and
 then ``granalytics subset OUT/TAG.h5 --out KEEP/TAG.h5 --float32 --full-window 1:3 --every 4``.
 A case whose kept subset exists is skipped. ``--workers`` runs that many cases at once, one core
@@ -38,14 +39,17 @@ def seeds(text):
 
 def run_case(gamma, seed, args):
     """Our run and its kept subset; returns a one-line report with the cost."""
-    tag = f"sim-f{args.cylinder_facets}-g{gamma:g}-s{seed}"
+    label = "sim" + (f"-f{args.cylinder_facets}" if args.cylinder_facets else "") + \
+        ("-drywalls" if args.no_wall_bridges else "")
+    tag = f"{label}-g{gamma:g}-s{seed}"
     full, kept = os.path.join(args.out, f"{tag}.h5"), os.path.join(args.keep, f"{tag}.h5")
     if os.path.exists(kept):
         return f"{tag}: kept subset exists, skipped"
     t0 = time.perf_counter()
     run = [sys.executable, "-m", "sim", "run", "--preset", "lab-cg2", "--bridge-volume", "1e-12", "--no-viscous",
            "--gamma", f"{gamma:g}", "--seed", str(seed), "--revolutions", f"{args.revolutions:g}",
-           "--cylinder-facets", str(args.cylinder_facets), "--threads", "1", "--quiet", "--out", full]
+           "--cylinder-facets", str(args.cylinder_facets), "--threads", "1", "--quiet", "--out", full] + \
+        (["--no-wall-bridges"] if args.no_wall_bridges else [])
     if os.path.exists(full):
         run.append("--resume")
     done = subprocess.run(run, cwd=ROOT, capture_output=True, text=True)
@@ -62,7 +66,8 @@ def run_case(gamma, seed, args):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cylinder-facets", type=int, default=96, help="0: smooth; N >= 3: YADE's polygon (96)")
+    parser.add_argument("--cylinder-facets", type=int, default=0, help="0: smooth (default); N >= 3: YADE's polygon")
+    parser.add_argument("--no-wall-bridges", action="store_true", help="dry walls: no bridges with them")
     parser.add_argument("--gammas", default="0.03,0.1095,0.444", help="γ of the original system [N/m]")
     parser.add_argument("--seeds", type=seeds, default=seeds("0-4"), help="seeds of our filling (0-4)")
     parser.add_argument("--revolutions", type=float, default=3.0)

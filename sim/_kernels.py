@@ -46,6 +46,7 @@ KernelParams = namedtuple("KernelParams", [
     "gamma", "eta", "theta", "model", "viscous", "capillary_in_contact",  # "Liquid bridges", "Capillary models"
     "v_min",  # "Liquid migration"
     "bridge_volume",  # the fixed-bridge-volume model's V_b [m³] (0: films, spray and migration)
+    "wall_bridges",  # whether that model's wall contacts get V_b too (else they stay dry)
     "spray_interval", "spray_dose", "spray_radius",  # "Spraying"
     "half_skin",  # half the Verlet skin [m]: rebuild trigger
 ])
@@ -77,6 +78,7 @@ def kernel_params(params, n_walls: int) -> KernelParams:
         gamma=float(p.surface_tension), eta=float(p.viscosity), theta=float(p.contact_angle),
         model=int(CAPILLARY_MODELS[p.capillary_model]), viscous=bool(p.viscous),
         capillary_in_contact=bool(p.capillary_in_contact), v_min=float(p.v_min), bridge_volume=float(p.bridge_volume),
+        wall_bridges=bool(p.wall_bridges),
         spray_interval=float(p.spray_interval), spray_dose=float(p.spray_dose), spray_radius=float(p.spray_radius),
         half_skin=float(p.skin / 2),
     )
@@ -157,6 +159,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     n_slots = pair_i.shape[0]
     omega_drum = 0.0 if settling else kp.drum_omega
     fixed_volume = kp.bridge_volume
+    wall_volume = fixed_volume if kp.wall_bridges else 0.0
     sprayed = 0.0
     done = 0
     baffle_dir = np.empty((n_baffles + 1, 2))
@@ -187,7 +190,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
         m = event_ranges(block_events, n, n_walls, n_slots, range_lo, range_hi)
         if fixed_volume > 0.0:
             if not settling:  # the bed settles dry in both liquid models
-                fill_new_bridges(v_b, created, fixed_volume, range_lo[:m], range_hi[:m])
+                fill_new_bridges(v_b, created, fixed_volume, wall_volume, n * n_walls, range_lo[:m], range_hi[:m])
         else:
             migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
                            body_key, range_lo[:m], range_hi[:m])

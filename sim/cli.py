@@ -140,6 +140,8 @@ def build_parser():
                    help="a parameter of the contact law in the original system, SI units (repeatable; scaled by "
                         "the law's CG rule), e.g. youngs_modulus=1e7 for hertz_mindlin; the names are the law's "
                         "(docs/physics.md, \"Contact law\")")
+    p.add_argument("--no-wall-bridges", action="store_true",
+                   help="with --bridge-volume: wall contacts stay dry (no bridges with the drum, baffles or end plates)")
     p.add_argument("--no-viscous", action="store_true",
                    help="switch off the viscous (lubrication) force of the bridges, as YADE's ViscElCapMat")
     p.add_argument("--seed", type=int, help="random seed of the filling (>= 0)")
@@ -164,7 +166,8 @@ def _params(args):
     original, alpha = preset_original(args.preset)
     changes = {"surface_tension": args.gamma, "drum_omega": args.omega, "seed": args.seed, "n_particles": args.particles,
                "bridge_volume": args.bridge_volume, "viscous": False if args.no_viscous else None,
-               "cg_rule": args.cg_rule, "cylinder_facets": args.cylinder_facets}
+               "cg_rule": args.cg_rule, "cylinder_facets": args.cylinder_facets,
+               "wall_bridges": False if args.no_wall_bridges else None}
     changes.update(_law_changes(args, original.contact_law))
     original = dataclasses.replace(original, **{k: v for k, v in changes.items() if v is not None})
     alpha = alpha if args.alpha is None else args.alpha

@@ -102,16 +102,17 @@ def migrate_liquid(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured_vo
 
 
 @njit(cache=True)
-def fill_new_bridges(v_b, created, volume, range_lo, range_hi):
+def fill_new_bridges(v_b, created, volume, wall_volume, n_wall_slots, range_lo, range_hi):
     """The fixed-bridge-volume liquid model (YADE's ``ViscElCapMat`` without ``LiqControl``): every
-    slot created this step gets the bridge volume ``volume`` [m³]; films are not touched and a
+    pair slot created this step gets the bridge volume ``volume`` [m³], every wall slot (the first
+    ``n_wall_slots``) ``wall_volume`` (``volume``, or 0 for dry walls); films are not touched and a
     ruptured bridge's volume is not returned anywhere (the volume is a constant of the material,
     not a conserved liquid). Slots as in :func:`migrate_events`: the created ones lie in the
     ranges [range_lo[r], range_hi[r])."""
     for r in range(range_lo.shape[0]):
         for k in range(range_lo[r], range_hi[r]):
             if created[k]:
-                v_b[k] = volume
+                v_b[k] = wall_volume if k < n_wall_slots else volume
 
 
 @njit(cache=True)

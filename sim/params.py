@@ -69,6 +69,9 @@ class SimParams:
         fixed-bridge-volume model of YADE's ``ViscElCapMat`` without ``LiqControl``: every bridge
         (particle or wall) has volume V_b from the moment it forms (pairs touching at the end of
         the dry settling included) until it ruptures; no films, no spraying, no migration.
+        wall_bridges (fixed-bridge-volume model only): False makes every wall contact dry (no
+        bridge with the drum, its baffles or end plates; YADE's walls of a material with
+        ``Capillar=False``).
     Drum
         drum_radius R_d [m], drum_length L [m], n_baffles, baffle_height (fraction of R_d),
         cylinder_facets (0: the smooth cylinder; N >= 3: a polygon of N flat facets with its
@@ -109,6 +112,7 @@ class SimParams:
     n_baffles: int = 4
     baffle_height: float = 0.15
     cylinder_facets: int = 0
+    wall_bridges: bool = True
     drum_omega: float = 2.0
     gravity: tuple = (0.0, -9.81, 0.0)
     dt: float = 3e-6
@@ -152,6 +156,8 @@ class SimParams:
             raise ValueError(f"parameter n_baffles must be a non-negative integer, got {self.n_baffles!r}")
         if not (isinstance(self.cylinder_facets, int) and (self.cylinder_facets == 0 or self.cylinder_facets >= 3)):
             raise ValueError(f"parameter cylinder_facets must be 0 (smooth) or an integer >= 3, got {self.cylinder_facets!r}")
+        if not self.wall_bridges and not self.bridge_volume > 0:
+            raise ValueError("parameter wall_bridges=False needs the fixed-bridge-volume model (bridge_volume > 0)")
         if not self.baffle_height < 1:
             raise ValueError(f"parameter baffle_height must be < 1 (fraction of the drum radius), got {self.baffle_height!r}")
         if len(self.gravity) != 3:

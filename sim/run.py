@@ -164,6 +164,8 @@ class Simulation:
         check_settled_bed(self.settled_bed, p.settle_time)
         if p.bridge_volume > 0:  # the fixed-volume model: the touching pairs of the settled bed are wet
             self.state.v_b[self.state.alive] = p.bridge_volume
+            if not p.wall_bridges:
+                self.state.v_b[:n * self.n_walls] = 0.0
         else:
             self.state.film[:n] = p.initial_film * 4 / 3 * math.pi * self.state.radius**3
         self.liquid_initial = self.state.total_liquid()

@@ -305,7 +305,7 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
                "law": 0, "law_constants": (101.0, 102.0, 0.0103, 0.0104, 0.45) + (0.0,) * (LAW_CONSTANTS - 5),
                "registered_laws": tuple(range(len(CONTACT_LAWS))), "gamma": 0.31,
                "eta": 0.0027, "theta": 0.21, "model": CAPILLARY_MODELS["lambert"], "viscous": False,
-               "capillary_in_contact": True, "v_min": 1e-15, "bridge_volume": 0.0, "spray_interval": 0.011, "spray_dose": 0.012,
+               "capillary_in_contact": True, "v_min": 1e-15, "bridge_volume": 0.0, "wall_bridges": True, "spray_interval": 0.011, "spray_dose": 0.012,
                "spray_radius": 0.013, "half_skin": 0.45e-3}
     assert kp._asdict() == by_name
     assert [type(v) for v in kp] == [type(by_name[k]) for k in kp._fields]
@@ -723,6 +723,26 @@ def test_fixed_bridge_volume_run_wets_the_settled_bed_and_never_sprays():
     sim.advance(int(3 * params.spray_interval / params.dt))  # past three spray times
     assert not s.film.any() and s.sprayed_total == 0.0
     assert np.all(s.v_b[s.alive] == v_fixed)  # every bridge, old or new, particle or wall
+
+
+def test_dry_walls_give_no_wall_contact_a_bridge_and_leave_the_pairs_wet():
+    v_fixed = 0.02 * SMALL.r_mean**3
+    with pytest.raises(ValueError, match="wall_bridges=False needs the fixed-bridge-volume model"):
+        dataclasses.replace(SMALL, wall_bridges=False)
+    wet, dry = (Simulation(dataclasses.replace(SMALL, bridge_volume=v_fixed, wall_bridges=walls), ORIGINAL)
+                for walls in (True, False))
+    for sim in (wet, dry):
+        sim.advance(int(0.02 / sim.params.dt))
+    n_wall_slots = wet.state.n_particles * wet.n_walls
+    for sim, wall_volume in ((wet, v_fixed), (dry, 0.0)):
+        s = sim.state
+        walls, pairs = s.alive[:n_wall_slots], s.alive[n_wall_slots:]
+        assert walls.sum() > 10 and pairs.sum() > 10  # the bed lies on the walls in both
+        assert np.all(s.v_b[:n_wall_slots][walls] == wall_volume)
+        assert np.all(s.v_b[n_wall_slots:][pairs] == v_fixed)
+    # a dry wall contact ends at separation: no wall slot of the dry run is alive with a gap
+    assert not np.any(dry.state.alive[:n_wall_slots] & (dry.state.gap[:n_wall_slots] > 0))
+    assert np.any(wet.state.alive[:n_wall_slots] & (wet.state.gap[:n_wall_slots] > 0))
 
 
 if __name__ == "__main__":  # regenerate tests/data/reference_trajectory.npz (an intentional change of physics)
