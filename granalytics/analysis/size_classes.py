@@ -38,7 +38,7 @@ from granalytics.identify.common import check_c_agg, check_min_size
 from granalytics.identify.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion,
                                            check_rigid_tol, comotion_mask, contact_strength)
 
-__all__ = ["MeasuredDistribution", "read_sieve_csv", "SIEVE_MEASURES", "SUM_TOLERANCE", "sieve_classes",
+__all__ = ["MeasuredDistribution", "read_sieve_csv", "SIEVE_MEASURES", "SUM_TOLERANCE", "sieve_classes", "grid_measurement",
            "SieveGrid", "sieve_grid"]
 
 #: the sieve-size measures: name -> the kernel's code
@@ -407,3 +407,37 @@ def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radi
                      comotion=comotion, edges_m=edges, frames=np.asarray(frame_ids),
                      revolutions=np.array([r[1] for r in results]), time_s=np.array([r[2] for r in results]),
                      density=float(results[0][3]), measure=measure)
+
+
+def grid_measurement(grid: SieveGrid, c_agg, threshold, *, noise=0.0, seed=0, source=None) -> MeasuredDistribution:
+    """A "measured" distribution made from a simulation: the mean over ``grid``'s frames at one of its
+    grid points, with optional noise (for tests of a calibration and for synthetic examples).
+
+    Parameters
+    ----------
+    grid : SieveGrid
+        Its classes must hold all the mass (first edge 0, last edge ``inf``).
+    c_agg, threshold : float
+        A grid point: C_agg and A_agg [deg] (or the rigid tolerance).
+    noise : float, default 0
+        Standard deviation of a normal error added to the cumulative mass fraction passing each
+        inner edge (mass fraction); the result is made non-decreasing and kept in [0, 1]. It is
+        also the distribution's ``sigma`` when > 0.
+    seed : int
+    """
+    ci = np.flatnonzero(np.isclose(grid.c_agg, c_agg, rtol=0, atol=1e-12))
+    ai = np.flatnonzero(np.isclose(grid.comotion_values, threshold, rtol=0, atol=1e-12))
+    if ci.size != 1 or ai.size != 1:
+        raise ParameterError(f"({c_agg:g}, {threshold:g}) is not a point of the grid")
+    frac = grid.fractions[:, ai[0], ci[0]].mean(axis=0)
+    if frac[0] > 0 or frac[-1] > 0:
+        raise ParameterError("the grid's classes do not hold all the mass (make the first edge 0 and the last inf)")
+    passing = np.cumsum(frac[1:-1])[:-1]
+    if noise > 0:
+        passing = passing + np.random.default_rng(seed).normal(0.0, noise, passing.size)
+        passing = np.clip(np.maximum.accumulate(passing), 0.0, 1.0)
+    edges = grid.edges_m
+    fractions = np.diff(np.r_[0.0, passing, 1.0])
+    sigma = np.r_[0.0, np.full(passing.size, noise), 0.0] if noise > 0 else None
+    name = source or f"simulated at C_agg = {c_agg:g}, {threshold:g} (noise {noise:g})"
+    return MeasuredDistribution(edges.copy(), fractions, sigma, name)
