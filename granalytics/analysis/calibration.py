@@ -339,8 +339,11 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     chi2 = chi2_of(sim_p, p_meas)  # (A, C)
     noise = rng.standard_normal((int(n_boot), n_e)) * s_meas
     boot_chi2 = chi2_of(boot_p, (p_meas + noise)[:, None, None, :]).reshape(int(n_boot), -1)
-    best_b = np.argmin(boot_chi2, axis=1)
-    freq = np.bincount(best_b, minlength=n_a * n_c) / int(n_boot)
+    # each replica's best point; points tied with it (grid points that give the same distribution)
+    # share its vote, so that thresholds that change nothing fill the region
+    low = boot_chi2.min(axis=1, keepdims=True)
+    tied = boot_chi2 <= low + 1e-12 * np.maximum(np.abs(low), 1.0)
+    freq = (tied / tied.sum(axis=1, keepdims=True)).sum(axis=0) / int(n_boot)
     best = int(np.argmin(chi2.ravel()))
     order = np.argsort(-freq, kind="stable")
     take = int(np.searchsorted(np.cumsum(freq[order]), level - 1e-12)) + 1
