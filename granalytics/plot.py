@@ -770,6 +770,7 @@ def calibration_figures(calibration) -> dict:
     cal = calibration
     col = cal.threshold_column
     name = "A_agg [deg]" if col == "a_agg_deg" else "rigid tolerance"
+    short = "A_agg" if col == "a_agg_deg" else "rigid_tol"
     grid = cal.grid
     c_vals = np.unique(grid.c_agg)
     a_vals = np.unique(grid[col])
@@ -791,7 +792,7 @@ def calibration_figures(calibration) -> dict:
     chi = grid[grid.in_chi2_region]
     ax.plot(chi.c_agg, chi[col], ".", color="orange", ms=4, label=f"Δχ² region ({100 * s['level']:g} %)")
     ax.plot([cal.best["c_agg"]], [cal.best[col]], "*", color="red", ms=14, mec="white",
-            label=f"best: C_agg = {cal.best['c_agg']:g}, {name.split(' ')[0]} = {cal.best[col]:g}")
+            label=f"best: C_agg = {cal.best['c_agg']:g}, {short} = {cal.best[col]:g}")
     ax.plot([], [], "s", mfc="none", mec="grey", label=f"bootstrap region ({100 * s['level']:g} %)")
     ax.set_xlabel("C_agg")
     ax.set_ylabel(name)
@@ -800,7 +801,7 @@ def calibration_figures(calibration) -> dict:
     if cal.poor_fit:
         title += "\nPOOR FIT: no grid point reproduces it"
     ax.set_title(title, fontsize=10)
-    fig.text(0.01, 0.005, caption + f"\nC_agg: {cal.constraint['c_agg']}; {name.split(' ')[0]}: {cal.constraint[col]}",
+    fig.text(0.01, 0.005, caption + f"\nC_agg: {cal.constraint['c_agg']}; {short}: {cal.constraint[col]}",
              fontsize=7, va="bottom")
     fig.subplots_adjust(bottom=0.2)
     figs["calibration_objective"] = fig
@@ -829,7 +830,7 @@ def calibration_figures(calibration) -> dict:
     ax2.set_xlabel("sieve class [mm]")
     ax2.set_ylabel("mass fraction per class")
     ax2.legend(fontsize=8)
-    fig.suptitle(f"best pair C_agg = {cal.best['c_agg']:g}, {name.split(' ')[0]} = {cal.best[col]:g}: χ² = "
+    fig.suptitle(f"best pair C_agg = {cal.best['c_agg']:g}, {short} = {cal.best[col]:g}: χ² = "
                  f"{cal.chi2_min:.3g} on {cal.dof} degrees of freedom (p = {cal.p_value:.2g})", fontsize=10)
     fig.text(0.01, 0.005, caption, fontsize=7, va="bottom")
     fig.tight_layout(rect=(0, 0.04, 1, 1))
