@@ -14,6 +14,10 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :func:`steady_state`, :func:`size_distribution`
 - threshold sensitivity and method comparison: :func:`sensitivity`, :func:`sensitivity_summary`,
   :func:`compare_methods`
+- calibration of the thresholds against a measured sieve analysis: :func:`calibrate_thresholds`,
+  :class:`Calibration`; measured distributions :func:`read_sieve_csv`, :class:`MeasuredDistribution`;
+  virtual sieving into its classes :func:`sieve_classes`, over a threshold grid in one pass
+  :func:`sieve_grid` (:class:`SieveGrid`)
 - cohesion conventions (which force is F_coh): :func:`cohesive_force`, :data:`COHESION_CONVENTIONS`
 - coarse-graining comparison (paper Figs 3–6): :func:`compare_cg`, :class:`CGComparison`
 - the drum's confinement (D/d, L/d, bed depth, wall contacts): :func:`drum_confinement`,
@@ -50,6 +54,9 @@ _EXPORTS = {
                      "IdentificationResult", "VirtualSieve", "identify", "CustomEdges"), ".identify"),
     **dict.fromkeys(("Run", "RunSlice", "RunWriter", "WriterLock", "open_run", "subset_run"), ".core"),
     **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".analysis.sensitivity"),
+    **dict.fromkeys(("Calibration", "calibrate_thresholds"), ".analysis.calibration"),
+    **dict.fromkeys(("MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid"),
+                    ".analysis.size_classes"),
     **dict.fromkeys(("RunMeta", "Snapshot"), ".core.snapshot"),
     **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
                      "drum_confinement", "run_confinement", "wall_touching"), ".core.bed"),
@@ -114,6 +121,7 @@ __all__ = [
     "edges", "datasets", "core", "convert", "export", "analysis",
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods",
+    "calibrate_thresholds", "Calibration", "MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
     "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",

@@ -1,7 +1,8 @@
 """Command line of granalytics: ``granalytics COMMAND …`` (``granalytics --help`` lists the commands).
 
 One module per command group, each adding its commands to the parser and running them:
-:mod:`.analysis` (info, identify, stats, sensitivity, compare-methods, compare-cg), :mod:`.data`
+:mod:`.analysis` (info, identify, stats, sensitivity, compare-methods, compare-cg), :mod:`.calibrate`
+(calibrate), :mod:`.data`
 (subset, export-vtk, convert, synthetic, table), :mod:`.tracking` (track), :mod:`.study` (study) and
 :mod:`.datasets` (datasets); shared option and output helpers in :mod:`._common`. Library modules
 never import this package.
@@ -20,7 +21,7 @@ from granalytics.core.errors import GranalyticsError
 from granalytics.core.errors import RunWriteError, exit_after_write_failure
 from granalytics.core.files import (interrupted, interrupts_not_lost, raise_dropped_interrupt, terminate_as_interrupt,
                                     warnings_as_lines)
-from granalytics.cli import analysis, data, datasets, pbm, study, tracking
+from granalytics.cli import analysis, calibrate, data, datasets, pbm, study, tracking
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -30,6 +31,7 @@ COMMANDS = {
     "identify": analysis.add_identify_parser,
     "stats": analysis.add_stats_parser,
     "sensitivity": analysis.add_sensitivity_parser,
+    "calibrate": calibrate.add_calibrate_parser,
     "compare-methods": analysis.add_compare_methods_parser,
     "compare-cg": analysis.add_compare_cg_parser,
     "subset": data.add_subset_parser,

@@ -1,0 +1,397 @@
+"""Calibration of the granule definition (C_agg and A_agg, or the rigid tolerance) against a
+measured size distribution (docs/calibration.md).
+
+The simulated distribution at every grid point comes from one pass per frame and co-motion
+threshold (:func:`granalytics.analysis.size_classes.sieve_grid`), averaged over the steady window.
+Its error is a moving-block bootstrap over the window's frames. The distance between simulated and
+measured distributions is
+
+    χ²(C_agg, A_agg) = Σ_j (P_sim(a_j) − P_meas(a_j))² / (σ_sim,j² + σ_meas,j²)
+
+over the class edges a_j (finite, > 0) of the cumulative mass fraction passing P, σ_sim the
+bootstrap error of the simulated mean and σ_meas the measured one. The best pair is the grid point
+of smallest χ². Its confidence region is a bootstrap: each replica resamples the frames (blocks of
+``block_rev`` revolutions, every run of a replica set on its own) and the measured values (normal,
+σ_meas), and finds its own best point; the region is the smallest set of grid points that holds
+``level`` of the replicas' best points. A threshold whose axis the region spans from end to end is
+unconstrained by the data.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from granalytics.analysis.size_classes import MeasuredDistribution, SieveGrid, read_sieve_csv, sieve_grid
+from granalytics.analysis.stats import DEFAULT_WINDOW_REV
+from granalytics.core.errors import ParameterError
+from granalytics.core.snapshot import Snapshot
+from granalytics.core.windows import check_interval, window_mask
+from granalytics.identify.cohesion import DEFAULT_COHESION
+from granalytics.identify.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE
+
+__all__ = ["calibrate_thresholds", "Calibration", "POOR_FIT_P", "DEFAULT_MEASURED_ERROR"]
+
+#: a best fit whose χ² has a p-value below this is a poor fit: no grid point reproduces the measurement
+POOR_FIT_P = 0.01
+#: the measured cumulative fraction's standard error when the file gives none (mass fraction)
+DEFAULT_MEASURED_ERROR = 0.01
+
+
+@dataclass
+class Calibration:
+    """The result of :func:`calibrate_thresholds`.
+
+    Attributes
+    ----------
+    grid : DataFrame
+        One row per grid point: ``c_agg``, ``a_agg_deg`` (or ``rigid_tol``), ``chi2``,
+        ``delta_chi2`` (χ² − χ²_min), ``max_abs_dpassing`` (largest |P_sim − P_meas| over the
+        edges), ``boot_frequency`` (share of bootstrap replicas whose best point it is),
+        ``in_region`` (the bootstrap confidence region), ``in_chi2_region`` (Δχ² below the χ²
+        quantile of two parameters at ``level``, for comparison).
+    best : dict
+        The best grid point: the thresholds and its ``chi2``.
+    constraint : dict
+        Per threshold: ``"constrained to [lo, hi]"``, ``"lower bound only (>= lo)"``, ``"upper bound
+        only (<= hi)"``, ``"unconstrained"`` (the region spans its whole axis) or ``"fixed"`` (one
+        value given).
+    distributions : DataFrame
+        One row per class: ``lower_m``, ``upper_m`` [m], ``measured_fraction``, ``measured_passing``
+        (cumulative at the upper edge), ``measured_sigma``, ``simulated_fraction`` and
+        ``simulated_fraction_error`` (block bootstrap), ``simulated_passing`` and
+        ``simulated_passing_error`` at the best point.
+    chi2_min, dof, p_value : float, int, float
+        The best χ², its degrees of freedom (edges − fitted thresholds) and its p-value under the
+        χ² law (approximate: the cumulative values are correlated).
+    poor_fit : bool
+        ``p_value < POOR_FIT_P``: no grid point reproduces the measured distribution.
+    settings : dict
+        What was fitted and how (runs, window, measure, co-motion test, bootstrap).
+    """
+
+    grid: pd.DataFrame
+    best: dict
+    constraint: dict
+    distributions: pd.DataFrame
+    chi2_min: float
+    dof: int
+    p_value: float
+    poor_fit: bool
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def threshold_column(self) -> str:
+        """``a_agg_deg`` or ``rigid_tol``."""
+        return "rigid_tol" if "rigid_tol" in self.grid else "a_agg_deg"
+
+    @property
+    def region(self) -> pd.DataFrame:
+        """The grid points of the confidence region (those the data cannot tell apart)."""
+        return self.grid[self.grid["in_region"]].reset_index(drop=True)
+
+    def summary(self) -> str:
+        """A few lines: the best pair, its region, what is unconstrained, the fit's quality."""
+        col = self.threshold_column
+        unit = "°" if col == "a_agg_deg" else ""
+        name = "A_agg" if col == "a_agg_deg" else "rigid_tol"
+        region = self.region
+        lines = [f"best: C_agg = {self.best['c_agg']:g}, {name} = {self.best[col]:g}{unit} (chi2 = {self.chi2_min:.3g}, "
+                 f"{self.dof} degrees of freedom, p = {self.p_value:.3g})",
+                 f"{100 * self.settings['level']:g} % confidence region ({self.settings['n_boot']} bootstrap replicas): "
+                 f"{len(region)} grid point(s) the data cannot tell apart, C_agg in [{region.c_agg.min():g}, "
+                 f"{region.c_agg.max():g}], {name} in [{region[col].min():g}, {region[col].max():g}]{unit}",
+                 f"C_agg: {self.constraint['c_agg']}; {name}: {self.constraint[col]}"]
+        if self.poor_fit:
+            lines.append(f"POOR FIT: no grid point reproduces the measured distribution (chi2/dof = "
+                         f"{self.chi2_min / max(self.dof, 1):.3g}, p = {self.p_value:.2g} < {POOR_FIT_P:g}); the region "
+                         "then only says which points are least bad")
+        return "\n".join(lines)
+
+    def to_json(self) -> dict:
+        """The headline numbers and settings as plain JSON types."""
+        def plain(v):
+            if isinstance(v, (np.floating, float)):
+                return None if not math.isfinite(v) else float(v)
+            if isinstance(v, (np.integer,)):
+                return int(v)
+            if isinstance(v, (np.bool_,)):
+                return bool(v)
+            if isinstance(v, dict):
+                return {k: plain(x) for k, x in v.items()}
+            if isinstance(v, (list, tuple, np.ndarray)):
+                return [plain(x) for x in v]
+            return v
+
+        col = self.threshold_column
+        region = self.region
+        return plain({"best": self.best, "chi2_min": self.chi2_min, "dof": self.dof, "p_value": self.p_value,
+                      "poor_fit": self.poor_fit, "constraint": self.constraint,
+                      "region": {"c_agg": sorted(set(region.c_agg)), col: sorted(set(region[col])),
+                                 "points": len(region)},
+                      "settings": self.settings})
+
+    def save(self, folder, *, overwrite=False) -> list:
+        """Write ``calibration_grid.csv``, ``calibration_distributions.csv`` and ``calibration.json``
+        into ``folder`` (made if missing), all or none (:func:`granalytics.core.files.staged_outputs`);
+        existing files are refused unless ``overwrite``. The figures are
+        :func:`granalytics.plot.calibration_figures`. Returns the paths."""
+        from granalytics.core.files import output_folder, staged_outputs
+
+        paths = self.output_paths(folder, overwrite=overwrite)
+        with output_folder(folder), staged_outputs(folder) as stage:
+            self.grid.to_csv(stage(paths[0]), index=False)
+            self.distributions.to_csv(stage(paths[1]), index=False)
+            with open(stage(paths[2]), "w") as handle:
+                json.dump(self.to_json(), handle, indent=2)
+        return paths
+
+    @staticmethod
+    def output_paths(folder, *, overwrite=False, figures=()) -> list:
+        """The tables' paths in ``folder`` (and ``figures``' names); refuses existing ones unless
+        ``overwrite``, and a ``folder`` that is a file."""
+        folder = os.fspath(folder)
+        if os.path.exists(folder) and not os.path.isdir(folder):
+            raise ParameterError(f"{folder}: exists and is not a folder")
+        names = ["calibration_grid.csv", "calibration_distributions.csv", "calibration.json", *figures]
+        paths = [os.path.join(folder, name) for name in names]
+        existing = [p for p in paths if os.path.exists(p)]
+        if existing and not overwrite:
+            raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace {len(existing)} "
+                                 "existing output file(s))")
+        return paths
+
+
+def _as_measured(measured) -> MeasuredDistribution:
+    if isinstance(measured, MeasuredDistribution):
+        return measured
+    if isinstance(measured, (str, os.PathLike)):
+        return read_sieve_csv(measured)
+    raise ParameterError(f"measured must be a MeasuredDistribution or the path of a sieve CSV, got "
+                         f"{type(measured).__name__}")
+
+
+def _is_one_run(run) -> bool:
+    if isinstance(run, (str, os.PathLike, SieveGrid)) or hasattr(run, "select"):
+        return True
+    return isinstance(run, (list, tuple)) and len(run) > 0 and isinstance(run[0], Snapshot)
+
+
+def _grid_of(run, measured, window, kwargs) -> SieveGrid:
+    """The per-frame size classes of one run in the window."""
+    if isinstance(run, SieveGrid):
+        keep = window_mask(run.revolutions, *window)
+        if not keep.any():
+            raise ParameterError(f"no frame in the window [{window[0]:g}, {window[1]:g}] revolutions")
+        if run.edges_m.shape != measured.edges_m.shape or not np.array_equal(run.edges_m, measured.edges_m):
+            raise ParameterError("the SieveGrid was computed on other classes than the measured distribution's")
+        return SieveGrid(run.volumes[keep], run.c_agg, run.comotion_values, run.comotion, run.edges_m, run.frames[keep],
+                         run.revolutions[keep], run.time_s[keep], run.density, run.measure)
+    if isinstance(run, (str, os.PathLike)):
+        from granalytics.core import open_run
+
+        with open_run(run) as opened:
+            return _grid_of(opened, measured, window, kwargs)
+    if hasattr(run, "select"):
+        frames = run.select(revolutions=window)
+        if len(frames) == 0:
+            raise ParameterError(f"{getattr(run, 'path', 'run')}: no frame in the window [{window[0]:g}, "
+                                 f"{window[1]:g}] revolutions")
+    else:
+        frames = [s for s in run if window_mask(np.array([s.revolutions]), *window)[0]]
+        if not frames:
+            raise ParameterError(f"no frame in the window [{window[0]:g}, {window[1]:g}] revolutions")
+    return sieve_grid(frames, measured, **kwargs)
+
+
+def _bootstrap_weights(rng, revolutions, n_boot, block_rev) -> np.ndarray:
+    """(n_boot, F) frame counts of moving-block bootstrap replicas of F time-ordered frames."""
+    n = revolutions.size
+    span = revolutions[-1] - revolutions[0] if n > 1 else 0.0
+    per_rev = (n - 1) / span if span > 0 and math.isfinite(span) else n
+    length = int(min(n, max(1, round(block_rev * per_rev))))
+    n_blocks = math.ceil(n / length)
+    starts = rng.integers(0, n - length + 1, size=(n_boot, n_blocks))
+    picks = (starts[:, :, None] + np.arange(length)).reshape(n_boot, -1)[:, :n]
+    weights = np.zeros((n_boot, n))
+    np.add.at(weights, (np.repeat(np.arange(n_boot), n), picks.ravel()), 1.0)
+    return weights
+
+
+def _describe(values, inside) -> str:
+    if values.size == 1:
+        return "fixed"
+    lo, hi = values[inside].min(), values[inside].max()
+    at_lo, at_hi = lo == values[0], hi == values[-1]
+    if at_lo and at_hi:
+        return "unconstrained"
+    if at_lo:
+        return f"upper bound only (<= {hi:g})"
+    if at_hi:
+        return f"lower bound only (>= {lo:g})"
+    return f"constrained to [{lo:g}, {hi:g}]"
+
+
+def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT_WINDOW_REV, comotion=DEFAULT_COMOTION,
+                         rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE, measure="volume",
+                         measured_error=DEFAULT_MEASURED_ERROR, n_boot=200, block_rev=0.5, level=0.95, seed=0,
+                         radius="pair", cohesion=DEFAULT_COHESION, min_size=2, jobs=1, progress=False) -> Calibration:
+    """Fit GNA's thresholds to a measured size distribution over a threshold grid.
+
+    Parameters
+    ----------
+    run : path, Run, RunSlice, sequence of Snapshot or SieveGrid, or a list of these
+        The run; a list of runs is a replica set (one system at several seeds): the simulated
+        distribution is the mean over the runs, each bootstrapped on its own.
+    measured : MeasuredDistribution or path
+        The measured sieve analysis (:func:`granalytics.analysis.size_classes.read_sieve_csv`);
+        the simulated granules are sieved into its classes in original-system sizes.
+    c_agg : sequence of float
+        Cohesion thresholds (≥ 0).
+    a_agg_deg : sequence of float
+        Angle thresholds [deg] (``comotion="angle"``).
+    window : (float, float), default (3, 6)
+        Steady-state window [revolutions]: the distribution is the mean over its frames.
+    comotion, rigid_tol, rigid_scale :
+        The co-motion test; with ``"rigid"`` the grid's second axis is ``rigid_tol``.
+    measure : {"volume", "width"}, default "volume"
+        A granule's sieve size: its volume-equivalent diameter, or its second principal extent.
+    measured_error : float, default 0.01
+        Standard error of the measured cumulative fraction passing each edge (mass fraction),
+        used when the measured distribution carries none (its ``sigma``).
+    n_boot : int, default 200
+        Bootstrap replicas (errors and confidence region).
+    block_rev : float, default 0.5
+        Length of the bootstrap's blocks of frames [revolutions] (frames closer than this are
+        correlated: a granule lives for a fraction of a revolution or more).
+    level : float, default 0.95
+        Confidence level of the region.
+    seed : int, default 0
+        Seed of the bootstrap.
+    radius, cohesion, min_size, jobs, progress :
+        As for :func:`granalytics.sensitivity`.
+
+    Returns
+    -------
+    Calibration
+    """
+    from scipy.stats import chi2 as chi2_law
+
+    measured = _as_measured(measured)
+    window = check_interval("calibrate_thresholds: window", window)
+    for name, value, ok in (("n_boot", n_boot, isinstance(n_boot, (int, np.integer)) and n_boot >= 10),
+                            ("block_rev", block_rev, isinstance(block_rev, (int, float)) and 0 < block_rev < math.inf),
+                            ("level", level, isinstance(level, (int, float)) and 0 < level < 1),
+                            ("measured_error", measured_error,
+                             isinstance(measured_error, (int, float)) and 0 < measured_error < 1)):
+        if isinstance(value, bool) or not ok:
+            raise ParameterError(f"calibrate_thresholds: {name} out of range, got {value!r} (n_boot: a whole number "
+                                 ">= 10; block_rev > 0; level in (0, 1); measured_error in (0, 1))")
+    runs = [run] if _is_one_run(run) else list(run)
+    if not runs:
+        raise ParameterError("calibrate_thresholds: no run given")
+    kwargs = dict(c_agg=c_agg, a_agg_deg=a_agg_deg, measure=measure, radius=radius, cohesion=cohesion,
+                  comotion=comotion, rigid_tol=rigid_tol, rigid_scale=rigid_scale, min_size=min_size, jobs=jobs,
+                  progress=progress)
+    grids = [_grid_of(r, measured, window, kwargs) for r in runs]
+    first = grids[0]
+    for g in grids[1:]:
+        if not (np.array_equal(g.c_agg, first.c_agg) and np.array_equal(g.comotion_values, first.comotion_values)
+                and g.comotion == first.comotion and g.measure == first.measure):
+            raise ParameterError("calibrate_thresholds: the replicas' SieveGrids have different grids")
+    n_a, n_c, n_bins = first.volumes.shape[1:]
+    used = np.isfinite(measured.edges_m) & (measured.edges_m > 0)
+    if not used.any():
+        raise ParameterError("the measured distribution has no finite class edge above 0 to compare at")
+    p_meas = measured.passing[used]
+    s_meas = (measured.sigma if measured.sigma is not None else np.full(measured.edges_m.size, measured_error))[used]
+
+    rng = np.random.default_rng(seed)
+    sim_p, sim_f, boot_p, boot_f = 0.0, 0.0, 0.0, 0.0
+    for g in grids:
+        passing = g.passing[..., used].reshape(g.volumes.shape[0], -1)  # (F, A·C·E)
+        fractions = g.fractions.reshape(g.volumes.shape[0], -1)
+        weights = _bootstrap_weights(rng, g.revolutions, int(n_boot), block_rev)
+        weights /= weights.sum(axis=1, keepdims=True)
+        sim_p = sim_p + passing.mean(axis=0) / len(grids)
+        sim_f = sim_f + fractions.mean(axis=0) / len(grids)
+        boot_p = boot_p + weights @ passing / len(grids)
+        boot_f = boot_f + weights @ fractions / len(grids)
+    n_e = int(used.sum())
+    sim_p = sim_p.reshape(n_a, n_c, n_e)
+    boot_p = boot_p.reshape(-1, n_a, n_c, n_e)
+    sim_f = sim_f.reshape(n_a, n_c, n_bins)
+    err_p = boot_p.std(axis=0, ddof=1)
+    err_f = boot_f.reshape(-1, n_a, n_c, n_bins).std(axis=0, ddof=1)
+    var = err_p**2 + s_meas**2
+
+    def chi2_of(p_sim, p_ref):
+        d2 = (p_sim - p_ref) ** 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            terms = np.where(var > 0, d2 / var, np.where(d2 > 0, np.inf, 0.0))
+        return terms.sum(axis=-1)
+
+    chi2 = chi2_of(sim_p, p_meas)  # (A, C)
+    noise = rng.standard_normal((int(n_boot), n_e)) * s_meas
+    boot_chi2 = chi2_of(boot_p, (p_meas + noise)[:, None, None, :]).reshape(int(n_boot), -1)
+    # each replica's best point; points tied with it (grid points that give the same distribution)
+    # share its vote, so that thresholds that change nothing fill the region
+    low = boot_chi2.min(axis=1, keepdims=True)
+    tied = boot_chi2 <= low + 1e-12 * np.maximum(np.abs(low), 1.0)
+    freq = (tied / tied.sum(axis=1, keepdims=True)).sum(axis=0) / int(n_boot)
+    best = int(np.argmin(chi2.ravel()))
+    order = np.argsort(-freq, kind="stable")
+    take = int(np.searchsorted(np.cumsum(freq[order]), level - 1e-12)) + 1
+    region = np.zeros(n_a * n_c, dtype=bool)
+    region[order[:take]] = True
+    region &= freq > 0
+    region[best] = True
+
+    col = "a_agg_deg" if first.comotion == "angle" else "rigid_tol"
+    a_idx, c_idx = np.unravel_index(np.arange(n_a * n_c), (n_a, n_c))
+    chi2_flat = chi2.ravel()
+    n_fit = int(n_a > 1) + int(n_c > 1)
+    delta = chi2_flat - chi2_flat[best]
+    grid = pd.DataFrame({
+        "c_agg": first.c_agg[c_idx], col: first.comotion_values[a_idx], "chi2": chi2_flat, "delta_chi2": delta,
+        "max_abs_dpassing": np.abs(sim_p - p_meas).max(axis=-1).ravel(), "boot_frequency": freq, "in_region": region,
+        "in_chi2_region": delta <= (chi2_law.ppf(level, n_fit) if n_fit else 0.0),
+    })
+    a_best, c_best = a_idx[best], c_idx[best]
+    inside = grid["in_region"].to_numpy()
+    constraint = {"c_agg": _describe(first.c_agg, np.isin(first.c_agg, grid.c_agg[inside])),
+                  col: _describe(first.comotion_values, np.isin(first.comotion_values, grid[col][inside]))}
+    dof = n_e - n_fit
+    p_value = float(chi2_law.sf(chi2_flat[best], dof)) if dof > 0 else math.nan
+    k = measured.n_classes
+    dist = measured.table().rename(columns={"mass_fraction": "measured_fraction", "passing_upper": "measured_passing"})
+    sigma_all = measured.sigma if measured.sigma is not None else np.full(k + 1, measured_error)
+    dist["measured_sigma"] = sigma_all[1:]
+    dist["simulated_fraction"] = sim_f[a_best, c_best, 1:k + 1]
+    dist["simulated_fraction_error"] = err_f[a_best, c_best, 1:k + 1]
+    full_p = np.full(k + 1, np.nan)
+    full_e = np.full(k + 1, np.nan)
+    full_p[used] = sim_p[a_best, c_best]
+    full_e[used] = err_p[a_best, c_best]
+    cum = np.cumsum(sim_f[a_best, c_best])[:-1]  # passing every edge, the unused ones included
+    full_p[~used] = cum[~used]
+    dist["simulated_passing"] = full_p[1:]
+    dist["simulated_passing_error"] = full_e[1:]
+    settings = {
+        "runs": [str(getattr(r, "path", r)) if not isinstance(r, (list, tuple, SieveGrid)) else type(r).__name__
+                 for r in runs],
+        "n_frames": [int(g.volumes.shape[0]) for g in grids], "window_rev": list(window), "measure": first.measure,
+        "comotion": first.comotion, "cohesion": cohesion, "n_boot": int(n_boot), "block_rev": float(block_rev),
+        "level": float(level), "seed": seed, "measured": measured.source, "measured_error": measured_error,
+        "edges_compared": n_e, "below_first_class": float(sim_f[a_best, c_best, 0]),
+        "above_last_class": float(sim_f[a_best, c_best, -1]),
+    }
+    return Calibration(grid=grid, best={"c_agg": float(first.c_agg[c_best]), col: float(first.comotion_values[a_best]),
+                                        "chi2": float(chi2_flat[best])},
+                       constraint=constraint, distributions=dist, chi2_min=float(chi2_flat[best]), dof=int(dof),
+                       p_value=p_value, poor_fit=bool(dof > 0 and p_value < POOR_FIT_P), settings=settings)
