@@ -75,17 +75,25 @@ def dynamics(snapshot, density, drum_meta):
     }
 
 
-def time_series(path, window, drum_meta, gna):
+def time_series(path, window, drum_meta, gna, fixed_threshold=None):
     """One row per frame of run ``path`` inside ``window`` [revolutions]: ``revolutions`` and the
-    metrics of :data:`METRICS`."""
+    metrics of :data:`METRICS`. With ``fixed_threshold`` = G/γ (G the fixed-threshold γ, γ the
+    run's original-system γ), also the yield and ⟨V_g⟩/V_p under each convention with the
+    threshold C_agg·2π·G·R, the same force at every γ (columns ending ``_fixed``). A frame without
+    a granule has ⟨V_g⟩/V_p = 0 (the paper's Fig 7 line is 0 below its onset)."""
+    variants = [("acting", ""), ("bridge", "")]
+    if fixed_threshold is not None:
+        variants += [("acting", "_fixed"), ("bridge", "_fixed")]
     with ga.open_run(path) as run:
         frames = run.select(revolutions=window)
         series = None
-        for cohesion in ("acting", "bridge"):
-            stats = ga.run_stats(frames, cohesion=cohesion, **gna)
+        for cohesion, suffix in variants:
+            params = dict(gna, c_agg=gna["c_agg"] * fixed_threshold) if suffix else gna
+            stats = ga.run_stats(frames, cohesion=cohesion, **params)
+            stats["mean_volume_norm"] = stats["mean_volume_norm"].fillna(0.0)  # no granule: 0, as below Fig 7's onset
             part = stats[["revolutions", "yield_fraction", "mean_volume_norm"]].rename(
-                columns={"yield_fraction": f"yield_fraction_{cohesion}",
-                         "mean_volume_norm": f"mean_volume_norm_{cohesion}"})
+                columns={"yield_fraction": f"yield_fraction_{cohesion}{suffix}",
+                         "mean_volume_norm": f"mean_volume_norm_{cohesion}{suffix}"})
             series = part if series is None else series.merge(part, on="revolutions")
         per_frame = pd.DataFrame([dynamics(s, run.meta.density, drum_meta) for s in frames])
     return pd.concat([series.reset_index(drop=True), per_frame], axis=1)
@@ -122,6 +130,9 @@ def main():
     parser.add_argument("--window", default="1:3", help="steady window R0:R1 [revolutions] (default 1:3)")
     parser.add_argument("--c-agg", type=float, default=0.6, help="GNA C_agg (default 0.6)")
     parser.add_argument("--a-agg", type=float, default=20.0, help="GNA A_agg [deg] (default 20)")
+    parser.add_argument("--fixed-gamma", type=float, default=0.1095,
+                        help="Fig 7 also with the threshold C_agg·2π·G·R fixed at this γ [N/m] for every run "
+                             "(default 0.1095, the study's base γ; 0: not)")
     args = parser.parse_args()
     window = tuple(float(x) for x in args.window.split(":"))
     gna = {"c_agg": args.c_agg, "a_agg_deg": args.a_agg}
@@ -133,17 +144,64 @@ def main():
           "mean over seeds ± replica s.e. (none with one seed)\n")
     print("| γ [N/m] | run | seeds | " + " | ".join(METRICS.values()) + " |")
     print("| --- | --- | --- | " + " | ".join("---" for _ in METRICS) + " |")
+    tables = {}
     for (gamma, label), cases in sorted(runs.items()):
-        series = [time_series(path, window, drum_meta, gna) for _, path in sorted(cases.items())]
+        fixed = args.fixed_gamma / gamma if args.fixed_gamma > 0 else None
+        series = [time_series(path, window, drum_meta, gna, fixed) for _, path in sorted(cases.items())]
+        columns = [c for c in series[0].columns if c != "revolutions"]
         if len(series) > 1:
-            table = ga.replica_steady_state(series, window=window, columns=list(METRICS))
+            table = ga.replica_steady_state(series, window=window, columns=columns)
             cells = [f"{table.loc[m, 'mean']:.4g} ± {table.loc[m, 'replica_sem']:.2g}" for m in METRICS]
         else:
-            table = ga.steady_state(series[0], window=window, columns=list(METRICS))
+            table = ga.steady_state(series[0], window=window, columns=columns)
+            table["replica_sem"] = float("nan")
             cells = [f"{table.loc[m, 'mean']:.4g}" for m in METRICS]
+        tables[gamma, label] = table
         cells = [c.replace("nan", "n/a") for c in cells]
         print(f"| {gamma:g} | {label} | {','.join(map(str, sorted(cases)))} | " + " | ".join(cells) + " |")
+    print_fig7_lines(tables)
 
+
+def fig7_line(gammas, means, sems):
+    """Slope [per N/m] ± its error, intercept, and onset γ₁ = −intercept/slope [N/m] (None unless
+    the line rises and crosses 0 above γ = 0) of ⟨V_g⟩/V_p against γ: weighted least squares with
+    weights 1/s.e.² where every point has a replica s.e., else unweighted (error from the residuals)."""
+    x, y, e = (np.asarray(v, dtype=float) for v in (gammas, means, sems))
+    weighted = bool(np.all(np.isfinite(e)) and np.all(e > 0))
+    w = 1.0 / e**2 if weighted else np.ones_like(x)
+    design = np.column_stack([x, np.ones_like(x)])
+    cov = np.linalg.inv(design.T @ (design * w[:, None]))
+    slope, intercept = cov @ (design.T @ (w * y))
+    if not weighted:  # scale by the residual variance (needs 3 or more points)
+        dof = len(x) - 2
+        cov = cov * (np.sum((y - design @ [slope, intercept]) ** 2) / dof if dof > 0 else np.nan)
+    onset = -intercept / slope if slope > 0 and intercept < 0 else None
+    return slope, float(np.sqrt(cov[0, 0])), intercept, onset
+
+
+def print_fig7_lines(tables):
+    """The straight line of ⟨V_g⟩/V_p against γ for every run label measured at 2 or more γ."""
+    labels = sorted({label for _, label in tables})
+    rows = []
+    for label in labels:
+        gammas = sorted(g for g, lab in tables if lab == label)
+        if len(gammas) < 2:
+            continue
+        for convention in ("acting", "bridge", "acting_fixed", "bridge_fixed"):
+            metric = f"mean_volume_norm_{convention}"
+            if metric not in tables[gammas[0], label].index:
+                continue
+            means = [tables[g, label].loc[metric, "mean"] for g in gammas]
+            sems = [tables[g, label].loc[metric, "replica_sem"] for g in gammas]
+            slope, err, intercept, onset = fig7_line(gammas, means, sems)
+            rows.append(f"| {label} | {convention} | {','.join(f'{g:g}' for g in gammas)} | {slope:.3g} ± {err:.2g} | "
+                        f"{intercept:.3g} | {'none' if onset is None else f'{onset:.3g}'} |")
+    if rows:
+        print("\nFig 7: ⟨V_g⟩/V_p = slope·γ + intercept (weighted by the replica s.e. where every point has one; "
+              "_fixed: the threshold C_agg·2π·G·R at the fixed γ = G of --fixed-gamma)\n")
+        print("| run | convention | γ [N/m] | slope [per N/m] | intercept | onset γ₁ [N/m] |")
+        print("| --- | --- | --- | --- | --- | --- |")
+        print("\n".join(rows))
 
 if __name__ == "__main__":
     main()
