@@ -186,6 +186,21 @@ def coplanar_doubles(wall_ids):  # pragma: no cover - runs inside YADE
     return doubles, sum(map(len, touching.values()))
 
 
+def wall_bridges_per_sphere(surface_of):  # pragma: no cover - runs inside YADE
+    """Sphere–surface pairs holding a wall bridge, and those holding two or more bridges with one
+    surface (one per facet of it the sphere touched and has not yet left by s_crit; a smooth wall
+    has one), at the current step: ``(pairs, pairs_with_two_or_more, bridges)``. ``surface_of``
+    maps a facet's body id to its surface (the cylinder, an end plate, a baffle); a bridge counts
+    from its touch (``liqBridgeCreated``) to its rupture."""
+    count = {}
+    for i in O.interactions:  # noqa: F821
+        if i.isReal and (i.id1 in surface_of) != (i.id2 in surface_of) and getattr(i.phys, "liqBridgeCreated", False):
+            facet_id, sphere_id = (i.id1, i.id2) if i.id1 in surface_of else (i.id2, i.id1)
+            key = (sphere_id, surface_of[facet_id])
+            count[key] = count.get(key, 0) + 1
+    return len(count), sum(1 for c in count.values() if c >= 2), sum(count.values())
+
+
 def run_yade():  # pragma: no cover - runs inside YADE
     """The YADE run on ``bed.csv`` and ``setup.json`` in the working folder (see the module docstring)."""
     import time
@@ -223,6 +238,9 @@ def run_yade():  # pragma: no cover - runs inside YADE
         p3, p4 = ((rd - h) * c, (rd - h) * s, length), (rd * c, rd * s, length)
         walls += [facet([p1, p2, p3], material=mat), facet([p1, p3, p4], material=mat)]  # noqa: F821
     ids = O.bodies.append(walls)  # noqa: F821
+    n_cylinder = len(walls) - 2 - 2 * setup["n_baffles"]  # the cylinder's facets, then 2 plates, then 2 per baffle
+    surface_of = {body: ("cylinder" if k < n_cylinder else f"plate {k - n_cylinder}" if k < n_cylinder + 2
+                         else f"baffle {(k - n_cylinder - 2) // 2}") for k, body in enumerate(ids)}
     with open("bed.csv") as f:
         next(f)
         for line in f:
@@ -247,10 +265,15 @@ def run_yade():  # pragma: no cover - runs inside YADE
     O.run(steps + 1, True)  # iterations 0 … steps: frames at 0, every, …, steps  # noqa: F821
     wall, cpu = time.time() - t0, time.process_time() - c0
     doubles, wall_contacts = coplanar_doubles(ids)
+    try:
+        bridged, multiple, wall_bridges = wall_bridges_per_sphere(surface_of)
+    except Exception as error:  # a diagnostic: never lose the run's cost for it
+        bridged = multiple = wall_bridges = f"not counted: {error}"
     cost = {"wall_s": wall, "cpu_s": cpu, "steps": steps, "steps_per_wall_s": steps / wall,
             "steps_per_cpu_s": steps / cpu, "setup_wall_s": t0 - t_start, "threads": O.numThreads,  # noqa: F821
             "particles": setup["n_particles"], "frames": setup["n_frames"] + 1, "revolutions": setup["revolutions"],
-            "coplanar_doubles": doubles, "wall_contacts": wall_contacts}
+            "coplanar_doubles": doubles, "wall_contacts": wall_contacts, "sphere_wall_pairs_bridged": bridged,
+            "sphere_wall_pairs_with_two_or_more_bridges": multiple, "wall_bridges": wall_bridges}
     with open("cost.json", "w") as f:
         json.dump(cost, f, indent=1)
     print(f"YADE cost: {steps} steps of {setup['n_particles']} spheres in {wall:.1f} s wall, {cpu:.1f} s CPU "
