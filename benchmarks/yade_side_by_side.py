@@ -99,6 +99,14 @@ def time_series(path, window, drum_meta, gna, fixed_threshold=None):
     return pd.concat([series.reset_index(drop=True), per_frame], axis=1)
 
 
+def run_cost(path):
+    """Wall-clock time [s] of the run that made ``path`` (ours: ``provenance.wall_time_s``; YADE's
+    converted run: its stepping, ``provenance.yade_cost.wall_s``), None if not recorded."""
+    with ga.open_run(path) as run:
+        provenance = run.meta.provenance
+    return provenance.get("wall_time_s", provenance.get("yade_cost", {}).get("wall_s"))
+
+
 def find_runs(folders):
     """``{(γ, label): {seed: path}}`` of the runs ``LABEL-g<γ>-s<seed>.h5`` in ``folders``."""
     runs = {}
@@ -142,8 +150,8 @@ def main():
     drum_meta = drum_of(runs)
     print(f"window [{window[0]:g}, {window[1]:g}] revolutions, GNA C_agg = {args.c_agg:g}, A_agg = {args.a_agg:g}°; "
           "mean over seeds ± replica s.e. (none with one seed)\n")
-    print("| γ [N/m] | run | seeds | " + " | ".join(METRICS.values()) + " |")
-    print("| --- | --- | --- | " + " | ".join("---" for _ in METRICS) + " |")
+    print("| γ [N/m] | run | seeds | " + " | ".join(METRICS.values()) + " | wall time per run [s] |")
+    print("| --- | --- | --- | " + " | ".join("---" for _ in METRICS) + " | --- |")
     tables = {}
     for (gamma, label), cases in sorted(runs.items()):
         fixed = args.fixed_gamma / gamma if args.fixed_gamma > 0 else None
@@ -158,6 +166,8 @@ def main():
             cells = [f"{table.loc[m, 'mean']:.4g}" for m in METRICS]
         tables[gamma, label] = table
         cells = [c.replace("nan", "n/a") for c in cells]
+        costs = [c for c in map(run_cost, cases.values()) if c is not None]
+        cells.append(f"{min(costs):.0f}–{max(costs):.0f}" if len(costs) > 1 else f"{costs[0]:.0f}" if costs else "n/a")
         print(f"| {gamma:g} | {label} | {','.join(map(str, sorted(cases)))} | " + " | ".join(cells) + " |")
     print_fig7_lines(tables)
 
