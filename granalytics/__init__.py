@@ -41,7 +41,6 @@ from granalytics._version import __version__
 #: loads no analysis module, so that the simulator, which needs only :mod:`granalytics.core`,
 #: stays light; ``from granalytics import identify`` works as before)
 _EXPORTS = {
-    "configure_threading": ".core._threading",
     **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".core.errors"),
     **dict.fromkeys(("CGComparison", "cg_rule_of", "compare_cg", "compare_cg_thresholds"), ".analysis.cg"),
     **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".identify.cohesion"),
@@ -52,8 +51,8 @@ _EXPORTS = {
     **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".analysis.sensitivity"),
     **dict.fromkeys(("RunMeta", "Snapshot"), ".core.snapshot"),
     **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
-                     "drum_confinement", "run_confinement", "wall_touching"), ".core.bed"),
-    **dict.fromkeys(("CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
+                     "drum_confinement"), ".core.bed"),
+    **dict.fromkeys(("run_confinement", "wall_touching", "CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
                      "fit_confinement_curve", "bed_flow"), ".analysis.confinement"),
     **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.table"),
     **dict.fromkeys(("frame_stats", "granule_table", "replica_steady_state", "run_stats", "size_distribution",
@@ -117,5 +116,5 @@ __all__ = [
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
     "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
-    "GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError", "configure_threading",
+    "GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError",
 ]

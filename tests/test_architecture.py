@@ -62,14 +62,39 @@ def test_granalytics_never_imports_sim():
     assert edges == []
 
 
-def test_sim_uses_the_run_file_contract_only():
-    """sim imports granalytics through granalytics.core (the data model, run files, file helpers,
-    the manifest's schema) and nothing else."""
+def test_sim_uses_the_core_layer_only():
+    """sim imports granalytics through granalytics.core and its modules (the data model, run files,
+    file helpers, the manifest's schema, the bed's record, the dask client) and nothing else."""
     offenders = [f"{name}:{line} imports {module}"
                  for name, path in _modules("sim")
                  for module, line in _imports(name, path)
-                 if module.startswith("granalytics") and module != "granalytics.core"]
+                 if module.startswith("granalytics") and not (module == "granalytics.core"
+                                                               or module.startswith("granalytics.core."))]
     assert offenders == []
+
+
+def test_the_core_imports_nothing_of_granalytics_above_it():
+    offenders = [f"{name}:{line} imports {module}"
+                 for name, path in _modules("granalytics/core")
+                 for module, line in _imports(name, path)
+                 if module.startswith("granalytics") and not (module.startswith("granalytics.core")
+                                                               or module == "granalytics._version")]
+    assert offenders == []
+
+
+def test_importing_the_core_loads_the_run_file_contract_only():
+    """``import granalytics.core`` loads the contract (snapshot, format, reader, writer, subset, files,
+    errors and the reader's helpers), not the modules shared for other purposes, nor dask or SciPy."""
+    import subprocess
+    import sys
+
+    code = "import sys, granalytics.core; print(' '.join(sorted(m for m in sys.modules if m.startswith(('granalytics', 'dask', 'distributed', 'scipy', 'numba')))))"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    contract = {"snapshot", "format", "reader", "writer", "subset", "files", "native", "errors", "checks", "windows",
+                "resources"}
+    assert proc.stdout.split() == sorted({"granalytics", "granalytics._version", "granalytics.core"}
+                                         | {f"granalytics.core.{m}" for m in contract})
 
 
 def test_the_contract_and_the_simulator_load_no_analysis_library():

@@ -18,8 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from granalytics.core.bed import run_confinement
-from granalytics.analysis.confinement import confinement_warning
+from granalytics.analysis.confinement import confinement_warning, run_confinement
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
 from granalytics.core.files import staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE, METRICS

@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 
-from granalytics.core._resources import check_memory
+from granalytics.core.resources import check_memory
 from granalytics.core.windows import clip_window, window_mask
 from granalytics.analysis.metrics import HEADLINE, METRICS
 from granalytics.analysis.system import check_replicas, run_identity
@@ -165,7 +165,8 @@ def add_compare_cg_parser(sub):
 
 
 def cmd_info(args):
-    from granalytics.core.bed import bed_structure, run_confinement
+    from granalytics.analysis.confinement import run_confinement
+    from granalytics.core.bed import bed_structure
     from granalytics.analysis.confinement import confinement_warning
     from granalytics.analysis.cg import cg_rule_of, cg_rule_warning
 
