@@ -104,7 +104,7 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
     import sys
 
     heavy = ("pandas", "networkx", "scipy.sparse", "sklearn", "igraph", "matplotlib", "dask")
-    above = tuple(f"granalytics.{layer}" for layer in ("identify", "analysis", "convert", "export", "plot", "cli"))
+    above = tuple(f"granalytics.{layer}" for layer in ("identification", "analysis", "convert", "export", "plot", "cli"))
     code = (f"import sys, sim.run; print(','.join(m for m in sys.modules if m in {heavy!r} "
             f"or m.startswith({above!r})))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
@@ -114,7 +114,7 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
 
 #: the layers of granalytics, lowest first: a module imports only modules of its own layer or of a
 #: lower one (docs/architecture.md). ``io`` is the deprecated forward to core and convert.
-LAYERS = {"_version": 0, "core": 0, "identify": 1, "convert": 1, "analysis": 2,
+LAYERS = {"_version": 0, "core": 0, "identification": 1, "convert": 1, "analysis": 2,
           "export": 3, "plot": 3, "datasets": 3, "cli": 4, "__main__": 4}
 #: the upward edges, inside a method: a CG comparison's ``figures()`` and a PBM prediction's
 #: ``figure()`` draw themselves with granalytics.plot (as a pandas object's ``.plot()`` does)
@@ -139,9 +139,9 @@ def test_every_module_lives_in_a_layer_and_imports_only_downwards():
     assert offenders == []
 
 
-def test_identify_and_convert_know_nothing_of_each_other():
+def test_identification_and_convert_know_nothing_of_each_other():
     offenders = [f"{name} imports {module}" for name, path in _modules("granalytics")
-                 for module, _ in _imports(name, path) if {_layer(name), _layer(module)} == {"identify", "convert"}]
+                 for module, _ in _imports(name, path) if {_layer(name), _layer(module)} == {"identification", "convert"}]
     assert offenders == []
 
 
@@ -151,7 +151,7 @@ def test_the_lazy_package_still_exports_every_public_name():
     assert all(getattr(granalytics, name) is not None for name in granalytics.__all__)
     assert set(granalytics.__all__) <= set(dir(granalytics))
     import granalytics.analysis.sensitivity  # noqa: F401
-    import granalytics.identify  # noqa: F401  (submodules named like public functions)
+    import granalytics.identification  # noqa: F401  (the layer; granalytics.identify is the function)
 
     assert callable(granalytics.identify) and callable(granalytics.sensitivity)
     with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):

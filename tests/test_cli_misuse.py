@@ -175,7 +175,7 @@ def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, m
     (lambda s: ga.compare_cg(["a.h5", "b.h5"], window="3:6"), "window must be a pair of numbers"),
     (lambda s: ga.subset_run("a.h5", "b.h5", [[0, 1], [2]]), "'frames': must be a sequence of whole frame indices"),
     (lambda s: ga.study_table(5), "the sweep folder must be a path"),
-    (lambda s: __import__("granalytics.identify.edges", fromlist=["edge_table"]).edge_table(None),
+    (lambda s: __import__("granalytics.identification.edges", fromlist=["edge_table"]).edge_table(None),
      "edge_table: result must be an IdentificationResult"),
     (lambda s: ga.replica_steady_state(None), "replica_steady_state: timeseries must be a list of run_stats tables"),
     (lambda s: ga.size_distribution("abc"), "size_distribution: sizes must be granule sizes"),

@@ -35,7 +35,7 @@ from granalytics.core.checks import check_meta, check_numbers, check_snapshot, s
 from granalytics.core.errors import ParameterError, ValidationError
 from granalytics.core.snapshot import Snapshot
 from granalytics.analysis.frames import map_frames
-from granalytics.identify import make_identifier
+from granalytics.identification import make_identifier
 from granalytics.core import open_run
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, frame_stats, steady_state
@@ -127,7 +127,7 @@ def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> n
 #: the smallest D/d (of the simulated particles: D/(α·d) for a CG run) at which the acting yield
 #: at the paper's thresholds is within 5 % and within 10 % of its large-drum value y∞, with the
 #: standard error from the fit's covariance; measured on the α = 1 confinement curve of the lab
-#: drum family (docs/results.md, "Confinement"; docs/confinement_study.py regenerates it)
+#: drum family (docs/results.md, "Confinement"; scripts/confinement_study.py regenerates it)
 CONFINEMENT_RULE = {"within_5pc": (62.0, 9.0), "within_10pc": (31.0, 4.0)}
 
 #: per-frame bed columns of :func:`confinement_timeseries` beside the headline metrics

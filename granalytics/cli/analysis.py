@@ -17,8 +17,8 @@ from granalytics.analysis.metrics import HEADLINE, METRICS
 from granalytics.analysis.system import check_replicas, run_identity
 from granalytics.core.errors import GranalyticsError, ParameterError
 from granalytics.core.files import WriterLock, output_folder, staged_outputs, write_atomically
-from granalytics.identify import DEFAULT_METHODS, accepted_params
-from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
+from granalytics.identification import DEFAULT_METHODS, accepted_params
+from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
 from granalytics.cli._common import (resolve_rigid_options, threshold_options, add_cohesion_option, add_continuation_option,
