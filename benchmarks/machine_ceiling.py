@@ -37,7 +37,7 @@ from numba import njit, prange
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from granalytics import configure_threading  # noqa: E402
+from sim.threads import configure_threading  # noqa: E402
 
 
 @njit(cache=True)

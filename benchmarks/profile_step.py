@@ -43,7 +43,8 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 from _bench import SIZES, drum_system, live_counts, run_segment  # noqa: E402
 
-from granalytics import RunWriter, configure_threading
+from granalytics import RunWriter
+from sim.threads import configure_threading
 from sim import _kernels
 from sim.drum import baffle_directions
 from sim.liquid import migrate_events

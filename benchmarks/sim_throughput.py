@@ -36,7 +36,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from granalytics import configure_threading  # noqa: E402
+from sim.threads import configure_threading  # noqa: E402
 from sim.params import SimParams, _ORIGINALS, cg_scale  # noqa: E402
 from sim.run import Simulation  # noqa: E402
 from _bench import drum_lattice, live_counts, rate  # noqa: E402

@@ -24,7 +24,7 @@ repository root:
    2023.02a (Debian ``yade``) on that bed: ``ViscElCapMat`` with ``Willett_numeric``, the same V_b,
    θ, γ, k, c, μ and gravity, a facet drum of the same radius and length with its end plates and
    four radial baffles of 0.15 R_d, all turning at Ω about z, Δt as ours, a frame (``out/``, through
-   ``docs/yade_export.py``) at every step at which our run wrote one, the last at our run's last
+   ``scripts/yade_export.py``) at every step at which our run wrote one, the last at our run's last
    revolution. It ends by printing its cost and writing it to ``cost.json`` (wall and CPU time of
    the stepping [s], steps, steps per second of each, and the wall contacts counted below).
 
@@ -104,7 +104,7 @@ def prepare(run_path, folder, cylinder_segments=96, wall_bridges=True):
             "r_min": float(frame.radius.min()), "cylinder_segments": int(cylinder_segments),
             "wall_bridges": bool(wall_bridges),
             # YADE runs this file as its own script (no __file__ of ours there): the exporter's path
-            "exporter": os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs",
+            "exporter": os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts",
                                                       "yade_export.py")),
             "recipe": os.path.abspath(__file__),
         }
@@ -209,7 +209,7 @@ def run_yade():  # pragma: no cover - runs inside YADE
 
     t_start = time.time()
     setup = json.load(open("setup.json"))
-    exec(open(setup["exporter"]).read(), globals())  # docs/yade_export.py: granalytics_export()
+    exec(open(setup["exporter"]).read(), globals())  # scripts/yade_export.py: granalytics_export()
     vb, theta, r_min = setup["vb"], setup["theta"], setup["r_min"]
     s_crit = (1 + theta / 2) * (vb ** (1 / 3) + 0.1 * vb ** (2 / 3) / r_min)
     factor = 1 + 1.2 * s_crit / r_min

@@ -9,7 +9,7 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   ``"dbscan"`` (:class:`DBSCANClustering`), ``"sieve"`` (:class:`VirtualSieve`), ``"community"``
   (:class:`CommunityDetection`), ``"custom"`` (:class:`CustomEdges`, a user edge criterion), all
   returning :class:`IdentificationResult`; the kept contact graph as tables, NetworkX or igraph
-  graphs: :mod:`granalytics.identify.edges`
+  graphs: :mod:`granalytics.identification.edges`
 - statistics: :func:`granule_table`, :func:`frame_stats`, :func:`run_stats`,
   :func:`steady_state`, :func:`size_distribution`
 - threshold sensitivity and method comparison: :func:`sensitivity`, :func:`sensitivity_summary`,
@@ -36,22 +36,19 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 """
 
 import importlib
-import sys
-import types
 
 from granalytics._version import __version__
 
 #: public name -> the module that defines it (imported on first use, PEP 562: ``import granalytics``
 #: loads no analysis module, so that the simulator, which needs only :mod:`granalytics.core`,
-#: stays light; ``from granalytics import identify`` works as before)
+#: stays light)
 _EXPORTS = {
-    "configure_threading": ".core._threading",
     **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".core.errors"),
     **dict.fromkeys(("CGComparison", "cg_rule_of", "compare_cg", "compare_cg_thresholds"), ".analysis.cg"),
-    **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".identify.cohesion"),
+    **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".identification.cohesion"),
     "compare_methods": ".analysis.method_comparison",
     **dict.fromkeys(("CommunityDetection", "DBSCANClustering", "DBSCANIdentifier", "GraphNetworkAnalysis",
-                     "IdentificationResult", "VirtualSieve", "identify", "CustomEdges"), ".identify"),
+                     "IdentificationResult", "VirtualSieve", "identify", "CustomEdges"), ".identification"),
     **dict.fromkeys(("Run", "RunSlice", "RunWriter", "WriterLock", "open_run", "subset_run"), ".core"),
     **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".analysis.sensitivity"),
     **dict.fromkeys(("Calibration", "calibrate_thresholds"), ".analysis.calibration"),
@@ -59,8 +56,8 @@ _EXPORTS = {
                     ".analysis.size_classes"),
     **dict.fromkeys(("RunMeta", "Snapshot"), ".core.snapshot"),
     **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
-                     "drum_confinement", "run_confinement", "wall_touching"), ".core.bed"),
-    **dict.fromkeys(("CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
+                     "drum_confinement"), ".core.bed"),
+    **dict.fromkeys(("run_confinement", "wall_touching", "CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
                      "fit_confinement_curve", "bed_flow"), ".analysis.confinement"),
     **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.table"),
     **dict.fromkeys(("frame_stats", "granule_table", "replica_steady_state", "run_stats", "size_distribution",
@@ -73,11 +70,11 @@ _EXPORTS = {
                      "size_counts"), ".analysis.population_balance"),
 }
 #: public submodules (``granalytics.datasets.open_dataset(...)``, ``granalytics.edges.edge_table(...)``):
-#: attribute name -> module. The layers themselves (core, identify, analysis, convert, export) are
+#: attribute name -> module. The layers themselves (core, identification, analysis, convert, export) are
 #: ordinary subpackages.
 _SUBMODULES = {
     "datasets": ".datasets", "core": ".core", "convert": ".convert", "export": ".export",
-    "analysis": ".analysis", "edges": ".identify.edges", "table": ".analysis.table",
+    "analysis": ".analysis", "edges": ".identification.edges", "table": ".analysis.table",
 }
 
 
@@ -96,19 +93,6 @@ def __dir__():
     return sorted(set(globals()) | set(__all__))
 
 
-class _Package(types.ModuleType):
-    """The package's module type: importing a submodule named like a public function
-    (``granalytics.identify``, ``granalytics.analysis.sensitivity``) does not replace the function."""
-
-    def __setattr__(self, name, value):
-        if name in _EXPORTS and isinstance(value, types.ModuleType):
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
-
-
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
@@ -125,5 +109,5 @@ __all__ = [
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
     "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
-    "GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError", "configure_threading",
+    "GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError",
 ]

@@ -8,7 +8,8 @@ slots of each particle in a fixed order. Results are therefore bit-identical for
 count.
 
 Importing this module changes no global state; the threading set-up the simulator wants is
-:func:`sim.run.configure_threading`, applied by the CLI and by :class:`sim.run.Simulation`.
+:func:`sim.threads.configure_threading`, applied by the command-line programs only (``python -m sim
+run``, a sweep's point runner), never by :class:`sim.run.Simulation`.
 """
 
 from __future__ import annotations

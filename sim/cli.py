@@ -19,7 +19,8 @@ import os
 import sys
 
 from granalytics.core import (RunWriteError, check_not_open_elsewhere, check_output_folder, exit_after_write_failure,
-                              interrupted, manifest_path, one_line, terminate_as_interrupt, warnings_as_lines)
+                              interrupted, one_line, terminate_as_interrupt, warnings_as_lines)
+from granalytics.core.manifest import manifest_path
 
 from .cg_rules import CG_RULES, DEFAULT_CG_RULE
 from .laws import CONTACT_LAWS
@@ -187,9 +188,9 @@ def _params(args):
 
 
 def _run(args) -> int:
-    from .run import configure_threading
+    from .threads import configure_threading
 
-    configure_threading()
+    configure_threading()  # the program tunes its process; the library does not
     out, ckpt = args.out, f"{args.out}.ckpt.npz"
     _check_options(args)
     if args.resume and args.overwrite:

@@ -21,7 +21,8 @@ import warnings
 
 import numpy as np
 
-from granalytics.core import PLANAR_FRACTION, Snapshot, bed_structure
+from granalytics.core import Snapshot
+from granalytics.core.bed import PLANAR_FRACTION, bed_structure
 
 __all__ = ["insertion_positions", "settled_solid_fraction", "check_settled_bed", "settled_bed_report"]
 

@@ -17,8 +17,9 @@ import warnings
 
 import numpy as np
 
-from granalytics.core import (RunMeta, RunWriter, Snapshot, __version__, check_disk, check_memory, configure_threading,
-                              drum_confinement)
+from granalytics.core import RunMeta, RunWriter, Snapshot, __version__
+from granalytics.core.bed import drum_confinement
+from granalytics.core.resources import check_disk, check_memory
 
 from . import _kernels
 from .capillary import pair_capillary_force
@@ -29,7 +30,7 @@ from .params import PHYSICS_VERSION, SimParams
 from .state import State
 from .threads import ThreadGovernor, check_threads
 
-__all__ = ["Simulation", "configure_threading", "check_room", "PHYSICS_VERSION"]
+__all__ = ["Simulation", "check_room", "PHYSICS_VERSION"]
 
 #: a lower bound of the stored size of one frame per particle [bytes] (positions, velocities,
 #: radii, films and contacts, compressed), for refusing up front a run that cannot fit on the disk
@@ -83,7 +84,6 @@ class Simulation:
 
     def __init__(self, params: SimParams, original: SimParams | None = None, state: State | None = None, *,
                  progress: bool = False, threads: int | str | None = None):
-        configure_threading()
         self.threads = threads
         self.params = params
         if original is None:
@@ -104,7 +104,6 @@ class Simulation:
         position : (N, 3) [m]; radius : (N,) [m]; velocity, angular_velocity : (N, 3), default 0;
         film : (N,) liquid film volumes [m³], default 0.
         """
-        configure_threading()
         position = np.array(position, dtype=np.float64)
         n = len(position)
         params = dataclasses.replace(params, n_particles=n)
@@ -444,7 +443,6 @@ class Simulation:
         """
         from tqdm.auto import tqdm
 
-        configure_threading()
         p = self.params
         out = os.fspath(out)
         frame_every, n_frames = self.frame_plan(revolutions, frame_every)

@@ -9,7 +9,8 @@ import os
 
 from hypothesis import settings
 
-from granalytics import RunMeta, Snapshot, configure_threading
+from granalytics import RunMeta, Snapshot
+from sim.threads import configure_threading
 
 # hypothesis: no example database in the tree (a failing case saved in .hypothesis/ made every
 # later run of a clone fail), and on CI (CI=true) a fixed, derandomized profile, so that a CI run
@@ -19,7 +20,7 @@ settings.register_profile("dev", database=None)
 settings.load_profile("ci" if os.environ.get("CI") == "true" else "dev")
 
 # numba's threading layer is fixed by the first parallel kernel a process runs. The simulator's
-# CLI and Simulation choose OpenMP (configure_threading); a test of granalytics' parallel kernels
+# command line chooses OpenMP (configure_threading); a test of granalytics' parallel kernels
 # that ran first would otherwise leave the default, TBB where libtbb is installed (e.g. with the
 # yade package), whose parallel regions cost ~0.5 ms each: the single-particle physics tests, with
 # four regions per step, then took minutes instead of seconds.

@@ -62,14 +62,39 @@ def test_granalytics_never_imports_sim():
     assert edges == []
 
 
-def test_sim_uses_the_run_file_contract_only():
-    """sim imports granalytics through granalytics.core (the data model, run files, file helpers,
-    the manifest's schema) and nothing else."""
+def test_sim_uses_the_core_layer_only():
+    """sim imports granalytics through granalytics.core and its modules (the data model, run files,
+    file helpers, the manifest's schema, the bed's record, the dask client) and nothing else."""
     offenders = [f"{name}:{line} imports {module}"
                  for name, path in _modules("sim")
                  for module, line in _imports(name, path)
-                 if module.startswith("granalytics") and module != "granalytics.core"]
+                 if module.startswith("granalytics") and not (module == "granalytics.core"
+                                                               or module.startswith("granalytics.core."))]
     assert offenders == []
+
+
+def test_the_core_imports_nothing_of_granalytics_above_it():
+    offenders = [f"{name}:{line} imports {module}"
+                 for name, path in _modules("granalytics/core")
+                 for module, line in _imports(name, path)
+                 if module.startswith("granalytics") and not (module.startswith("granalytics.core")
+                                                               or module == "granalytics._version")]
+    assert offenders == []
+
+
+def test_importing_the_core_loads_the_run_file_contract_only():
+    """``import granalytics.core`` loads the contract (snapshot, format, reader, writer, subset, files,
+    errors and the reader's helpers), not the modules shared for other purposes, nor dask or SciPy."""
+    import subprocess
+    import sys
+
+    code = "import sys, granalytics.core; print(' '.join(sorted(m for m in sys.modules if m.startswith(('granalytics', 'dask', 'distributed', 'scipy', 'numba')))))"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    contract = {"snapshot", "format", "reader", "writer", "subset", "files", "native", "errors", "checks", "windows",
+                "resources"}
+    assert proc.stdout.split() == sorted({"granalytics", "granalytics._version", "granalytics.core"}
+                                         | {f"granalytics.core.{m}" for m in contract})
 
 
 def test_the_contract_and_the_simulator_load_no_analysis_library():
@@ -79,7 +104,7 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
     import sys
 
     heavy = ("pandas", "networkx", "scipy.sparse", "sklearn", "igraph", "matplotlib", "dask")
-    above = tuple(f"granalytics.{layer}" for layer in ("identify", "analysis", "convert", "export", "plot", "cli"))
+    above = tuple(f"granalytics.{layer}" for layer in ("identification", "analysis", "convert", "export", "plot", "cli"))
     code = (f"import sys, sim.run; print(','.join(m for m in sys.modules if m in {heavy!r} "
             f"or m.startswith({above!r})))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
@@ -89,7 +114,7 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
 
 #: the layers of granalytics, lowest first: a module imports only modules of its own layer or of a
 #: lower one (docs/architecture.md). ``io`` is the deprecated forward to core and convert.
-LAYERS = {"_version": 0, "core": 0, "identify": 1, "convert": 1, "analysis": 2,
+LAYERS = {"_version": 0, "core": 0, "identification": 1, "convert": 1, "analysis": 2,
           "export": 3, "plot": 3, "datasets": 3, "cli": 4, "__main__": 4}
 #: the upward edges, inside a method: a CG comparison's ``figures()`` and a PBM prediction's
 #: ``figure()`` draw themselves with granalytics.plot (as a pandas object's ``.plot()`` does)
@@ -114,9 +139,9 @@ def test_every_module_lives_in_a_layer_and_imports_only_downwards():
     assert offenders == []
 
 
-def test_identify_and_convert_know_nothing_of_each_other():
+def test_identification_and_convert_know_nothing_of_each_other():
     offenders = [f"{name} imports {module}" for name, path in _modules("granalytics")
-                 for module, _ in _imports(name, path) if {_layer(name), _layer(module)} == {"identify", "convert"}]
+                 for module, _ in _imports(name, path) if {_layer(name), _layer(module)} == {"identification", "convert"}]
     assert offenders == []
 
 
@@ -126,7 +151,7 @@ def test_the_lazy_package_still_exports_every_public_name():
     assert all(getattr(granalytics, name) is not None for name in granalytics.__all__)
     assert set(granalytics.__all__) <= set(dir(granalytics))
     import granalytics.analysis.sensitivity  # noqa: F401
-    import granalytics.identify  # noqa: F401  (submodules named like public functions)
+    import granalytics.identification  # noqa: F401  (the layer; granalytics.identify is the function)
 
     assert callable(granalytics.identify) and callable(granalytics.sensitivity)
     with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):

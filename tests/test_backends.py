@@ -6,8 +6,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import granalytics as ga
-from granalytics.identify import kernels as _kernels
-from granalytics.identify import BACKENDS
+from granalytics.identification import kernels as _kernels
+from granalytics.identification import BACKENDS
 from conftest import make_snapshot
 
 DIRECTIONS = np.array([[1, 0, 0], [0, 1, 0], [1, 0.1, 0], [-1, 0, 0], [0, 0, 0], [0.7, 0.7, 0]], dtype=float)

@@ -283,7 +283,7 @@ def test_stats_refuses_a_window_before_the_analysis(run_file, tmp_path, monkeypa
 
 
 def test_numeric_checks_let_none_through():
-    from granalytics.identify import make_identifier
+    from granalytics.identification import make_identifier
 
     assert make_identifier("community", seed=None).seed is None
 

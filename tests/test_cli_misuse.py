@@ -141,9 +141,9 @@ def test_the_api_refuses_a_flag_that_is_not_a_bool(run_file):
 
 def test_a_sensitivity_grid_out_of_reach_is_refused_with_its_size(run_file, capsys, monkeypatch):
     """A 10 000 × 10 000 grid ran (for hours, towards hundreds of GB) instead of being refused."""
-    import granalytics.core._resources
+    import granalytics.core.resources
 
-    monkeypatch.setattr(granalytics.core._resources, "physical_memory", lambda: 16 * 10**9)
+    monkeypatch.setattr(granalytics.core.resources, "physical_memory", lambda: 16 * 10**9)
     assert main(["sensitivity", run_file, "--c-agg", "0:1:10000", "--a-agg-deg", "1:90:10000", "--window", "0:3",
                  "--quiet"]) == 2
     one_line_error(capsys, "100000000 grid points", "GB of memory", "refused before starting")
@@ -155,9 +155,9 @@ def test_a_sensitivity_grid_out_of_reach_is_refused_with_its_size(run_file, caps
     (["--frames-per-revolution", "0"], "frames_per_revolution must be a whole number >= 1"),
 ])
 def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, monkeypatch, argv, words):
-    import granalytics.core._resources
+    import granalytics.core.resources
 
-    monkeypatch.setattr(granalytics.core._resources, "physical_memory", lambda: 16 * 10**9)
+    monkeypatch.setattr(granalytics.core.resources, "physical_memory", lambda: 16 * 10**9)
     assert main(["synthetic", "--out", str(tmp_path / "s.h5"), *argv]) == 2
     one_line_error(capsys, words)
     assert list(tmp_path.iterdir()) == []
@@ -175,7 +175,7 @@ def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, m
     (lambda s: ga.compare_cg(["a.h5", "b.h5"], window="3:6"), "window must be a pair of numbers"),
     (lambda s: ga.subset_run("a.h5", "b.h5", [[0, 1], [2]]), "'frames': must be a sequence of whole frame indices"),
     (lambda s: ga.study_table(5), "the sweep folder must be a path"),
-    (lambda s: __import__("granalytics.identify.edges", fromlist=["edge_table"]).edge_table(None),
+    (lambda s: __import__("granalytics.identification.edges", fromlist=["edge_table"]).edge_table(None),
      "edge_table: result must be an IdentificationResult"),
     (lambda s: ga.replica_steady_state(None), "replica_steady_state: timeseries must be a list of run_stats tables"),
     (lambda s: ga.size_distribution("abc"), "size_distribution: sizes must be granule sizes"),

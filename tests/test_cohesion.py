@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import granalytics as ga
-from granalytics.identify.cohesion import cohesion_counts, cohesive_force
+from granalytics.identification.cohesion import cohesion_counts, cohesive_force
 from granalytics.core.errors import ParameterError
 from granalytics.convert.lammps import DumpMapping, read_liggghts
 

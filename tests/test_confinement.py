@@ -9,9 +9,9 @@ import pytest
 
 import granalytics as ga
 from granalytics import ParameterError
-from granalytics.identify import BACKENDS
+from granalytics.identification import BACKENDS
 from granalytics.analysis.confinement import ConfinementFit, confinement_warning, decompose_cg, fit_confinement_curve
-from granalytics.identify.contacts import co_moving, co_moving_rigid, contact_strength, rigid_residual
+from granalytics.identification.contacts import co_moving, co_moving_rigid, contact_strength, rigid_residual
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 from sim.params import DrumRule, preset, preset_original, sized_drum
 

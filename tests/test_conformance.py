@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from granalytics.identify import (BACKENDS, CommunityDetection, CustomEdges, DBSCANClustering, GraphNetworkAnalysis,
+from granalytics.identification import (BACKENDS, CommunityDetection, CustomEdges, DBSCANClustering, GraphNetworkAnalysis,
                                   VirtualSieve)
 from granalytics.core.snapshot import Snapshot
 from granalytics.datasets.synthetic import synthetic_snapshot
@@ -98,12 +98,12 @@ def test_a_stricter_criterion_never_merges_granules(method, snapshot, loose, str
 
 
 def test_every_registered_method_keeps_the_identifier_contract():
-    """The contract of granalytics.identify.Identifier, for every method of METHODS (a new method
+    """The contract of granalytics.identification.Identifier, for every method of METHODS (a new method
     registered there fails here until it keeps it, and until IDENTIFIERS above covers it)."""
     import inspect
 
     from granalytics import COHESION_CONVENTIONS
-    from granalytics.identify import DEFAULT_METHODS, METHODS, Identifier
+    from granalytics.identification import DEFAULT_METHODS, METHODS, Identifier
 
     covered = {key.split("-")[0] for key in IDENTIFIERS}
     assert covered == set(METHODS)

@@ -11,8 +11,8 @@ import pytest
 import granalytics as ga
 from granalytics import ParameterError
 from granalytics.cli import main
-from granalytics.identify.edges import contact_table
-from granalytics.identify.custom import COLUMNS, CustomEdges
+from granalytics.identification.edges import contact_table
+from granalytics.identification.custom import COLUMNS, CustomEdges
 from granalytics.datasets.synthetic import synthetic_snapshot, write_synthetic_run
 
 
@@ -208,7 +208,7 @@ def test_cli_accepts_a_valid_criterion(run_file, capsys):
 ])
 def test_big_integer_literals_are_real_numbers_not_wrapped_int64(snapshot, table, criterion, expected):
     """int64 arithmetic wrapped 2**64 to 0 (kept 32 of 155 contacts) and made 10**19 negative (kept none)."""
-    from granalytics.identify.custom import compile_criterion, evaluate_criterion
+    from granalytics.identification.custom import compile_criterion, evaluate_criterion
 
     mask = evaluate_criterion(compile_criterion(criterion), table, snapshot.n_contacts, criterion)
     assert mask.all() if expected == "all" else not mask.any()
@@ -222,7 +222,7 @@ def test_big_integer_literals_are_real_numbers_not_wrapped_int64(snapshot, table
 def test_integer_arithmetic_is_exact(table, criterion, exact, as_float):
     """``**`` on integers went through float64 (or wrapped in int64): up to 334 of 494 contacts
     differed from exact arithmetic. Ids above 2**50 make every product exceed 2**53."""
-    from granalytics.identify.custom import compile_criterion, evaluate_criterion
+    from granalytics.identification.custom import compile_criterion, evaluate_criterion
 
     big = table.assign(id_i=table["id_i"] + 2**50 + 12345, id_j=table["id_j"] + 2**50 + 98765)
     pairs = list(zip(big["id_i"].tolist(), big["id_j"].tolist()))
@@ -234,7 +234,7 @@ def test_integer_arithmetic_is_exact(table, criterion, exact, as_float):
 
 
 def test_integer_powers_beyond_4096_bits_are_refused_not_computed(table):
-    from granalytics.identify.custom import compile_criterion, evaluate_criterion
+    from granalytics.identification.custom import compile_criterion, evaluate_criterion
 
     for criterion in ("id_i ** 100000 > 0", "2 ** 5000 > f_norm"):
         with pytest.raises(ParameterError, match="4096 bits") as exc:

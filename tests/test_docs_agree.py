@@ -15,7 +15,7 @@ DOCS = [ROOT / "README.md", ROOT / "datasets" / "README.md", *sorted((ROOT / "do
     (r"for a given seed and thread count|seed\s+and thread count give", "the thread count does not matter"),
     # the yield is a number fraction (granalytics.analysis.stats.frame_stats)
     (r"yield \(mass fraction", "particles in granules / particles"),
-    # the numba backend of GNA is called 'fast' (granalytics.identify.BACKENDS)
+    # the numba backend of GNA is called 'fast' (granalytics.identification.BACKENDS)
     (r"scipy / numba backends", "the `fast` (numba) backend"),
 ])
 def test_no_document_contradicts_the_code(wrong, right):
@@ -24,7 +24,7 @@ def test_no_document_contradicts_the_code(wrong, right):
 
 
 def test_the_backend_names_the_readme_gives_are_the_command_lines():
-    from granalytics.identify import BACKENDS
+    from granalytics.identification import BACKENDS
 
     readme = (ROOT / "README.md").read_text()
     assert all(f"`{name}`" in readme or f" {name} " in readme or f"{name} /" in readme for name in BACKENDS)

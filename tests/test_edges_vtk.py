@@ -10,7 +10,7 @@ import pytest
 import granalytics as ga
 from granalytics import ParameterError
 from granalytics.cli import main
-from granalytics.identify.edges import contact_table, edge_table, to_igraph, to_networkx
+from granalytics.identification.edges import contact_table, edge_table, to_igraph, to_networkx
 from granalytics.export.vtk import export_vtk
 from granalytics.datasets.synthetic import synthetic_snapshot, write_synthetic_run
 

@@ -11,9 +11,9 @@ from scipy.sparse.csgraph import connected_components
 
 import granalytics as ga
 from granalytics import ParameterError
-from granalytics.identify import sieve_analysis
+from granalytics.identification import sieve_analysis
 from granalytics.datasets.synthetic import synthetic_snapshot
-from granalytics.identify.kernels import canonical_labels
+from granalytics.identification.kernels import canonical_labels
 from conftest import R0, make_meta, make_snapshot
 
 D = 2 * R0

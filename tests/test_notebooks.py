@@ -30,22 +30,3 @@ def test_notebook_is_stripped_and_runs(path, tmp_path):
     streams = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs
                       if o.output_type == "stream")
     assert "IProgress not found" not in streams and "TqdmWarning" not in streams
-
-
-def test_make_notebooks_executes_them_into_build_with_html():
-    """There were no instructions to run the notebooks (and jupyter nbconvert was not installed)."""
-    import subprocess
-
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-
-    root = Path(__file__).parents[1]
-    extras = tomllib.loads((root / "pyproject.toml").read_text())["project"]["optional-dependencies"]
-    assert {"nbconvert", "ipywidgets"} <= {req.split(">")[0] for req in extras["notebooks"]}
-    plan = subprocess.run(["make", "-n", "-o", ".venv/.installed", "-o", ".venv/.installed-notebooks", "notebooks"],
-                          cwd=root, capture_output=True, text=True, check=True).stdout
-    assert "nbconvert --to notebook --execute --inplace" in plan and "nbconvert --to html" in plan
-    assert "build/notebooks" in plan and all(p.name in plan for p in NOTEBOOKS)
-    assert "make notebooks" in (root / "README.md").read_text()

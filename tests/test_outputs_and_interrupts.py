@@ -335,11 +335,6 @@ def test_a_sweep_workers_warning_is_one_line(capsys, tmp_path):
         warnings.warn("took over the stale lock file\nof a dead writer", UserWarning)
     err = capsys.readouterr().err
     assert err == "sim sweep: p.h5: warning: took over the stale lock file of a dead writer\n"
-    import inspect
-
-    from sim.sweep import run_point
-
-    assert "warnings_as_lines" in inspect.getsource(run_point)
 
 
 def test_the_readme_says_how_to_reach_the_commands():

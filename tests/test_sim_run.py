@@ -384,28 +384,56 @@ def test_importing_granalytics_and_sim_and_their_force_laws_changes_no_global_st
         "import os, numba\n"
         "os.environ.pop('GOMP_SPINCOUNT', None)\n"
         "numba.config.THREADING_LAYER_PRIORITY = default = ['tbb', 'omp', 'workqueue']\n"
-        "import granalytics, granalytics.identify.kernels, granalytics.plot, granalytics.cli\n"
+        "import granalytics, granalytics.identification.kernels, granalytics.plot, granalytics.cli\n"
         "import sim, sim.run, sim.cli, sim._kernels, sim.neighbours\n"
         "sim.capillary_force(1e-5, 1e-3, 1e-3, 1e-12, 0.1)\n"
         "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY == default)\n")
     assert out.split() == ["None", "True"]
 
 
-def test_the_simulator_sets_up_openmp_when_it_runs():
+def test_creating_and_running_a_simulation_changes_no_process_state():
+    # the library leaves the process as it finds it: numba's layer priority, GOMP_SPINCOUNT and
+    # glibc's allocator (a 64 MB array still comes from mmap-backed blocks after the run)
     out = _python(
-        "import os, numba\n"
+        "import ctypes, os, numba, numpy as np\n"
         "from sim.params import SimParams\n"
         "from sim.run import Simulation\n"
+        "default = list(numba.config.THREADING_LAYER_PRIORITY)\n"
         "p = SimParams(n_particles=2, n_baffles=0, drum_omega=0.0, drum_radius=0.05, drum_length=0.05)\n"
         "Simulation.from_particles(p, [[0, -0.02, 0.02], [0.0016, -0.02, 0.02]], [7.5e-4, 7.5e-4]).advance(2)\n"
-        "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY[0], numba.threading_layer())\n")
-    assert out.split()[:2] == ["3000", "omp"]
+        "mmapped = -1\n"
+        "try:\n"
+        "    libc = ctypes.CDLL('libc.so.6')\n"
+        "    class Info(ctypes.Structure):\n"
+        "        _fields_ = [(f, ctypes.c_size_t) for f in ('arena ordblks smblks hblks hblkhd usmblks fsmblks '\n"
+        "                                                     'uordblks fordblks keepcost').split()]\n"
+        "    libc.mallinfo2.restype = Info\n"
+        "    h0 = libc.mallinfo2().hblkhd\n"
+        "    a = np.ones(8_000_000)\n"
+        "    mmapped = libc.mallinfo2().hblkhd - h0\n"
+        "except (OSError, AttributeError):\n"
+        "    pass\n"
+        "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY == default, mmapped)\n")
+    gomp, same_priority, mmapped = out.split()
+    assert (gomp, same_priority) == ("None", "True")
+    if _has_mallinfo2():
+        assert int(mmapped) >= 64_000_000
+
+
+def test_the_command_line_sets_up_openmp_for_its_run():
+    # python -m sim run tunes its own process first thing (here before it refuses --revolutions 0)
+    out = _python(
+        "import os, numba, sys\n"
+        "from sim.cli import main\n"
+        "rc = main(['run', '--preset', 'lab-cg3', '--revolutions', '0', '--out', 'never.h5', '--quiet'])\n"
+        "print(rc, os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY[0])\n")
+    assert out.split()[-3:] == ["2", "3000", "omp"]
 
 
 def test_threads_started_before_the_set_up_give_a_warning_naming_the_layer():
     out = _python("import warnings, numba\n"
                   "numba.set_num_threads(1)\n"  # launches numba's threads with its own layer choice
-                  "from granalytics import configure_threading\n"
+                  "from sim.threads import configure_threading\n"
                   "with warnings.catch_warnings(record=True) as caught:\n"
                   "    warnings.simplefilter('always')\n"
                   "    configure_threading(); configure_threading()\n"
@@ -429,7 +457,7 @@ def test_the_set_up_serves_large_arrays_from_the_reusable_heap():
     # and come back as fresh pages; after the set-up a 64 MB array is not one of them
     out = _python(
         "import ctypes, numpy as np\n"
-        "from granalytics import configure_threading\n"
+        "from sim.threads import configure_threading\n"
         "class Info(ctypes.Structure):\n"
         "    _fields_ = [(f, ctypes.c_size_t) for f in ('arena ordblks smblks hblks hblkhd usmblks fsmblks '\n"
         "                                                 'uordblks fordblks keepcost').split()]\n"

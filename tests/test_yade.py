@@ -1,4 +1,4 @@
-"""YADE CSV export (docs/yade_export.py) read end to end, and its errors."""
+"""YADE CSV export (scripts/yade_export.py) read end to end, and its errors."""
 
 import gzip
 from pathlib import Path

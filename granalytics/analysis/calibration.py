@@ -32,8 +32,8 @@ from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.core.windows import check_interval, window_mask
-from granalytics.identify.cohesion import DEFAULT_COHESION
-from granalytics.identify.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE
+from granalytics.identification.cohesion import DEFAULT_COHESION
+from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE
 
 __all__ = ["calibrate_thresholds", "Calibration", "POOR_FIT_P", "DEFAULT_MEASURED_ERROR"]
 

@@ -18,13 +18,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from granalytics.core.bed import run_confinement
-from granalytics.analysis.confinement import confinement_warning
+from granalytics.analysis.confinement import confinement_warning, run_confinement
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
 from granalytics.core.files import staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE, METRICS
 from granalytics.core.windows import check_interval, window_mask
-from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
 from granalytics.core.errors import ParameterError
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
@@ -93,7 +92,7 @@ class CGComparison:
         """One line naming the identification: method, its thresholds (the defaults it used
         included: C_agg and A_agg, or the rigid tolerance, and the size floor), cohesion
         convention, window."""
-        from granalytics.identify import make_identifier
+        from granalytics.identification import make_identifier
 
         identifier = make_identifier(self.method, **self.params)
         rigid = getattr(identifier, "comotion", None) == "rigid"
@@ -322,9 +321,9 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
     window : (float, float), default (3, 6)
         Steady-state window [revolutions]: statistics, block s.e.m., pooled size distributions.
     method : str, default "gna"
-        Identification method (any of :data:`granalytics.identify.METHODS`).
+        Identification method (any of :data:`granalytics.identification.METHODS`).
     cohesion : {"acting", "bridge"}, default "acting"
-        Which force is F_coh (:mod:`granalytics.identify.cohesion`).
+        Which force is F_coh (:mod:`granalytics.identification.cohesion`).
     progress : bool
         Progress bars over frames.
     mixed_systems : bool, default False

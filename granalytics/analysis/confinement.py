@@ -30,22 +30,104 @@ import math
 import numpy as np
 import pandas as pd
 
-from granalytics.core.bed import bed_structure, run_confinement, wall_touching
-from granalytics.core.checks import check_numbers, shown
-from granalytics.core.errors import ParameterError
+from granalytics.core.bed import DrumConfinement, bed_structure, drum_confinement
+from granalytics.core.checks import check_meta, check_numbers, check_snapshot, shown
+from granalytics.core.errors import ParameterError, ValidationError
+from granalytics.core.snapshot import Snapshot
 from granalytics.analysis.frames import map_frames
-from granalytics.identify import make_identifier
+from granalytics.identification import make_identifier
 from granalytics.core import open_run
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, frame_stats, steady_state
 
-__all__ = ["CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", "confinement_table",
+__all__ = ["run_confinement", "wall_touching", "CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", "confinement_table",
            "ConfinementFit", "fit_confinement_curve", "decompose_cg", "BED_COLUMNS", "bed_flow"]
+
+# ----------------------------------------------------------------------------- a run's drum
+def _drum_params(meta):
+    """The simulated system's parameters in a run's ``sim_config`` (a dict), or None."""
+    params = meta.sim_config.get("params") if isinstance(meta.sim_config, dict) else None
+    return params if isinstance(params, dict) else None
+
+
+def run_confinement(meta) -> DrumConfinement | None:
+    """The confinement of a run's drum from its metadata (a :class:`RunMeta`): the values the
+    simulator recorded in ``sim_config["confinement"]``, or computed from ``sim_config["params"]``
+    (drum_radius, drum_length, d_mean [m]) for older runs; None for a run without a drum
+    description (converted from another code).
+
+    Raises
+    ------
+    ValidationError
+        The recorded values are not numbers.
+    """
+    check_meta("run_confinement", meta)
+    recorded = meta.sim_config.get("confinement") if isinstance(meta.sim_config, dict) else None
+    if recorded is not None:
+        try:
+            return DrumConfinement(**{f.name: float(recorded[f.name]) for f in dataclasses.fields(DrumConfinement)})
+        except (KeyError, TypeError, ValueError):
+            raise ValidationError("sim_config.confinement", f"must hold the numbers of DrumConfinement, got {recorded!r}") from None
+    params = _drum_params(meta)
+    if params is None or not all(k in params for k in ("drum_radius", "drum_length", "d_mean")):
+        return None
+    try:
+        return drum_confinement(params["drum_radius"], params["drum_length"], params["d_mean"], meta.n_particles)
+    except ParameterError as exc:
+        raise ValidationError("sim_config.params", str(exc)) from None
+
+
+def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> np.ndarray:
+    """Which particles of ``snapshot`` touch a wall of the simulator's drum: the cylinder
+    (radius R_d about z), a baffle (a radial plate of height baffle_height·R_d, turned to the
+    drum angle Ω·t) or an end plate (z = 0, z = L), from the geometry in ``meta.sim_config``.
+
+    Parameters
+    ----------
+    snapshot : Snapshot
+    meta : RunMeta
+        The run's metadata with ``sim_config["params"]`` (drum_radius, drum_length [m],
+        n_baffles, baffle_height, drum_omega [rad/s]).
+    overlap_tolerance : float, default 0
+        A particle counts as touching when its overlap with a wall exceeds
+        −overlap_tolerance·radius (0: a true overlap).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (N,)
+
+    Raises
+    ------
+    ParameterError
+        The run has no drum description.
+    """
+    check_snapshot("wall_touching", snapshot)
+    check_meta("wall_touching", meta)
+    params = _drum_params(meta)
+    needed = ("drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega")
+    if params is None or not all(k in params for k in needed):
+        raise ParameterError("wall_touching: the run's metadata has no drum geometry (sim_config.params with "
+                             f"{', '.join(needed)}); only runs of the simulator have one")
+    x, y, z = snapshot.position.T
+    r = snapshot.radius
+    slack = -overlap_tolerance * r
+    radius, length = float(params["drum_radius"]), float(params["drum_length"])
+    touching = (np.hypot(x, y) + r - radius > slack) | (r - z > slack) | (r - (length - z) > slack)
+    n_baffles, inner = int(params["n_baffles"]), radius * (1 - float(params["baffle_height"]))
+    angle = float(params["drum_omega"]) * snapshot.time
+    for b in range(n_baffles):
+        phi = angle + 2 * math.pi * b / n_baffles
+        ex, ey = math.cos(phi), math.sin(phi)
+        a, side = x * ex + y * ey, -x * ey + y * ex  # along the plate, across it
+        dist = np.where(a >= inner, np.abs(side), np.hypot(x - inner * ex, y - inner * ey))
+        touching |= r - dist > slack
+    return touching
+
 
 #: the smallest D/d (of the simulated particles: D/(α·d) for a CG run) at which the acting yield
 #: at the paper's thresholds is within 5 % and within 10 % of its large-drum value y∞, with the
 #: standard error from the fit's covariance; measured on the α = 1 confinement curve of the lab
-#: drum family (docs/results.md, "Confinement"; docs/confinement_study.py regenerates it)
+#: drum family (docs/results.md, "Confinement"; scripts/confinement_study.py regenerates it)
 CONFINEMENT_RULE = {"within_5pc": (62.0, 9.0), "within_10pc": (31.0, 4.0)}
 
 #: per-frame bed columns of :func:`confinement_timeseries` beside the headline metrics

@@ -8,11 +8,11 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from granalytics.identify.cohesion import DEFAULT_COHESION
+from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.analysis.metrics import HEADLINE
-from granalytics.identify import make_identifier
+from granalytics.identification import make_identifier
 from granalytics.analysis.stats import frame_stats
 
 __all__ = ["compare_methods", "partition_labels"]
@@ -37,7 +37,7 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
         ``{"gna": ("gna", {}), "dbscan": ("dbscan", {"eps_diameters": 1.1})}``.
     cohesion : {"acting", "bridge"}, default "acting"
         Cohesion convention of every method whose params do not set their own
-        (:mod:`granalytics.identify.cohesion`).
+        (:mod:`granalytics.identification.cohesion`).
     progress : bool, default False
         Progress bar over frames.
     jobs, scheduler :

@@ -15,15 +15,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from granalytics.identify import kernels as _kernels
+from granalytics.identification import kernels as _kernels
 from granalytics.analysis.metrics import HEADLINE, GranuleCounts, metric_values
 from granalytics.core.windows import check_interval, window_mask
-from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
-from granalytics.identify.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion, check_rigid_tol, comotion_mask,
+from granalytics.identification.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion, check_rigid_tol, comotion_mask,
                        contact_strength)
-from granalytics.identify.common import check_c_agg, check_min_size
+from granalytics.identification.common import check_c_agg, check_min_size
 
 __all__ = ["sensitivity", "sensitivity_summary", "COMOTION_COLUMNS", "comotion_column"]
 
@@ -79,7 +79,7 @@ def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension
         Angle thresholds [deg], each in (0, 180]; with ``comotion="angle"`` (required there).
     radius, surface_tension, cohesion, rigid_scale, min_size :
         As for :class:`~granalytics.GraphNetworkAnalysis` (``cohesion``: which force is F_coh,
-        ``"acting"`` or ``"bridge"``; see :mod:`granalytics.identify.cohesion`).
+        ``"acting"`` or ``"bridge"``; see :mod:`granalytics.identification.cohesion`).
     comotion : {"angle", "rigid"}, default "angle"
         The co-motion test; its thresholds are ``a_agg_deg`` or ``rigid_tol``.
     rigid_tol : sequence of float

@@ -32,10 +32,10 @@ import pandas as pd
 
 from granalytics.analysis.frames import map_frames
 from granalytics.core.errors import ParameterError
-from granalytics.identify import kernels as _kernels
-from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
-from granalytics.identify.common import check_c_agg, check_min_size
-from granalytics.identify.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion,
+from granalytics.identification import kernels as _kernels
+from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.identification.common import check_c_agg, check_min_size
+from granalytics.identification.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion,
                                            check_rigid_tol, comotion_mask, contact_strength)
 
 __all__ = ["MeasuredDistribution", "read_sieve_csv", "SIEVE_MEASURES", "SUM_TOLERANCE", "sieve_classes", "grid_measurement",

@@ -17,9 +17,9 @@ from granalytics.analysis.metrics import HEADLINE, STEADY, GranuleCounts, metric
 from granalytics.core.windows import check_interval, clip_window, window_mask, window_tolerance
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
-from granalytics.identify.granules import granule_table
-from granalytics.identify import make_identifier
-from granalytics.identify.result import IdentificationResult
+from granalytics.identification.granules import granule_table
+from granalytics.identification import make_identifier
+from granalytics.identification.result import IdentificationResult
 from granalytics.core.snapshot import Snapshot
 
 __all__ = [

@@ -157,7 +157,7 @@ def granule_track_table(frames, method="gna", *, min_fragment=2, continuation="m
     centre of mass, radius of gyration, liquid) with ``frame``, ``time_s`` and ``granule_track``,
     the id the granule keeps while it lives (the same as :func:`particle_table`'s with the same
     arguments, which are :func:`particle_table`'s)."""
-    from granalytics.identify.granules import granule_table
+    from granalytics.identification.granules import granule_table
 
     labels, tracks = granule_tracks(frames, method, min_fragment=min_fragment, continuation=continuation,
                                     progress=progress, **params)

@@ -10,11 +10,11 @@ import warnings
 
 import numpy as np
 
-from granalytics.identify.cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
+from granalytics.identification.cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
 from granalytics.core.errors import GranalyticsError, ParameterError, ValidationError
 from granalytics.core.files import check_output_folder, check_replaceable, write_atomically
-from granalytics.identify import BACKENDS, make_identifier
-from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
+from granalytics.identification import BACKENDS, make_identifier
+from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 
 def interval(text):
     """Parse ``A:B`` into a pair of floats."""
@@ -49,7 +49,7 @@ def threshold_options(args, method, names=("c_agg", "a_agg_deg")) -> dict:
     to the method's own default (its constructor's, so the command line and the library agree).
     A threshold given for a method that ignores it is refused (``ParameterError`` naming the
     option), never silently dropped."""
-    from granalytics.identify import method_parameters
+    from granalytics.identification import method_parameters
 
     accepted = method_parameters(method)
     out = {}
@@ -156,7 +156,7 @@ def add_continuation_option(parser):
 def add_criterion_options(parser, grid_tol=False):
     """The co-motion test and the granule size floor of GNA (:func:`criterion_params` reads them);
     ``grid_tol``: ``--rigid-tol`` takes a grid (the sensitivity pass)."""
-    from granalytics.identify.contacts import COMOTION_TESTS, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, RIGID_SCALES
+    from granalytics.identification.contacts import COMOTION_TESTS, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, RIGID_SCALES
 
     parser.add_argument("--comotion", choices=COMOTION_TESTS, default=DEFAULT_COMOTION,
                         help="co-motion test: 'angle' = the paper's (velocities or angular velocities within A_agg), "
@@ -179,7 +179,7 @@ def add_criterion_options(parser, grid_tol=False):
 def resolve_rigid_options(args, grid_tol=False) -> None:
     """Refuse ``--rigid-tol`` / ``--rigid-scale`` without ``--comotion rigid`` (they would be
     ignored without a word), then fill in their defaults where they were not given."""
-    from granalytics.identify.contacts import DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL
+    from granalytics.identification.contacts import DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL
 
     given = [name for name, value in (("--rigid-tol", args.rigid_tol), ("--rigid-scale", args.rigid_scale))
              if value is not None]
@@ -241,7 +241,7 @@ def warn_if_c_agg_unreachable(frames, c_agg, cohesion, radius="pair") -> None:
     that crosses the cliff is what a sensitivity sweep is for) lies above every contact's
     F_coh/(2πγR) in up to :data:`C_AGG_SAMPLE` frames of ``frames``: no contact can pass it, every
     statistic is that of a bed without granules (``docs/identification.md``, "The C_agg cliff")."""
-    from granalytics.identify.contacts import largest_strength
+    from granalytics.identification.contacts import largest_strength
 
     values = np.atleast_1d(np.asarray(c_agg, dtype=float))
     picks = np.unique(np.linspace(0, len(frames) - 1, min(C_AGG_SAMPLE, len(frames))).round().astype(int))

@@ -11,14 +11,14 @@ import warnings
 
 import numpy as np
 
-from granalytics.core._resources import check_memory
+from granalytics.core.resources import check_memory
 from granalytics.core.windows import clip_window, window_mask
 from granalytics.analysis.metrics import HEADLINE, METRICS
 from granalytics.analysis.system import check_replicas, run_identity
 from granalytics.core.errors import GranalyticsError, ParameterError
 from granalytics.core.files import WriterLock, output_folder, staged_outputs, write_atomically
-from granalytics.identify import DEFAULT_METHODS, accepted_params
-from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG
+from granalytics.identification import DEFAULT_METHODS, accepted_params
+from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
 from granalytics.cli._common import (resolve_rigid_options, threshold_options, add_cohesion_option, add_continuation_option,
@@ -165,7 +165,8 @@ def add_compare_cg_parser(sub):
 
 
 def cmd_info(args):
-    from granalytics.core.bed import bed_structure, run_confinement
+    from granalytics.analysis.confinement import run_confinement
+    from granalytics.core.bed import bed_structure
     from granalytics.analysis.confinement import confinement_warning
     from granalytics.analysis.cg import cg_rule_of, cg_rule_warning
 

@@ -42,7 +42,7 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
                 print(f"{'':<21}{datasets.physics_note(name, entry)}")
             for command in entry["commands"]:
                 print(f"{'':<21}$ {command}")
-        print("\nnot bundled (the 100 MB budget): the confinement runs of docs/confinement_study.py; the first command "
+        print("\nnot bundled (the 100 MB budget): the confinement runs of scripts/confinement_study.py; the first command "
               "makes the raw run it reads")
         for name, entry in datasets.CONFINEMENT.items():
             print(f"{name:<20} {entry['file']:<28} {entry['description']} ({entry['wall_time']})")

@@ -20,7 +20,7 @@ def add_pbm_parser(sub):
     argparse.ArgumentParser
         The subcommand's parser (``func`` defaults to :func:`cmd_pbm`).
     """
-    from granalytics.identify import DEFAULT_METHODS
+    from granalytics.identification import DEFAULT_METHODS
 
     p = sub.add_parser(
         "pbm", help="population balance: rates measured on one window, predicted size distributions of a later one",
@@ -58,7 +58,7 @@ def cmd_pbm(args):
     """Run the ``pbm`` subcommand (see :func:`add_pbm_parser`); returns the exit status 0."""
     import granalytics as ga
     from granalytics.core.files import output_folder, staged_outputs
-    from granalytics.identify import accepted_params
+    from granalytics.identification import accepted_params
 
     if args.min_fragment < 1:
         raise ParameterError(f"--min-fragment must be >= 1, got {args.min_fragment}")

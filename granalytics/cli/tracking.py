@@ -7,7 +7,7 @@ import os
 
 from granalytics.core.errors import ParameterError
 from granalytics.core.files import WriterLock, output_folder, staged_outputs
-from granalytics.identify import DEFAULT_METHODS, accepted_params
+from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.core import open_run
 from granalytics.plot import tracking_figure
 from granalytics.analysis.tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run

@@ -53,7 +53,7 @@ def _yade(particle_files, contact_files, mapping_path, dt_s):
 #: reader name -> :class:`Reader`
 READERS = {r.name: r for r in (
     Reader("liggghts", "LIGGGHTS/LAMMPS dumps (dump custom + compute pair/gran/local)", _liggghts, needs_dt=True),
-    Reader("yade", "CSVs of docs/yade_export.py", _yade),
+    Reader("yade", "CSVs of scripts/yade_export.py", _yade),
 )}
 
 

@@ -1,4 +1,4 @@
-"""Read the CSV export of ``docs/yade_export.py`` (YADE has no standard contact file).
+"""Read the CSV export of ``scripts/yade_export.py`` (YADE has no standard contact file).
 
 Each frame is a particle file (``# time_s=… step=… dt_s=…`` then ``id,radius,x,y,z,vx,vy,vz,
 wx,wy,wz,film_volume``) and a contact file (``id1,id2,gap,normal_force,bridge_active,
@@ -74,7 +74,7 @@ def _read(path, columns):
 
 
 def read_yade_csv(particle_files, contact_files, meta_toml):
-    """Snapshots (sorted by step) and metadata of a YADE run exported by ``docs/yade_export.py``."""
+    """Snapshots (sorted by step) and metadata of a YADE run exported by ``scripts/yade_export.py``."""
     meta_data = load_toml(meta_toml)
     unknown = sorted(set(meta_data) - _META_KEYS)
     if unknown:
@@ -143,7 +143,7 @@ def read_yade_csv(particle_files, contact_files, meta_toml):
     try:
         meta = RunMeta(n_particles=first.n_particles, mean_radius=float(first.radius.mean()),
                        capillary_in_contact=False,  # YADE's ViscElCapPhys law: no capillary force in contact
-                       provenance={"source": "YADE export (docs/yade_export.py)", "capillary_type": capillary_type,
+                       provenance={"source": "YADE export (scripts/yade_export.py)", "capillary_type": capillary_type,
                                    "f_cap_in_contact": "Willett F_cap(0+) filled in by the reader",
                                    "particle_files": list(map(str, particle_files)),
                                    "contact_files": list(map(str, contact_files))},

@@ -19,12 +19,11 @@ import math
 
 import numpy as np
 
-from granalytics.core.checks import check_meta, check_snapshot
-from granalytics.core.errors import ParameterError, ValidationError
+from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 
 __all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "drum_confinement",
-           "run_confinement", "wall_touching", "FILL_PACKING"]
+           "FILL_PACKING"]
 
 #: a contact crosses axial layers when its unit normal has |n_axis| above this
 AXIAL_NORMAL_MIN = 0.1
@@ -182,83 +181,3 @@ def drum_confinement(drum_radius: float, drum_length: float, d_mean: float, n_pa
     fill = bed_area / (math.pi * drum_radius**2)
     return DrumConfinement(drum_ratio=2 * drum_radius / d_mean, length_ratio=drum_length / d_mean,
                            bed_depth_ratio=_segment_depth(fill) * drum_radius / d_mean, fill_fraction=min(fill, 1.0))
-
-
-def _drum_params(meta):
-    """The simulated system's parameters in a run's ``sim_config`` (a dict), or None."""
-    params = meta.sim_config.get("params") if isinstance(meta.sim_config, dict) else None
-    return params if isinstance(params, dict) else None
-
-
-def run_confinement(meta) -> DrumConfinement | None:
-    """The confinement of a run's drum from its metadata (a :class:`RunMeta`): the values the
-    simulator recorded in ``sim_config["confinement"]``, or computed from ``sim_config["params"]``
-    (drum_radius, drum_length, d_mean [m]) for older runs; None for a run without a drum
-    description (converted from another code).
-
-    Raises
-    ------
-    ValidationError
-        The recorded values are not numbers.
-    """
-    check_meta("run_confinement", meta)
-    recorded = meta.sim_config.get("confinement") if isinstance(meta.sim_config, dict) else None
-    if recorded is not None:
-        try:
-            return DrumConfinement(**{f.name: float(recorded[f.name]) for f in dataclasses.fields(DrumConfinement)})
-        except (KeyError, TypeError, ValueError):
-            raise ValidationError("sim_config.confinement", f"must hold the numbers of DrumConfinement, got {recorded!r}") from None
-    params = _drum_params(meta)
-    if params is None or not all(k in params for k in ("drum_radius", "drum_length", "d_mean")):
-        return None
-    try:
-        return drum_confinement(params["drum_radius"], params["drum_length"], params["d_mean"], meta.n_particles)
-    except ParameterError as exc:
-        raise ValidationError("sim_config.params", str(exc)) from None
-
-
-def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> np.ndarray:
-    """Which particles of ``snapshot`` touch a wall of the simulator's drum: the cylinder
-    (radius R_d about z), a baffle (a radial plate of height baffle_height·R_d, turned to the
-    drum angle Ω·t) or an end plate (z = 0, z = L), from the geometry in ``meta.sim_config``.
-
-    Parameters
-    ----------
-    snapshot : Snapshot
-    meta : RunMeta
-        The run's metadata with ``sim_config["params"]`` (drum_radius, drum_length [m],
-        n_baffles, baffle_height, drum_omega [rad/s]).
-    overlap_tolerance : float, default 0
-        A particle counts as touching when its overlap with a wall exceeds
-        −overlap_tolerance·radius (0: a true overlap).
-
-    Returns
-    -------
-    numpy.ndarray of bool, shape (N,)
-
-    Raises
-    ------
-    ParameterError
-        The run has no drum description.
-    """
-    check_snapshot("wall_touching", snapshot)
-    check_meta("wall_touching", meta)
-    params = _drum_params(meta)
-    needed = ("drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega")
-    if params is None or not all(k in params for k in needed):
-        raise ParameterError("wall_touching: the run's metadata has no drum geometry (sim_config.params with "
-                             f"{', '.join(needed)}); only runs of the simulator have one")
-    x, y, z = snapshot.position.T
-    r = snapshot.radius
-    slack = -overlap_tolerance * r
-    radius, length = float(params["drum_radius"]), float(params["drum_length"])
-    touching = (np.hypot(x, y) + r - radius > slack) | (r - z > slack) | (r - (length - z) > slack)
-    n_baffles, inner = int(params["n_baffles"]), radius * (1 - float(params["baffle_height"]))
-    angle = float(params["drum_omega"]) * snapshot.time
-    for b in range(n_baffles):
-        phi = angle + 2 * math.pi * b / n_baffles
-        ex, ey = math.cos(phi), math.sin(phi)
-        a, side = x * ex + y * ey, -x * ey + y * ex  # along the plate, across it
-        dist = np.where(a >= inner, np.abs(side), np.hypot(x - inner * ex, y - inner * ey))
-        touching |= r - dist > slack
-    return touching

@@ -15,7 +15,7 @@ import numpy as np
 from granalytics.core.files import one_line
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_DATASETS, _CONTACT_LAYOUT, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import CONVERT_HINT, _HDF5Handle, _open_h5
-from granalytics.core._resources import check_memory
+from granalytics.core.resources import check_memory
 from granalytics.core.checks import FrameKeyError, check_indices, shown
 from granalytics.core.windows import check_interval, window_mask
 from granalytics.core.errors import ParameterError, GranalyticsError, RunFileError, ValidationError

@@ -82,7 +82,7 @@ class RunMeta:
         Whether the producing DEM code applied the capillary (bridge) force between *touching*
         particles. YADE's law does not (False); ``sim`` records its parameter of the same name.
         Default: ``sim_config["params"]["capillary_in_contact"]`` when present, else False.
-        Decides the ``cohesion="acting"`` convention (:mod:`granalytics.identify.cohesion`).
+        Decides the ``cohesion="acting"`` convention (:mod:`granalytics.identification.cohesion`).
     sim_config : dict
         Full simulator configuration when the run came from ``sim`` (JSON-serialisable).
     provenance : dict

@@ -263,7 +263,7 @@ FOREIGN = {
                              "out/frame_contacts_000016000.csv . && gzip -9f frame_*.csv && rm -r out"],
         "commands": ["granalytics convert tests/data/yade_wet_drum/frame_particles_000012000.csv.gz tests/data/yade_wet_drum/frame_particles_000016000.csv.gz --from yade --contacts tests/data/yade_wet_drum/frame_contacts_000012000.csv.gz tests/data/yade_wet_drum/frame_contacts_000016000.csv.gz --mapping tests/data/yade_wet_drum/meta.toml "
                      "--out datasets/yade-wet-drum.h5 --overwrite --quiet"],
-        "description": "YADE 2023.02a ViscElCapMat wet drum exported with docs/yade_export.py: about 250 spheres, "
+        "description": "YADE 2023.02a ViscElCapMat wet drum exported with scripts/yade_export.py: about 250 spheres, "
                        "Willett bridges, R = 20 mm, 2 rad/s; 2 frames (tests/data/yade_wet_drum/README.md). YADE's "
                        "output differs in its last digits from run to run (checked 2026-12-02: LIGGGHTS remade its "
                        "dumps byte for byte, YADE not), so a remake gives a new sum. Remade 2026-12-02 on the 3-D lattice of "

@@ -186,7 +186,7 @@ def write_synthetic_run(path, n_particles=3000, revolutions=6.0, frames_per_revo
         The run would need more memory or disk than this machine has (its size is named).
     """
     from granalytics.core import RunWriter, replacing_run
-    from granalytics.core._resources import check_disk, check_memory
+    from granalytics.core.resources import check_disk, check_memory
 
     meta = synthetic_meta(n_particles, alpha)
     meta.provenance["command"] = (

@@ -28,8 +28,8 @@ from tqdm.auto import tqdm
 from granalytics.core.files import staged_outputs
 from granalytics.core.errors import GranalyticsError
 from granalytics.analysis.frames import map_frames
-from granalytics.identify import make_identifier
-from granalytics.identify.result import IdentificationResult
+from granalytics.identification import make_identifier
+from granalytics.identification.result import IdentificationResult
 from granalytics.analysis.tracking import track_granules
 from granalytics.analysis.tracking.linking import check_continuation
 

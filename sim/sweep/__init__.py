@@ -33,7 +33,7 @@ resuming from its checkpoint ``<point>.h5.ckpt.npz`` when there is one. A failin
 recorded with its one-line error and the others go on. See docs/parameter_studies.md.
 """
 
-from granalytics.core import MANIFEST_COLUMNS, read_manifest
+from granalytics.core.manifest import MANIFEST_COLUMNS, read_manifest
 
 from .runner import PointTask, run_point, run_sweep
 from .spec import GRID_ALIASES, MAX_POINTS, SweepPoint, SweepSpec, load_spec, parse_spec, point_name

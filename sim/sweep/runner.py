@@ -11,8 +11,9 @@ import time
 import uuid
 from dataclasses import dataclass
 
-from granalytics.core import (ParameterError, WriterLock, dask_client, file_sha256, manifest_path, manifest_rows, one_line,
-                              read_manifest, warnings_as_lines, write_manifest)
+from granalytics.core import ParameterError, WriterLock, one_line, warnings_as_lines
+from granalytics.core.cluster import dask_client
+from granalytics.core.manifest import file_sha256, manifest_path, manifest_rows, read_manifest, write_manifest
 
 from ..params import PHYSICS_VERSION, SimParams, frame_interval_steps
 from .spec import GRID_ALIASES, build_params, load_spec
@@ -56,7 +57,7 @@ def run_point(task: PointTask) -> dict:
     """
     import numba
 
-    from granalytics.core import configure_threading
+    from ..threads import configure_threading
 
     configure_threading()  # before numba starts its threads: OpenMP, not TBB (tens of times slower here)
     numba.set_num_threads(max(1, min(task.threads, numba.config.NUMBA_NUM_THREADS)))

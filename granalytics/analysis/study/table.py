@@ -18,7 +18,7 @@ from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.core.errors import ParameterError
 from granalytics.core.manifest import MANIFEST_COLUMNS, file_sha256, read_manifest
-from granalytics.identify.cohesion import check_cohesion
+from granalytics.identification.cohesion import check_cohesion
 
 
 #: steady-state metrics of the study table
@@ -86,7 +86,7 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     method : str, default "gna"
         Identification method; ``params`` go to it (e.g. ``c_agg=0.6, a_agg_deg=20``).
     cohesion : str or sequence of str, default ("acting", "bridge")
-        Cohesion conventions (:mod:`granalytics.identify.cohesion`); one row per point and convention.
+        Cohesion conventions (:mod:`granalytics.identification.cohesion`); one row per point and convention.
         Ignored (one row per point, ``cohesion`` None) for methods without a convention.
     replicas : str, optional
         A grid column that tells replicas apart (``"seed"``): points equal in every other
@@ -111,7 +111,7 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     """
     from tqdm.auto import tqdm
 
-    from granalytics.identify import METHODS, method_parameters
+    from granalytics.identification import METHODS, method_parameters
     from granalytics.core import open_run
     from granalytics.analysis.stats import run_stats, steady_state
 

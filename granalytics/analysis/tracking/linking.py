@@ -545,7 +545,7 @@ def track_run(frames, method="gna", window=None, progress=False, *, min_fragment
         ``labels`` a list of (N,) int64 arrays, the granule of each particle in each frame (−1 free).
     """
     from granalytics.analysis.frames import map_frames
-    from granalytics.identify import make_identifier
+    from granalytics.identification import make_identifier
 
     if window is not None:
         window = check_interval("track_run: window", window)

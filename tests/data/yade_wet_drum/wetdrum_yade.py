@@ -1,7 +1,7 @@
 # Small wet rotating drum in YADE 2023.02a for the granalytics YADE reader fixture.
 import math, random
 from yade import geom
-exec(open("../../../docs/yade_export.py").read())  # run from tests/data/yade_wet_drum
+exec(open("../../../scripts/yade_export.py").read())  # run from tests/data/yade_wet_drum
 RD, L = 0.02, 0.008
 mat = O.materials.append(ViscElCapMat(density=2500, kn=300.0, cn=0.0022, ks=240.0, cs=0.0022,
                                       frictionAngle=math.atan(0.5), Capillar=True,

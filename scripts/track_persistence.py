@@ -1,6 +1,6 @@
 """How long granule track ids persist under the two continuation rules: the table of docs/tracking.md.
 
-Usage: python docs/track_persistence.py [--datasets lab-cg1,lab-cg3,paper-cg3] [--window 3:3.5]
+Usage: python scripts/track_persistence.py [--datasets lab-cg1,lab-cg3,paper-cg3] [--window 3:3.5]
        [--every 4] [--touch-gap 0.02]
 
 For each bundled run and cohesion convention ("acting", "bridge") it identifies the granules of

@@ -4,7 +4,7 @@ A contact (i, j) is kept when both criteria hold:
 
 1. cohesion: ``F_coh ≥ C_agg · 2πγR``, with F_coh under the ``cohesion`` convention
    (``"acting"``: the force the DEM code applied; ``"bridge"``: the bridge force of every wet
-   pair, touching or not; see :mod:`granalytics.identify.cohesion`), γ the surface tension of the run and R the pair's
+   pair, touching or not; see :mod:`granalytics.identification.cohesion`), γ the surface tension of the run and R the pair's
    effective radius ``R* = 2RiRj/(Ri+Rj)`` (default, ``radius="pair"``) or the run's mean
    particle radius (``radius="mean"``). Because γ and R are those of the analysed system, a
    coarse-grained run (γ·α, R·α) gets ``F_agg,CG = α²·F_agg,o`` automatically (§3.1).
@@ -18,7 +18,7 @@ A contact (i, j) is kept when both criteria hold:
    - ``"rigid"``: the pair moves as one rigid body to within ``rigid_tol``:
      ``|v_j − v_i − ω̄ × (r_j − r_i)| < rigid_tol · V`` with ω̄ = (ω_i + ω_j)/2 and V the velocity
      scale ``rigid_scale``: √(g·d), d = R_i + R_j (default), or the drum's rim speed Ω·R_d
-     (:func:`granalytics.identify.contacts.co_moving_rigid`). A rigid granule passes exactly, whatever its
+     (:func:`granalytics.identification.contacts.co_moving_rigid`). A rigid granule passes exactly, whatever its
      particles' size, and so does the drum's solid-body rotation.
 
 Granules are the connected components of the kept contacts with at least ``min_size`` particles
@@ -32,14 +32,14 @@ import math
 import networkx as nx
 import numpy as np
 
-from granalytics.identify import kernels as _kernels
-from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts_all
+from granalytics.identification import kernels as _kernels
+from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts_all
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.identify.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, check_comotion, check_rigid_scale,
+from granalytics.identification.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, check_comotion, check_rigid_scale,
                         check_rigid_tol, co_moving_rigid, contact_strength)
-from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, check_min_size, mean_radius, surface_tension
-from granalytics.identify.result import IdentificationResult
+from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, check_min_size, mean_radius, surface_tension
+from granalytics.identification.result import IdentificationResult
 
 __all__ = ["GraphNetworkAnalysis", "BACKENDS"]
 
@@ -98,7 +98,7 @@ class GraphNetworkAnalysis(Identifier):
     surface_tension : float, optional
         γ [N/m]; defaults to the snapshot's ``meta.surface_tension``.
     cohesion : {"acting", "bridge"}, default "acting"
-        Which force is F_coh (:mod:`granalytics.identify.cohesion`).
+        Which force is F_coh (:mod:`granalytics.identification.cohesion`).
     comotion : {"angle", "rigid"}, default "angle"
         The co-motion test (module docstring): the paper's angle test at ``a_agg_deg``, or the
         rigid-pair test at ``rigid_tol``.
@@ -160,7 +160,7 @@ class GraphNetworkAnalysis(Identifier):
 
     def _rigid_mask(self, snapshot, c_agg):
         """Both criteria with the rigid co-motion test: f = F_coh/(2πγR) ≥ C_agg (the value the
-        angle kernels compare) and :func:`~granalytics.identify.contacts.co_moving_rigid`."""
+        angle kernels compare) and :func:`~granalytics.identification.contacts.co_moving_rigid`."""
         strength = contact_strength(snapshot, self.radius, self.surface_tension, self.cohesion)
         return (strength >= c_agg) & co_moving_rigid(snapshot, self.rigid_tol, self.rigid_scale, self.speed_scale)
 
@@ -204,7 +204,7 @@ def drop_small_granules(labels, sizes, min_size):
 
 def _contact_arrays(snapshot: Snapshot, cohesion) -> tuple:
     """``(ci, cj, f_cap, gap, all_count, radius, vel, omega)`` for the GNA kernels: the
-    cohesion convention is applied inside them (:func:`granalytics.identify.cohesion.cohesion_counts`)."""
+    cohesion convention is applied inside them (:func:`granalytics.identification.cohesion.cohesion_counts`)."""
     all_count = cohesion_counts_all(snapshot, cohesion)
     gap = np.zeros(0) if all_count else snapshot.gap
     return (

@@ -18,12 +18,12 @@ import math
 import numpy as np
 from scipy.sparse import coo_matrix
 
-from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts
+from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.identify.contacts import as_number
-from granalytics.identify.common import Identifier, check_flag, labels_from_clusters, mean_radius
-from granalytics.identify.result import IdentificationResult
+from granalytics.identification.contacts import as_number
+from granalytics.identification.common import Identifier, check_flag, labels_from_clusters, mean_radius
+from granalytics.identification.result import IdentificationResult
 
 __all__ = ["DBSCANClustering", "DBSCANIdentifier"]
 
@@ -49,7 +49,7 @@ class DBSCANClustering(Identifier):
         that a unit of velocity difference counts like one mean diameter of distance times the
         weight. 0 clusters on positions alone.
     cohesion : {"acting", "bridge"}, default "acting"
-        Which bridges count for ``bridged_only`` (:mod:`granalytics.identify.cohesion`): ``"bridge"``
+        Which bridges count for ``bridged_only`` (:mod:`granalytics.identification.cohesion`): ``"bridge"``
         every wet pair, ``"acting"`` only those whose bridge force acted (separated pairs,
         unless the run applied capillary force in contact).
     """

@@ -11,13 +11,13 @@ import inspect
 import numpy as np
 
 from granalytics.core.errors import ParameterError
-from granalytics.identify.common import Identifier, check_flag, check_snapshot
-from granalytics.identify.community import CommunityDetection
-from granalytics.identify.custom import CustomEdges
-from granalytics.identify.dbscan import DBSCANClustering, DBSCANIdentifier
-from granalytics.identify.gna import BACKENDS, GraphNetworkAnalysis
-from granalytics.identify.result import IdentificationResult
-from granalytics.identify.sieve import VirtualSieve, sieve_analysis
+from granalytics.identification.common import Identifier, check_flag, check_snapshot
+from granalytics.identification.community import CommunityDetection
+from granalytics.identification.custom import CustomEdges
+from granalytics.identification.dbscan import DBSCANClustering, DBSCANIdentifier
+from granalytics.identification.gna import BACKENDS, GraphNetworkAnalysis
+from granalytics.identification.result import IdentificationResult
+from granalytics.identification.sieve import VirtualSieve, sieve_analysis
 
 __all__ = [
     "identify", "make_identifier", "METHODS", "DEFAULT_METHODS", "BACKENDS", "method_parameters", "accepted_params", "IdentificationResult", "Identifier",

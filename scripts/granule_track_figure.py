@@ -1,6 +1,6 @@
 """One granule followed over frames by its track id: the figure of docs/tracking.md.
 
-Usage: python docs/granule_track_figure.py [--dataset lab-cg1] [--window 3:6] [--frames 10] [--out track.png]
+Usage: python scripts/granule_track_figure.py [--dataset lab-cg1] [--window 3:6] [--frames 10] [--out track.png]
        [--vtk DIR]
 
 Tracks the granules of a bundled run over the window (GNA, the paper's thresholds, acting

@@ -1,7 +1,7 @@
 """Pieces shared by the identification methods: the :class:`Identifier` base class (parameters
 from the constructor, ``params()``, ``repr``), one validation of the thresholds C_agg and A_agg,
 and canonical labels. Per-contact quantities (γ, R, f = F_coh/(2πγR), co-motion) live in
-:mod:`granalytics.identify.contacts`, below this package."""
+:mod:`granalytics.identification.contacts`, below this package."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from granalytics.identify import kernels as _kernels
-from granalytics.identify.contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
+from granalytics.identification import kernels as _kernels
+from granalytics.identification.contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
 from granalytics.core import checks
 from granalytics.core.errors import ParameterError
 
@@ -30,7 +30,7 @@ class Identifier:
 
     The contract of a method (checked for every registered method by ``tests/test_conformance.py``):
 
-    - a class attribute ``method``, its name in :data:`granalytics.identify.METHODS`;
+    - a class attribute ``method``, its name in :data:`granalytics.identification.METHODS`;
     - every constructor argument stored under the same attribute name, validated when
       :meth:`identify` runs (not in the constructor);
     - a keyword argument ``cohesion`` (one of :data:`granalytics.COHESION_CONVENTIONS`), also for

@@ -8,7 +8,7 @@ from functools import cached_property
 import numpy as np
 import pandas as pd
 
-from granalytics.identify.granules import granule_table
+from granalytics.identification.granules import granule_table
 from granalytics.core.snapshot import Snapshot
 
 __all__ = ["IdentificationResult"]

@@ -20,13 +20,13 @@ import random
 
 import numpy as np
 
-from granalytics.identify import kernels as _kernels
+from granalytics.identification import kernels as _kernels
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
-from granalytics.identify.contacts import as_number
-from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
-from granalytics.identify.result import IdentificationResult
+from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.identification.contacts import as_number
+from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
+from granalytics.identification.result import IdentificationResult
 
 __all__ = ["CommunityDetection"]
 
@@ -54,7 +54,7 @@ class CommunityDetection(Identifier):
     surface_tension : float, optional
         γ [N/m]; defaults to the run metadata's.
     cohesion : {"acting", "bridge"}, default "acting"
-        Which force is F_coh (:mod:`granalytics.identify.cohesion`).
+        Which force is F_coh (:mod:`granalytics.identification.cohesion`).
     """
 
     method = "community"

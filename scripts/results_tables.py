@@ -1,6 +1,6 @@
 """Print the tables of docs/results.md from the bundled datasets (Markdown on stdout).
 
-Usage: python docs/results_tables.py [--figures DIR] [--parts runs,sweeps] [--replica-sweep DIR]
+Usage: python scripts/results_tables.py [--figures DIR] [--parts runs,sweeps] [--replica-sweep DIR]
        [--gamma-runs RUN ...]
 
 Every number in docs/results.md comes from this script: steady-state yield, ⟨V_g⟩/V_p and N_g/N

@@ -21,13 +21,13 @@ import math
 import numpy as np
 import pandas as pd
 
-from granalytics.identify.cohesion import DEFAULT_COHESION
-from granalytics.identify import kernels as _kernels
+from granalytics.identification.cohesion import DEFAULT_COHESION
+from granalytics.identification import kernels as _kernels
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.identify.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, mean_radius
-from granalytics.identify.gna import GraphNetworkAnalysis
-from granalytics.identify.result import IdentificationResult
+from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, mean_radius
+from granalytics.identification.gna import GraphNetworkAnalysis
+from granalytics.identification.result import IdentificationResult
 
 __all__ = ["VirtualSieve", "sieve_analysis"]
 

@@ -1,15 +1,15 @@
 """Contact graphs in and out: the contact table of a frame (the columns user edge criteria can
-use, see :class:`granalytics.identify.CustomEdges`), and the kept graph of an identification as
+use, see :class:`granalytics.identification.CustomEdges`), and the kept graph of an identification as
 NetworkX / igraph objects or an edge list."""
 
 from __future__ import annotations
 
 import pandas as pd
 
-from granalytics.identify.cohesion import DEFAULT_COHESION
-from granalytics.identify.contacts import contact_table
+from granalytics.identification.cohesion import DEFAULT_COHESION
+from granalytics.identification.contacts import contact_table
 from granalytics.core.errors import ParameterError
-from granalytics.identify.result import IdentificationResult
+from granalytics.identification.result import IdentificationResult
 
 __all__ = ["contact_table", "edge_table", "to_networkx", "to_igraph"]
 

@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pandas as pd
 
-from granalytics.identify import kernels as _kernels
-from granalytics.identify.cohesion import DEFAULT_COHESION, cohesive_force
+from granalytics.identification import kernels as _kernels
+from granalytics.identification.cohesion import DEFAULT_COHESION, cohesive_force
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 
@@ -89,7 +89,7 @@ def largest_strength(snapshots, radius="pair", cohesion=DEFAULT_COHESION) -> flo
 
 def contact_strength(snapshot: Snapshot, radius="pair", gamma=None, cohesion=DEFAULT_COHESION) -> np.ndarray:
     """f = F_coh / (2πγR) of every contact, with R the pair's 2RiRj/(Ri+Rj) or the mean radius
-    and F_coh under the ``cohesion`` convention (:mod:`granalytics.identify.cohesion`).
+    and F_coh under the ``cohesion`` convention (:mod:`granalytics.identification.cohesion`).
 
     Bit-identical to the value the GNA kernels compare with C_agg.
     """
@@ -203,7 +203,7 @@ def contact_table(snapshot: Snapshot, radius="pair", surface_tension=None, cohes
     """One row per contact or bridge, the columns user criteria can use.
 
     Columns: ``i``, ``j`` (particle rows), ``id_i``, ``id_j``, ``f_cap`` [N] (the bridge force
-    at max(s, 0⁺)), ``f_coh`` [N] (F_coh under ``cohesion``, :mod:`granalytics.identify.cohesion`),
+    at max(s, 0⁺)), ``f_coh`` [N] (F_coh under ``cohesion``, :mod:`granalytics.identification.cohesion`),
     ``f_normal`` [N], ``gap`` [m], ``bridge_volume`` [m³], ``f_norm`` (F_coh/(2πγR), as GNA
     compares with C_agg),
     ``angle_v_deg`` and ``angle_w_deg`` (angles between the velocities and between the angular

@@ -5,7 +5,7 @@ with :mod:`ast` and evaluated here, node by node, on the numpy columns of the co
 Only the small grammar below is accepted; everything else is refused with a one-line
 :class:`~granalytics.core.errors.ParameterError` before any data is touched.
 
-* names: the columns of :func:`granalytics.identify.edges.contact_table` (:data:`COLUMNS`);
+* names: the columns of :func:`granalytics.identification.edges.contact_table` (:data:`COLUMNS`);
 * numbers: int and float literals;
 * comparisons ``< <= > >= == !=``, chained ones included (``0.2 < f_norm < 0.8``);
 * ``and``, ``or``, ``not`` and their pandas spellings ``&``, ``|``, ``~``, elementwise on
@@ -23,17 +23,17 @@ import tokenize
 
 import numpy as np
 
-from granalytics.identify.cohesion import DEFAULT_COHESION, check_cohesion
-from granalytics.identify import kernels as _kernels
-from granalytics.identify.contacts import contact_table
+from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.identification import kernels as _kernels
+from granalytics.identification.contacts import contact_table
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.identify.common import Identifier
-from granalytics.identify.result import IdentificationResult
+from granalytics.identification.common import Identifier
+from granalytics.identification.result import IdentificationResult
 
 __all__ = ["CustomEdges", "COLUMNS", "FUNCTIONS", "compile_criterion", "evaluate_criterion"]
 
-#: the names a criterion may use: the columns of :func:`granalytics.identify.edges.contact_table`
+#: the names a criterion may use: the columns of :func:`granalytics.identification.edges.contact_table`
 COLUMNS = ("i", "j", "id_i", "id_j", "f_cap", "f_coh", "f_normal", "gap", "bridge_volume",
            "f_norm", "angle_v_deg", "angle_w_deg", "rigid_residual")
 
@@ -376,7 +376,7 @@ class CustomEdges(Identifier):
     Parameters
     ----------
     criterion : str or callable
-        An expression on the columns of :func:`~granalytics.identify.edges.contact_table` (``i``,
+        An expression on the columns of :func:`~granalytics.identification.edges.contact_table` (``i``,
         ``j``, ``id_i``, ``id_j``, ``f_cap``, ``f_coh``, ``f_normal``, ``gap``, ``bridge_volume``,
         ``f_norm``, ``angle_v_deg``, ``angle_w_deg``, ``rigid_residual`` [m/s]), e.g.
         ``"f_norm >= 0.5 and (angle_v_deg < 30 or angle_w_deg < 30)"``. It is parsed and
@@ -391,7 +391,7 @@ class CustomEdges(Identifier):
     surface_tension : float, optional
         γ [N/m] in ``f_norm``; defaults to the run metadata's.
     cohesion : {"acting", "bridge"}, default "acting"
-        Which force is ``f_coh`` (and so ``f_norm``); :mod:`granalytics.identify.cohesion`.
+        Which force is ``f_coh`` (and so ``f_norm``); :mod:`granalytics.identification.cohesion`.
     """
 
     method = "custom"

@@ -1,7 +1,7 @@
 """The numbers and figures of docs/calibration.md: the example measured file, the recovery table,
 the CG-transfer table and the two figures.
 
-    python docs/calibration_study.py [--write-example] [--figures]
+    python scripts/calibration_study.py [--write-example] [--figures]
 
 Each "measured" distribution is made from a bundled run at known thresholds (the mean over
 revolutions [3, 6]) with a stated normal error on its cumulative mass fraction passing.
@@ -47,7 +47,7 @@ def main():
         with open(path, "w") as handle:
             handle.write("# example sieve analysis (classes form): made from datasets/lab-cg1.h5 at C_agg = 0.45, A_agg = 30 deg,\n"
                          "# revolutions [3, 6], volume-equivalent diameter, with a normal error of 0.01 on the cumulative\n"
-                         "# mass fraction passing (docs/calibration_study.py --write-example); sizes in metres\n")
+                         "# mass fraction passing (scripts/calibration_study.py --write-example); sizes in metres\n")
             table.to_csv(handle, index=False, float_format="%.6g")
         print(f"wrote {path}")
 

@@ -1,7 +1,7 @@
 """Confinement against coarse-graining: the tables and figure of docs/results.md, "Confinement".
 
-Usage: python docs/confinement_study.py [--figures DIR] [--parts table,decomposition,passrate,minsize]
-       python docs/confinement_study.py --check-rule
+Usage: python scripts/confinement_study.py [--figures DIR] [--parts table,decomposition,passrate,minsize]
+       python scripts/confinement_study.py --check-rule
 
 Every run on the α = 1 confinement curve is a run of the lab drum's geometry rule sized for a
 particle count (``python -m sim run --preset lab-cg1 --drum-particles N``) or a D/d
@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 import granalytics as ga
-from granalytics.identify.contacts import co_moving, co_moving_rigid, contact_strength
+from granalytics.identification.contacts import co_moving, co_moving_rigid, contact_strength
 from granalytics.datasets import confinement_groups, dataset_path, replica_paths
 
 #: the criteria compared: the paper's angle test and the rigid-pair test at its defaults

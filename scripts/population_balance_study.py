@@ -1,6 +1,6 @@
 """The population balance against the DEM, and its rates under coarse-graining (docs/population_balance.md).
 
-    python docs/population_balance_study.py [--out build/pbm-study] [--figures docs/figures]
+    python scripts/population_balance_study.py [--out build/pbm-study] [--figures docs/figures]
 
 1. Prediction: rates measured on revolutions [1, 2] and [2, 3] of lab-cg1, paper-cg3 and
    paper-cg2 (GNA at the paper's thresholds, acting cohesion, min_fragment 2) predict the size
