@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 BUILD := build
 
-.PHONY: test test-fast demo bench install clean clean-runs datasets notebooks
+.PHONY: test test-fast demo bench install clean clean-runs datasets notebooks docs
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -53,6 +53,19 @@ notebooks: $(NB_STAMP)
 		--ExecutePreprocessor.timeout=900 $(notdir $(NOTEBOOKS))
 	cd $(BUILD)/notebooks && $(abspath $(PY)) -m jupyter nbconvert --to html $(notdir $(NOTEBOOKS))
 	@echo "executed notebooks and their HTML in $(BUILD)/notebooks/"
+
+## docs: the documentation site into build/docs/html (open build/docs/html/index.html): Sphinx over
+## docs/ (conf.py there), the API reference from the docstrings of every public name, the notebooks
+## executed on the bundled data (cached in build/docs/jupyter_cache); warnings are errors.
+## Installs the `docs` extra. Offline: nothing is fetched while building.
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): $(STAMP) pyproject.toml
+	$(PY) -m pip install --quiet -e '.[test,docs]'
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	$(PY) -m sphinx -b html -W --keep-going -q -j 1 docs $(BUILD)/docs/html
+	@echo "documentation in $(BUILD)/docs/html/index.html"
 
 ## datasets: regenerate every bundled dataset from its recipe (simulation, then subset; hours for the
 ## CG1 and paper runs; an interrupted simulation resumes from its checkpoint), DATASET_JOBS at a time
