@@ -170,9 +170,11 @@ def escape_absolute_values(app, what, name, obj, options, lines):
         lines[i] = "".join(p if k % 2 else _BARS.sub(r"\\|\1\\|", p) for k, p in enumerate(parts))
 
 
+def write_pages(app, config):
+    write_api(DOCS / "api")
+    write_results(DOCS / "results", DOCS / "results.md")
+
+
 def setup(app):
+    app.connect("config-inited", write_pages)  # before Sphinx looks for the source files
     app.connect("autodoc-process-docstring", escape_absolute_values, priority=400)
-
-
-write_api(DOCS / "api")
-write_results(DOCS / "results", DOCS / "results.md")
