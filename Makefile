@@ -80,12 +80,13 @@ bench: $(STAMP)
 	$(PY) benchmarks/sensitivity.py
 	$(PY) benchmarks/sim_throughput.py
 
-## clean: build outputs and numba's compiled-kernel caches (numba does not notice a change in a
+## clean: build outputs (and the pages make docs writes into docs/api, docs/results) and numba's
+## compiled-kernel caches (numba does not notice a change in a
 ## function that a cached kernel calls from another module; clean after editing sim/ or kernels).
 ## Keeps the simulations under build/runs and build/sweeps (hours of work that `make datasets`
 ## resumes from); `make clean-runs` deletes those too.
 clean:
-	rm -rf .pytest_cache $(filter-out $(BUILD)/runs $(BUILD)/sweeps,$(wildcard $(BUILD)/*))
+	rm -rf .pytest_cache docs/api docs/results $(filter-out $(BUILD)/runs $(BUILD)/sweeps,$(wildcard $(BUILD)/*))
 	find granalytics sim tests -name '*.nbi' -o -name '*.nbc' | xargs rm -f
 
 clean-runs: clean
