@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 BUILD := build
 
-.PHONY: test test-fast demo bench install clean clean-runs datasets notebooks
+.PHONY: test test-fast demo bench install clean clean-runs datasets notebooks docs
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -54,6 +54,19 @@ notebooks: $(NB_STAMP)
 	cd $(BUILD)/notebooks && $(abspath $(PY)) -m jupyter nbconvert --to html $(notdir $(NOTEBOOKS))
 	@echo "executed notebooks and their HTML in $(BUILD)/notebooks/"
 
+## docs: the documentation site into build/docs/html (open build/docs/html/index.html): Sphinx over
+## docs/ (conf.py there), the API reference from the docstrings of every public name, the notebooks
+## executed on the bundled data (cached in build/docs/jupyter_cache); warnings are errors.
+## Installs the `docs` extra. Offline: nothing is fetched while building.
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): $(STAMP) pyproject.toml
+	$(PY) -m pip install --quiet -e '.[test,docs]'
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	$(PY) -m sphinx -b html -W --keep-going -q -j 1 docs $(BUILD)/docs/html
+	@echo "documentation in $(BUILD)/docs/html/index.html"
+
 ## datasets: regenerate every bundled dataset from its recipe (simulation, then subset; hours for the
 ## CG1 and paper runs; an interrupted simulation resumes from its checkpoint), DATASET_JOBS at a time
 ## (default 2). Never downloads.
@@ -67,12 +80,13 @@ bench: $(STAMP)
 	$(PY) benchmarks/sensitivity.py
 	$(PY) benchmarks/sim_throughput.py
 
-## clean: build outputs and numba's compiled-kernel caches (numba does not notice a change in a
+## clean: build outputs (and the pages make docs writes into docs/api, docs/results) and numba's
+## compiled-kernel caches (numba does not notice a change in a
 ## function that a cached kernel calls from another module; clean after editing sim/ or kernels).
 ## Keeps the simulations under build/runs and build/sweeps (hours of work that `make datasets`
 ## resumes from); `make clean-runs` deletes those too.
 clean:
-	rm -rf .pytest_cache $(filter-out $(BUILD)/runs $(BUILD)/sweeps,$(wildcard $(BUILD)/*))
+	rm -rf .pytest_cache docs/api docs/results $(filter-out $(BUILD)/runs $(BUILD)/sweeps,$(wildcard $(BUILD)/*))
 	find granalytics sim tests -name '*.nbi' -o -name '*.nbc' | xargs rm -f
 
 clean-runs: clean

@@ -109,5 +109,7 @@ __all__ = [
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
     "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
+    "PopulationBalance", "PBMRates", "PBMPrediction", "population_balance", "pbm_from_run", "pbm_grid", "fit_pbm_rates",
+    "size_counts", "project_counts", "distribution_summary", "ks_distance",
     "GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError",
 ]
