@@ -64,6 +64,31 @@ def _frame_sweep(snapshot, c_desc, thresholds, radius, gamma, cohesion, comotion
     return pd.concat(rows, ignore_index=True)
 
 
+def threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, caller):
+    """The checked grid of a one-pass threshold sweep: the C_agg values, unique and descending
+    (float array), and the co-motion thresholds, unique and ascending (a list: A_agg [deg] for
+    ``comotion="angle"``, rigid tolerances for ``"rigid"``); ``caller`` names the function in the
+    errors. Raises :class:`ParameterError` for an empty or invalid list, or for the other
+    comotion's thresholds given."""
+    values = c_agg.tolist() if isinstance(c_agg, np.ndarray) else list(c_agg) if isinstance(c_agg, (list, tuple)) else [c_agg]
+    c = np.array([check_c_agg(v) for v in values], dtype=float)
+    if c.size == 0:
+        raise ParameterError(f"c_agg must be a non-empty list of numbers >= 0, got {c_agg!r}")
+    check_comotion(comotion)
+    given, check, name = ((a_agg_deg, check_angle, "a_agg_deg") if comotion == "angle"
+                          else (rigid_tol, check_rigid_tol, "rigid_tol"))
+    other = rigid_tol if comotion == "angle" else a_agg_deg
+    if other is not None:
+        raise ParameterError(f"{caller}: comotion={comotion!r} sweeps {name}; leave "
+                             f"{'rigid_tol' if comotion == 'angle' else 'a_agg_deg'} out")
+    if given is None:
+        raise ParameterError(f"{caller}: comotion={comotion!r} needs the thresholds {name}")
+    a_list = sorted({check(a) for a in np.atleast_1d(given)})  # each threshold once, as each C_agg
+    if not a_list:
+        raise ParameterError(f"{name} must not be empty")
+    return np.unique(c)[::-1].copy(), a_list
+
+
 def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION,
                 comotion=DEFAULT_COMOTION, rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE, min_size=2,
                 jobs=1, scheduler=None, progress=False):
@@ -99,25 +124,9 @@ def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension
         ``n_granules_norm``, ``yield_fraction``, ``mean_volume_norm`` (definitions of
         :func:`~granalytics.frame_stats`).
     """
-    values = c_agg.tolist() if isinstance(c_agg, np.ndarray) else list(c_agg) if isinstance(c_agg, (list, tuple)) else [c_agg]
-    c = np.array([check_c_agg(v) for v in values], dtype=float)
-    if c.size == 0:
-        raise ParameterError(f"c_agg must be a non-empty list of numbers >= 0, got {c_agg!r}")
-    check_comotion(comotion)
-    given, check, name = ((a_agg_deg, check_angle, "a_agg_deg") if comotion == "angle"
-                          else (rigid_tol, check_rigid_tol, "rigid_tol"))
-    other = rigid_tol if comotion == "angle" else a_agg_deg
-    if other is not None:
-        raise ParameterError(f"sensitivity: comotion={comotion!r} sweeps {name}; leave "
-                             f"{'rigid_tol' if comotion == 'angle' else 'a_agg_deg'} out")
-    if given is None:
-        raise ParameterError(f"sensitivity: comotion={comotion!r} needs the thresholds {name}")
-    a_list = sorted({check(a) for a in np.atleast_1d(given)})  # each threshold once, as each C_agg
-    if not a_list:
-        raise ParameterError(f"{name} must not be empty")
+    c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "sensitivity")
     check_cohesion(cohesion)
     check_min_size(min_size)
-    c_desc = np.unique(c)[::-1].copy()
     frame_ids, tables = map_frames(
         frames, lambda snapshot: _frame_sweep(snapshot, c_desc, a_list, radius, surface_tension, cohesion, comotion,
                                               rigid_scale, int(min_size)),

@@ -34,9 +34,9 @@ from granalytics.analysis.frames import map_frames
 from granalytics.core.errors import ParameterError
 from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
-from granalytics.identification.common import check_c_agg, check_min_size
-from granalytics.identification.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion,
-                                           check_rigid_tol, comotion_mask, contact_strength)
+from granalytics.analysis.sensitivity import threshold_grid
+from granalytics.identification.common import check_min_size
+from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, comotion_mask, contact_strength
 
 __all__ = ["MeasuredDistribution", "read_sieve_csv", "SIEVE_MEASURES", "SUM_TOLERANCE", "sieve_classes", "grid_measurement",
            "SieveGrid", "sieve_grid"]
@@ -382,23 +382,11 @@ def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radi
     """
     edges = _edges(edges_m)
     code = check_measure(measure)
-    values = np.atleast_1d(np.asarray(c_agg, dtype=object))
-    c = np.array([check_c_agg(v) for v in values], dtype=float)
-    if c.size == 0:
-        raise ParameterError(f"c_agg must be a non-empty list of numbers >= 0, got {c_agg!r}")
-    check_comotion(comotion)
-    given, check, name = ((a_agg_deg, check_angle, "a_agg_deg") if comotion == "angle"
-                          else (rigid_tol, check_rigid_tol, "rigid_tol"))
-    if (rigid_tol if comotion == "angle" else a_agg_deg) is not None:
-        raise ParameterError(f"comotion={comotion!r} sweeps {name}; leave "
-                             f"{'rigid_tol' if comotion == 'angle' else 'a_agg_deg'} out")
-    if given is None or np.size(given) == 0:
-        raise ParameterError(f"comotion={comotion!r} needs the thresholds {name}")
-    a_list = sorted({check(a) for a in np.atleast_1d(given)})
+    c_desc, a_list = threshold_grid(np.atleast_1d(np.asarray(c_agg, dtype=object)), a_agg_deg, rigid_tol, comotion,
+                                    "sieve_grid")
     check_cohesion(cohesion)
     check_min_size(min_size)
-    c_asc = np.unique(c)
-    c_desc = c_asc[::-1].copy()
+    c_asc = c_desc[::-1].copy()
     frame_ids, results = map_frames(
         frames, lambda s: _frame_grid(s, c_desc, a_list, edges, code, radius, surface_tension, cohesion, comotion,
                                       rigid_scale, int(min_size)),
