@@ -46,10 +46,12 @@ def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFram
     Returns
     -------
     DataFrame
-        One row with the columns below.
+        One row with the columns listed in the Notes.
 
-    Columns
-    -------
+    Notes
+    -----
+    The columns:
+
     time_s, step, revolutions
         When (revolutions = t·Ω/2π, NaN without a drum).
     n_particles, n_contacts, n_kept_contacts
