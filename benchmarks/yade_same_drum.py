@@ -19,6 +19,8 @@ repository root:
    per-material values: a pair of one material gets k = k_m/2, c = c_m/2) and the mapping of
    ``granalytics convert`` as ``meta.toml`` (γ [N/m], ρ [kg/m³], Ω [rad/s], θ [rad] and α of our
    run: the converted run is a CG run of the same factor).
+   The wall experiments' switches: ``--cylinder-segments N`` (96 by default) and
+   ``--no-wall-bridges`` (the walls' material gets ``Capillar=False``: no bridge with a wall).
 
 3. ``cd build/yade/g0.1095-s0 && yade -n -j 1 -x ../../../benchmarks/yade_same_drum.py`` runs YADE
    2023.02a (Debian ``yade``) on that bed: ``ViscElCapMat`` with ``Willett_numeric``, the same V_b,
