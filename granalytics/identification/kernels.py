@@ -123,17 +123,32 @@ def _find(parent, i):
 
 
 @njit(cache=True, inline="always")
+def _link(parent, a, b):
+    """Join the distinct roots a and b: the smaller index becomes the root. Returns (root, other)."""
+    if a < b:
+        parent[b] = a
+        return a, b
+    parent[a] = b
+    return b, a
+
+
+@njit(cache=True, inline="always")
 def _union(parent, i, j):
     """Merge the sets of i and j; the smaller root index becomes the root."""
     ri = _find(parent, i)
     rj = _find(parent, j)
     if ri == rj:
         return False
-    if ri < rj:
-        parent[rj] = ri
-    else:
-        parent[ri] = rj
+    _link(parent, ri, rj)
     return True
+
+
+@njit(cache=True, inline="always")
+def _merge_order(f, passes):
+    """The contacts that pass the co-motion test, in decreasing f (stable): the order in which the
+    threshold sweeps merge them."""
+    idx = np.flatnonzero(passes)
+    return idx[np.argsort(-f[idx], kind="mergesort")]
 
 
 @njit(cache=True)
@@ -349,8 +364,7 @@ def threshold_sweep(ci, cj, f, passes, particle_volume, thresholds_desc, min_siz
     volume_granulated : (T,) float64 [m³]
     """
     n = particle_volume.shape[0]
-    idx = np.flatnonzero(passes)
-    order = idx[np.argsort(-f[idx], kind="mergesort")]
+    order = _merge_order(f, passes)
     parent = np.arange(n)
     size = np.ones(n, dtype=np.int64)
     vol = particle_volume.copy()
@@ -381,12 +395,7 @@ def threshold_sweep(ci, cj, f, passes, particle_volume, thresholds_desc, min_siz
                 granules -= 1
                 members -= sb
                 volume -= vb
-            if a < b:
-                parent[b] = a
-                root = a
-            else:
-                parent[a] = b
-                root = b
+            root = _link(parent, a, b)[0]
             size[root] = sa + sb
             vol[root] = va + vb
             if sa + sb >= min_size:
@@ -488,8 +497,7 @@ def threshold_sweep_classes(ci, cj, f, passes, particle_volume, free_size, posit
         Volume per size bin (:func:`class_volumes`) at each threshold of ``thresholds_desc``.
     """
     n = particle_volume.shape[0]
-    idx = np.flatnonzero(passes)
-    order = idx[np.argsort(-f[idx], kind="mergesort")]
+    order = _merge_order(f, passes)
     parent = np.arange(n)
     size = np.ones(n, dtype=np.int64)
     dirty = np.zeros(n, dtype=np.bool_)
@@ -507,12 +515,7 @@ def threshold_sweep_classes(ci, cj, f, passes, particle_volume, free_size, posit
             b = _find(parent, cj[k])
             if a == b:
                 continue
-            if a < b:
-                parent[b] = a
-                root, other = a, b
-            else:
-                parent[a] = b
-                root, other = b, a
+            root, other = _link(parent, a, b)
             size[root] = size[a] + size[b]
             dirty[other] = False  # only roots of granules are ever dirty
             if size[root] >= min_size:
