@@ -56,7 +56,7 @@ _EXPORTS = {
                     ".analysis.size_classes"),
     **dict.fromkeys(("RunMeta", "Snapshot"), ".core.snapshot"),
     **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
-                     "drum_confinement"), ".core.bed"),
+                     "drum_confinement"), ".analysis.bed"),
     **dict.fromkeys(("run_confinement", "wall_touching", "CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
                      "fit_confinement_curve", "bed_flow"), ".analysis.confinement"),
     **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.table"),

@@ -18,7 +18,6 @@ import warnings
 import numpy as np
 
 from granalytics.core import RunMeta, RunWriter, Snapshot, __version__
-from granalytics.core.bed import drum_confinement
 from granalytics.core.resources import check_disk, check_memory
 
 from . import _kernels
@@ -262,8 +261,7 @@ class Simulation:
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L",
-                        "liquid_model": "fixed_bridge_volume" if p.bridge_volume > 0 else "films_spray_migration",
-                        "confinement": drum_confinement(p.drum_radius, p.drum_length, p.d_mean, p.n_particles).to_dict()},
+                        "liquid_model": "fixed_bridge_volume" if p.bridge_volume > 0 else "films_spray_migration"},
             provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION,
                         **({"settled_bed": self.settled_bed} if getattr(self, "settled_bed", None) else {})},
         )

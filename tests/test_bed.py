@@ -95,12 +95,25 @@ def settled_3d():
 
 
 def test_settled_bed_is_a_random_3d_packing(settled_3d):
-    bed = settled_3d.settled_bed
-    assert bed["crossing_fraction"] > 0.7  # 0 for the old simple-cubic insertion
-    assert 0.25 < bed["axial_fabric"] < 0.42  # isotropic: 1/3
-    assert bed["coordination"] > 2  # particle contacts only: the walls hold many of these 200
-    assert 0.35 < bed["solid_fraction"] < 0.66  # random packings: 0.55-0.64 in the bulk, less near walls
-    assert settled_3d.run_meta().provenance["settled_bed"] == bed
+    report = settled_3d.settled_bed
+    bed = bed_structure(settled_3d.snapshot())  # still the settled frame: nothing advanced yet
+    assert bed.crossing_fraction > 0.7  # 0 for the old simple-cubic insertion
+    assert 0.25 < bed.axial_fabric < 0.42  # isotropic: 1/3
+    assert bed.coordination > 2  # particle contacts only: the walls hold many of these 200
+    assert 0.35 < report["solid_fraction"] < 0.66  # random packings: 0.55-0.64 in the bulk, less near walls
+    assert settled_3d.run_meta().provenance["settled_bed"] == report
+
+
+def test_simulator_guard_measures_what_bed_structure_measures(settled_3d):
+    """The simulator's settled-bed guard has its own copy of the rule (sim imports the core only)."""
+    import sim.packing
+
+    report, bed = settled_3d.settled_bed, bed_structure(settled_3d.snapshot())
+    assert (report["n_touching"], report["n_particles"]) == (bed.n_touching, bed.n_particles)
+    assert report["crossing_fraction"] == pytest.approx(bed.crossing_fraction, abs=1e-12)
+    assert report["coordination"] == pytest.approx(bed.coordination, abs=1e-12)
+    assert (sim.packing.PLANAR_FRACTION, sim.packing.AXIAL_NORMAL_MIN) == (ga.PLANAR_FRACTION,
+                                                                           ga.analysis.bed.AXIAL_NORMAL_MIN)
 
 
 def test_flowing_bed_moves_along_the_axis(settled_3d):

@@ -138,10 +138,10 @@ class Calibration:
 
     def save(self, folder, *, overwrite=False) -> list:
         """Write ``calibration_grid.csv``, ``calibration_distributions.csv`` and ``calibration.json``
-        into ``folder`` (made if missing), all or none (:func:`granalytics.core.files.staged_outputs`);
+        into ``folder`` (made if missing), all or none (:func:`granalytics.outputs.staged_outputs`);
         existing files are refused unless ``overwrite``. The figures are
         :func:`granalytics.plot.calibration_figures`. Returns the paths."""
-        from granalytics.core.files import output_folder, staged_outputs
+        from granalytics.outputs import output_folder, staged_outputs
 
         paths = self.output_paths(folder, overwrite=overwrite)
         with output_folder(folder), staged_outputs(folder) as stage:

@@ -20,7 +20,7 @@ import pandas as pd
 
 from granalytics.analysis.confinement import confinement_warning, run_confinement
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
-from granalytics.core.files import staged_outputs
+from granalytics.outputs import staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE, METRICS
 from granalytics.core.windows import check_interval, window_mask
 from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
@@ -134,7 +134,7 @@ class CGComparison:
         """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` (sizes in particles of
         each run, with its α) and the four figures (one file per format, Fig 5's sizes in
         ``size_unit``, :meth:`figures`) into ``out_dir``; existing files are refused unless ``overwrite``.
-        Written as one (:func:`granalytics.core.files.staged_outputs`): a failure or Ctrl-C leaves
+        Written as one (:func:`granalytics.outputs.staged_outputs`): a failure or Ctrl-C leaves
         every earlier output in ``out_dir`` as it was, never old and new figures mixed. Returns
         the written paths."""
         import matplotlib.pyplot as plt

@@ -30,7 +30,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from granalytics.core.bed import DrumConfinement, bed_structure, drum_confinement
+from granalytics.analysis.bed import DrumConfinement, bed_structure, drum_confinement
 from granalytics.core.checks import check_meta, check_numbers, check_snapshot, shown
 from granalytics.core.errors import ParameterError, ValidationError
 from granalytics.core.snapshot import Snapshot

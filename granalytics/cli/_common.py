@@ -316,7 +316,7 @@ def table_format(path):
 
 def save_figure(fig, path, stage=None):
     """Write ``fig`` to ``path`` (its format from the extension), atomically, or into
-    ``stage(path)`` when the command writes its outputs as one (:func:`granalytics.core.files.staged_outputs`)."""
+    ``stage(path)`` when the command writes its outputs as one (:func:`granalytics.outputs.staged_outputs`)."""
     ext = os.path.splitext(path)[1].lstrip(".").lower() or "png"
     try:
         if stage is not None:
@@ -376,7 +376,7 @@ def check_outputs(args, tables=(), others=(), plots=()):
 
 def write_table(table, path, stage=None):
     """Write ``table`` to ``path`` (.csv or .parquet), atomically, or into ``stage(path)`` when the
-    command writes its outputs as one (:func:`granalytics.core.files.staged_outputs`)."""
+    command writes its outputs as one (:func:`granalytics.outputs.staged_outputs`)."""
     def write(tmp):
         if table_format(path) == "csv":
             table.to_csv(tmp, index=False)

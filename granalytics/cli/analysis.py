@@ -16,7 +16,8 @@ from granalytics.core.windows import clip_window, window_mask
 from granalytics.analysis.metrics import HEADLINE, METRICS
 from granalytics.analysis.system import check_replicas, run_identity
 from granalytics.core.errors import GranalyticsError, ParameterError
-from granalytics.core.files import WriterLock, output_folder, staged_outputs, write_atomically
+from granalytics.core.files import WriterLock, write_atomically
+from granalytics.outputs import output_folder, staged_outputs
 from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from granalytics.core import open_run
@@ -166,7 +167,7 @@ def add_compare_cg_parser(sub):
 
 def cmd_info(args):
     from granalytics.analysis.confinement import run_confinement
-    from granalytics.core.bed import bed_structure
+    from granalytics.analysis.bed import bed_structure
     from granalytics.analysis.confinement import confinement_warning
     from granalytics.analysis.cg import cg_rule_of, cg_rule_warning
 

@@ -7,7 +7,8 @@ import os
 
 
 from granalytics.core.errors import ParameterError
-from granalytics.core.files import WriterLock, check_apart, output_folder, regular_input, staged_outputs
+from granalytics.core.files import WriterLock, check_apart, regular_input
+from granalytics.outputs import output_folder, staged_outputs
 from granalytics.convert.registry import READERS
 from granalytics.core import open_run
 from granalytics.analysis.stats import check_window

@@ -57,7 +57,7 @@ def add_pbm_parser(sub):
 def cmd_pbm(args):
     """Run the ``pbm`` subcommand (see :func:`add_pbm_parser`); returns the exit status 0."""
     import granalytics as ga
-    from granalytics.core.files import output_folder, staged_outputs
+    from granalytics.outputs import output_folder, staged_outputs
     from granalytics.identification import accepted_params
 
     if args.min_fragment < 1:

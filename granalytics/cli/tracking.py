@@ -6,7 +6,8 @@ import math
 import os
 
 from granalytics.core.errors import ParameterError
-from granalytics.core.files import WriterLock, output_folder, staged_outputs
+from granalytics.core.files import WriterLock
+from granalytics.outputs import output_folder, staged_outputs
 from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.core import open_run
 from granalytics.plot import tracking_figure

@@ -23,8 +23,8 @@ from granalytics.core.checks import check_path
 from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
 
 __all__ = ["check_not_open_elsewhere", "terminate_as_interrupt", "replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
-           "warnings_as_lines", "regular_input", "staged_outputs", "output_folder", "interrupted",
-           "swap_folder", "check_replaceable", "interrupts_not_lost", "raise_dropped_interrupt"]
+           "warnings_as_lines", "regular_input", "interrupted",
+           "check_replaceable", "interrupts_not_lost", "raise_dropped_interrupt"]
 
 
 @contextlib.contextmanager
@@ -54,7 +54,7 @@ def _remove_stale_temporaries(path) -> None:
 
     for tmp in glob.glob(glob.escape(path) + ".*.tmp"):
         pid = tmp[len(path) + 1:-len(".tmp")]
-        if pid.isdigit() and _owner_is_dead({"host": socket.gethostname(), "pid": int(pid)}):
+        if pid.isdigit() and _process_is_gone(int(pid)):
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
 
@@ -113,134 +113,6 @@ def regular_input(path):
     if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
         raise ParameterError(f"{path}: not a regular file (a FIFO, socket or device cannot be read as a run or dump)")
     return path
-
-
-@contextlib.contextmanager
-def staged_outputs(folder=None):
-    """Several output files written as one: they all change together, or none does.
-
-    Yields a function ``stage(target) -> path`` that gives, for each output file ``target``, a
-    temporary name to write into, in a staging folder ``.staging-PID-…`` inside ``folder`` (or,
-    when ``folder`` is None, in the target's own folder: renames never cross file systems); the
-    file's extension is kept, for writers that choose the format by it. When the block succeeds
-    the staged files are swapped in by :func:`_swap_in` (every earlier target set aside first and
-    put back if any rename fails; Ctrl-C held off until the swap is done or undone); when the
-    block fails or is interrupted the staging folder is deleted and no target is touched.
-    """
-    import shutil
-    import tempfile
-
-    staging, dirs = {}, {}  # target -> staged file; base folder -> its staging folder
-
-    def stage(target):
-        target = os.fspath(target)
-        check_replaceable(target)
-        base = folder if folder is not None else os.path.dirname(os.path.abspath(target))
-        if base not in dirs:
-            dirs[base] = tempfile.mkdtemp(prefix=f".staging-{os.getpid()}-", dir=base)
-        tmp = os.path.join(dirs[base], f"{len(staging):04d}-{os.path.basename(target)}")
-        staging[target] = tmp
-        return tmp
-
-    try:
-        yield stage
-        _swap_in(staging)
-    finally:
-        for staging_dir in dirs.values():
-            shutil.rmtree(staging_dir, ignore_errors=True)
-
-
-def _swap_in(staging) -> None:
-    """Rename each staged file over its target as one change: an existing target is first moved
-    beside its staged file (``….old``), and if any rename fails (or Ctrl-C arrives during the
-    swap) every target done so far is put back as it was and the error (the interrupt) raised."""
-    done = []  # (target, where its earlier version was set aside, or None if it had none)
-    raise_dropped_interrupt()
-    with _interrupts_held() as held:
-        try:
-            for target, tmp in staging.items():
-                old = None
-                if os.path.lexists(target):
-                    old = tmp + ".old"
-                    os.replace(target, old)
-                done.append((target, old))
-                os.replace(tmp, target)
-            if held:
-                raise KeyboardInterrupt
-        except BaseException:
-            for target, old in reversed(done):
-                with contextlib.suppress(OSError):
-                    if old is not None:
-                        os.replace(old, target)
-                    elif os.path.lexists(target):
-                        os.unlink(target)
-            raise
-
-
-def swap_folder(new, dst) -> None:
-    """Put the finished folder ``new`` in the place of ``dst`` (a folder or nothing) as one
-    change: ``dst`` is renamed aside, ``new`` renamed to ``dst``, and only then the old one
-    deleted. Ctrl-C is held off during the renames; if the second fails, or Ctrl-C arrived
-    meanwhile, both are undone (``dst`` as it was, ``new`` still at its place) and the error (the
-    interrupt) raised. ``new`` must be on the file system of ``dst`` (made beside it)."""
-    import shutil
-
-    new, dst = os.fspath(new), os.fspath(dst)
-    aside = f"{dst}.old-{os.getpid()}" if os.path.lexists(dst) else None
-    raise_dropped_interrupt()
-    with _interrupts_held() as held:
-        if aside is not None:
-            os.replace(dst, aside)
-        try:
-            os.replace(new, dst)
-            if held:
-                os.replace(dst, new)
-                raise KeyboardInterrupt
-        except BaseException:
-            if aside is not None:
-                os.replace(aside, dst)
-            raise
-    if aside is not None:
-        shutil.rmtree(aside, ignore_errors=True)
-
-
-@contextlib.contextmanager
-def _interrupts_held():
-    """Inside: a Ctrl-C (SIGINT) is recorded instead of raised; yields a list that is non-empty
-    once one arrived. Only the main thread receives signals; elsewhere nothing is changed."""
-    import signal
-    import threading
-
-    arrived = []
-    if threading.current_thread() is not threading.main_thread():
-        yield arrived
-        return
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
-    try:
-        yield arrived
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-@contextlib.contextmanager
-def output_folder(path):
-    """Make the output folder ``path`` (refusing a file of that name, naming the reason); when the
-    block fails or is interrupted and the folder was made here and is empty, remove it again."""
-    path = os.fspath(path)
-    if os.path.exists(path) and not os.path.isdir(path):
-        raise ParameterError(f"{path}: exists and is not a folder")
-    created = not os.path.exists(path)
-    try:
-        os.makedirs(path, exist_ok=True)
-    except OSError as exc:
-        raise ParameterError(f"{path}: cannot create the output folder ({exc.strerror or exc})") from None
-    try:
-        yield path
-    except BaseException:
-        if created:
-            with contextlib.suppress(OSError):
-                os.rmdir(path)  # only if empty
-        raise
 
 
 def check_output_folder(path) -> None:
@@ -370,8 +242,9 @@ def one_line(exc) -> str:
 
 
 class WriterLock:
-    """Exclusive lock of an output: the file ``target + ".lock"``, created with O_EXCL and
-    holding the owner's pid and host as one JSON line.
+    """Exclusive lock of an output: the lock file ``target + ".lock"``, held with the operating
+    system's file lock (:mod:`filelock`), so that a writer that is killed releases it; while held,
+    the file names its holder (pid, host, since) as one JSON line, for the message of the next.
 
     :class:`RunWriter` holds one on its run file while it is open; anything else that writes
     (e.g. a sweep folder's manifest) can hold one the same way, as a context manager::
@@ -379,15 +252,17 @@ class WriterLock:
         with WriterLock("study/manifest.csv"):
             ...
 
-    A lock file whose owner is no longer running on this host (a killed writer) is taken over
-    with a warning; any other existing lock raises
-    :class:`~granalytics.core.errors.RunLockedError`, naming the lock file and its owner.
+    A lock that another writer holds raises :class:`~granalytics.core.errors.RunLockedError`,
+    naming the lock file and its holder. The lock file is removed on release.
     """
 
     def __init__(self, target):
+        import filelock
+
         self.target = check_path("WriterLock", "target", target)
         self.path = self.target + _LOCK_SUFFIX
-        self._record = None
+        self._lock = filelock.FileLock(self.path, timeout=0, thread_local=False, fallback_to_soft=False,
+                                       on_acquired=self._name_holder)
 
     def __enter__(self) -> "WriterLock":
         return self.acquire()
@@ -395,118 +270,57 @@ class WriterLock:
     def __exit__(self, *exc_info) -> None:
         self.release()
 
-    def acquire(self) -> "WriterLock":
-        record = json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
-                             "since": _time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n"
-        for _attempt in range(5):
-            try:
-                fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-            except FileExistsError:
-                text = _read_text(self.path)
-                if text is None:  # released in the meantime
-                    continue
-                owner = _parse_lock(text)
-                if owner is not None and _owner_is_dead(owner):
-                    if self._take_over(text):
-                        warnings.warn(
-                            f"{self.target}: took over the stale lock file {self.path} "
-                            f"(pid {owner['pid']} on host {owner['host']} is no longer running)",
-                            stacklevel=4,
-                        )
-                    continue
-                raise RunLockedError(f"{self.target}: another writer holds the lock file {self.path} "
-                                     f"({_describe_owner(owner, text)}); delete the lock file only if "
-                                     "no writer is running") from None
-            except OSError as exc:
-                raise RunFileError(f"{self.target}: cannot create the lock file {self.path} "
-                                   f"({exc.strerror or one_line(exc)})") from None
-            try:
-                os.write(fd, record.encode())
-            finally:
-                os.close(fd)
-            self._record = record
-            return self
-        raise RunLockedError(f"{self.target}: the lock file {self.path} keeps changing hands; "
-                             "another writer is starting on the same file")
+    @staticmethod
+    def _name_holder(fd) -> None:
+        os.ftruncate(fd, 0)
+        os.write(fd, (json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                                  "since": _time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n").encode())
 
-    def _take_over(self, seen) -> bool:
-        """Remove a stale lock file whose content is ``seen``; False if it changed meanwhile."""
-        aside = f"{self.path}.stale.{os.getpid()}"
+    def acquire(self) -> "WriterLock":
+        import filelock
+
+        folder = os.path.dirname(os.path.abspath(self.path))
+        if not os.path.isdir(folder):  # filelock would make it
+            raise RunFileError(f"{self.target}: cannot create the lock file {self.path} (no folder {folder})")
         try:
-            os.rename(self.path, aside)
-        except FileNotFoundError:
-            return False
+            self._lock.acquire()
+        except filelock.Timeout:
+            raise RunLockedError(f"{self.target}: another writer holds the lock file {self.path} "
+                                 f"({_describe_holder(self.path)})") from None
         except OSError as exc:
-            raise RunFileError(f"{self.target}: cannot remove the stale lock file {self.path} "
+            raise RunFileError(f"{self.target}: cannot create the lock file {self.path} "
                                f"({exc.strerror or one_line(exc)})") from None
-        if _read_text(aside) == seen:
-            os.unlink(aside)
-            return True
-        try:  # another process took it over first: put its lock back
-            os.link(aside, self.path)
-        except OSError:
-            pass
-        os.unlink(aside)
-        return False
+        return self
 
     def release(self) -> None:
-        """Remove the lock file if it is still this holder's (idempotent)."""
-        if self._record is None:
-            return
-        record, self._record = self._record, None
-        text = _read_text(self.path)
-        if text == record:
-            try:
-                os.unlink(self.path)
-            except FileNotFoundError:
-                pass
-        elif text is not None:
-            warnings.warn(f"{self.target}: the lock file {self.path} was replaced while this writer "
-                          "held it; left in place", stacklevel=3)
+        """Remove the lock file and release the lock (idempotent)."""
+        if self._lock.is_locked:
+            with contextlib.suppress(OSError):
+                os.unlink(self.path)  # while still held: a writer waiting on this file retries on the new one
+            self._lock.release(force=True)
 
 
-def _read_text(path):
+def _describe_holder(path) -> str:
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
-            return f.read()
-    except FileNotFoundError:
-        return None
-    except OSError:
-        return ""
+            holder = json.loads(f.read())
+        since = f", since {holder['since']}" if holder.get("since") else ""
+        return f"pid {holder['pid']} on host {holder['host']}{since}"
+    except (OSError, ValueError, TypeError, KeyError):
+        return "its holder did not say who it is"
 
 
-def _parse_lock(text):
-    try:
-        owner = json.loads(text)
-        if isinstance(owner, dict) and isinstance(owner.get("pid"), int) and isinstance(owner.get("host"), str):
-            return owner
-    except ValueError:
-        pass
-    return None
-
-
-def _owner_is_dead(owner) -> bool:
-    """True only when the owner ran on this host and its pid is gone."""
-    if owner["host"] != socket.gethostname() or owner["pid"] <= 0:
-        return False
-    if owner["pid"] == os.getpid():
+def _process_is_gone(pid) -> bool:
+    """True when no process ``pid`` runs on this host."""
+    if pid <= 0 or pid == os.getpid():
         return False
     try:
-        os.kill(owner["pid"], 0)
+        os.kill(pid, 0)
     except ProcessLookupError:
         return True
     except OSError:  # exists, owned by another user
         return False
     return False
-
-
-def _describe_owner(owner, text):
-    if owner is None:
-        return f"unreadable content {text.strip()[:60]!r}"
-    since = f", since {owner['since']}" if owner.get("since") else ""
-    return f"pid {owner['pid']} on host {owner['host']}{since}"
-
-
 
 
 @contextlib.contextmanager

@@ -113,7 +113,8 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     from granalytics.core import WriterLock, open_run, subset_run, thinned_frames
     from granalytics.core.manifest import read_manifest
 
-    from granalytics.core.files import check_apart, swap_folder
+    from granalytics.core.files import check_apart
+    from granalytics.outputs import swap_folder
 
     src, dst = Path(src), Path(dst)
     thinned_frames([], every, full_window, window_every)  # refuses bad thinning options before any work

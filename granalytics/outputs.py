@@ -1,0 +1,145 @@
+"""Outputs of the analyses and commands that are more than one file: an output folder made for
+the work and removed again when it fails (:func:`output_folder`), several files that change
+together or not at all (:func:`staged_outputs`), a finished folder put in the place of an earlier
+one (:func:`swap_folder`). One file alone is written with
+:func:`granalytics.core.files.replaced_atomically`."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+
+from granalytics.core.errors import ParameterError
+from granalytics.core.files import check_replaceable, raise_dropped_interrupt
+
+__all__ = ["staged_outputs", "swap_folder", "output_folder"]
+
+
+@contextlib.contextmanager
+def staged_outputs(folder=None):
+    """Several output files written as one: they all change together, or none does.
+
+    Yields a function ``stage(target) -> path`` that gives, for each output file ``target``, a
+    temporary name to write into, in a staging folder ``.staging-PID-…`` inside ``folder`` (or,
+    when ``folder`` is None, in the target's own folder: renames never cross file systems); the
+    file's extension is kept, for writers that choose the format by it. When the block succeeds
+    the staged files are swapped in by :func:`_swap_in` (every earlier target set aside first and
+    put back if any rename fails; Ctrl-C held off until the swap is done or undone); when the
+    block fails or is interrupted the staging folder is deleted and no target is touched.
+    """
+    import shutil
+    import tempfile
+
+    staging, dirs = {}, {}  # target -> staged file; base folder -> its staging folder
+
+    def stage(target):
+        target = os.fspath(target)
+        check_replaceable(target)
+        base = folder if folder is not None else os.path.dirname(os.path.abspath(target))
+        if base not in dirs:
+            dirs[base] = tempfile.mkdtemp(prefix=f".staging-{os.getpid()}-", dir=base)
+        tmp = os.path.join(dirs[base], f"{len(staging):04d}-{os.path.basename(target)}")
+        staging[target] = tmp
+        return tmp
+
+    try:
+        yield stage
+        _swap_in(staging)
+    finally:
+        for staging_dir in dirs.values():
+            shutil.rmtree(staging_dir, ignore_errors=True)
+
+
+def _swap_in(staging) -> None:
+    """Rename each staged file over its target as one change: an existing target is first moved
+    beside its staged file (``….old``), and if any rename fails (or Ctrl-C arrives during the
+    swap) every target done so far is put back as it was and the error (the interrupt) raised."""
+    done = []  # (target, where its earlier version was set aside, or None if it had none)
+    raise_dropped_interrupt()
+    with _interrupts_held() as held:
+        try:
+            for target, tmp in staging.items():
+                old = None
+                if os.path.lexists(target):
+                    old = tmp + ".old"
+                    os.replace(target, old)
+                done.append((target, old))
+                os.replace(tmp, target)
+            if held:
+                raise KeyboardInterrupt
+        except BaseException:
+            for target, old in reversed(done):
+                with contextlib.suppress(OSError):
+                    if old is not None:
+                        os.replace(old, target)
+                    elif os.path.lexists(target):
+                        os.unlink(target)
+            raise
+
+
+def swap_folder(new, dst) -> None:
+    """Put the finished folder ``new`` in the place of ``dst`` (a folder or nothing) as one
+    change: ``dst`` is renamed aside, ``new`` renamed to ``dst``, and only then the old one
+    deleted. Ctrl-C is held off during the renames; if the second fails, or Ctrl-C arrived
+    meanwhile, both are undone (``dst`` as it was, ``new`` still at its place) and the error (the
+    interrupt) raised. ``new`` must be on the file system of ``dst`` (made beside it)."""
+    import shutil
+
+    new, dst = os.fspath(new), os.fspath(dst)
+    aside = f"{dst}.old-{os.getpid()}" if os.path.lexists(dst) else None
+    raise_dropped_interrupt()
+    with _interrupts_held() as held:
+        if aside is not None:
+            os.replace(dst, aside)
+        try:
+            os.replace(new, dst)
+            if held:
+                os.replace(dst, new)
+                raise KeyboardInterrupt
+        except BaseException:
+            if aside is not None:
+                os.replace(aside, dst)
+            raise
+    if aside is not None:
+        shutil.rmtree(aside, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _interrupts_held():
+    """Inside: a Ctrl-C (SIGINT) is recorded instead of raised; yields a list that is non-empty
+    once one arrived. Only the main thread receives signals; elsewhere nothing is changed."""
+    import signal
+    import threading
+
+    arrived = []
+    if threading.current_thread() is not threading.main_thread():
+        yield arrived
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
+    try:
+        yield arrived
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def output_folder(path):
+    """Make the output folder ``path`` (refusing a file of that name, naming the reason); when the
+    block fails or is interrupted and the folder was made here and is empty, remove it again."""
+    path = os.fspath(path)
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise ParameterError(f"{path}: exists and is not a folder")
+    created = not os.path.exists(path)
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot create the output folder ({exc.strerror or exc})") from None
+    try:
+        yield path
+    except BaseException:
+        if created:
+            with contextlib.suppress(OSError):
+                os.rmdir(path)  # only if empty
+        raise
+
+
