@@ -1,11 +1,15 @@
-"""The HDF5 library underneath h5py: the file handle base class, the superblock probe, the
-library's own version and the SWMR file-access settings, opening a run file for reading."""
+"""Opening a run file for reading, and the file handle base class.
+
+Hand-written because h5py does not expose ``H5Pset_metadata_read_attempts``: the file of a writer
+that was killed is flagged 'open for write' and opens only in SWMR mode, where HDF5's default
+metadata retry loop waits for hours on a file that was cut short; the setting is reached through
+ctypes in the HDF5 library h5py loaded."""
 
 from __future__ import annotations
 
 import ctypes
 import os
-import struct
+import re
 
 import h5py
 
@@ -36,41 +40,6 @@ class _HDF5Handle:
         self.close()
 
 
-
-
-def _superblock(path):
-    """``(flags, end_of_file)`` from an HDF5 superblock, or None if none is found."""
-    try:
-        size = os.path.getsize(path)
-        with open(path, "rb") as f:
-            offset = 0
-            while offset + 8 <= size:
-                f.seek(offset)
-                if f.read(8) == b"\x89HDF\r\n\x1a\n":
-                    break
-                offset = 512 if offset == 0 else 2 * offset
-            else:
-                return None
-            head = f.read(64)
-    except OSError:
-        return None
-    try:
-        version = head[0]
-        if version in (2, 3):
-            width, flags, first = head[1], head[3], 4
-        elif version in (0, 1):
-            width, flags, first = head[5], struct.unpack_from("<I", head, 12)[0], 16 + 4 * version
-        else:
-            return None
-        code = {2: "<H", 4: "<I", 8: "<Q"}[width]
-        # base address, extension / free-space address, end-of-file address; HDF5 compares the
-        # last with the size of the whole file (a user block included)
-        _base, _, eof = (struct.unpack_from(code, head, first + k * width)[0] for k in range(3))
-    except (IndexError, KeyError, struct.error):
-        return None
-    if eof == (1 << 8 * width) - 1:  # undefined address
-        return None
-    return flags, eof
 
 
 _HDF5_LIB = []
@@ -127,19 +96,15 @@ def _open_h5(path):
     """Open for reading; returns ``(file, writer_open)``.
 
     A file whose SWMR writer is still running or was killed is flagged 'open for write' and opens
-    only in SWMR read mode, with HDF5's metadata retry loop bounded to about a second (its default
-    waits for hours on a file that was cut short). Every other file opens normally, after checking
-    that it is as long as its superblock says."""
-    found = _superblock(path)
-    if found is not None:
-        flags, eof = found
-        size = os.path.getsize(path)
-        if not flags & 0b101 and size < eof:
-            raise RunFileError(f"{path}: the file was cut short: {size} bytes, but its HDF5 superblock records "
-                               f"{eof}")
+    only in SWMR read mode, with HDF5's metadata retry loop bounded to about a second. Every other
+    file opens normally (HDF5 checks that it is as long as its superblock says)."""
     try:
         return h5py.File(path, "r", rdcc_nbytes=_CHUNK_CACHE_BYTES), False
     except OSError as exc:
+        sizes = re.search(r"truncated file: eof = (\d+).*stored_eof = (\d+)", str(exc))
+        if sizes:
+            raise RunFileError(f"{path}: the file was cut short: {sizes[1]} bytes, but its HDF5 superblock "
+                               f"records {sizes[2]}") from None
         if "already open for write" not in str(exc):
             raise RunFileError(f"{path}: cannot read as HDF5 ({one_line(exc)}){CONVERT_HINT}") from None
     try:
@@ -150,5 +115,3 @@ def _open_h5(path):
         return h5py.File(fid), True
     except Exception as exc:
         raise RunFileError(f"{path}: cannot read as HDF5 ({one_line(exc)}){CONVERT_HINT}") from None
-
-
