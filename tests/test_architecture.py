@@ -64,7 +64,7 @@ def test_granalytics_never_imports_sim():
 
 def test_sim_uses_the_core_layer_only():
     """sim imports granalytics through granalytics.core and its modules (the data model, run files,
-    file helpers, the manifest's schema, the bed's record, the dask client) and nothing else."""
+    file helpers, the manifest's schema, the dask client) and nothing else."""
     offenders = [f"{name}:{line} imports {module}"
                  for name, path in _modules("sim")
                  for module, line in _imports(name, path)

@@ -3,10 +3,10 @@ granalytics to write runs and nothing that analyses granules.
 
 Modules: :mod:`.snapshot` (:class:`Snapshot`, :class:`RunMeta`), :mod:`.format` (the HDF5 layout,
 ``docs/format.md``), :mod:`.writer` (:class:`RunWriter`), :mod:`.reader` (:func:`open_run`,
-:class:`Run`, :class:`RunSlice`), :mod:`.native` (the HDF5 library underneath), :mod:`.subset`
-(:func:`subset_run`), :mod:`.files` (atomic writes, the writer lock, one-line errors),
-:mod:`.errors`; and the reader's helpers :mod:`.checks` (argument checks) and :mod:`.windows`
-(revolution windows).
+:class:`Run`, :class:`RunSlice`), :mod:`.native` (opening a file for reading), :mod:`.subset`
+(:func:`subset_run`), :mod:`.files` (atomic writes, the writer lock, one-line errors, Ctrl-C),
+:mod:`.errors`; and the reader's helpers :mod:`.checks` (argument checks), :mod:`.windows`
+(revolution windows) and :mod:`.resources` (memory and disk checks).
 
 The writer works in HDF5's single-writer/multiple-reader (SWMR) mode: the library orders its
 metadata flushes so that the file on disk is always a consistent HDF5 file, even when the writer
@@ -25,12 +25,11 @@ What this package exports:
 - file helpers (:func:`check_output_folder`, :func:`one_line`, :func:`warnings_as_lines`,
   :func:`regular_input`) and errors.
 
-Three more modules of this layer are shared by the simulator and the analyses and imported from
-their own paths only (``import granalytics.core`` loads none of them): :mod:`.bed` (the bed's
-structure and the drum's confinement, which the simulator records in a run's metadata),
-:mod:`.manifest` (the sweep manifest's schema: ``sim sweep`` writes it, studies read it) and
-:mod:`.cluster` (:func:`~granalytics.core.cluster.dask_client`, for sweeps and frame loops).
-:mod:`.resources` (memory and disk checks) is used by the reader and by both packages' programs.
+Two more modules of this layer are shared by the simulator and the analyses, and so live here
+(``sim`` imports ``granalytics.core`` only), imported from their own paths (``import
+granalytics.core`` loads neither): :mod:`.manifest` (the sweep manifest's schema: ``sim sweep``
+writes it, studies read it) and :mod:`.cluster` (:func:`~granalytics.core.cluster.dask_client`,
+for sweeps and frame loops).
 
 It imports numpy and h5py only (no pandas, NetworkX, SciPy or scikit-learn), so that ``import
 sim.run`` stays light; ``tests/test_architecture.py`` checks that sim imports granalytics
