@@ -310,8 +310,7 @@ class Simulation:
         into a single ``.npz`` (the JSON as the 0-d string array ``checkpoint_info``), written
         to ``path + '.tmp'`` in the same directory, flushed to disk (fsync), then renamed over
         ``path`` (``os.replace``, atomic) and the directory synced. A kill at any point leaves
-        either the previous checkpoint or the new one, never a mix. A legacy ``path + '.json'``
-        beside it (the two-file format of earlier versions) is removed afterwards.
+        either the previous checkpoint or the new one, never a mix.
         """
         path = os.fspath(path)
         info = {"format": CHECKPOINT_FORMAT, "physics_version": PHYSICS_VERSION, "params": self.params.to_dict(),
@@ -330,18 +329,10 @@ class Simulation:
                 os.unlink(tmp)
             raise
         _fsync_directory(os.path.dirname(os.path.abspath(path)))
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(f"{path}.json")  # legacy sidecar: the information is inside the .npz now
 
     @classmethod
     def from_checkpoint(cls, path) -> tuple["Simulation", dict]:
         """Restore a simulation from :meth:`save_checkpoint`; returns it and the extra info.
-
-        Reads the one-file format and the legacy two-file format (``path`` with the JSON in
-        ``path + '.json'``). A legacy pair may be mixed (a kill between its two renames left a
-        newer ``.npz`` beside an older ``.json``); everything in the ``.json`` except the frame
-        count and wall time is the same for the whole run, so the frame count is taken from the
-        state's step instead (``step / frame_every + 1``).
 
         Raises
         ------
@@ -354,16 +345,9 @@ class Simulation:
         try:
             with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:  # closed also when not a zip
                 arrays = {name: data[name] for name in data.files}
-            legacy = _INFO_KEY not in arrays
-            if legacy:
-                try:
-                    with open(f"{path}.json") as f:
-                        info = json.load(f)
-                except FileNotFoundError:
-                    raise ValueError(f"{path}: checkpoint without its information (no '{_INFO_KEY}' inside, "
-                                     f"no {os.path.basename(path)}.json beside it)") from None
-            else:
-                info = json.loads(str(arrays.pop(_INFO_KEY)))
+            if _INFO_KEY not in arrays:
+                raise ValueError(f"{path}: not a checkpoint of this simulator (no '{_INFO_KEY}' inside)")
+            info = json.loads(str(arrays.pop(_INFO_KEY)))
             state = State.from_arrays(arrays)
             params = SimParams.from_dict(info.pop("params"))
             original = SimParams.from_dict(info.pop("original"))
@@ -371,8 +355,6 @@ class Simulation:
             liquid_initial = float(info.pop("liquid_initial"))
             if "frames" in info or "frame_every" in info:
                 frames, frame_every = int(info["frames"]), int(info["frame_every"])
-                if legacy and frame_every >= 1 and state.step % frame_every == 0:
-                    frames = info["frames"] = state.step // frame_every + 1
                 if frame_every < 1 or state.step != (frames - 1) * frame_every:
                     raise ValueError(f"state at step {state.step} is not the last of {frames} frames every "
                                      f"{frame_every} steps")

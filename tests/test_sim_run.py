@@ -474,7 +474,7 @@ def test_the_set_up_serves_large_arrays_from_the_reusable_heap():
     assert before >= 64_000_000 and after == 0
 
 
-# --- checkpoints: one atomic file, kills at any point, legacy two-file format ----------------------
+# --- checkpoints: one atomic file, kills at any point ---------------------------------------------
 
 RESUME_PARAMS = dataclasses.replace(SMALL, settle_time=0.01)
 FRAME_EVERY = 400
@@ -500,22 +500,6 @@ def assert_same_run(a_path, b_path, n_frames=13):
             for name in ("ids", "position", "velocity", "angular_velocity", "film_volume", "contact_i", "contact_j",
                          "f_cap", "f_normal", "gap", "bridge_volume"):
                 assert np.array_equal(getattr(fa, name), getattr(fb, name)), name
-
-
-def keep_checkpoint_copies(monkeypatch):
-    """Copy every checkpoint written to ``CKPT.<frames>`` (with a legacy .json beside it, if any)."""
-    import os
-    import shutil
-
-    save = Simulation.save_checkpoint
-
-    def saving(self, path, extra=None):
-        save(self, path, extra)
-        shutil.copyfile(path, f"{path}.{extra['frames']}")
-        if os.path.exists(f"{path}.json"):
-            shutil.copyfile(f"{path}.json", f"{path}.{extra['frames']}.json")
-
-    monkeypatch.setattr(Simulation, "save_checkpoint", saving)
 
 
 @pytest.mark.parametrize("point, resumed_from", [
@@ -572,50 +556,8 @@ def test_a_kill_at_any_point_of_a_checkpoint_leaves_a_complete_one(tmp_path, mon
     sim, info = Simulation.from_checkpoint(ckpt)
     assert info["frames"] == resumed_from and info["frame_every"] == FRAME_EVERY
     assert sim.state.step == (resumed_from - 1) * FRAME_EVERY
-    assert not os.path.exists(f"{ckpt}.json")  # one file
     Simulation.resume(part).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False, resume=True)
     assert_same_run(full_run, part)
-
-
-@pytest.mark.parametrize("mixed", [False, True])
-def test_legacy_two_file_checkpoints_still_resume(tmp_path, monkeypatch, full_run, mixed):
-    """Checkpoints of earlier versions: the state in OUT.ckpt.npz, the information in
-    OUT.ckpt.npz.json, renamed one after the other. A kill between the two renames left a newer
-    .npz beside an older .json (``mixed``); resuming must still continue from the .npz's frame."""
-    import json
-    import os
-
-    part = tmp_path / "part.h5"
-    ckpt = f"{part}.ckpt.npz"
-    keep_checkpoint_copies(monkeypatch)
-    Simulation(RESUME_PARAMS, ORIGINAL).run(part, REVS * 9 / 12, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False)
-    monkeypatch.undo()
-
-    def legacy(frames):
-        with np.load(f"{ckpt}.{frames}") as data:
-            arrays = {name: data[name] for name in data.files}
-        if "checkpoint_info" in arrays:
-            info = json.loads(str(arrays.pop("checkpoint_info")))
-            info.pop("format")
-        else:  # made by a version that wrote the legacy format itself
-            with open(f"{ckpt}.{frames}.json") as f:
-                info = json.load(f)
-        return arrays, info
-
-    state, _ = legacy(8)
-    _, info = legacy(4 if mixed else 8)
-    assert info["frames"] == (4 if mixed else 8)
-    for name in (ckpt, f"{ckpt}.json"):
-        if os.path.exists(name):
-            os.unlink(name)
-    np.savez(ckpt, **state)
-    with open(f"{ckpt}.json", "w") as f:
-        json.dump(info, f)
-    Simulation.resume(part).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False, resume=True)
-    assert_same_run(full_run, part)
-    # the next checkpoint was written in the one-file format and the sidecar is gone
-    assert not os.path.exists(f"{ckpt}.json")
-    assert Simulation.from_checkpoint(ckpt)[1]["frames"] == 12
 
 
 def test_resume_refuses_a_run_file_that_is_not_the_checkpoints(tmp_path):
