@@ -75,21 +75,53 @@ def synthetic_snapshot(
     """
     rng = np.random.default_rng(seed)
     meta = meta if meta is not None else synthetic_meta(n_particles, alpha)
-    r0 = meta.mean_radius
-    gamma = meta.surface_tension
-    side = math.ceil(n_particles ** (1 / 3))
-    spacing = 2.0 * r0
-    grid = np.stack(np.unravel_index(np.arange(n_particles), (side, side, side)), axis=1)
-    radius = r0 * rng.uniform(0.8, 1.2, n_particles)
-    position = grid * spacing + rng.normal(0.0, 0.02 * r0, (n_particles, 3))
+    spacing = 2.0 * meta.mean_radius
+    site, side, radius, position = _lattice(n_particles, meta.mean_radius, spacing, rng)
+    ci, cj = _lattice_contacts(site, side, contacts_per_particle, rng)
+    blob, n_blobs = _plant_blobs(position, spacing, granulated_fraction, mean_blob_size, rng)
+    velocity, angular_velocity = _velocities(blob, n_blobs, rng)
+    v_particle = 4 / 3 * math.pi * radius**3
+    f_cap, f_normal, gap, bridge_volume = _bridges(radius, v_particle, ci, cj, blob, meta.surface_tension, alpha,
+                                                   wet_fraction, rng)
+    return Snapshot(
+        time=time,
+        step=step,
+        ids=np.arange(n_particles, dtype=np.int64),
+        radius=radius,
+        position=position,
+        velocity=velocity,
+        angular_velocity=angular_velocity,
+        film_volume=rng.uniform(0.0, 0.01, n_particles) * v_particle,
+        contact_i=ci,
+        contact_j=cj,
+        f_cap=f_cap,
+        f_normal=f_normal,
+        gap=gap,
+        bridge_volume=bridge_volume,
+        meta=meta,
+    )
 
-    # lattice bonds (+x, +y, +z), subsampled to the requested density
-    flat = np.ravel_multi_index(grid.T, (side, side, side))
+
+def _lattice(n_particles, r0, spacing, rng):
+    """Particles on the first ``n_particles`` sites of a cubic lattice of ``spacing`` [m]: their
+    integer sites (N, 3), the lattice's side, radii (``r0`` ± 20 %) [m] and jittered positions [m]."""
+    side = math.ceil(n_particles ** (1 / 3))
+    site = np.stack(np.unravel_index(np.arange(n_particles), (side, side, side)), axis=1)
+    radius = r0 * rng.uniform(0.8, 1.2, n_particles)
+    position = site * spacing + rng.normal(0.0, 0.02 * r0, (n_particles, 3))
+    return site, side, radius, position
+
+
+def _lattice_contacts(site, side, contacts_per_particle, rng):
+    """Contacts (i, j) along the lattice bonds (+x, +y, +z) of the particles at ``site``, a random
+    subset of about ``contacts_per_particle`` per particle, in bond order."""
+    n_particles = len(site)
+    flat = np.ravel_multi_index(site.T, (side, side, side))
     lookup = np.full(side**3, -1, dtype=np.int64)
     lookup[flat] = np.arange(n_particles)
     pairs = []
     for axis in range(3):
-        nb = grid.copy()
+        nb = site.copy()
         nb[:, axis] += 1
         inside = nb[:, axis] < side
         j = lookup[np.ravel_multi_index(nb[inside].T, (side, side, side))]
@@ -99,9 +131,14 @@ def synthetic_snapshot(
     pairs = np.concatenate(pairs)
     n_keep = min(len(pairs), int(round(contacts_per_particle * n_particles)))
     pairs = pairs[np.sort(rng.choice(len(pairs), n_keep, replace=False))]
-    ci, cj = pairs[:, 0], pairs[:, 1]
+    return pairs[:, 0], pairs[:, 1]
 
-    # planted blobs: grow balls around random centres until the target fraction is covered
+
+def _plant_blobs(position, spacing, granulated_fraction, mean_blob_size, rng):
+    """Blob of every particle (−1: none) and the number of blobs: balls of about a geometric
+    number of particles (mean ``mean_blob_size``) grown around random centres until
+    ``granulated_fraction`` of the particles is covered."""
+    n_particles = len(position)
     blob = np.full(n_particles, -1, dtype=np.int64)
     tree = cKDTree(position)
     target = int(granulated_fraction * n_particles)
@@ -121,19 +158,33 @@ def synthetic_snapshot(
         blob[members] = b
         covered += members.size
         b += 1
+    return blob, b
 
-    def directions(k):
-        d = rng.normal(size=(k, 3))
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
 
-    blob_v = directions(max(b, 1)) * rng.uniform(0.1, 0.5, (max(b, 1), 1))
-    blob_w = directions(max(b, 1)) * rng.uniform(5.0, 50.0, (max(b, 1), 1))
-    velocity = directions(n_particles) * rng.uniform(0.05, 0.5, (n_particles, 1))
-    angular_velocity = directions(n_particles) * rng.uniform(1.0, 60.0, (n_particles, 1))
+def _directions(rng, k):
+    """``k`` random unit vectors (k, 3)."""
+    d = rng.normal(size=(k, 3))
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _velocities(blob, n_blobs, rng):
+    """Velocities [m/s] and angular velocities [rad/s] (N, 3): random, but shared (plus a little
+    noise) by the particles of one blob."""
+    n_particles, nb = len(blob), max(n_blobs, 1)
+    blob_v = _directions(rng, nb) * rng.uniform(0.1, 0.5, (nb, 1))
+    blob_w = _directions(rng, nb) * rng.uniform(5.0, 50.0, (nb, 1))
+    velocity = _directions(rng, n_particles) * rng.uniform(0.05, 0.5, (n_particles, 1))
+    angular_velocity = _directions(rng, n_particles) * rng.uniform(1.0, 60.0, (n_particles, 1))
     inb = blob >= 0
     velocity[inb] = blob_v[blob[inb]] + rng.normal(0.0, 0.01, (inb.sum(), 3))
     angular_velocity[inb] = blob_w[blob[inb]] + rng.normal(0.0, 0.5, (inb.sum(), 3))
+    return velocity, angular_velocity
 
+
+def _bridges(radius, v_particle, ci, cj, blob, gamma, alpha, wet_fraction, rng):
+    """Contact columns ``f_cap``, ``f_normal`` [N], ``gap`` [m] and ``bridge_volume`` [m³]: every
+    contact inside a blob wet and strong (65–100 % of the capillary maximum 2πγR*), the others wet
+    with probability ``wet_fraction`` at a random strength, dry ones slightly overlapping."""
     r_star = 2 * radius[ci] * radius[cj] / (radius[ci] + radius[cj])
     f_max = 2 * math.pi * gamma * r_star
     same = (blob[ci] >= 0) & (blob[ci] == blob[cj])
@@ -141,26 +192,9 @@ def synthetic_snapshot(
     strength = np.where(same, rng.uniform(0.65, 1.0, ci.size), rng.uniform(0.0, 1.0, ci.size))
     f_cap = np.where(wet, strength * f_max, 0.0)
     gap = np.where(wet, rng.uniform(0.0, 0.05, ci.size) * r_star, -rng.uniform(0.0, 1e-3, ci.size) * r_star)
-    v_particle = 4 / 3 * math.pi * radius**3
     bridge_volume = np.where(wet, 1e-3 * np.minimum(v_particle[ci], v_particle[cj]), 0.0)
     f_normal = np.where(gap < 0, 150.0 * alpha * -gap, 0.0) - f_cap
-    return Snapshot(
-        time=time,
-        step=step,
-        ids=np.arange(n_particles, dtype=np.int64),
-        radius=radius,
-        position=position,
-        velocity=velocity,
-        angular_velocity=angular_velocity,
-        film_volume=rng.uniform(0.0, 0.01, n_particles) * v_particle,
-        contact_i=ci,
-        contact_j=cj,
-        f_cap=f_cap,
-        f_normal=f_normal,
-        gap=gap,
-        bridge_volume=bridge_volume,
-        meta=meta,
-    )
+    return f_cap, f_normal, gap, bridge_volume
 
 
 def write_synthetic_run(path, n_particles=3000, revolutions=6.0, frames_per_revolution=20, *, alpha=1.0,

@@ -257,6 +257,128 @@ def _check_times(t):
     return t
 
 
+def _initial_counts(initial):
+    """``initial`` as numbers of granules by size (``counts[s - 1]``: granules of s particles) and
+    the primary particles they hold."""
+    if isinstance(initial, dict):
+        try:
+            top = max(int(s) for s in initial) if initial else 0
+            counts = np.zeros(max(top, 1))
+            for s, v in initial.items():
+                if int(s) != s or s < 1:
+                    raise ValueError
+                counts[int(s) - 1] += float(v)
+        except (TypeError, ValueError):
+            raise ParameterError("initial: the keys must be granule sizes >= 1 (particles) and the values numbers") from None
+    else:
+        counts = np.asarray(initial, dtype=float)
+    if counts.ndim != 1 or counts.size < 1 or not np.isfinite(counts).all() or (counts < 0).any():
+        raise ParameterError("initial must be non-negative finite numbers of granules by size (initial[s - 1]: size s)")
+    mass0 = float(np.dot(np.arange(1, counts.size + 1), counts))
+    if mass0 <= 0:
+        raise ParameterError("initial holds no particle")
+    return counts, mass0
+
+
+def _pivots(grid, counts, mass0, n_max, ratio):
+    """``grid`` checked, or (None) :func:`pbm_grid` up to ``n_max``, by default the ``mass0``
+    primary particles of the initial ``counts``."""
+    if grid is not None:
+        return check_grid(grid)
+    top = int(np.nonzero(counts)[0][-1]) + 1
+    n_max = int(round(mass0)) if n_max is None else n_max
+    if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < top:
+        raise ParameterError(f"n_max must be a whole number >= the largest initial granule ({top}), got {n_max!r}")
+    return pbm_grid(int(n_max), ratio)
+
+
+def _coalescence_events(kernel, layering, grid, extrapolate):
+    """Coalescence, layering and nucleation as pair events i <= j of pivots whose product fits on
+    the grid: β at every pair of pivots (λ added in row and column 0) [1/s per pair], the pairs'
+    pivot indices ``iu``, ``ju``, their rate coefficients (β, ½β for i = j) and the (G, P)
+    stoichiometry of each event on the pivots (fixed pivot split of the product)."""
+    x = grid.astype(float)
+    beta = _kernel_matrix(kernel, grid, extrapolate)
+    lam = _values(layering, "layering", _TABLE_COLUMNS["layering"], grid, extrapolate)
+    beta[0, :] += lam
+    beta[:, 0] += lam
+    beta[0, 0] -= lam[0]  # added twice on the diagonal
+    iu, ju = np.triu_indices(grid.size)
+    product = x[iu] + x[ju]
+    allowed = (product <= x[-1]) & (beta[iu, ju] > 0)
+    iu, ju, product = iu[allowed], ju[allowed], product[allowed]
+    coef = beta[iu, ju] * np.where(iu == ju, 0.5, 1.0)
+    k, a, upper = pivot_weights(grid, product)
+    p = iu.size
+    stoich = np.zeros((grid.size, p))
+    cols = np.arange(p)
+    np.add.at(stoich, (iu, cols), -1.0)
+    np.add.at(stoich, (ju, cols), -1.0)
+    np.add.at(stoich, (k, cols), a)
+    np.add.at(stoich, (upper, cols), 1 - a)
+    return beta, iu, ju, coef, stoich
+
+
+def _fragment_numbers(breakage, n_fragments, grid, extrapolate):
+    """ν at the pivots: the breakage table's ``fragments_mean`` where it is >= 2, else
+    ``n_fragments`` (a number or a function of size, >= 2)."""
+    if callable(n_fragments):
+        default_nu = _values(n_fragments, "n_fragments", None, grid, extrapolate)
+    else:
+        try:
+            default_nu = np.full(grid.size, float(n_fragments))
+        except (TypeError, ValueError):
+            raise ParameterError(f"n_fragments must be a number >= 2 or a function of size, got {n_fragments!r}") from None
+    if not np.isfinite(default_nu).all() or (default_nu < 2).any():
+        raise ParameterError(f"n_fragments must be >= 2, got {n_fragments!r}")
+    if isinstance(breakage, pd.DataFrame) and "fragments_mean" in breakage.columns:
+        measured = _values(breakage.assign(_nu=breakage["fragments_mean"]), "breakage", "_nu", grid, extrapolate)
+        return np.where(measured >= 2, measured, default_nu)  # NaN (no breakage seen) reads as 0: the default
+    return default_nu
+
+
+def _breakage_operator(sel, nu, ero, fragments, min_fragment, grid):
+    """Breakage (selection rate ``sel``, ν fragments) and erosion (rate ``ero``) as the (G, G)
+    linear operator on the pivot numbers, and the pivots with S > 0 too small to break."""
+    g = grid.size
+    linear = np.zeros((g, g))
+    unbreakable = []
+    for i in range(1, g):
+        xi = int(grid[i])
+        if sel[i] > 0:
+            frag = _fragments_at(fragments, xi, float(min(nu[i], xi // min_fragment)), min_fragment) \
+                if fragments == "uniform" else _fragments_at(fragments, xi, None, min_fragment)
+            if frag is None or not frag.any():
+                unbreakable.append(xi)
+            else:
+                col = project_counts(frag, grid)
+                linear[:, i] += sel[i] * col
+                linear[i, i] -= sel[i]
+        if ero[i] > 0:
+            col = project_counts(np.bincount([xi - 1, 1], minlength=xi + 1)[1:].astype(float), grid)
+            linear[:, i] += ero[i] * col
+            linear[i, i] -= ero[i]
+    return linear, unbreakable
+
+
+def _rate_functions(stoich, coef, iu, ju, linear):
+    """The right-hand side dN/dt(t, N) (pair events ``stoich``, ``coef``, ``iu``, ``ju`` and the
+    ``linear`` operator) and its exact Jacobian."""
+
+    def rhs(_t, n):
+        return stoich @ (coef * n[iu] * n[ju]) + linear @ n
+
+    def jac(_t, n):
+        j = linear.copy()
+        w_i = stoich * (coef * n[ju])  # d rate / d n_i
+        w_j = stoich * (coef * n[iu])
+        np.add.at(j.T, iu, w_i.T)
+        np.add.at(j.T, ju, w_j.T)
+        return j
+
+    return rhs, jac
+
+
 def population_balance(kernel, breakage, initial, t, *, layering=None, erosion=None, fragments="uniform",
                        n_fragments=2.0, min_fragment=1, grid=None, ratio=2 ** 0.25, n_max=None,
                        extrapolate="nearest", method="BDF", rtol=1e-8, atol=None) -> PopulationBalance:
@@ -335,111 +457,27 @@ def population_balance(kernel, breakage, initial, t, *, layering=None, erosion=N
     from scipy.integrate import solve_ivp
 
     t = _check_times(t)
-    if isinstance(initial, dict):
-        try:
-            top = max(int(s) for s in initial) if initial else 0
-            counts = np.zeros(max(top, 1))
-            for s, v in initial.items():
-                if int(s) != s or s < 1:
-                    raise ValueError
-                counts[int(s) - 1] += float(v)
-        except (TypeError, ValueError):
-            raise ParameterError("initial: the keys must be granule sizes >= 1 (particles) and the values numbers") from None
-    else:
-        counts = np.asarray(initial, dtype=float)
-    if counts.ndim != 1 or counts.size < 1 or not np.isfinite(counts).all() or (counts < 0).any():
-        raise ParameterError("initial must be non-negative finite numbers of granules by size (initial[s - 1]: size s)")
-    mass0 = float(np.dot(np.arange(1, counts.size + 1), counts))
-    if mass0 <= 0:
-        raise ParameterError("initial holds no particle")
+    counts, mass0 = _initial_counts(initial)
     if extrapolate not in ("nearest", "zero"):
         raise ParameterError(f"extrapolate must be 'nearest' or 'zero', got {extrapolate!r}")
     if isinstance(min_fragment, bool) or not isinstance(min_fragment, (int, np.integer)) or min_fragment < 1:
         raise ParameterError(f"min_fragment must be a whole number >= 1, got {min_fragment!r}")
     if not (fragments == "uniform" or callable(fragments)):
         raise ParameterError(f"fragments must be 'uniform' or a function b(x), got {fragments!r}")
-    if grid is None:
-        top = int(np.nonzero(counts)[0][-1]) + 1
-        n_max = int(round(mass0)) if n_max is None else n_max
-        if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < top:
-            raise ParameterError(f"n_max must be a whole number >= the largest initial granule ({top}), got {n_max!r}")
-        grid = pbm_grid(int(n_max), ratio)
-    else:
-        grid = check_grid(grid)
-    x = grid.astype(float)
-    g = grid.size
+    grid = _pivots(grid, counts, mass0, n_max, ratio)
     n0 = project_counts(counts, grid)
-
-    # coalescence (and layering) as pair events i <= j
-    beta = _kernel_matrix(kernel, grid, extrapolate)
-    lam = _values(layering, "layering", _TABLE_COLUMNS["layering"], grid, extrapolate)
-    beta[0, :] += lam
-    beta[:, 0] += lam
-    beta[0, 0] -= lam[0]  # added twice on the diagonal
-    iu, ju = np.triu_indices(g)
-    product = x[iu] + x[ju]
-    allowed = (product <= x[-1]) & (beta[iu, ju] > 0)
-    iu, ju, product = iu[allowed], ju[allowed], product[allowed]
-    coef = beta[iu, ju] * np.where(iu == ju, 0.5, 1.0)
-    k, a, upper = pivot_weights(grid, product)
-    p = iu.size
-    stoich = np.zeros((g, p))
-    cols = np.arange(p)
-    np.add.at(stoich, (iu, cols), -1.0)
-    np.add.at(stoich, (ju, cols), -1.0)
-    np.add.at(stoich, (k, cols), a)
-    np.add.at(stoich, (upper, cols), 1 - a)
-
-    # breakage and erosion: a linear operator
+    beta, iu, ju, coef, stoich = _coalescence_events(kernel, layering, grid, extrapolate)
     sel = _values(breakage, "breakage", _TABLE_COLUMNS["breakage"], grid, extrapolate)
-    if callable(n_fragments):
-        default_nu = _values(n_fragments, "n_fragments", None, grid, extrapolate)
-    else:
-        try:
-            default_nu = np.full(g, float(n_fragments))
-        except (TypeError, ValueError):
-            raise ParameterError(f"n_fragments must be a number >= 2 or a function of size, got {n_fragments!r}") from None
-    if not np.isfinite(default_nu).all() or (default_nu < 2).any():
-        raise ParameterError(f"n_fragments must be >= 2, got {n_fragments!r}")
-    nu = default_nu
-    if isinstance(breakage, pd.DataFrame) and "fragments_mean" in breakage.columns:
-        measured = _values(breakage.assign(_nu=breakage["fragments_mean"]), "breakage", "_nu", grid, extrapolate)
-        nu = np.where(measured >= 2, measured, default_nu)  # NaN (no breakage seen) reads as 0: the default
+    nu = _fragment_numbers(breakage, n_fragments, grid, extrapolate)
     ero = _values(erosion, "erosion", _TABLE_COLUMNS["erosion"], grid, extrapolate)
     ero[0] = 0.0
-    linear = np.zeros((g, g))
-    unbreakable = []
-    for i in range(1, g):
-        xi = int(grid[i])
-        if sel[i] > 0:
-            frag = _fragments_at(fragments, xi, float(min(nu[i], xi // min_fragment)), min_fragment) \
-                if fragments == "uniform" else _fragments_at(fragments, xi, None, min_fragment)
-            if frag is None or not frag.any():
-                unbreakable.append(xi)
-            else:
-                col = project_counts(frag, grid)
-                linear[:, i] += sel[i] * col
-                linear[i, i] -= sel[i]
-        if ero[i] > 0:
-            col = project_counts(np.bincount([xi - 1, 1], minlength=xi + 1)[1:].astype(float), grid)
-            linear[:, i] += ero[i] * col
-            linear[i, i] -= ero[i]
-
-    def rhs(_t, n):
-        return stoich @ (coef * n[iu] * n[ju]) + linear @ n
-
-    def jac(_t, n):
-        j = linear.copy()
-        w_i = stoich * (coef * n[ju])  # d rate / d n_i
-        w_j = stoich * (coef * n[iu])
-        np.add.at(j.T, iu, w_i.T)
-        np.add.at(j.T, ju, w_j.T)
-        return j
+    linear, unbreakable = _breakage_operator(sel, nu, ero, fragments, min_fragment, grid)
+    rhs, jac = _rate_functions(stoich, coef, iu, ju, linear)
 
     atol = 1e-10 * mass0 if atol is None else float(atol)
     kwargs = {"jac": jac} if method in ("BDF", "Radau", "LSODA") else {}
     sol = solve_ivp(rhs, (t[0], t[-1]), n0, method=method, t_eval=t, rtol=rtol, atol=atol, **kwargs)
-    numbers = sol.y.T if sol.y.shape[1] == t.size else np.full((t.size, g), np.nan)
+    numbers = sol.y.T if sol.y.shape[1] == t.size else np.full((t.size, grid.size), np.nan)
     return PopulationBalance(grid=grid, t_s=t, numbers=numbers, success=bool(sol.success), message=str(sol.message),
                              nfev=int(sol.nfev), info={"unbreakable_sizes": unbreakable, "beta": beta,
                                                        "selection": sel, "n_fragments": nu, "erosion": ero,

@@ -130,6 +130,10 @@ def _hinge(g, beta, gamma_1):
     return beta * np.maximum(0.0, g - gamma_1)
 
 
+def _line(g, beta, gamma_1):
+    return beta * (g - gamma_1)
+
+
 def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", confidence=0.95) -> GrowthFit:
     """Fit the paper's Fig 7 law ⟨V_g⟩/V_p = β(γ − γ₁) for γ > γ₁, the onset γ₁ fitted.
 
@@ -166,13 +170,38 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
         Mismatched lengths, non-finite γ or volumes (other than NaN), fewer than three points with granules
         at two or more γ, no growth (slope ≤ 0), or too few points for an interval.
     """
-    from scipy.optimize import curve_fit, minimize_scalar
     from scipy.stats import t as student_t
 
     if model not in ("hinge", "linear"):
         raise ParameterError(f"model must be 'hinge' or 'linear', got {model!r}")
     if not 0 < confidence < 1:
         raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
+    g, v, no_granules, s, weighted = _growth_points(gamma, mean_volume_norm, sem)
+    w = 1.0 / s**2
+    pos = ~no_granules
+    b0, g1_start = _line_start(g, v, w, pos)
+    if model == "linear":
+        used, func, p0 = pos, _line, (b0, g1_start)
+    else:
+        best, beta_best = _hinge_onset(g, v, w, pos, g1_start)
+        used, func, p0 = pos | (g > best), _hinge, (beta_best, best)
+    popt, pcov, dof, rss = _polish(func, g, v, s, w, used, p0, hinge=model == "hinge")
+    beta, gamma_1 = (float(x) for x in popt)
+    se = np.sqrt(np.clip(np.diag(pcov), 0, None))
+    q = float(student_t.ppf(0.5 + confidence / 2, dof))
+    return GrowthFit(
+        beta=beta, gamma_1=gamma_1, beta_ci=(beta - q * se[0], beta + q * se[0]),
+        gamma_1_ci=(gamma_1 - q * se[1], gamma_1 + q * se[1]), beta_se=float(se[0]), gamma_1_se=float(se[1]),
+        cov=np.asarray(pcov), confidence=float(confidence), dof=int(dof), n_points=int(g.size), n_used=int(used.sum()),
+        n_no_granules=int(no_granules.sum()), weighted=weighted, model=model, rss=rss,
+        gamma_range=(float(g.min()), float(g.max())),
+    )
+
+
+def _growth_points(gamma, mean_volume_norm, sem):
+    """The checked points of :func:`fit_granule_growth`: γ [N/m], ⟨V_g⟩/V_p (NaN read as 0), which
+    points have no granules, the sems (ones when none are given; missing or zero ones the smallest
+    positive sem) and whether they weight the fit."""
     g = check_numbers("fit_granule_growth", "gamma", gamma, ndim=None).ravel()
     v = check_numbers("fit_granule_growth", "mean_volume_norm", mean_volume_norm, ndim=None).ravel()
     if g.shape != v.shape:
@@ -197,55 +226,66 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
         if ok.any() and odd.any():
             warnings.warn(f"{int(odd.sum())} sem(s) zero or NaN at points with granules (γ = "
                           f"{', '.join(f'{x:g}' for x in g[odd])} N/m; a single block?) take the smallest positive "
-                          f"sem given, {s_in[ok].min():.3g}", stacklevel=2)
+                          f"sem given, {s_in[ok].min():.3g}", stacklevel=3)
         if ok.any():
             s = np.where(ok, s_in, s_in[ok].min())
             weighted = True
-    w = 1.0 / s**2
-    pos = ~no_granules
+    return g, v, no_granules, s, weighted
+
+
+def _line_start(g, v, w, pos):
+    """Slope β and zero γ₁ [N/m] of the straight line fitted (weights ``w``) through the points
+    with granules (``pos``): the linear model's start and the hinge's first onset."""
     if pos.sum() < 3 or np.unique(g[pos]).size < 2:
         raise ParameterError(f"the growth fit needs at least three points with granules at two or more γ "
                              f"(got {int(pos.sum())} with granules)")
-    # weighted straight line through the points with granules: the start (and the linear model)
     A = np.column_stack([np.ones(pos.sum()), g[pos]])
     sw = np.sqrt(w[pos])
     (a0, b0), *_ = np.linalg.lstsq(A * sw[:, None], v[pos] * sw, rcond=None)
     if not b0 > 0:
         raise ParameterError(f"no growth of the mean granule volume with γ (fitted slope {b0:.3g} <= 0)")
-    g1_start = -a0 / b0
+    return b0, -a0 / b0
 
-    if model == "linear":
-        used = pos
-        func = lambda x, beta, gamma_1: beta * (x - gamma_1)  # noqa: E731
-        p0 = (b0, g1_start)
-    else:
-        def profile(g1):
-            """(weighted RSS, β) of the hinge with onset(s) ``g1`` (scalar or array), β in closed form."""
-            g1 = np.atleast_1d(np.asarray(g1, dtype=float))
-            x = np.maximum(0.0, g[None, :] - g1[:, None])
-            den = (w * x * x).sum(axis=1)
-            beta = np.divide((w * x * v).sum(axis=1), den, out=np.zeros_like(den), where=den > 0)
-            return (w * (v - beta[:, None] * x) ** 2).sum(axis=1), beta
 
-        top = g[pos].max()
-        span = max(g.max() - g.min(), abs(top) * 1e-3, 1e-12)
-        low = min(g1_start, g.min()) - span
-        grid = np.unique(np.concatenate([np.linspace(low, top, 801), [g1_start] if low <= g1_start < top else []]))
-        rss = profile(grid)[0]
-        k = int(np.argmin(rss))
-        lo_b, hi_b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-        best = float(grid[k])
-        if hi_b > lo_b:
-            res = minimize_scalar(lambda x: profile(x)[0][0], bounds=(lo_b, hi_b), method="bounded",
-                                  options={"xatol": 1e-12 * max(1.0, abs(best))})
-            if res.fun <= rss[k]:
-                best = float(res.x)
-        beta_best = float(profile(best)[1][0])
-        if not beta_best > 0:
-            raise ParameterError("no growth of the mean granule volume with γ above the onset")
-        used = pos | (g > best)
-        func = _hinge
-        p0 = (beta_best, best)
+def _hinge_onset(g, v, w, pos, g1_start):
+    """Onset γ₁ [N/m] and slope β minimising the weighted RSS of the hinge over all points, γ₁
+    profiled on a grid then by a bounded scalar minimisation, β in closed form for each γ₁."""
+    from scipy.optimize import minimize_scalar
+
+    def profile(g1):
+        """(weighted RSS, β) of the hinge with onset(s) ``g1`` (scalar or array), β in closed form."""
+        g1 = np.atleast_1d(np.asarray(g1, dtype=float))
+        x = np.maximum(0.0, g[None, :] - g1[:, None])
+        den = (w * x * x).sum(axis=1)
+        beta = np.divide((w * x * v).sum(axis=1), den, out=np.zeros_like(den), where=den > 0)
+        return (w * (v - beta[:, None] * x) ** 2).sum(axis=1), beta
+
+    top = g[pos].max()
+    span = max(g.max() - g.min(), abs(top) * 1e-3, 1e-12)
+    low = min(g1_start, g.min()) - span
+    grid = np.unique(np.concatenate([np.linspace(low, top, 801), [g1_start] if low <= g1_start < top else []]))
+    rss = profile(grid)[0]
+    k = int(np.argmin(rss))
+    lo_b, hi_b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    best = float(grid[k])
+    if hi_b > lo_b:
+        res = minimize_scalar(lambda x: profile(x)[0][0], bounds=(lo_b, hi_b), method="bounded",
+                              options={"xatol": 1e-12 * max(1.0, abs(best))})
+        if res.fun <= rss[k]:
+            best = float(res.x)
+    beta_best = float(profile(best)[1][0])
+    if not beta_best > 0:
+        raise ParameterError("no growth of the mean granule volume with γ above the onset")
+    return best, beta_best
+
+
+def _polish(func, g, v, s, w, used, p0, hinge):
+    """:func:`scipy.optimize.curve_fit` of ``func`` on the ``used`` points from ``p0``: the
+    parameters, their covariance (scaled by the residual variance), the degrees of freedom and the
+    weighted RSS. For the ``hinge``, a start (the profile optimum) better than the polished fit is
+    kept, its covariance from the hinge's Jacobian there."""
+    from scipy.optimize import curve_fit
+
     n_used = int(used.sum())
     dof = n_used - 2
     if dof < 1:
@@ -257,21 +297,12 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
         except (RuntimeError, ValueError) as exc:
             raise ParameterError(f"the growth fit did not converge ({exc})") from None
     residual = lambda p: float(np.sum(w[used] * (v[used] - func(g[used], *p)) ** 2))  # noqa: E731
-    if model == "hinge" and residual(popt) > residual(p0) * (1 + 1e-9):  # keep the profile optimum
+    if hinge and residual(popt) > residual(p0) * (1 + 1e-9):
         popt = np.asarray(p0, dtype=float)
         x = np.maximum(0.0, g[used] - popt[1])
         J = np.column_stack([x, np.where(g[used] > popt[1], -popt[0], 0.0)]) / s[used][:, None]
         pcov = np.linalg.pinv(J.T @ J) * residual(popt) / dof
-    beta, gamma_1 = (float(x) for x in popt)
-    se = np.sqrt(np.clip(np.diag(pcov), 0, None))
-    q = float(student_t.ppf(0.5 + confidence / 2, dof))
-    return GrowthFit(
-        beta=beta, gamma_1=gamma_1, beta_ci=(beta - q * se[0], beta + q * se[0]),
-        gamma_1_ci=(gamma_1 - q * se[1], gamma_1 + q * se[1]), beta_se=float(se[0]), gamma_1_se=float(se[1]),
-        cov=np.asarray(pcov), confidence=float(confidence), dof=int(dof), n_points=int(g.size), n_used=n_used,
-        n_no_granules=int(no_granules.sum()), weighted=weighted, model=model, rss=residual(popt),
-        gamma_range=(float(g.min()), float(g.max())),
-    )
+    return popt, pcov, dof, residual(popt)
 
 
 def fit_growth_of_table(table, cohesion="acting", **kwargs) -> GrowthFit:

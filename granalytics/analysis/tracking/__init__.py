@@ -8,15 +8,19 @@ are matched by their *ids*, never by row). Every granule of every frame belongs 
 ``docs/tracking.md``; ``continuation="main"`` lets the main branch keep its track through
 coalescence and breakage (the same events, other track ids).
 
-- :mod:`.linking`: :class:`GranuleTracks`, :func:`track_granules`, :func:`track_run`;
+- :mod:`.linking`: :func:`track_granules`, :func:`track_run` (the loop over frames);
+- :mod:`.steps`: one step k → k+1: particles matched by id, the links between granules, which
+  granule continues which track, the step's events;
+- :mod:`.tracks`: the result, :class:`GranuleTracks`, and the event kinds :data:`KINDS`;
 - :mod:`.rates`: :func:`event_rates`, :func:`coalescence_kernel`, :func:`breakage_rate` (the
   rate functions of a population balance).
 
 Units: SI, time in seconds (``_s`` suffix); granule sizes in particles.
 """
 
-from granalytics.analysis.tracking.linking import KINDS, GranuleTracks, track_granules, track_run
+from granalytics.analysis.tracking.linking import track_granules, track_run
 from granalytics.analysis.tracking.rates import breakage_rate, coalescence_kernel, event_rates
+from granalytics.analysis.tracking.tracks import KINDS, GranuleTracks
 
 
 __all__ = ["GranuleTracks", "track_granules", "track_run", "event_rates", "coalescence_kernel", "breakage_rate",

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.analysis.stats import size_unit_factor
-from granalytics.analysis.tracking.linking import GranuleTracks, KINDS, check_tracks
+from granalytics.analysis.tracking.tracks import GranuleTracks, KINDS, check_tracks
 from granalytics.core.windows import window_tolerance
 from granalytics.core.errors import ParameterError
 
