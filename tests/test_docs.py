@@ -3,6 +3,7 @@ the results pages keep every line of docs/results.md, and the site is built with
 (CI builds the whole site after the tests: .ci/run)."""
 
 import importlib.util
+import os
 import re
 import subprocess
 from pathlib import Path
@@ -49,13 +50,23 @@ def test_the_results_pages_keep_every_line_of_results_md(conf, tmp_path):
         assert name == "index" or f"\n{name}\n" in pages["index"]
 
 
-def test_make_docs_builds_the_site_with_warnings_as_errors_and_ci_runs_it():
+def test_make_docs_builds_the_site_the_readme_opens_with_warnings_as_errors():
     plan = subprocess.run(["make", "-n", "-o", ".venv/.installed", "-o", ".venv/.installed-docs", "docs"],
                           cwd=ROOT, capture_output=True, text=True, check=True).stdout
-    assert "sphinx" in plan and " -W " in plan and "--keep-going" in plan and "build/docs/html" in plan
-    assert "make docs" in (ROOT / ".ci" / "run").read_text()
-    readme = (ROOT / "README.md").read_text()
-    assert "make docs" in readme and "build/docs/html/index.html" in readme
+    assert "sphinx" in plan and " -W " in plan and "--keep-going" in plan
+    command = next(line for line in (ROOT / "README.md").read_text().splitlines() if line.startswith("make docs"))
+    opened = Path(re.search(r"open (\S+)", command).group(1))  # the page the README tells a reader to open
+    assert opened.name == "index.html" and f" {opened.parent} " in plan.replace("\n", " ")
+
+
+def test_ci_runs_the_tests_then_builds_the_site(tmp_path):
+    log = tmp_path / "make.log"
+    fake = tmp_path / "make"
+    fake.write_text(f'#!/bin/sh\necho "$@" >> {log}\n')
+    fake.chmod(0o755)
+    env = {**os.environ, "PATH": f"{tmp_path}{os.pathsep}{os.environ['PATH']}"}
+    subprocess.run(["bash", str(ROOT / ".ci" / "run")], env=env, check=True, capture_output=True, timeout=60)
+    assert log.read_text().split() == ["test", "docs"]
 
 
 def test_every_page_of_docs_is_in_the_site():

@@ -337,13 +337,22 @@ def test_a_sweep_workers_warning_is_one_line(capsys, tmp_path):
     assert err == "sim sweep: p.h5: warning: took over the stale lock file of a dead writer\n"
 
 
-def test_the_readme_says_how_to_reach_the_commands():
+def test_the_readmes_first_commands_set_up_the_environment_the_readme_names():
+    """The README opens with make commands; each is a target of the Makefile, every one installs the
+    project into .venv, and the commands run from .venv/bin, where the README says they are."""
+    import subprocess
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    assert readme.split("```")[1].strip().splitlines() == [
-        "make demo    # identify granules and print granulation statistics on the demo run",
-        "make test    # create .venv, install the project with its test extras, run the test suite"]
+    root = Path(__file__).resolve().parents[1]
+    readme = (root / "README.md").read_text()
+    commands = [line.split("#")[0].split() for line in readme.split("```")[1].strip().splitlines()]
+    assert commands and all(command[0] == "make" for command in commands), commands
+    plans = {" ".join(command): subprocess.run(["make", "-nB", *command[1:]], cwd=root, capture_output=True, text=True,
+                                               check=True).stdout for command in commands}
+    for command, plan in plans.items():
+        assert "-m venv .venv" in plan and "pip install --quiet -e" in plan, command
+    assert "make test" in plans and ".venv/bin/python -m pytest" in plans["make test"]
+    assert any(".venv/bin/granalytics " in plan for plan in plans.values())
     assert ". .venv/bin/activate" in readme and ".venv/bin/granalytics" in readme
 
 

@@ -112,7 +112,10 @@ def add_compare_methods_parser(sub):
     p.add_argument("--methods", type=lambda t: [m.strip() for m in t.split(",") if m.strip()],
                    default=list(DEFAULT_METHODS), help=f"comma-separated (default {','.join(DEFAULT_METHODS)})")
     p.add_argument("--set", action="append", type=setting, metavar="METHOD.PARAM=VALUE",
-                   help="a method parameter, e.g. dbscan.eps_diameters=1.2 or gna.a_agg_deg=30 (repeatable)")
+                   help="a method parameter, e.g. dbscan.eps_diameters=1.2 or gna.a_agg_deg=30 (repeatable); "
+                        "custom.criterion takes comparisons of a contact-table column with a number joined by "
+                        "and/or/not, e.g. 'custom.criterion=0.5 <= f_norm and (angle_v_deg < 30 or angle_w_deg < 30)' "
+                        "(no arithmetic or function calls: docs/identification.md)")
     add_cohesion_option(p)
     p.add_argument("--window-rev", type=interval, default=None, metavar="R0:R1",
                    help="only frames within this revolution window (default: all frames)")
