@@ -62,7 +62,7 @@ class Interval(Constraint):
         noun = "whole number" if self.type is Integral else "number" if (self.lo, self.hi) != (None, None) \
             else "finite number"
         left, right = self.closed in ("both", "left"), self.closed in ("both", "right")
-        bounds = (f" in {'[(' [not left]}{self.lo:g}, {self.hi:g}{'])'[not right]}" if None not in (self.lo, self.hi)
+        bounds = (f" in {'[('[not left]}{self.lo:g}, {self.hi:g}{'])'[not right]}" if None not in (self.lo, self.hi)
                   else f" {'>=' if left else '>'} {self.lo:g}" if self.lo is not None
                   else f" {'<=' if right else '<'} {self.hi:g}" if self.hi is not None else "")
         return f"{noun}s{bounds}" if plural else f"a {noun}{bounds}"

@@ -20,7 +20,7 @@ from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.identification.granules import granule_table
 from granalytics.identification import METHODS, make_identifier
-from granalytics.identification.result import IdentificationResult
+from granalytics.identification.result import RESULT, IdentificationResult
 from granalytics.core.snapshot import Snapshot
 from granalytics.validation import FLAG, SNAPSHOT, Array, Instance, Interval, Options, validate_params
 
@@ -41,7 +41,7 @@ _WINDOW_CONSTRAINTS = {
 }
 
 
-@validate_params({"snapshot": [SNAPSHOT], "result": [Instance(IdentificationResult, "an IdentificationResult (of identify)")]})
+@validate_params({"snapshot": [SNAPSHOT], "result": [RESULT]})
 def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFrame:
     """Granulation metrics of one frame (one-row DataFrame).
 
@@ -198,7 +198,7 @@ def check_window(axis, window, *, by="revolutions", source=None, warn=True):
     return mask, tol
 
 
-@validate_params({"timeseries": [Instance(pd.DataFrame, "a DataFrame (run_stats' result)"), Instance((list, tuple))],
+@validate_params({"timeseries": [Instance(pd.DataFrame, "a DataFrame (run_stats' result)"), Instance((list, tuple), "a list of them (replicas)")],
                   **_WINDOW_CONSTRAINTS, "n_blocks": [Interval(Integral, 1, None), None]})
 def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS, *,
                  by="revolutions", n_blocks=None, source=None) -> pd.DataFrame:
@@ -222,8 +222,8 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     by : {"revolutions", "time_s"}, default "revolutions"
         ``"time_s"`` for runs without drum rotation (static beds, hoppers).
     n_blocks : int, optional
-        Equal blocks for the standard error (of one time series, not of replicas). Default for revolution windows: blocking
-        (:func:`blocking_sem`): blocks of a quarter revolution (one baffle passage of the
+        Equal blocks for the standard error (of one time series, not of replicas). Default for
+        revolution windows: blocking (:func:`blocking_sem`): blocks of a quarter revolution (one baffle passage of the
         four-baffle drum), merged pairwise level after level, the largest error over the levels
         with at least 4 blocks, so that it covers frames correlated over several passages; 5
         equal blocks for ``by="time_s"``.
