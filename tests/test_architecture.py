@@ -114,7 +114,7 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
 
 #: the layers of granalytics, lowest first: a module imports only modules of its own layer or of a
 #: lower one (docs/architecture.md). ``io`` is the deprecated forward to core and convert.
-LAYERS = {"_version": 0, "core": 0, "identification": 1, "convert": 1, "outputs": 1, "analysis": 2,
+LAYERS = {"_version": 0, "core": 0, "validation": 0, "identification": 1, "convert": 1, "outputs": 1, "analysis": 2,
           "export": 3, "plot": 3, "datasets": 3, "cli": 4, "__main__": 4}
 #: the upward edges, inside a method: a CG comparison's ``figures()`` and a PBM prediction's
 #: ``figure()`` draw themselves with granalytics.plot (as a pandas object's ``.plot()`` does)

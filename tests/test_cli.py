@@ -260,7 +260,7 @@ def test_compare_methods_refuses_text_for_a_numeric_setting_in_one_line(run_file
     assert main(["compare-methods", run_file, "--methods", "gna,dbscan", "--set", "dbscan.eps_diameters=abc",
                  "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["granalytics: error: method 'dbscan': eps_diameters must be a number, got 'abc'"]
+    assert err == ["granalytics: error: DBSCANClustering: eps_diameters must be a number > 0, got str 'abc'"]
 
 
 def test_the_edges_module_and_the_custom_method_come_with_the_package():

@@ -163,13 +163,17 @@ def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, m
     assert list(tmp_path.iterdir()) == []
 
 
+#: what an error about a snapshot argument says it must be
+HINT = "(open the run with granalytics.open_run and pass one frame, e.g. run[0])"
+
+
 @pytest.mark.parametrize("call, words", [
     (lambda s: ga.Snapshot(time=0, step=0, **{**_fields(s), "position": [[0.0, 0.0, 0.0]] * (s.n_particles - 1) + [[1.0, 2.0]]}),
      "'position': must be an array of numbers of shape (n,3)"),
     (lambda s: ga.Snapshot(time=0, step=0, **{**_fields(s), "ids": [[1, 2], [3]]}), "'ids': must be an array"),
     (lambda s: ga.identify(s, method=["gna"]), "unknown method ['gna']"),
     (lambda s: ga.GraphNetworkAnalysis().identify("run.h5"), "GraphNetworkAnalysis.identify: snapshot must be"),
-    (lambda s: ga.run_stats([1, 2]), "snapshot must be a granalytics Snapshot, got int"),
+    (lambda s: ga.run_stats([1, 2]), f"GraphNetworkAnalysis.identify: snapshot must be a granalytics Snapshot {HINT}, got int 1"),
     (lambda s: ga.compare_cg(5), "compare_cg: runs must be a list"),
     (lambda s: ga.compare_cg([1, 2]), "compare_cg: a run must be a run file's path or an open run, got int"),
     (lambda s: ga.compare_cg(["a.h5", "b.h5"], window="3:6"), "window must be a pair of numbers"),
@@ -178,17 +182,19 @@ def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, m
     (lambda s: __import__("granalytics.identification.edges", fromlist=["edge_table"]).edge_table(None),
      "edge_table: result must be an IdentificationResult"),
     (lambda s: ga.replica_steady_state(None), "replica_steady_state: timeseries must be a list of run_stats tables"),
-    (lambda s: ga.size_distribution("abc"), "size_distribution: sizes must be granule sizes"),
-    (lambda s: ga.size_distribution(None), "size_distribution: sizes must be granule sizes"),
+    (lambda s: ga.size_distribution("abc"), "size_distribution: sizes must be a sequence of numbers or one array of "
+                                             "sizes per frame, got str 'abc'"),
+    (lambda s: ga.size_distribution(None), "size_distribution: sizes must be a sequence of numbers or one array of "
+                                           "sizes per frame, got NoneType None"),
     (lambda s: ga.track_granules(None, [], []), "track_granules: labels_by_frame must be a sequence"),
     (lambda s: ga.track_granules([[0]], [[1]], ["a"]), "track_granules: times_s must be numbers"),
     (lambda s: ga.run_stats(None), "frames must be a Run, a RunSlice or a sequence of Snapshot"),
     # issue 33, A9 leftover: these ended in AttributeError, TypeError or numpy's ValueError
     (lambda s: ga.granule_table(None, np.zeros(s.n_particles, int)), "granule_table: snapshot must be a granalytics Snapshot"),
     (lambda s: ga.granule_table(s, [[1, 2], [3]]), "granule_table: labels must be a sequence of whole numbers"),
-    (lambda s: ga.cohesive_force("run.h5"), "cohesive_force: snapshot must be a granalytics Snapshot, got str (open the run"),
+    (lambda s: ga.cohesive_force("run.h5"), f"cohesive_force: snapshot must be a granalytics Snapshot {HINT}, got str 'run.h5'"),
     (lambda s: ga.steady_state(pd.DataFrame({"revolutions": [0.0, 1.0]}), columns=None),
-     "steady_state: columns must be a metric name or a list of them, got NoneType"),
+     "steady_state: columns must be a metric name or a sequence of str, got NoneType None"),
     (lambda s: ga.steady_state(pd.DataFrame({"revolutions": [0.0, 1.0], "yield_fraction": 0.5}), (0, 1),
                                ["yield_fraction"], n_blocks="abc"), "steady_state: n_blocks must be a whole number"),
     (lambda s: ga.fit_granule_growth("abc", [1, 2, 3]), "fit_granule_growth: gamma must be a list of numbers, got str"),
@@ -202,7 +208,8 @@ def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, m
     (lambda s: ga.WriterLock({"a": 1}), "WriterLock: target must be a file name"),
     (lambda s: ga.run_confinement(None), "run_confinement: meta must be a RunMeta"),
     (lambda s: ga.wall_touching(s, "meta"), "wall_touching: meta must be a RunMeta"),
-    (lambda s: ga.CommunityDetection(resolution="abc").identify(s), "resolution must be a number > 0, got 'abc'"),
+    (lambda s: ga.CommunityDetection(resolution="abc").identify(s),
+     "CommunityDetection: resolution must be a number > 0, got str 'abc'"),
     (lambda s: ga.track_run([s], window=5), "track_run: window must be a pair of numbers"),
     (lambda s: ga.event_rates(None), "event_rates: tracks must be a GranuleTracks"),
     (lambda s: ga.coalescence_kernel("tracks"), "coalescence_kernel: tracks must be a GranuleTracks"),

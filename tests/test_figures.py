@@ -67,7 +67,7 @@ def test_the_size_distribution_of_a_cg_run_in_original_equivalents_is_alpha_cube
     pd.testing.assert_frame_equal(original, ga.size_distribution(sizes, size_unit="original", alpha=3))
     with pytest.raises(ParameterError, match="size_unit='original' needs the CG factor alpha"):
         ga.size_distribution(sizes, size_unit="original")
-    with pytest.raises(ParameterError, match="size_unit must be one of particles, original"):
+    with pytest.raises(ParameterError, match="size_distribution: size_unit must be one of 'particles', 'original', got str 'volume'"):
         ga.size_distribution(sizes, size_unit="volume")
     with pytest.raises(ParameterError, match="alpha must be a positive number"):
         ga.size_distribution(sizes, size_unit="original", alpha=-1)
@@ -221,7 +221,7 @@ def test_the_bootstrap_band_holds_the_density_and_narrows_with_more_granules():
     large = ga.size_distribution(np.tile(sizes, 100), ci=0.95)
     first = (small["density_hi"] - small["density_lo"]).iloc[0] / (large["density_hi"] - large["density_lo"]).iloc[0]
     assert 7 < first < 13  # √100
-    with pytest.raises(ParameterError, match="ci must be a confidence level"):
+    with pytest.raises(ParameterError, match=r"size_distribution: ci must be a number in \(0, 1\) or None, got int 95"):
         ga.size_distribution(sizes, ci=95)
 
 

@@ -257,16 +257,16 @@ def test_silent_wrong_answers_are_refused_or_warned(run_file):
             run.nearest(revolutions=float("nan"))
         with pytest.warns(UserWarning, match="no frame near revolutions=100"):
             assert run.nearest(revolutions=100).time == run.times[-1]
-    with pytest.raises(ga.ParameterError, match="bins_per_decade must be a whole number >= 1, got 0"):
+    with pytest.raises(ga.ParameterError, match="size_distribution: bins_per_decade must be a whole number >= 1, got int 0"):
         ga.size_distribution([2, 3, 4], bins_per_decade=0)
-    with pytest.raises(ga.ParameterError, match="min_size must be a whole number >= 1, got 0"):
+    with pytest.raises(ga.ParameterError, match="size_distribution: min_size must be a whole number >= 1, got int 0"):
         ga.size_distribution([2, 3, 4], min_size=0)
     with pytest.raises(ga.ValidationError, match="whole frame indices, got 1.7"):
         ga.subset_run(run_file, os.path.join(os.path.dirname(run_file), "s.h5"), [0, 1.7])
 
 
 @pytest.mark.parametrize("call, words", [
-    (lambda: ga.identify(None), "snapshot must be a granalytics Snapshot, got NoneType"),
+    (lambda: ga.identify(None), r"^identify: snapshot must be a granalytics Snapshot \(.*\), got NoneType None$"),
     (lambda: ga.identify("run.h5"), "open the run with granalytics.open_run"),
     (lambda: ga.open_run(123), "path must be a file name"),
     (lambda: ga.steady_state(pd.DataFrame({"revolutions": [0.0, 1.0]}), window="3:6"), "window must be a pair"),

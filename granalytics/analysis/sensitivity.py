@@ -17,19 +17,28 @@ import pandas as pd
 
 from granalytics.identification import kernels as _kernels
 from granalytics.analysis.metrics import HEADLINE, GranuleCounts, metric_values
-from granalytics.core.windows import check_interval, window_mask
-from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.core.windows import window_mask
+from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
-from granalytics.identification.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, check_angle, check_comotion, check_rigid_tol, comotion_mask,
-                       contact_strength)
-from granalytics.identification.common import check_c_agg, check_min_size
+from granalytics.identification.contacts import (COMOTION, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, RIGID_SCALE, comotion_mask,
+                                                 contact_strength)
+from granalytics.identification.common import A_AGG_DEG, C_AGG, MIN_SIZE, RADIUS_MODE
+from granalytics.validation import POSITIVE, Array, Instance, validate_params
 
-__all__ = ["sensitivity", "sensitivity_summary", "COMOTION_COLUMNS", "comotion_column"]
+__all__ = ["sensitivity", "sensitivity_summary", "COMOTION_COLUMNS", "comotion_column", "SWEEP_CONSTRAINTS"]
 
 _METRICS = HEADLINE
 #: the column of the co-motion threshold in a sensitivity table, by co-motion test
 COMOTION_COLUMNS = {"angle": "a_agg_deg", "rigid": "rigid_tol"}
+#: the constraints (:mod:`granalytics.validation`) of a one-pass threshold sweep's parameters
+#: (:func:`sensitivity`, :func:`~granalytics.sieve_grid`): thresholds one number or a list of them
+SWEEP_CONSTRAINTS = {
+    "c_agg": [C_AGG, Array(ndim=1, within=C_AGG)], "a_agg_deg": [A_AGG_DEG, Array(ndim=1, within=A_AGG_DEG), None],
+    "rigid_tol": [POSITIVE, Array(ndim=1, within=POSITIVE), None], "radius": [RADIUS_MODE],
+    "surface_tension": [POSITIVE, None], "cohesion": [COHESION], "comotion": [COMOTION], "rigid_scale": [RIGID_SCALE],
+    "min_size": [MIN_SIZE],
+}
 
 
 def comotion_column(table) -> str:
@@ -65,30 +74,26 @@ def _frame_sweep(snapshot, c_desc, thresholds, radius, gamma, cohesion, comotion
 
 
 def threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, caller):
-    """The checked grid of a one-pass threshold sweep: the C_agg values, unique and descending
-    (float array), and the co-motion thresholds, unique and ascending (a list: A_agg [deg] for
-    ``comotion="angle"``, rigid tolerances for ``"rigid"``); ``caller`` names the function in the
-    errors. Raises :class:`ParameterError` for an empty or invalid list, or for the other
-    comotion's thresholds given."""
-    values = c_agg.tolist() if isinstance(c_agg, np.ndarray) else list(c_agg) if isinstance(c_agg, (list, tuple)) else [c_agg]
-    c = np.array([check_c_agg(v) for v in values], dtype=float)
-    if c.size == 0:
-        raise ParameterError(f"c_agg must be a non-empty list of numbers >= 0, got {c_agg!r}")
-    check_comotion(comotion)
-    given, check, name = ((a_agg_deg, check_angle, "a_agg_deg") if comotion == "angle"
-                          else (rigid_tol, check_rigid_tol, "rigid_tol"))
-    other = rigid_tol if comotion == "angle" else a_agg_deg
-    if other is not None:
-        raise ParameterError(f"{caller}: comotion={comotion!r} sweeps {name}; leave "
-                             f"{'rigid_tol' if comotion == 'angle' else 'a_agg_deg'} out")
-    if given is None:
+    """The grid of a one-pass threshold sweep, its values checked by :data:`SWEEP_CONSTRAINTS`: the
+    C_agg values, unique and descending (float array), and the co-motion thresholds, unique and
+    ascending (a list: A_agg [deg] for ``comotion="angle"``, rigid tolerances for ``"rigid"``);
+    ``caller`` names the function in the errors. Raises :class:`ParameterError` for an empty list,
+    or for the other comotion's thresholds given."""
+    name, other = ("a_agg_deg", "rigid_tol") if comotion == "angle" else ("rigid_tol", "a_agg_deg")
+    given = {"a_agg_deg": a_agg_deg, "rigid_tol": rigid_tol}
+    if given[other] is not None:
+        raise ParameterError(f"{caller}: comotion={comotion!r} sweeps {name}; leave {other} out")
+    if given[name] is None:
         raise ParameterError(f"{caller}: comotion={comotion!r} needs the thresholds {name}")
-    a_list = sorted({check(a) for a in np.atleast_1d(given)})  # each threshold once, as each C_agg
-    if not a_list:
-        raise ParameterError(f"{name} must not be empty")
+    c = np.atleast_1d(np.asarray(c_agg, dtype=float))
+    a_list = sorted({float(a) for a in np.atleast_1d(given[name])})  # each threshold once, as each C_agg
+    for what, values in (("c_agg", c), (name, a_list)):
+        if len(values) == 0:
+            raise ParameterError(f"{caller}: {what} must hold at least one threshold, got none")
     return np.unique(c)[::-1].copy(), a_list
 
 
+@validate_params(SWEEP_CONSTRAINTS)
 def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION,
                 comotion=DEFAULT_COMOTION, rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE, min_size=2,
                 jobs=1, scheduler=None, progress=False):
@@ -125,8 +130,6 @@ def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension
         :func:`~granalytics.frame_stats`).
     """
     c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "sensitivity")
-    check_cohesion(cohesion)
-    check_min_size(min_size)
     frame_ids, tables = map_frames(
         frames, lambda snapshot: _frame_sweep(snapshot, c_desc, a_list, radius, surface_tension, cohesion, comotion,
                                               rigid_scale, int(min_size)),
@@ -137,6 +140,8 @@ def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension
     return out.sort_values(["frame", COMOTION_COLUMNS[comotion], "c_agg"], kind="stable", ignore_index=True)
 
 
+@validate_params({"table": [Instance(pd.DataFrame, "the DataFrame of sensitivity()")],
+                  "window": [Array(ndim=1, length=2, finite=True), None]})
 def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
     """Mean and standard deviation over frames of each metric at each (C_agg, co-motion threshold).
 
@@ -146,19 +151,18 @@ def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
     window : (float, float), optional
         Revolution window; all frames when None.
     """
-    if not isinstance(table, pd.DataFrame):
-        raise ParameterError(f"sensitivity_summary: table must be the DataFrame of sensitivity(), got {type(table).__name__}")
     threshold = next((c for c in COMOTION_COLUMNS.values() if c in table), "a_agg_deg")
     need = [threshold, "c_agg", *(["revolutions"] if window is not None else []), *_METRICS]
-    if any(c not in table for c in need):
+    missing = [c for c in need if c not in table]
+    if missing:
         raise ParameterError(f"sensitivity_summary: table must be the DataFrame of sensitivity() (columns "
-                             f"{', '.join(need)}), got {type(table).__name__}"
-                             f"{' without ' + repr(next(c for c in need if c not in table)) if isinstance(table, pd.DataFrame) else ''}")
+                             f"{', '.join(need)}), got a DataFrame without {missing[0]!r}")
     if table.empty:
         raise ParameterError("sensitivity_summary: the table has no rows (no frame was analysed)")
     if window is not None:
-
-        lo, hi = check_interval("sensitivity_summary: window", window)
+        lo, hi = (float(w) for w in window)
+        if lo > hi:
+            raise ParameterError(f"sensitivity_summary: window [{lo:g}, {hi:g}] is empty")
         table = table[window_mask(table["revolutions"], lo, hi)]
         if table.empty:
             raise ParameterError(f"no frame in the window [{lo:g}, {hi:g}] revolutions")

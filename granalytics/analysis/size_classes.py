@@ -33,10 +33,10 @@ import pandas as pd
 from granalytics.analysis.frames import map_frames
 from granalytics.core.errors import ParameterError
 from granalytics.identification import kernels as _kernels
-from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
-from granalytics.analysis.sensitivity import threshold_grid
-from granalytics.identification.common import check_min_size
+from granalytics.identification.cohesion import DEFAULT_COHESION
+from granalytics.analysis.sensitivity import SWEEP_CONSTRAINTS, threshold_grid
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, comotion_mask, contact_strength
+from granalytics.validation import validate_params
 
 __all__ = ["MeasuredDistribution", "read_sieve_csv", "SIEVE_MEASURES", "SUM_TOLERANCE", "sieve_classes", "grid_measurement",
            "SieveGrid", "sieve_grid"]
@@ -353,6 +353,7 @@ def _frame_grid(snapshot, c_desc, thresholds, edges, code, radius, gamma, cohesi
     return out, snapshot.revolutions, snapshot.time, (snapshot.meta.density if snapshot.meta is not None else math.nan)
 
 
+@validate_params(SWEEP_CONSTRAINTS)
 def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radius="pair", surface_tension=None,
                cohesion=DEFAULT_COHESION, comotion=DEFAULT_COMOTION, rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE,
                min_size=2, jobs=1, scheduler=None, progress=False) -> SieveGrid:
@@ -382,10 +383,7 @@ def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radi
     """
     edges = _edges(edges_m)
     code = check_measure(measure)
-    c_desc, a_list = threshold_grid(np.atleast_1d(np.asarray(c_agg, dtype=object)), a_agg_deg, rigid_tol, comotion,
-                                    "sieve_grid")
-    check_cohesion(cohesion)
-    check_min_size(min_size)
+    c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "sieve_grid")
     c_asc = c_desc[::-1].copy()
     frame_ids, results = map_frames(
         frames, lambda s: _frame_grid(s, c_desc, a_list, edges, code, radius, surface_tension, cohesion, comotion,

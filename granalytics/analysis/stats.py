@@ -9,18 +9,20 @@ from __future__ import annotations
 
 import math
 import warnings
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE, STEADY, GranuleCounts, metric_values
-from granalytics.core.windows import check_interval, clip_window, window_mask, window_tolerance
+from granalytics.core.windows import clip_window, window_mask, window_tolerance
 from granalytics.core.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.identification.granules import granule_table
-from granalytics.identification import make_identifier
-from granalytics.identification.result import IdentificationResult
+from granalytics.identification import METHODS, make_identifier
+from granalytics.identification.result import RESULT, IdentificationResult
 from granalytics.core.snapshot import Snapshot
+from granalytics.validation import FLAG, SNAPSHOT, Array, Instance, Interval, Options, validate_params
 
 __all__ = [
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "combine_replicas",
@@ -31,8 +33,15 @@ __all__ = [
 DEFAULT_WINDOW_REV = (3.0, 6.0)
 
 _STEADY_COLUMNS = STEADY
+#: the constraints of a steady-state window's parameters (:func:`steady_state`, :func:`replica_steady_state`)
+_WINDOW_CONSTRAINTS = {
+    "window": [Array(ndim=1, length=2, finite=True)],
+    "columns": [Instance(str, "a metric name"), Array(ndim=1, dtype=str)],
+    "by": [Options(("revolutions", "time_s"))],
+}
 
 
+@validate_params({"snapshot": [SNAPSHOT], "result": [RESULT]})
 def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFrame:
     """Granulation metrics of one frame (one-row DataFrame).
 
@@ -69,11 +78,6 @@ def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFram
         by the frame's mean particle volume, Fig. 3; the fraction of particles in granules, Fig. 6;
         the mean particles per granule (NaN without granules).
     """
-    if not isinstance(snapshot, Snapshot):
-        raise ParameterError(f"frame_stats: snapshot must be a Snapshot, got {type(snapshot).__name__}")
-    if not isinstance(result, IdentificationResult):
-        raise ParameterError(f"frame_stats: result must be an IdentificationResult (from identify), got "
-                             f"{type(result).__name__}")
     if result.labels.shape != (snapshot.n_particles,):
         raise ParameterError("result does not belong to this snapshot (label count differs)")
     other = result.snapshot
@@ -104,6 +108,7 @@ def frame_stats(snapshot: Snapshot, result: IdentificationResult) -> pd.DataFram
     return pd.DataFrame([row])
 
 
+@validate_params({"method": [Options(METHODS)], "progress": [FLAG], "return_sizes": [FLAG]})
 def run_stats(frames, method="gna", *, progress=False, return_sizes=False, jobs=1, scheduler=None, **params):
     """Time series of :func:`frame_stats` over the frames of a run.
 
@@ -193,6 +198,8 @@ def check_window(axis, window, *, by="revolutions", source=None, warn=True):
     return mask, tol
 
 
+@validate_params({"timeseries": [Instance(pd.DataFrame, "a DataFrame (run_stats' result)"), Instance((list, tuple), "a list of them (replicas)")],
+                  **_WINDOW_CONSTRAINTS, "n_blocks": [Interval(Integral, 1, None), None]})
 def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS, *,
                  by="revolutions", n_blocks=None, source=None) -> pd.DataFrame:
     """Steady-state averages over a window of revolutions (default) or of time.
@@ -215,8 +222,8 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     by : {"revolutions", "time_s"}, default "revolutions"
         ``"time_s"`` for runs without drum rotation (static beds, hoppers).
     n_blocks : int, optional
-        Equal blocks for the standard error. Default for revolution windows: blocking
-        (:func:`blocking_sem`): blocks of a quarter revolution (one baffle passage of the
+        Equal blocks for the standard error (of one time series, not of replicas). Default for
+        revolution windows: blocking (:func:`blocking_sem`): blocks of a quarter revolution (one baffle passage of the
         four-baffle drum), merged pairwise level after level, the largest error over the levels
         with at least 4 blocks, so that it covers frames correlated over several passages; 5
         equal blocks for ``by="time_s"``.
@@ -232,45 +239,39 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
     with fewer than two blocks),
     ``n_frames`` (frames in the window with a finite value), ``n_blocks``.
     """
-    if by not in ("revolutions", "time_s"):
-        raise ParameterError(f"by must be 'revolutions' or 'time_s', got {by!r}")
-    if isinstance(timeseries, (list, tuple)) and n_blocks is None:
+    if not isinstance(timeseries, pd.DataFrame):  # a list of replicas
+        if n_blocks is not None:
+            raise ParameterError("steady_state: n_blocks is for one time series; replicas get the default blocks")
         return replica_steady_state(timeseries, window, columns, by=by, source=source)
-    if not isinstance(timeseries, pd.DataFrame):
-        raise ParameterError(f"steady_state: timeseries must be a DataFrame (run_stats' result), got {type(timeseries).__name__}")
-    lo, hi = check_interval("steady_state: window", window)
-    if isinstance(columns, str):
-        columns = (columns,)
-    names = tuple(columns) if hasattr(columns, "__iter__") and not isinstance(columns, (bytes, dict)) else ()
-    if not (names and all(isinstance(c, str) for c in names)):
-        raise ParameterError(f"steady_state: columns must be a metric name or a list of them, got "
-                             f"{type(columns).__name__} {columns!r}")
-    if n_blocks is not None and (isinstance(n_blocks, (bool, np.bool_))
-                                 or not isinstance(n_blocks, (int, np.integer)) or n_blocks < 1):
-        raise ParameterError(f"steady_state: n_blocks must be a whole number >= 1, got {type(n_blocks).__name__} "
-                             f"{n_blocks!r}")
-    columns = names
+    columns = (columns,) if isinstance(columns, str) else tuple(columns)
     missing = [c for c in (by, *columns) if c not in timeseries]
     if missing:
         raise ParameterError(f"steady_state: the time series has no column {missing[0]!r} "
                              f"(it has {', '.join(map(str, timeseries.columns))})")
     axis = timeseries[by].to_numpy(dtype=float)
+    lo, hi = (float(w) for w in window)
     mask, tol = check_window(axis, (lo, hi), by=by, source=source)
     # the blocks span the frames the window holds: an edge beyond the run is moved onto its first or
     # last frame, so that [3, 9] on a run ending at 6 gives the blocks, and the s.e.m., of [3, 6]
     lo, hi = clip_window(axis, lo, hi, tol)
     inside = timeseries[mask]
+    out, block = _block_statistics(inside, columns, by, lo, hi, tol, n_blocks)
+    _warn_if_drifting(inside, by, block, out, lo, hi, source)
+    table = pd.DataFrame(out).T
+    table.index.name = "metric"
+    return table.astype({"n_frames": int, "n_blocks": int})
+
+
+def _block_statistics(inside, columns, by, lo, hi, tol, n_blocks) -> tuple[dict, np.ndarray]:
+    """:func:`steady_state`'s row of every column of the frames ``inside`` the window [lo, hi]
+    (``mean``, ``std``, ``sem``, ``n_frames``, ``n_blocks``), and the block of every frame: blocks
+    of ``n_blocks`` equal widths from ``lo``, the closing edge joining the last block; with
+    ``n_blocks`` None, blocking (:func:`blocking_sem`) from quarter revolutions, or 5 blocks for
+    ``by="time_s"``."""
     blocking = by == "revolutions" and n_blocks is None
-    if blocking:  # start from one block per baffle passage (a quarter revolution)
-        n_blocks = max(1, round((hi - lo) / 0.25))
-        width = (hi - lo) / n_blocks
-    else:
-        if n_blocks is None:
-            n_blocks = 5
-        n_blocks = int(n_blocks)
-        width = (hi - lo) / n_blocks
-    # blocks from the window start; the closing edge joins the last block
-    # (with the window's tolerance: a frame stamped just before a block edge belongs after it)
+    n_blocks = max(1, round((hi - lo) / 0.25)) if blocking else 5 if n_blocks is None else int(n_blocks)
+    width = (hi - lo) / n_blocks
+    # with the window's tolerance: a frame stamped just before a block edge belongs after it
     position = (inside[by].to_numpy() - lo + tol) / width if width > 0 else np.zeros(len(inside))
     block = np.clip(np.floor(position), 0, n_blocks - 1).astype(int)
     out = {}
@@ -291,10 +292,7 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
             "n_frames": int(ok.sum()),
             "n_blocks": int(nb),
         }
-    _warn_if_drifting(inside, by, block, out, lo, hi, source)
-    table = pd.DataFrame(out).T
-    table.index.name = "metric"
-    return table.astype({"n_frames": int, "n_blocks": int})
+    return out, block
 
 
 #: a window drifts when a linear trend over its blocks has a p-value below this and changes the
@@ -332,6 +330,8 @@ def _warn_if_drifting(inside, by, block, out, lo, hi, source) -> None:
                       "over its blocks; choose a later window or a longer run", stacklevel=4)
 
 
+@validate_params({"timeseries": [Instance((list, tuple), "a list of run_stats tables (one per replica)")],
+                  **_WINDOW_CONSTRAINTS})
 def replica_steady_state(timeseries, window=DEFAULT_WINDOW_REV, columns=_STEADY_COLUMNS, *, by="revolutions",
                          source=None) -> pd.DataFrame:
     """Steady state over replicas: runs of one system that differ only in their random seed.
@@ -353,10 +353,11 @@ def replica_steady_state(timeseries, window=DEFAULT_WINDOW_REV, columns=_STEADY_
     ``block_sem`` (√(Σ sem_i²)/n, what the replicas' block errors say of the same mean),
     ``replica_std`` (of the replica means), ``n_replicas``.
     """
-    if not isinstance(timeseries, (list, tuple)) or not all(isinstance(ts, pd.DataFrame) for ts in timeseries):
-        raise ParameterError(f"replica_steady_state: timeseries must be a list of run_stats tables (one per replica), "
-                             f"got {type(timeseries).__name__}")
     series = list(timeseries)
+    wrong = next((ts for ts in series if not isinstance(ts, pd.DataFrame)), None)
+    if wrong is not None:
+        raise ParameterError(f"replica_steady_state: timeseries must be a list of run_stats tables (one per replica), "
+                             f"got a {type(wrong).__name__} in it")
     if len(series) < 2:
         raise ParameterError(f"replica_steady_state needs at least two replicas, got {len(series)}")
     out = combine_steady_states([steady_state(ts, window, columns, by=by, source=source) for ts in series])
@@ -472,6 +473,11 @@ def size_unit_factor(size_unit, alpha=None, *, caller="size_distribution") -> fl
     return float(value) ** 3
 
 
+@validate_params({
+    "sizes": [Array(ndim=1), Instance((list, tuple), "one array of sizes per frame")], "bins_per_decade": [Interval(Integral, 1, None)],
+    "min_size": [Interval(Integral, 1, None)], "size_unit": [Options(SIZE_UNITS)],
+    "ci": [Interval(Real, 0, 1, closed="neither"), None], "n_boot": [Interval(Integral, 1, None)],
+})
 def size_distribution(sizes, bins_per_decade=5, min_size=2, *, size_unit="particles", alpha=None, ci=None,
                       n_boot=2000, seed=0) -> pd.DataFrame:
     """Distribution of particles per granule on logarithmic bins of integers.
@@ -507,20 +513,11 @@ def size_distribution(sizes, bins_per_decade=5, min_size=2, *, size_unit="partic
     and ``ci``.
     """
     factor = size_unit_factor(size_unit, alpha)
-    if ci is not None and (isinstance(ci, bool) or not isinstance(ci, (int, float)) or not 0 < ci < 1):
-        raise ParameterError(f"size_distribution: ci must be a confidence level between 0 and 1, got {ci!r}")
-    if isinstance(sizes, (str, bytes)) or sizes is None or (not isinstance(sizes, (list, tuple))
-                                                            and np.ndim(sizes) == 0):
-        raise ParameterError(f"size_distribution: sizes must be granule sizes (an array, or one array per frame), got "
-                             f"{type(sizes).__name__} {str(sizes)[:40]!r}")
     if isinstance(sizes, (list, tuple)) and sizes and np.ndim(sizes[0]) == 0:  # one list of sizes
         sizes = np.asarray(sizes)
     elif isinstance(sizes, (list, tuple)):  # one array of sizes per frame
         sizes = np.concatenate([np.asarray(s, dtype=np.int64) for s in sizes]) if sizes else np.zeros(0, np.int64)
     sizes = np.asarray(sizes, dtype=np.int64)
-    for name, value in (("bins_per_decade", bins_per_decade), ("min_size", min_size)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise ParameterError(f"size_distribution: {name} must be a whole number >= 1, got {value!r}")
     if (sizes < min_size).any():
         raise ParameterError(f"granule sizes must be >= {min_size}, found {sizes.min()}")
     top = max(int(sizes.max()) if sizes.size else min_size, min_size) + 1

@@ -8,16 +8,15 @@ from __future__ import annotations
 
 import inspect
 
-import numpy as np
-
 from granalytics.core.errors import ParameterError
-from granalytics.identification.common import Identifier, check_flag, check_snapshot
+from granalytics.identification.common import Identifier
 from granalytics.identification.community import CommunityDetection
 from granalytics.identification.custom import CustomEdges
 from granalytics.identification.dbscan import DBSCANClustering, DBSCANIdentifier
 from granalytics.identification.gna import BACKENDS, GraphNetworkAnalysis
 from granalytics.identification.result import IdentificationResult
 from granalytics.identification.sieve import VirtualSieve, sieve_analysis
+from granalytics.validation import SNAPSHOT, validate_params
 
 __all__ = [
     "identify", "make_identifier", "METHODS", "DEFAULT_METHODS", "BACKENDS", "method_parameters", "accepted_params", "IdentificationResult", "Identifier",
@@ -57,26 +56,21 @@ DEFAULT_METHODS = tuple(name for name, cls in METHODS.items()
 
 
 def make_identifier(method="gna", **params):
-    """Build the identifier object of ``method`` with ``params``."""
+    """Build the identifier object of ``method`` with ``params``, its parameters checked against
+    their constraints at once (text from ``--set`` is refused before any frame is read)."""
     try:
         cls = METHODS[method]
     except (KeyError, TypeError):  # TypeError: an unhashable method (a list)
         raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}") from None
-    defaults = {name: p.default for name, p in inspect.signature(cls).parameters.items()}
-    for name, value in params.items():  # a number or a flag where the method's default is one (e.g. text from --set)
-        default = defaults.get(name)
-        numeric = isinstance(default, (int, float)) and not isinstance(default, bool)
-        if numeric and value is not None and (isinstance(value, bool)
-                                               or not isinstance(value, (int, float, np.integer, np.floating))):
-            raise ParameterError(f"method {method!r}: {name} must be a number, got {value!r}")
-        if isinstance(default, bool):
-            check_flag(f"method {method!r}: {name}", value)
     try:
-        return cls(**params)
+        identifier = cls(**params)
     except TypeError as exc:
         raise ParameterError(f"method {method!r}: {exc}") from None
+    identifier._validate_params()
+    return identifier
 
 
+@validate_params({"snapshot": [SNAPSHOT]})
 def identify(snapshot, method="gna", **params) -> IdentificationResult:
     """Identify granules in one snapshot.
 
@@ -96,5 +90,4 @@ def identify(snapshot, method="gna", **params) -> IdentificationResult:
     >>> result = identify(snapshot, c_agg=0.6, a_agg_deg=20)    # doctest: +SKIP
     >>> result.labels, result.granules                          # doctest: +SKIP
     """
-    check_snapshot(snapshot, "identify")
     return make_identifier(method, **params).identify(snapshot)

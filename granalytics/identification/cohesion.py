@@ -23,31 +23,34 @@ from __future__ import annotations
 
 import numpy as np
 
-from granalytics.core.checks import check_snapshot
-from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
+from granalytics.validation import SNAPSHOT, Options, validate, validate_params
 
-__all__ = ["COHESION_CONVENTIONS", "DEFAULT_COHESION", "check_cohesion", "cohesion_counts", "cohesion_counts_all",
-           "cohesive_force"]
+__all__ = ["COHESION_CONVENTIONS", "DEFAULT_COHESION", "COHESION", "check_cohesion", "cohesion_counts",
+           "cohesion_counts_all", "cohesive_force"]
 
 COHESION_CONVENTIONS = ("acting", "bridge")
 DEFAULT_COHESION = "acting"
+#: the constraint of a ``cohesion`` argument (:mod:`granalytics.validation`)
+COHESION = Options(COHESION_CONVENTIONS)
 
 
-def check_cohesion(cohesion) -> str:
-    """Return ``cohesion`` if it names a convention, else raise :class:`ParameterError`."""
-    if cohesion not in COHESION_CONVENTIONS:
-        raise ParameterError(f"cohesion must be one of {list(COHESION_CONVENTIONS)}, got {cohesion!r}")
+def check_cohesion(cohesion, where=None) -> str:
+    """``cohesion`` if it names a convention, else a :class:`~granalytics.core.errors.ParameterError`
+    (naming ``where`` if given), for a function that checks it in its body rather than declaring
+    :data:`COHESION` with :func:`~granalytics.validation.validate_params`."""
+    validate(where, {"cohesion": [COHESION]}, {"cohesion": cohesion})
     return cohesion
 
 
+@validate_params({"snapshot": [SNAPSHOT], "cohesion": [COHESION]})
 def cohesion_counts_all(snapshot: Snapshot, cohesion: str = DEFAULT_COHESION) -> bool:
     """True when every contact's bridge force counts as cohesion under ``cohesion`` (``"bridge"``,
     or a run that applied capillary force in contact); else only separated pairs count."""
-    check_cohesion(cohesion)
     return cohesion == "bridge" or (snapshot.meta is not None and bool(snapshot.meta.capillary_in_contact))
 
 
+@validate_params({"snapshot": [SNAPSHOT], "cohesion": [COHESION]})
 def cohesion_counts(snapshot: Snapshot, cohesion: str = DEFAULT_COHESION) -> np.ndarray:
     """Boolean mask of the contacts whose bridge force counts as cohesion under ``cohesion``:
     every contact for ``"bridge"``; for ``"acting"`` the separated ones (gap > 0), or all of
@@ -57,6 +60,7 @@ def cohesion_counts(snapshot: Snapshot, cohesion: str = DEFAULT_COHESION) -> np.
     return snapshot.gap > 0
 
 
+@validate_params({"snapshot": [SNAPSHOT], "cohesion": [COHESION]})
 def cohesive_force(snapshot: Snapshot, cohesion: str = DEFAULT_COHESION) -> np.ndarray:
     """F_coh [N] of every contact of ``snapshot`` under a cohesion convention.
 
@@ -72,6 +76,5 @@ def cohesive_force(snapshot: Snapshot, cohesion: str = DEFAULT_COHESION) -> np.n
     -------
     (M,) float array [N], ≥ 0; ``snapshot.f_cap`` itself (no copy) where every force counts.
     """
-    check_snapshot("cohesive_force", snapshot)
     counts = cohesion_counts(snapshot, cohesion)
     return snapshot.f_cap if counts.all() else np.where(counts, snapshot.f_cap, 0.0)

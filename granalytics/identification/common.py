@@ -1,28 +1,31 @@
 """Pieces shared by the identification methods: the :class:`Identifier` base class (parameters
-from the constructor, ``params()``, ``repr``), one validation of the thresholds C_agg and A_agg,
-and canonical labels. Per-contact quantities (γ, R, f = F_coh/(2πγR), co-motion) live in
-:mod:`granalytics.identification.contacts`, below this package."""
+from the constructor, checked against their declared constraints when
+:meth:`~Identifier.identify` runs, ``params()``, ``repr``), the constraints of C_agg and of the
+granule size, and canonical labels. Per-contact quantities (γ, R, f = F_coh/(2πγR), co-motion)
+and their constraints live in :mod:`granalytics.identification.contacts`, below this package."""
 
 from __future__ import annotations
 
 import functools
 import inspect
-import math
+from numbers import Integral, Real
 
 import numpy as np
 
 from granalytics.identification import kernels as _kernels
-from granalytics.identification.contacts import as_number, check_angle, check_radius_mode, co_moving, contact_strength, mean_radius, surface_tension
-from granalytics.core import checks
-from granalytics.core.errors import ParameterError
+from granalytics.identification.contacts import A_AGG_DEG, RADIUS_MODE, co_moving, contact_strength, mean_radius, surface_tension
+from granalytics.validation import SNAPSHOT, Interval, validate, validate_params
 
 #: the paper's thresholds, the defaults of every method that filters contacts by them (GNA, the
 #: sieve over GNA granules, community detection): C_agg (F_coh ≥ C_agg·2πγR) and A_agg [deg]
 PAPER_C_AGG = 0.6
 PAPER_A_AGG_DEG = 20.0
+#: the constraints (:mod:`granalytics.validation`) of C_agg, ≥ 0, and of the fewest particles of a granule, ≥ 2
+C_AGG = Interval(Real, 0, None)
+MIN_SIZE = Interval(Integral, 2, None)
 
-__all__ = ["PAPER_C_AGG", "PAPER_A_AGG_DEG", "Identifier", "check_c_agg", "check_min_size", "check_angle", "check_radius_mode", "co_moving", "contact_strength",
-           "mean_radius", "surface_tension", "labels_from_clusters"]
+__all__ = ["PAPER_C_AGG", "PAPER_A_AGG_DEG", "C_AGG", "MIN_SIZE", "A_AGG_DEG", "RADIUS_MODE", "Identifier", "co_moving",
+           "contact_strength", "mean_radius", "surface_tension", "labels_from_clusters"]
 
 
 class Identifier:
@@ -31,8 +34,9 @@ class Identifier:
     The contract of a method (checked for every registered method by ``tests/test_conformance.py``):
 
     - a class attribute ``method``, its name in :data:`granalytics.identification.METHODS`;
-    - every constructor argument stored under the same attribute name, validated when
-      :meth:`identify` runs (not in the constructor);
+    - every constructor argument stored under the same attribute name, its constraints declared in
+      the class attribute ``_parameter_constraints`` (name -> list of constraints,
+      :mod:`granalytics.validation`) and checked when :meth:`identify` runs (not in the constructor);
     - a keyword argument ``cohesion`` (one of :data:`granalytics.COHESION_CONVENTIONS`), also for
       methods that do not use it: commands and :func:`granalytics.compare_methods` hand it to any method;
     - :meth:`identify` ``(snapshot)`` returning an :class:`~granalytics.IdentificationResult`.
@@ -41,13 +45,19 @@ class Identifier:
     """
 
     method = ""
+    _parameter_constraints: dict = {}
 
     def __init_subclass__(cls, **kwargs):
-        """Every method's :meth:`identify` refuses anything but a Snapshot (one ParameterError,
-        not an AttributeError from deep inside the method)."""
+        """Every method's :meth:`identify` refuses anything but a Snapshot, and parameters outside
+        their constraints (one ParameterError, not an AttributeError from deep inside the method)."""
         super().__init_subclass__(**kwargs)
         if "identify" in cls.__dict__:
-            cls.identify = _snapshot_checked(cls.__dict__["identify"])
+            cls.identify = _validated(cls.__dict__["identify"])
+
+    def _validate_params(self) -> None:
+        """Refuse a parameter outside its ``_parameter_constraints`` (ParameterError naming the class)."""
+        validate(type(self).__name__, self._parameter_constraints,
+                 {name: getattr(self, name) for name in self._parameter_constraints})
 
     def params(self) -> dict:
         """The constructor parameters, by name."""
@@ -65,42 +75,14 @@ class Identifier:
         return f"{type(self).__name__}({args})"
 
 
-def check_snapshot(snapshot, where) -> None:
-    """Refuse (``ParameterError`` naming ``where``) anything but a :class:`Snapshot`; a path gets
-    the hint to open the run first (:func:`granalytics.core.checks.check_snapshot`)."""
-    checks.check_snapshot(where, snapshot)
-
-
-def _snapshot_checked(identify):
+def _validated(identify):
+    @validate_params({"snapshot": [SNAPSHOT]})
     @functools.wraps(identify)
-    def checked(self, snapshot, *args, **kwargs):
-        check_snapshot(snapshot, f"{type(self).__name__}.identify")
+    def validated(self, snapshot, *args, **kwargs):
+        self._validate_params()
         return identify(self, snapshot, *args, **kwargs)
 
-    return checked
-
-
-def check_c_agg(c_agg) -> float:
-    """C_agg as a float, finite and ≥ 0."""
-    value = as_number("c_agg", c_agg, "a number >= 0")
-    if not (math.isfinite(value) and value >= 0):
-        raise ParameterError(f"c_agg must be finite and >= 0, got {c_agg!r}")
-    return value
-
-
-def check_flag(name, value) -> bool:
-    """``value`` if it is a bool; text such as ``'no'`` or ``'false'`` and numbers are refused
-    (``ParameterError`` naming ``name``), never read by their truth value."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise ParameterError(f"{name} must be True or False, got {type(value).__name__} {value!r}")
-    return bool(value)
-
-
-def check_min_size(min_size) -> int:
-    """The fewest particles of a granule, a whole number >= 2."""
-    if isinstance(min_size, (bool, np.bool_)) or not isinstance(min_size, (int, np.integer)) or min_size < 2:
-        raise ParameterError(f"min_size must be a whole number of particles >= 2, got {min_size!r}")
-    return int(min_size)
+    return validated
 
 
 def labels_from_clusters(cluster) -> tuple[np.ndarray, np.ndarray]:

@@ -15,18 +15,18 @@ order so that the result does not depend on the row order of the snapshot.
 
 from __future__ import annotations
 
-import math
 import random
+from numbers import Integral
 
 import numpy as np
 
 from granalytics.identification import kernels as _kernels
-from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
-from granalytics.identification.contacts import as_number
-from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, co_moving, contact_strength
+from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
+from granalytics.identification.common import (A_AGG_DEG, C_AGG, PAPER_A_AGG_DEG, PAPER_C_AGG, RADIUS_MODE, Identifier, co_moving,
+                                               contact_strength)
 from granalytics.identification.result import IdentificationResult
+from granalytics.validation import POSITIVE, Interval
 
 __all__ = ["CommunityDetection"]
 
@@ -49,8 +49,8 @@ class CommunityDetection(Identifier):
         Modularity resolution γ_res: larger values give smaller communities.
     radius : {"pair", "mean"}, default "pair"
         R in 2πγR, as for GNA.
-    seed : int, default 0
-        Seed of Leiden's random choices.
+    seed : int or None, default 0
+        Seed of Leiden's random choices (None: a fresh one each time).
     surface_tension : float, optional
         γ [N/m]; defaults to the run metadata's.
     cohesion : {"acting", "bridge"}, default "acting"
@@ -58,6 +58,10 @@ class CommunityDetection(Identifier):
     """
 
     method = "community"
+    _parameter_constraints = {
+        "c_agg": [C_AGG], "a_agg_deg": [A_AGG_DEG, None], "resolution": [POSITIVE], "radius": [RADIUS_MODE],
+        "seed": [Interval(Integral), None], "surface_tension": [POSITIVE, None], "cohesion": [COHESION],
+    }
 
     def __init__(self, c_agg=PAPER_C_AGG, a_agg_deg=PAPER_A_AGG_DEG, *, resolution=1.0, radius="pair", seed=0, surface_tension=None,
                  cohesion=DEFAULT_COHESION):
@@ -73,13 +77,7 @@ class CommunityDetection(Identifier):
         """Partition one snapshot's weighted contact network."""
         import igraph
 
-        check_radius_mode(self.radius)
-        c_agg = check_c_agg(self.c_agg)
-        if self.a_agg_deg is not None:
-            check_angle(self.a_agg_deg)
-        if not (math.isfinite(as_number("resolution", self.resolution, "a number > 0")) and self.resolution > 0):
-            raise ParameterError(f"resolution must be > 0, got {self.resolution!r}")
-        f = contact_strength(snapshot, self.radius, self.surface_tension, check_cohesion(self.cohesion))
+        f = contact_strength(snapshot, self.radius, self.surface_tension, self.cohesion)
         keep = f > 0
         if self.a_agg_deg is not None:
             keep &= co_moving(snapshot, self.a_agg_deg)
@@ -91,7 +89,7 @@ class CommunityDetection(Identifier):
         order = np.lexsort((hi, lo))
         graph = igraph.Graph(n=snapshot.n_particles, edges=np.column_stack([lo[order], hi[order]]).tolist())
         graph.es["weight"] = f[keep][order].tolist()
-        igraph.set_random_number_generator(random.Random(self.seed))
+        igraph.set_random_number_generator(random.Random(None if self.seed is None else int(self.seed)))
         try:
             parts = graph.community_leiden(objective_function="modularity", weights="weight",
                                            resolution=float(self.resolution), n_iterations=-1)
@@ -100,7 +98,7 @@ class CommunityDetection(Identifier):
         community = np.asarray(parts.membership, dtype=np.int64)[rank]
         # split by the contacts inside a community that pass the cohesion threshold
         ci, cj = snapshot.contact_i, snapshot.contact_j
-        bond = keep & (f >= c_agg) & (community[ci] == community[cj])
+        bond = keep & (f >= float(self.c_agg)) & (community[ci] == community[cj])
         membership = _kernels.union_find_membership(snapshot.n_particles, ci[bond], cj[bond])
         labels, sizes = _kernels.canonical_labels(membership)
         return IdentificationResult(labels=labels, sizes=sizes, method=self.method, params=self.params(),

@@ -5,20 +5,20 @@ cohesion convention, and the co-motion test of every contact."""
 from __future__ import annotations
 
 import math
+from numbers import Real
 
 import numpy as np
 import pandas as pd
 
 from granalytics.identification import kernels as _kernels
-from granalytics.identification.cohesion import DEFAULT_COHESION, cohesive_force
+from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION, cohesive_force
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
+from granalytics.validation import POSITIVE, SNAPSHOT, Interval, Options, validate_params
 
-__all__ = ["surface_tension", "mean_radius", "check_radius_mode", "as_number", "check_angle", "contact_strength",
-           "largest_strength", "co_moving",
-           "contact_table", "COMOTION_TESTS", "DEFAULT_COMOTION", "DEFAULT_RIGID_TOL", "check_comotion", "check_rigid_tol",
-           "rigid_residual", "rigid_speed_scale", "co_moving_rigid", "comotion_mask", "RIGID_SCALES",
-           "DEFAULT_RIGID_SCALE", "check_rigid_scale"]
+__all__ = ["surface_tension", "mean_radius", "RADIUS_MODE", "A_AGG_DEG", "contact_strength", "largest_strength", "co_moving",
+           "contact_table", "COMOTION_TESTS", "COMOTION", "DEFAULT_COMOTION", "DEFAULT_RIGID_TOL", "rigid_residual",
+           "rigid_speed_scale", "co_moving_rigid", "comotion_mask", "RIGID_SCALES", "RIGID_SCALE", "DEFAULT_RIGID_SCALE"]
 
 #: co-motion tests of GNA: ``"angle"`` (the paper's: velocities or angular velocities within A_agg)
 #: and ``"rigid"`` (the pair moves as one rigid body to within a tolerance; :func:`co_moving_rigid`)
@@ -33,6 +33,12 @@ DEFAULT_RIGID_SCALE = "granular"
 #: on lab-cg1 the rigid test passes the share of force-passing pairs the angle test passes at 20°;
 #: docs/identification.md, "The rigid co-motion test")
 DEFAULT_RIGID_TOL = 0.2
+#: constraints (:mod:`granalytics.validation`): R in 2πγR, the pair's or the mean radius; A_agg [deg]
+#: in (0, 180]; the co-motion test; the rigid test's velocity scale
+RADIUS_MODE = Options(("pair", "mean"))
+A_AGG_DEG = Interval(Real, 0, 180, closed="right")
+COMOTION = Options(COMOTION_TESTS)
+RIGID_SCALE = Options(RIGID_SCALES)
 
 def surface_tension(snapshot: Snapshot, override=None) -> float:
     """γ [N/m]: ``override`` if given, else the run metadata's."""
@@ -52,30 +58,7 @@ def mean_radius(snapshot: Snapshot) -> float:
     return snapshot.meta.mean_radius if snapshot.meta is not None else float(snapshot.radius.mean())
 
 
-def check_radius_mode(radius) -> None:
-    if radius not in ("pair", "mean"):
-        raise ParameterError(f"radius must be 'pair' or 'mean', got {radius!r}")
-
-
-def as_number(name, value, requirement) -> float:
-    """``value`` as a float; a bool, a string or another non-number raises a
-    :class:`ParameterError` naming ``name`` and the ``requirement``."""
-    if isinstance(value, (bool, np.bool_, str, bytes)):
-        raise ParameterError(f"{name} must be {requirement}, got {value!r}")
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be {requirement}, got {value!r}") from None
-
-
-def check_angle(a_agg_deg) -> float:
-    """A_agg [deg] as a float in (0, 180]."""
-    a = as_number("a_agg_deg", a_agg_deg, "a number of degrees in (0, 180]")
-    if not 0 < a <= 180:
-        raise ParameterError(f"a_agg_deg must be in (0, 180] degrees, got {a_agg_deg!r}")
-    return a
-
-
+@validate_params({"radius": [RADIUS_MODE], "cohesion": [COHESION]})
 def largest_strength(snapshots, radius="pair", cohesion=DEFAULT_COHESION) -> float:
     """The largest F_coh / (2πγR) (:func:`contact_strength`) over ``snapshots`` (0 without contacts).
 
@@ -87,13 +70,13 @@ def largest_strength(snapshots, radius="pair", cohesion=DEFAULT_COHESION) -> flo
                default=0.0)
 
 
+@validate_params({"snapshot": [SNAPSHOT], "radius": [RADIUS_MODE], "gamma": [POSITIVE, None], "cohesion": [COHESION]})
 def contact_strength(snapshot: Snapshot, radius="pair", gamma=None, cohesion=DEFAULT_COHESION) -> np.ndarray:
     """f = F_coh / (2πγR) of every contact, with R the pair's 2RiRj/(Ri+Rj) or the mean radius
     and F_coh under the ``cohesion`` convention (:mod:`granalytics.identification.cohesion`).
 
     Bit-identical to the value the GNA kernels compare with C_agg.
     """
-    check_radius_mode(radius)
     r_mean = mean_radius(snapshot) if radius == "mean" else 0.0
     return _kernels.contact_strength(
         snapshot.contact_i, snapshot.contact_j, cohesive_force(snapshot, cohesion), snapshot.radius,
@@ -101,32 +84,11 @@ def contact_strength(snapshot: Snapshot, radius="pair", gamma=None, cohesion=DEF
     )
 
 
+@validate_params({"snapshot": [SNAPSHOT], "a_agg_deg": [A_AGG_DEG]})
 def co_moving(snapshot: Snapshot, a_agg_deg) -> np.ndarray:
     """Contacts whose velocities or angular velocities make an angle below A_agg [deg]."""
-    cos_a = math.cos(math.radians(check_angle(a_agg_deg)))
+    cos_a = math.cos(math.radians(float(a_agg_deg)))
     return _kernels.co_moving(snapshot.contact_i, snapshot.contact_j, snapshot.velocity, snapshot.angular_velocity, cos_a)
-
-
-def check_comotion(comotion) -> str:
-    """``comotion`` if it is one of :data:`COMOTION_TESTS`."""
-    if not isinstance(comotion, str) or comotion not in COMOTION_TESTS:
-        raise ParameterError(f"comotion must be one of {', '.join(map(repr, COMOTION_TESTS))}, got {comotion!r}")
-    return comotion
-
-
-def check_rigid_tol(rigid_tol) -> float:
-    """The rigid test's tolerance as a float, finite and > 0."""
-    value = as_number("rigid_tol", rigid_tol, "a finite number > 0")
-    if not (math.isfinite(value) and value > 0):
-        raise ParameterError(f"rigid_tol must be a finite number > 0, got {rigid_tol!r}")
-    return value
-
-
-def check_rigid_scale(rigid_scale) -> str:
-    """``rigid_scale`` if it is one of :data:`RIGID_SCALES`."""
-    if not isinstance(rigid_scale, str) or rigid_scale not in RIGID_SCALES:
-        raise ParameterError(f"rigid_scale must be one of {', '.join(map(repr, RIGID_SCALES))}, got {rigid_scale!r}")
-    return rigid_scale
 
 
 def rigid_residual(snapshot: Snapshot) -> np.ndarray:
@@ -158,36 +120,34 @@ def _drum_speed(snapshot) -> float:
     return omega * float(radius)
 
 
+@validate_params({"snapshot": [SNAPSHOT], "rigid_scale": [RIGID_SCALE], "speed_scale": [POSITIVE, None]})
 def rigid_speed_scale(snapshot: Snapshot, rigid_scale=DEFAULT_RIGID_SCALE, speed_scale=None) -> np.ndarray | float:
     """The velocity [m/s] the rigid test's tolerance multiplies, per contact or one for all:
     ``speed_scale`` if given; else √(|g|·(R_i + R_j)) (``"granular"``) or the drum's rim speed
     Ω·R_d (``"drum"``) from the run metadata."""
-    check_rigid_scale(rigid_scale)
     if speed_scale is not None:
-        value = as_number("speed_scale", speed_scale, "a finite number > 0 [m/s]")
-        if not (math.isfinite(value) and value > 0):
-            raise ParameterError(f"speed_scale must be a finite number > 0 [m/s], got {speed_scale!r}")
-        return value
+        return float(speed_scale)
     if rigid_scale == "drum":
         return _drum_speed(snapshot)
     return np.sqrt(_gravity(snapshot) * (snapshot.radius[snapshot.contact_i] + snapshot.radius[snapshot.contact_j]))
 
 
+@validate_params({"rigid_tol": [POSITIVE]})
 def co_moving_rigid(snapshot: Snapshot, rigid_tol=DEFAULT_RIGID_TOL, rigid_scale=DEFAULT_RIGID_SCALE,
                     speed_scale=None) -> np.ndarray:
     """Contacts that move as a rigid pair: :func:`rigid_residual` < rigid_tol · V, with V the
     velocity scale of :func:`rigid_speed_scale`. With the default ``"granular"`` scale √(g·d) the
     test compares the pair's deformation with the relative velocities a dense granular flow of
     particles of that size has, so a coarse-grained run and its original pass alike."""
-    tol = check_rigid_tol(rigid_tol)
-    return rigid_residual(snapshot) < tol * rigid_speed_scale(snapshot, rigid_scale, speed_scale)
+    return rigid_residual(snapshot) < float(rigid_tol) * rigid_speed_scale(snapshot, rigid_scale, speed_scale)
 
 
+@validate_params({"comotion": [COMOTION]})
 def comotion_mask(snapshot: Snapshot, comotion=DEFAULT_COMOTION, *, a_agg_deg=20.0, rigid_tol=DEFAULT_RIGID_TOL,
                   rigid_scale=DEFAULT_RIGID_SCALE, speed_scale=None) -> np.ndarray:
     """The co-motion test ``comotion`` of every contact: :func:`co_moving` at ``a_agg_deg`` or
     :func:`co_moving_rigid` at ``rigid_tol``."""
-    if check_comotion(comotion) == "angle":
+    if comotion == "angle":
         return co_moving(snapshot, a_agg_deg)
     return co_moving_rigid(snapshot, rigid_tol, rigid_scale, speed_scale)
 
@@ -199,6 +159,8 @@ def _angles_deg(a, b):
     return np.where((na == 0) | (nb == 0), np.nan, np.degrees(np.arccos(cos)))
 
 
+@validate_params({"snapshot": [SNAPSHOT], "radius": [RADIUS_MODE], "surface_tension": [POSITIVE, None],
+                  "cohesion": [COHESION]})
 def contact_table(snapshot: Snapshot, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION) -> pd.DataFrame:
     """One row per contact or bridge, the columns user criteria can use.
 

@@ -14,16 +14,17 @@ can depend on particle order.
 from __future__ import annotations
 
 import math
+from numbers import Integral, Real
 
 import numpy as np
 from scipy.sparse import coo_matrix
 
-from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts
+from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION, cohesion_counts
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.identification.contacts import as_number
-from granalytics.identification.common import Identifier, check_flag, labels_from_clusters, mean_radius
+from granalytics.identification.common import Identifier, labels_from_clusters, mean_radius
 from granalytics.identification.result import IdentificationResult
+from granalytics.validation import FLAG, POSITIVE, Interval
 
 __all__ = ["DBSCANClustering", "DBSCANIdentifier"]
 
@@ -55,6 +56,10 @@ class DBSCANClustering(Identifier):
     """
 
     method = "dbscan"
+    _parameter_constraints = {
+        "eps_diameters": [POSITIVE], "min_samples": [Interval(Integral, 1, None)], "bridged_only": [FLAG],
+        "velocity_weight": [Interval(Real, 0, None)], "cohesion": [COHESION],
+    }
 
     def __init__(self, eps_diameters=1.05, min_samples=2, *, bridged_only=True, velocity_weight=0.0,
                  cohesion=DEFAULT_COHESION):
@@ -79,19 +84,11 @@ class DBSCANClustering(Identifier):
         from sklearn.cluster import DBSCAN
         from sklearn.neighbors import radius_neighbors_graph
 
-        eps = as_number("eps_diameters", self.eps_diameters, "a number > 0")
-        if not (math.isfinite(eps) and eps > 0):
-            raise ParameterError(f"eps_diameters must be > 0, got {self.eps_diameters!r}")
-        min_samples = as_number("min_samples", self.min_samples, "an integer >= 1")
-        if not min_samples.is_integer() or min_samples < 1:
-            raise ParameterError(f"min_samples must be an integer >= 1, got {self.min_samples!r}")
-        weight = as_number("velocity_weight", self.velocity_weight, "a number >= 0")
-        if not (math.isfinite(weight) and weight >= 0):
-            raise ParameterError(f"velocity_weight must be >= 0, got {self.velocity_weight!r}")
+        eps = float(self.eps_diameters)
         x = self._features(snapshot)
         n = snapshot.n_particles
-        if check_flag("bridged_only", self.bridged_only):
-            wet = (snapshot.bridge_volume > 0) & cohesion_counts(snapshot, check_cohesion(self.cohesion))
+        if self.bridged_only:
+            wet = (snapshot.bridge_volume > 0) & cohesion_counts(snapshot, self.cohesion)
             i, j = snapshot.contact_i[wet], snapshot.contact_j[wet]
             d = np.linalg.norm(x[i] - x[j], axis=1)
             near = d <= eps

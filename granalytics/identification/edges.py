@@ -9,16 +9,15 @@ import pandas as pd
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import contact_table
 from granalytics.core.errors import ParameterError
-from granalytics.identification.result import IdentificationResult
+from granalytics.identification.result import RESULT, IdentificationResult
+from granalytics.validation import validate_params
 
 __all__ = ["contact_table", "edge_table", "to_networkx", "to_igraph"]
 
 
+@validate_params({"result": [RESULT]})
 def edge_table(result: IdentificationResult) -> pd.DataFrame:
     """The contacts a contact-based identification kept, with their granule label."""
-    if not isinstance(result, IdentificationResult):
-        raise ParameterError(f"edge_table: result must be an IdentificationResult (of granalytics.identify), got "
-                             f"{type(result).__name__}")
     if result.kept is None:
         raise ParameterError(f"method {result.method!r} does not select contacts")
     table = contact_table(result.snapshot, cohesion=result.params.get("cohesion", DEFAULT_COHESION))

@@ -33,13 +33,14 @@ import networkx as nx
 import numpy as np
 
 from granalytics.identification import kernels as _kernels
-from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion, cohesion_counts_all
-from granalytics.core.errors import ParameterError
+from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION, cohesion_counts_all
 from granalytics.core.snapshot import Snapshot
-from granalytics.identification.contacts import (DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, check_comotion, check_rigid_scale,
-                        check_rigid_tol, co_moving_rigid, contact_strength)
-from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, check_angle, check_c_agg, check_radius_mode, check_min_size, mean_radius, surface_tension
+from granalytics.identification.contacts import (COMOTION, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, RIGID_SCALE,
+                                                 co_moving_rigid, contact_strength)
+from granalytics.identification.common import (A_AGG_DEG, C_AGG, MIN_SIZE, PAPER_A_AGG_DEG, PAPER_C_AGG, RADIUS_MODE, Identifier,
+                                               mean_radius, surface_tension)
 from granalytics.identification.result import IdentificationResult
+from granalytics.validation import POSITIVE, Options
 
 __all__ = ["GraphNetworkAnalysis", "BACKENDS"]
 
@@ -115,6 +116,11 @@ class GraphNetworkAnalysis(Identifier):
     """
 
     method = "gna"
+    _parameter_constraints = {
+        "c_agg": [C_AGG], "a_agg_deg": [A_AGG_DEG], "radius": [RADIUS_MODE], "backend": [Options(BACKENDS)],
+        "surface_tension": [POSITIVE, None], "cohesion": [COHESION], "comotion": [COMOTION], "rigid_tol": [POSITIVE],
+        "rigid_scale": [RIGID_SCALE], "speed_scale": [POSITIVE, None], "min_size": [MIN_SIZE],
+    }
 
     def __init__(self, c_agg=PAPER_C_AGG, a_agg_deg=PAPER_A_AGG_DEG, *, radius="pair", backend="fast", surface_tension=None,
                  cohesion=DEFAULT_COHESION, comotion=DEFAULT_COMOTION, rigid_tol=DEFAULT_RIGID_TOL,
@@ -131,25 +137,13 @@ class GraphNetworkAnalysis(Identifier):
         self.speed_scale = speed_scale
         self.min_size = min_size
 
-    def _check(self):
-        c_agg, a_agg = check_c_agg(self.c_agg), check_angle(self.a_agg_deg)
-        check_radius_mode(self.radius)
-        check_cohesion(self.cohesion)
-        if check_comotion(self.comotion) == "rigid":
-            check_rigid_tol(self.rigid_tol)
-            check_rigid_scale(self.rigid_scale)
-        check_min_size(self.min_size)
-        if self.backend not in BACKENDS:
-            raise ParameterError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
-        return c_agg, a_agg
-
     def kernel_args(self, snapshot: Snapshot) -> tuple:
         """Arguments of the numba GNA kernels after ``(ci, cj, f_coh, radius, vel, omega)``:
         ``(2πγ, mean_radius or 0, c_agg, cos A_agg)``."""
-        c_agg, a_agg = self._check()
+        self._validate_params()
         gamma = surface_tension(snapshot, self.surface_tension)
         r_mean = mean_radius(snapshot) if self.radius == "mean" else 0.0
-        return 2.0 * math.pi * gamma, r_mean, c_agg, math.cos(math.radians(a_agg))
+        return 2.0 * math.pi * gamma, r_mean, float(self.c_agg), math.cos(math.radians(float(self.a_agg_deg)))
 
     def contact_mask(self, snapshot: Snapshot) -> np.ndarray:
         """Boolean mask of the contacts that pass both criteria."""

@@ -3,16 +3,19 @@ gyration, liquid)."""
 
 from __future__ import annotations
 
+from numbers import Integral
+
 import numpy as np
 import pandas as pd
 
-from granalytics.core.checks import check_indices, check_snapshot
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
+from granalytics.validation import SNAPSHOT, Array, validate_params
 
 __all__ = ["granule_table"]
 
 
+@validate_params({"snapshot": [SNAPSHOT], "labels": [Array(ndim=1, dtype=Integral)]})
 def granule_table(snapshot: Snapshot, labels) -> pd.DataFrame:
     """One row per granule.
 
@@ -36,11 +39,9 @@ def granule_table(snapshot: Snapshot, labels) -> pd.DataFrame:
     - ``liquid_volume_m3``: film + bridge liquid [m³];
     - ``liquid_solid_ratio``: liquid volume / solid volume.
     """
-    check_snapshot("granule_table", snapshot)
-    if not (isinstance(labels, np.ndarray) and labels.dtype.kind in "iu"):  # a list, or not whole numbers
-        labels = check_indices("granule_table", "labels", labels)
+    labels = np.asarray(labels)
     if labels.shape != (snapshot.n_particles,):
-        raise ParameterError(f"labels must have shape ({snapshot.n_particles},), got {labels.shape}")
+        raise ParameterError(f"granule_table: labels must have shape ({snapshot.n_particles},), got {labels.shape}")
     g = int(labels.max()) + 1 if labels.size else 0
     member = labels >= 0
     lab = labels[member]

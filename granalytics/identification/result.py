@@ -10,8 +10,9 @@ import pandas as pd
 
 from granalytics.identification.granules import granule_table
 from granalytics.core.snapshot import Snapshot
+from granalytics.validation import Instance
 
-__all__ = ["IdentificationResult"]
+__all__ = ["IdentificationResult", "RESULT"]
 
 
 @dataclass(eq=False)
@@ -67,3 +68,7 @@ class IdentificationResult:
         order = np.argsort(self.labels, kind="stable")
         bounds = np.searchsorted(self.labels[order], np.arange(self.n_granules + 1))
         return {frozenset(ids[order[a:b]].tolist()) for a, b in zip(bounds[:-1], bounds[1:])}
+
+
+#: the constraint of an argument that takes an identification's result (:mod:`granalytics.validation`)
+RESULT = Instance(IdentificationResult, "an IdentificationResult (of granalytics.identify)")

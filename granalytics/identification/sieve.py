@@ -17,17 +17,19 @@ interpolated linearly in log aperture).
 from __future__ import annotations
 
 import math
+from numbers import Real
 
 import numpy as np
 import pandas as pd
 
-from granalytics.identification.cohesion import DEFAULT_COHESION
+from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
 from granalytics.identification import kernels as _kernels
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG, Identifier, mean_radius
+from granalytics.identification.common import A_AGG_DEG, C_AGG, PAPER_A_AGG_DEG, PAPER_C_AGG, RADIUS_MODE, Identifier, mean_radius
 from granalytics.identification.gna import GraphNetworkAnalysis
 from granalytics.identification.result import IdentificationResult
+from granalytics.validation import POSITIVE, Array, Interval, Options
 
 __all__ = ["VirtualSieve", "sieve_analysis"]
 
@@ -51,6 +53,11 @@ class VirtualSieve(Identifier):
     """
 
     method = "sieve"
+    _parameter_constraints = {
+        "connect": [Options(("contacts", "bridges", "gna"))], "c_agg": [C_AGG], "a_agg_deg": [A_AGG_DEG],
+        "radius": [RADIUS_MODE], "apertures_m": [Array(ndim=1, within=POSITIVE), None],
+        "ratio": [Interval(Real, 1, None, closed="neither")], "cohesion": [COHESION],
+    }
 
     def __init__(self, connect="gna", *, c_agg=PAPER_C_AGG, a_agg_deg=PAPER_A_AGG_DEG, radius="pair", apertures_m=None, ratio=math.sqrt(2),
                  cohesion=DEFAULT_COHESION):
@@ -71,10 +78,8 @@ class VirtualSieve(Identifier):
             return np.ones(snapshot.n_contacts, dtype=bool)
         if self.connect == "bridges":
             return snapshot.bridge_volume > 0
-        if self.connect == "gna":
-            return GraphNetworkAnalysis(self.c_agg, self.a_agg_deg, radius=self.radius,
-                                        cohesion=self.cohesion).contact_mask(snapshot)
-        raise ParameterError(f"connect must be 'contacts', 'bridges' or 'gna', got {self.connect!r}")
+        return GraphNetworkAnalysis(self.c_agg, self.a_agg_deg, radius=self.radius,
+                                    cohesion=self.cohesion).contact_mask(snapshot)
 
     def identify(self, snapshot: Snapshot) -> IdentificationResult:
         """Agglomerates (≥ 2 particles are granules) with ``extra["sieve"]`` (the sieve table),
@@ -99,18 +104,9 @@ class VirtualSieve(Identifier):
 
     def _apertures(self, snapshot, widths):
         if self.apertures_m is not None:
-            value = self.apertures_m
-            if isinstance(value, (str, bytes)) or not np.iterable(value):
-                raise ParameterError(f"sieve: apertures_m must be a sequence of sieve apertures in metres, got {value!r}")
-            try:
-                apertures = np.sort(np.asarray(value, dtype=float))
-            except (TypeError, ValueError):
-                raise ParameterError(f"sieve: apertures_m must be numbers (metres), got {value!r}") from None
-            if apertures.size == 0 or not (np.isfinite(apertures).all() and (apertures > 0).all()):
-                raise ParameterError("apertures_m must be positive finite numbers")
-            return apertures
-        if not (math.isfinite(self.ratio) and self.ratio > 1):
-            raise ParameterError(f"ratio must be > 1, got {self.ratio!r}")
+            if len(self.apertures_m) == 0:
+                raise ParameterError("VirtualSieve: apertures_m must hold at least one aperture, got none")
+            return np.sort(np.asarray(self.apertures_m, dtype=float))
         first = mean_radius(snapshot)  # half the mean diameter
         n = max(1, math.ceil(math.log(max(widths.max(), first) / first, self.ratio)) + 1)
         return first * self.ratio ** np.arange(n + 1)

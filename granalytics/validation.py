@@ -1,0 +1,190 @@
+"""One way to validate arguments (the design of scikit-learn's parameter validation): a public
+function declares a list of constraints per parameter, ``None`` in it allowing None, and
+:func:`validate_params` refuses a value that satisfies none with one line naming the function, the
+parameter, what is allowed and the value::
+
+    @validate_params({"c_agg": [Interval(Real, 0, None)], "gamma": [Interval(Real, 0, None, closed="neither"), None]})
+    def strength(snapshot, c_agg, gamma=None): ...
+
+    strength(s, float("nan"))  # ParameterError: strength: c_agg must be a number >= 0, got float nan
+
+Checks of data content (a time series without the column asked for) stay in the function.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+from numbers import Integral, Real
+
+import numpy as np
+
+from granalytics.core.checks import shown
+from granalytics.core.errors import ParameterError
+from granalytics.core.snapshot import Snapshot
+
+__all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Callable", "POSITIVE", "FLAG", "SNAPSHOT", "validate",
+           "validate_params"]
+
+
+def _is_bool(value) -> bool:
+    return isinstance(value, (bool, np.bool_))
+
+
+class Constraint:
+    """A set of allowed values: :meth:`accepts` tests one, ``str()`` describes the set in errors."""
+
+    def accepts(self, value) -> bool:  # pragma: no cover - every constraint implements it
+        raise NotImplementedError
+
+
+class Interval(Constraint):
+    """Numbers of ``type`` (``numbers.Real``: any int or float, NumPy's too; ``numbers.Integral``:
+    whole numbers; a bool is neither) from ``lo`` to ``hi``, None for an open side (±inf stays
+    outside; NaN is never inside); ``closed``: ``"both"``, ``"left"``, ``"right"`` or ``"neither"``."""
+
+    def __init__(self, type, lo=None, hi=None, *, closed="both"):
+        self.type, self.lo, self.hi, self.closed = type, lo, hi, closed
+
+    def contains(self, values) -> bool:
+        """Whether every one of ``values`` (a number or an array of numbers) lies inside."""
+        values = np.asarray(values)
+        left = self.lo is not None and self.closed in ("both", "left")
+        right = self.hi is not None and self.closed in ("both", "right")
+        lo, hi = -np.inf if self.lo is None else self.lo, np.inf if self.hi is None else self.hi
+        return bool(np.all(((values >= lo) if left else (values > lo)) & ((values <= hi) if right else (values < hi))))
+
+    def accepts(self, value) -> bool:
+        return isinstance(value, self.type) and not _is_bool(value) and self.contains(value)
+
+    def describe(self, plural=False) -> str:
+        """``"a number > 0"``; ``"numbers > 0"`` with ``plural``."""
+        noun = "whole number" if self.type is Integral else "number" if (self.lo, self.hi) != (None, None) \
+            else "finite number"
+        left, right = self.closed in ("both", "left"), self.closed in ("both", "right")
+        bounds = (f" in {'[('[not left]}{self.lo:g}, {self.hi:g}{'])'[not right]}" if None not in (self.lo, self.hi)
+                  else f" {'>=' if left else '>'} {self.lo:g}" if self.lo is not None
+                  else f" {'<=' if right else '<'} {self.hi:g}" if self.hi is not None else "")
+        return f"{noun}s{bounds}" if plural else f"a {noun}{bounds}"
+
+    def __str__(self):
+        return self.describe()
+
+
+class Options(Constraint):
+    """One of ``values``, matched by type and value (``"1"`` is not 1, True is not 1)."""
+
+    def __init__(self, values):
+        self.values = tuple(values)
+
+    def accepts(self, value) -> bool:
+        return any(isinstance(value, type(v)) and _is_bool(value) == _is_bool(v) and value == v for v in self.values)
+
+    def __str__(self):
+        return f"one of {', '.join(map(repr, self.values))}"
+
+
+class Instance(Constraint):
+    """An instance of ``cls`` (a class or a tuple of classes), described as ``description`` if given."""
+
+    def __init__(self, cls, description=None):
+        self.cls, self.description = cls, description
+
+    def accepts(self, value) -> bool:
+        return isinstance(value, self.cls)
+
+    def __str__(self):
+        classes = self.cls if isinstance(self.cls, tuple) else (self.cls,)
+        return self.description or " or ".join(f"a {c.__name__}" for c in classes)
+
+
+class Array(Constraint):
+    """Anything ``np.asarray`` turns into an array of ``dtype`` (``numbers.Real``, ``numbers.Integral``
+    or ``str``) with no bool in it, of ``ndim`` dimensions and ``length`` along the first axis (any
+    without), ``finite`` (no NaN, ±inf) or every element ``within`` an :class:`Interval`."""
+
+    _KINDS = {Real: "iuf", Integral: "iu", str: "U"}
+
+    def __init__(self, ndim=None, *, length=None, dtype=Real, finite=False, within=None):
+        self.ndim, self.length, self.dtype, self.finite, self.within = ndim, length, dtype, finite, within
+
+    def accepts(self, value) -> bool:
+        if value is None or isinstance(value, (str, bytes, dict, set)):
+            return False
+        try:
+            array = np.asarray(value)
+        except (TypeError, ValueError):  # a ragged list
+            return False
+        if (array.dtype.kind not in self._KINDS[self.dtype] or (self.ndim is not None and array.ndim != self.ndim)
+                or (self.length is not None and (array.ndim == 0 or len(array) != self.length))):
+            return False
+        if isinstance(value, (list, tuple)) and any(map(_is_bool, np.asarray(value, dtype=object).flat)):
+            return False  # [0.5, True] is a float array to NumPy
+        if self.within is not None:
+            return self.within.contains(array)
+        return not self.finite or bool(np.isfinite(array).all())
+
+    def __str__(self):
+        items = ("str" if self.dtype is str else self.within.describe(plural=True) if self.within is not None
+                 else ("finite " if self.finite else "") + ("whole numbers" if self.dtype is Integral else "numbers"))
+        if self.length == 2:
+            return f"a pair of {items}"
+        shape = {None: "an array", 1: "a sequence"}.get(self.ndim, f"a {self.ndim}-D array")
+        return f"{shape} of {'' if self.length is None else f'{self.length} '}{items}"
+
+
+class Callable(Constraint):
+    """Anything callable (a function, a class, an object with ``__call__``)."""
+
+    def accepts(self, value) -> bool:
+        return callable(value)
+
+    def __str__(self):
+        return "a callable"
+
+
+#: a finite number > 0 (a tolerance, a surface tension, a speed)
+POSITIVE = Interval(Real, 0, None, closed="neither")
+#: True or False (NumPy's bools included); never text such as "no" read by its truth value
+FLAG = Instance((bool, np.bool_), "True or False")
+#: one frame of a run
+SNAPSHOT = Instance(Snapshot, "a granalytics Snapshot (open the run with granalytics.open_run and pass one frame, "
+                              "e.g. run[0])")
+
+
+def validate(where, constraints, values) -> None:
+    """Raise :class:`ParameterError` (``"where: name must be …, got …"``, no prefix without ``where``)
+    for the first parameter of ``constraints`` (name -> list of constraints) whose value in
+    ``values`` satisfies none of them."""
+    for name, allowed in constraints.items():
+        value = values[name]
+        if not any(value is None if c is None else c.accepts(value) for c in allowed):
+            text = [str(c) for c in allowed]
+            text = text[0] if len(text) == 1 else f"{', '.join(text[:-1])} or {text[-1]}"
+            raise ParameterError(f"{f'{where}: ' if where else ''}{name} must be {text}, got {' '.join(shown(value).split())}")
+
+
+def validate_params(constraints):
+    """Decorator: check the arguments of the decorated function against ``constraints`` (parameter
+    name -> list of constraints: :class:`Constraint` objects, or None to allow None) before it runs;
+    errors name the function by its qualified name (``Class.method`` for a method)."""
+
+    def decorate(func):
+        signature = inspect.signature(func)
+        unknown = sorted(set(constraints) - set(signature.parameters))
+        if unknown:
+            raise TypeError(f"validate_params: {func.__qualname__} has no parameter {', '.join(unknown)}")
+
+        @functools.wraps(func)
+        def validated(*args, **kwargs):
+            try:
+                bound = signature.bind(*args, **kwargs)
+            except TypeError:  # a wrong call: Python's own error, from the call itself
+                return func(*args, **kwargs)
+            bound.apply_defaults()
+            validate(func.__qualname__, constraints, bound.arguments)
+            return func(*args, **kwargs)
+
+        return validated
+
+    return decorate
