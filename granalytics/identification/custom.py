@@ -20,10 +20,11 @@ import numpy as np
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.identification import kernels as _kernels
-from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
-from granalytics.identification.common import Identifier
+from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
+from granalytics.identification.common import RADIUS_MODE, Identifier
 from granalytics.identification.contacts import contact_table
 from granalytics.identification.result import IdentificationResult
+from granalytics.validation import POSITIVE
 
 __all__ = ["CustomEdges", "COLUMNS", "compile_criterion"]
 
@@ -158,13 +159,14 @@ class CustomEdges(Identifier):
     """
 
     method = "custom"
+    _parameter_constraints = {"radius": [RADIUS_MODE], "surface_tension": [POSITIVE, None], "cohesion": [COHESION]}
 
     def __init__(self, criterion, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION):
         self._select = criterion if callable(criterion) else compile_criterion(criterion)
         self.criterion = criterion
         self.radius = radius
         self.surface_tension = surface_tension
-        self.cohesion = check_cohesion(cohesion)
+        self.cohesion = cohesion
 
     def _param_value(self, name):
         value = getattr(self, name)
