@@ -9,15 +9,17 @@ are matched by their *ids*, never by row). Every granule of every frame belongs 
 coalescence and breakage (the same events, other track ids).
 
 - :mod:`.linking`: :class:`GranuleTracks`, :func:`track_granules`, :func:`track_run`;
-- :mod:`.rates`: :func:`event_rates`, :func:`coalescence_kernel`, :func:`breakage_rate` (the
-  rate functions of a population balance).
+- :mod:`.rates`: :func:`event_rates` (with :func:`rate_errors`), :func:`coalescence_kernel` (as a
+  matrix: :func:`kernel_matrix`), :func:`breakage_rate` (the rate functions of a population balance);
+- :mod:`.histories`: :func:`size_histories`, the sizes of the longest-lived tracks.
 
 Units: SI, time in seconds (``_s`` suffix); granule sizes in particles.
 """
 
 from granalytics.analysis.tracking.linking import KINDS, GranuleTracks, track_granules, track_run
-from granalytics.analysis.tracking.rates import breakage_rate, coalescence_kernel, event_rates
+from granalytics.analysis.tracking.histories import size_histories
+from granalytics.analysis.tracking.rates import breakage_rate, coalescence_kernel, event_rates, kernel_matrix, rate_errors
 
 
 __all__ = ["GranuleTracks", "track_granules", "track_run", "event_rates", "coalescence_kernel", "breakage_rate",
-           "KINDS"]
+           "KINDS", "rate_errors", "kernel_matrix", "size_histories"]
