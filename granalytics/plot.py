@@ -1,7 +1,10 @@
 """Plots of granulation statistics (matplotlib).
 
-Functions take an optional ``ax`` and return the axes/figure, so they compose in notebooks. They
-never change matplotlib's backend (the command line selects Agg itself).
+The figures draw what :mod:`granalytics.analysis` computes (a figure given a result calls the
+analysis function that derives what it shows, e.g. :meth:`~granalytics.CGComparison.size_distributions`);
+no statistic is computed here, and no analysis module draws. Functions take an optional ``ax``
+and return the axes/figure, so they compose in notebooks. They never change matplotlib's backend
+(the command line selects Agg itself).
 """
 
 from __future__ import annotations
