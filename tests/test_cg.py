@@ -92,9 +92,9 @@ def test_save_writes_the_three_tables_and_never_overwrites(tmp_path, cg_runs):
     with pytest.raises(ParameterError, match="exists"):
         comparison.save(tmp_path / "out")
     comparison.save(tmp_path / "out", overwrite=True)
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "fig3_mean_volume.png").write_text("")
     with pytest.raises(ParameterError, match="fig3_mean_volume.png: exists"):  # a file the caller writes beside them
-        (tmp_path / "other").mkdir()
-        (tmp_path / "other" / "fig3_mean_volume.png").write_text("")
         comparison.check_outputs(tmp_path / "other", others=["fig3_mean_volume.png"])
 
 
