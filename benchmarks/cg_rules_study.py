@@ -161,7 +161,20 @@ def size_table(groups, window, figures=None, reference="cg1"):
         print(f"| {label} | {sizes.size} | {original.mean():.1f} | {np.median(original):.0f} | "
               f"{np.percentile(original, 90):.0f} | {ks_2samp(original, ref).statistic:.3f} |")
     if figures:
-        print("\n" + "\n".join(str(p) for p in cg.save(figures, overwrite=True, size_unit="original")))
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from granalytics.plot import cg_figures
+
+        written = cg.save(figures, overwrite=True)
+        for name, fig in cg_figures(cg, size_unit="original").items():
+            for ext in ("png", "pdf"):
+                written.append(os.path.join(figures, f"{name}.{ext}"))
+                fig.savefig(written[-1], dpi=150, format=ext)
+            plt.close(fig)
+        print("\n" + "\n".join(map(str, written)))
 
 
 def lab_table(args):

@@ -13,7 +13,7 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 - statistics: :func:`granule_table`, :func:`frame_stats`, :func:`run_stats`,
   :func:`steady_state`, :func:`size_distribution`
 - threshold sensitivity and method comparison: :func:`sensitivity`, :func:`sensitivity_summary`,
-  :func:`compare_methods`
+  :func:`compare_methods` (which methods coincide: :func:`identical_methods`)
 - calibration of the thresholds against a measured sieve analysis: :func:`calibrate_thresholds`,
   :class:`Calibration`; measured distributions :func:`read_sieve_csv`, :class:`MeasuredDistribution`;
   virtual sieving into its classes :func:`sieve_classes`, over a threshold grid in one pass
@@ -26,9 +26,10 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :func:`fit_confinement_curve`, :func:`decompose_cg`, :data:`CONFINEMENT_RULE`
 - run subsets (fewer frames, float32): :func:`subset_run`
 - granule life histories (tracking, coalescence and breakage events, population-balance rates):
-  :func:`track_granules`, :func:`track_run`, :class:`GranuleTracks`, :func:`event_rates`,
-  :func:`coalescence_kernel`, :func:`breakage_rate`
-- parameter studies (paper §3.2, Fig 7): :func:`study_table`, :func:`fit_granule_growth`,
+  :func:`track_granules`, :func:`track_run`, :class:`GranuleTracks`, :func:`event_rates`
+  (:func:`rate_errors`), :func:`coalescence_kernel` (:func:`kernel_matrix`), :func:`breakage_rate`,
+  :func:`size_histories`
+- parameter studies (paper §3.2, Fig 7): :func:`study_table`, :func:`growth_points`, :func:`fit_granule_growth`,
   :class:`GrowthFit`, :func:`fit_surrogate`, :class:`Surrogate` (sweeps run with
   ``python -m sim sweep``)
 - errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
@@ -46,7 +47,7 @@ _EXPORTS = {
     **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".core.errors"),
     **dict.fromkeys(("CGComparison", "cg_rule_of", "compare_cg", "compare_cg_thresholds"), ".analysis.cg"),
     **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".identification.cohesion"),
-    "compare_methods": ".analysis.method_comparison",
+    **dict.fromkeys(("compare_methods", "identical_methods"), ".analysis.method_comparison"),
     **dict.fromkeys(("CommunityDetection", "DBSCANClustering", "DBSCANIdentifier", "GraphNetworkAnalysis",
                      "IdentificationResult", "VirtualSieve", "identify", "CustomEdges"), ".identification"),
     **dict.fromkeys(("Run", "RunSlice", "RunWriter", "WriterLock", "open_run", "subset_run"), ".core"),
@@ -62,9 +63,10 @@ _EXPORTS = {
     **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.table"),
     **dict.fromkeys(("frame_stats", "granule_table", "replica_steady_state", "run_stats", "size_distribution",
                      "steady_state"), ".analysis.stats"),
-    **dict.fromkeys(("GrowthFit", "Surrogate", "fit_granule_growth", "fit_surrogate", "study_table"), ".analysis.study"),
-    **dict.fromkeys(("GranuleTracks", "breakage_rate", "coalescence_kernel", "event_rates", "track_granules",
-                     "track_run"), ".analysis.tracking"),
+    **dict.fromkeys(("GrowthFit", "Surrogate", "fit_granule_growth", "fit_surrogate", "growth_points", "study_table"),
+                    ".analysis.study"),
+    **dict.fromkeys(("GranuleTracks", "breakage_rate", "coalescence_kernel", "event_rates", "kernel_matrix", "rate_errors",
+                     "size_histories", "track_granules", "track_run"), ".analysis.tracking"),
     **dict.fromkeys(("PBMPrediction", "PBMRates", "PopulationBalance", "distribution_summary", "fit_pbm_rates",
                      "ks_distance", "pbm_from_run", "pbm_grid", "population_balance", "project_counts",
                      "size_counts"), ".analysis.population_balance"),
@@ -104,11 +106,12 @@ __all__ = [
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",
     "edges", "datasets", "core", "convert", "export", "analysis",
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
-    "sensitivity", "sensitivity_summary", "compare_methods",
+    "sensitivity", "sensitivity_summary", "compare_methods", "identical_methods",
     "calibrate_thresholds", "Calibration", "MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
-    "study_table", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
-    "track_granules", "track_run", "GranuleTracks", "event_rates", "coalescence_kernel", "breakage_rate",
+    "study_table", "growth_points", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
+    "track_granules", "track_run", "GranuleTracks", "event_rates", "rate_errors", "coalescence_kernel", "kernel_matrix",
+    "breakage_rate", "size_histories",
     "PopulationBalance", "PBMRates", "PBMPrediction", "population_balance", "pbm_from_run", "pbm_grid", "fit_pbm_rates",
     "size_counts", "project_counts", "distribution_summary", "ks_distance",
     "GranalyticsError", "ValidationError", "RunFileError", "RunLockedError", "ParameterError",

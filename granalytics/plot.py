@@ -1,7 +1,10 @@
 """Plots of granulation statistics (matplotlib).
 
-Functions take an optional ``ax`` and return the axes/figure, so they compose in notebooks. They
-never change matplotlib's backend (the command line selects Agg itself).
+The figures draw what :mod:`granalytics.analysis` computes (a figure given a result calls the
+analysis function that derives what it shows, e.g. :meth:`~granalytics.CGComparison.size_distributions`);
+no statistic is computed here, and no analysis module draws. Functions take an optional ``ax``
+and return the axes/figure, so they compose in notebooks. They never change matplotlib's backend
+(the command line selects Agg itself).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ if typing.TYPE_CHECKING:
     from granalytics.analysis.tracking import GranuleTracks
 
 __all__ = ["plot_timeseries", "plot_size_distribution", "stats_figure", "sensitivity_figure", "comparison_figure",
-           "frame_figure", "cg_figures", "tracking_figure", "growth_figure", "cg_threshold_figures",
+           "frame_figure", "cg_figures", "cg_figure_names", "tracking_figure", "growth_figure", "cg_threshold_figures",
            "pbm_figure", "calibration_figures"]
 
 
@@ -209,24 +212,16 @@ def sensitivity_figure(summary, title=None):
     name, unit = ("A_agg", "°") if column == "a_agg_deg" else ("rigid_tol", "")
     shown = list(HEADLINE)
     fig, axes = plt.subplots(2, len(shown), figsize=(4.6 * len(shown), 7.2), layout="constrained", squeeze=False)
-    c_values = np.sort(summary["c_agg"].unique())
     a_values = np.sort(summary[column].unique())
     for ax, metric in zip(axes[0], shown):
-        label = METRICS[metric].label
-        grid = summary.pivot(index=column, columns="c_agg", values=f"{metric}_mean").loc[a_values, c_values]
-        mesh = ax.pcolormesh(_edges(c_values), np.arange(len(a_values) + 1), grid.to_numpy(), shading="flat")
-        ax.set_yticks(np.arange(len(a_values)) + 0.5, [f"{a:g}" for a in a_values])
-        ax.set_xlabel("C_agg")
-        ax.set_ylabel(f"{name} [{unit}]" if unit else name)
-        fig.colorbar(mesh, ax=ax, label=label)
+        _draw_sensitivity_heatmap(fig, ax, summary, column, metric, f"{name} [{unit}]" if unit else name)
     for ax, metric in zip(axes[1], shown):
-        label = METRICS[metric].label
         for a in a_values:
             part = summary[summary[column] == a].sort_values("c_agg")
             ax.errorbar(part["c_agg"], part[f"{metric}_mean"], yerr=part[f"{metric}_std"], marker=".",
                         ms=3, lw=1, capsize=2, label=f"{name} = {a:g}{unit}")
         ax.set_xlabel("C_agg")
-        ax.set_ylabel(label)
+        ax.set_ylabel(METRICS[metric].label)
         if METRICS[metric].log_scale:
             ax.set_yscale("log")
             _plain_log_ticks(ax.yaxis)
@@ -245,25 +240,33 @@ def sensitivity_figure(summary, title=None):
     return fig
 
 
+def _draw_sensitivity_heatmap(fig, ax, summary, column, metric, ylabel):
+    """One metric's mean over the (C_agg, co-motion threshold) grid of a sensitivity summary, with
+    its colour bar."""
+    c_values = np.sort(summary["c_agg"].unique())
+    a_values = np.sort(summary[column].unique())
+    grid = summary.pivot(index=column, columns="c_agg", values=f"{metric}_mean").loc[a_values, c_values]
+    mesh = ax.pcolormesh(_edges(c_values), np.arange(len(a_values) + 1), grid.to_numpy(), shading="flat")
+    ax.set_yticks(np.arange(len(a_values)) + 0.5, [f"{a:g}" for a in a_values])
+    ax.set_xlabel("C_agg")
+    ax.set_ylabel(ylabel)
+    fig.colorbar(mesh, ax=ax, label=METRICS[metric].label)
+
+
 def comparison_figure(stats, pairs, title=None):
     """Every headline metric per method, and the adjusted Rand index of each pair, against
-    revolutions (:func:`~granalytics.compare_methods` output)."""
+    revolutions (:func:`~granalytics.compare_methods` output). A method whose statistics equal an
+    earlier one's (:func:`~granalytics.identical_methods`) is drawn dotted over it, and named so."""
     import matplotlib.pyplot as plt
+
+    from granalytics.analysis.method_comparison import identical_methods
 
     shown = list(HEADLINE)
     fig, axes = plt.subplots(1, len(shown) + 1, figsize=(4.3 * (len(shown) + 1), 3.9), layout="constrained")
     methods = list(dict.fromkeys(stats["method"]))
     colour = {name: f"C{k % 10}" for k, name in enumerate(methods)}  # a method's colour in every panel
-    series = {name: part for name, part in stats.groupby("method", sort=False)}
-    same_as = {}  # a method whose every statistic equals an earlier one's: drawn dotted over it, and said
-    for k, name in enumerate(methods):
-        for earlier in methods[:k]:
-            if earlier not in same_as and all(
-                    np.allclose(series[name][m].to_numpy(dtype=float), series[earlier][m].to_numpy(dtype=float),
-                                equal_nan=True) for m in shown):
-                same_as[name] = earlier
-                break
-    for name, part in series.items():
+    same_as = identical_methods(stats, shown)
+    for name, part in stats.groupby("method", sort=False):
         label = f"{name} (identical to {same_as[name]})" if name in same_as else name
         for ax, metric in zip(axes, shown):
             plot_timeseries(part, metric, ax=ax, label=label, ylabel=METRICS[metric].label)
@@ -271,15 +274,7 @@ def comparison_figure(stats, pairs, title=None):
             line.set_color(colour[name])
             if name in same_as:  # on top of the one it equals, visible through it
                 line.set(ls=":", lw=2.5, marker="x", ms=4)
-    # the pairs: other colours than the methods' (tab10 after them), each its own dash pattern so that
-    # overlapping curves stay visible, in their own legend
-    dashes = ("--", "-.", ":", (0, (5, 1, 1, 1)), (0, (3, 2)), (0, (1, 2)))
-    for k, ((a, b), part) in enumerate(pairs.groupby(["method_a", "method_b"], sort=False)):
-        identical = np.allclose(part["ari"].to_numpy(dtype=float), 1.0)
-        plot_timeseries(part, "ari", ax=axes[-1], label=f"{a} vs {b}" + (" (identical: ARI 1)" if identical else ""),
-                        ylabel="adjusted Rand index")
-        axes[-1].lines[-1].set(color=f"C{(len(methods) + k) % 10}", ls=dashes[k % len(dashes)], lw=1.5)
-    axes[-1].set_ylim(-0.05, 1.05)
+    _draw_method_pairs(axes[-1], pairs, len(methods))
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower left", ncol=len(labels), fontsize=8, frameon=False,
                title="method (the same colour in every panel)", title_fontsize=8)
@@ -287,6 +282,18 @@ def comparison_figure(stats, pairs, title=None):
     if title:
         fig.suptitle(title)
     return fig
+
+
+def _draw_method_pairs(ax, pairs, n_methods):
+    """The adjusted Rand index of each pair of methods against revolutions: other colours than the
+    methods' (tab10 after them), each its own dash pattern so that overlapping curves stay visible."""
+    dashes = ("--", "-.", ":", (0, (5, 1, 1, 1)), (0, (3, 2)), (0, (1, 2)))
+    for k, ((a, b), part) in enumerate(pairs.groupby(["method_a", "method_b"], sort=False)):
+        identical = np.allclose(part["ari"].to_numpy(dtype=float), 1.0)
+        plot_timeseries(part, "ari", ax=ax, label=f"{a} vs {b}" + (" (identical: ARI 1)" if identical else ""),
+                        ylabel="adjusted Rand index")
+        ax.lines[-1].set(color=f"C{(n_methods + k) % 10}", ls=dashes[k % len(dashes)], lw=1.5)
+    ax.set_ylim(-0.05, 1.05)
 
 
 def _edges(values):
@@ -332,21 +339,20 @@ def frame_figure(result, ax=None, max_colours=20):
     return ax.figure
 
 
-def _replica_spread(part, column) -> pd.DataFrame:
-    """Mean, min and max over replicas of ``column`` at the frames every replica has (revolutions
-    matched to 1e-6), indexed by revolutions."""
-    keyed = part.assign(_rev=part["revolutions"].round(6))
-    wide = keyed.pivot_table(index="_rev", columns="replica", values=column, aggfunc="first").dropna()
-    return pd.DataFrame({"mean": wide.mean(axis=1), "min": wide.min(axis=1), "max": wide.max(axis=1)})
+def cg_figure_names() -> list:
+    """The keys of :func:`cg_figures`, sorted: each headline metric's ``figure_key``
+    (``fig3_mean_volume``, ``fig4_granule_number``, ``fig6_yield``) and ``fig5_size_distribution``."""
+    return sorted([*(METRICS[m].figure_key for m in BY_FIGURE), "fig5_size_distribution"])
 
 
 def cg_figures(comparison, *, size_unit="particles") -> dict:
     """The paper's Figs 3–6 for a :class:`~granalytics.analysis.cg.CGComparison`: ⟨V_g⟩/V_p, N_g/N and
     yield against revolutions (one curve per run, the steady-state window shaded, its mean ± block
     s.e.m. as a band) and the granule size distribution pooled over the window (log axes) with a
-    bootstrap 95 % band over the granules and open markers on bins of fewer than
-    :data:`FEW_GRANULES` granules. A group of replicas is drawn as the replicas' mean at their
-    common frames with their range (min–max) as a band, and its steady-state mean ± the replica
+    bootstrap 95 % band over the granules (:meth:`~granalytics.CGComparison.size_distributions`)
+    and open markers on bins of fewer than :data:`FEW_GRANULES` granules. A group of replicas is
+    drawn as the replicas' mean at their common frames with their range (min–max) as a band
+    (:meth:`~granalytics.CGComparison.replica_spread`), and its steady-state mean ± the replica
     standard error (the errors of the comparison's table). Each run has one colour in every
     figure; the legends name the window, the mean lines and every band.
 
@@ -359,92 +365,92 @@ def cg_figures(comparison, *, size_unit="particles") -> dict:
 
     Returns
     -------
-    dict of str -> Figure, keyed by each headline metric's ``figure_key`` (``fig3_mean_volume``,
-    ``fig4_granule_number``, ``fig6_yield``) and ``fig5_size_distribution``.
+    dict of str -> Figure, keyed by :func:`cg_figure_names`.
     """
-    import matplotlib.pyplot as plt
-
-    from granalytics.analysis.stats import size_distribution
-
-    panels = [(METRICS[m].figure_key, m, METRICS[m].label, METRICS[m].what) for m in BY_FIGURE]
     subtitle = comparison.description
     runs = list(dict.fromkeys(comparison.table["run"]))
     colours = {run: f"C{k % 10}" for k, run in enumerate(runs)}  # one colour per run (CG level) in every figure
-    any_group = (comparison.table["n_replicas"] > 1).any() if "n_replicas" in comparison.table else False
-    figures = {}
-    for name, column, ylabel, what in panels:
-        fig, ax = plt.subplots(figsize=(6, 4.3), layout="constrained")
-        for label, part in comparison.timeseries.groupby("run", sort=False):
-            colour = colours[label]
-            row = comparison.table[comparison.table["run"] == label].iloc[0]
-            replicas = part["replica"].nunique() if "replica" in part else 1
-            if replicas > 1:  # the replicas' mean at their common frames, and their range as a band
-                spread = _replica_spread(part, column)
-                ax.plot(spread.index, spread["mean"], lw=1, marker=".", ms=3, color=colour,
-                        label=f"{label}: replica mean, range")
-                ax.fill_between(spread.index, spread["min"], spread["max"], color=colour, alpha=0.2, lw=0)
-                sem = row.get(f"{column}_replica_sem", math.nan)
-            else:
-                ax.plot(part["revolutions"], part[column], lw=1, marker=".", ms=3, color=colour, label=label)
-                sem = row[f"{column}_sem"]
-            mean = row[f"{column}_mean"]
-            lo, hi = comparison.window
-            ax.hlines(mean, lo, hi, color=colour, lw=2, alpha=0.8)
-            if np.isfinite(sem):
-                ax.fill_between([lo, hi], mean - sem, mean + sem, color=colour, alpha=0.15, lw=0)
-        ax.axvspan(*comparison.window, color="0.9", zorder=0)
-        ax.set_xlabel("revolutions t·Ω/2π")
-        ax.set_ylabel(ylabel)
-        ax.set_title(f"Effect of CG on the {what}\n{subtitle}", fontsize=9)
-        handles, labels = ax.get_legend_handles_labels()
-        error = "block s.e.m. (replica groups: replica s.e.)" if any_group else "block s.e.m."
-        more = _steady_key(comparison.window, error=error)
-        if any_group:  # the replicas' range band, in grey like the other keys
-            from matplotlib.patches import Patch
+    figures = {METRICS[m].figure_key: _cg_timeseries_figure(comparison, m, colours, subtitle) for m in BY_FIGURE}
+    figures["fig5_size_distribution"] = _cg_sizes_figure(comparison, colours, size_unit, subtitle)
+    return dict(sorted(figures.items()))
 
-            more[0].append(Patch(color="0.5", alpha=0.2, lw=0))
-            more[1].append("band over the curve: range (min–max) of the replicas")
-        handles, labels = handles + more[0], labels + more[1]
-        ax.legend(handles, labels, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.18), frameon=False,
-                  ncol=2 if max(map(len, labels)) <= 30 else 1)  # long labels (replica groups): one per line
-        figures[name] = fig
+
+def _cg_timeseries_figure(comparison, column, colours, subtitle):
+    """One of Figs 3, 4 and 6: ``column`` of every run against revolutions, its steady-state mean
+    and error over the window."""
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(figsize=(6, 4.3), layout="constrained")
-    alpha = dict(zip(comparison.runs["run"], comparison.runs["alpha"])) if "alpha" in comparison.runs else {}
-    frames = dict(zip(comparison.table["run"], comparison.table["n_frames"])) if "n_frames" in comparison.table else {}
-    for label, part in comparison.distributions.groupby("run", sort=False):
-        if not part["count"].sum():
-            continue
-        sizes = comparison.sizes.get(label) if isinstance(comparison.sizes, dict) else None
-        a = alpha.get(label, part["alpha"].iloc[0] if "alpha" in part else None)
-        floor = (getattr(comparison, "params", None) or {}).get("min_size") or 2  # the smallest size that can occur
-        dist = size_distribution(sizes, ci=0.95, size_unit=size_unit, alpha=a, min_size=floor) \
-            if sizes is not None and len(sizes) \
-            else part.copy()
-        if sizes is None and size_unit != "particles":  # no pooled sizes: convert the table itself
-            from granalytics.analysis.stats import size_unit_factor
+    for label, part in comparison.timeseries.groupby("run", sort=False):
+        row = comparison.table[comparison.table["run"] == label].iloc[0]
+        _draw_cg_run(ax, comparison, part, row, column, colours[label])
+    ax.axvspan(*comparison.window, color="0.9", zorder=0)
+    ax.set_xlabel("revolutions t·Ω/2π")
+    ax.set_ylabel(METRICS[column].label)
+    ax.set_title(f"Effect of CG on the {METRICS[column].what}\n{subtitle}", fontsize=9)
+    _cg_timeseries_legend(ax, comparison.window, (comparison.table["n_replicas"] > 1).any())
+    return fig
 
-            f = size_unit_factor(size_unit, a, caller="cg_figures")
-            dist[["size_min", "size_max", "size_center"]] *= f
-            dist["density"] /= f
-            dist.attrs["size_unit"] = size_unit
-        n = int(part["count"].sum())
-        where = f" in {int(frames[label])} frames" if label in frames else ""
-        plot_size_distribution(dist, ax=ax, color=colours.get(label), label=f"{label}: {n} granules{where}")
+
+def _draw_cg_run(ax, comparison, part, row, column, colour):
+    """One run's curve (a group of replicas: their mean and range) and its steady-state mean ±
+    error (a group: the replica standard error; one run: the block s.e.m.) over the window."""
+    if row["n_replicas"] > 1:
+        spread = comparison.replica_spread(row["run"], column)
+        ax.plot(spread.index, spread["mean"], lw=1, marker=".", ms=3, color=colour,
+                label=f"{row['run']}: replica mean, range")
+        ax.fill_between(spread.index, spread["min"], spread["max"], color=colour, alpha=0.2, lw=0)
+        sem = row[f"{column}_replica_sem"]
+    else:
+        ax.plot(part["revolutions"], part[column], lw=1, marker=".", ms=3, color=colour, label=row["run"])
+        sem = row[f"{column}_sem"]
+    mean = row[f"{column}_mean"]
+    lo, hi = comparison.window
+    ax.hlines(mean, lo, hi, color=colour, lw=2, alpha=0.8)
+    if np.isfinite(sem):
+        ax.fill_between([lo, hi], mean - sem, mean + sem, color=colour, alpha=0.15, lw=0)
+
+
+def _cg_timeseries_legend(ax, window, any_group):
+    """The legend below a time-series figure of the CG comparison: the runs, then the window, the
+    mean ± error and (with replica groups) their range band, keyed in grey."""
+    from matplotlib.patches import Patch
+
+    handles, labels = ax.get_legend_handles_labels()
+    error = "block s.e.m. (replica groups: replica s.e.)" if any_group else "block s.e.m."
+    more = _steady_key(window, error=error)
+    if any_group:  # the replicas' range band, in grey like the other keys
+        more[0].append(Patch(color="0.5", alpha=0.2, lw=0))
+        more[1].append("band over the curve: range (min–max) of the replicas")
+    handles, labels = handles + more[0], labels + more[1]
+    ax.legend(handles, labels, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.18), frameon=False,
+              ncol=2 if max(map(len, labels)) <= 30 else 1)  # long labels (replica groups): one per line
+
+
+def _cg_sizes_figure(comparison, colours, size_unit, subtitle):
+    """Fig 5: every run's granule sizes pooled over the window, with their bootstrap bands."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4.3), layout="constrained")
+    frames = dict(zip(comparison.table["run"], comparison.table["n_frames"]))
+    for label, dist in comparison.size_distributions(size_unit, ci=0.95).items():
+        plot_size_distribution(dist, ax=ax, color=colours[label],
+                               label=f"{label}: {int(dist['count'].sum())} granules in {int(frames[label])} frames")
     what = "particles" if size_unit == "particles" else "original-particle equivalents"
     ax.set_title(f"Granule sizes ({what}) over revolutions [{comparison.window[0]:g}, {comparison.window[1]:g}]"
                  f"\n{subtitle}", fontsize=9)
     _legend_keys_last(ax, fontsize=7)
-    figures["fig5_size_distribution"] = fig
-    return dict(sorted(figures.items()))
+    return fig
 
 
 def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataFrame | None = None, *,
                     n_histories=8, title=None, size_unit=None, alpha=None):
     """Event rates per bin, a few granule size histories and (optionally) the coalescence kernel.
 
-    The rates are drawn with Poisson error bars (± √count over the bin's tracked time), as
-    markers and lines, or as bars per event kind when there is a single bin (a one-revolution
-    window); every legend sits below its panel, never over the tracks.
+    The rates are drawn with Poisson error bars (± √count over the bin's tracked time,
+    :func:`~granalytics.rate_errors`), as markers and lines, or as bars per event kind when there
+    is a single bin (a one-revolution window); every legend sits below its panel, never over the
+    tracks.
 
     Parameters
     ----------
@@ -453,9 +459,10 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
         Output of :func:`event_rates` (per revolution when it has a period, else per second).
     kernel : DataFrame, optional
         Output of :func:`coalescence_kernel`: shown as a heatmap of log10 β with the number of
-        coalescence events annotated in each cell.
+        coalescence events annotated in each cell (:func:`~granalytics.kernel_matrix`).
     n_histories : int, default 8
-        Size histories shown: the longest-lived tracks (ties: the largest).
+        Size histories shown: the longest-lived tracks, ties the largest
+        (:func:`~granalytics.size_histories`).
     title : str, optional
     size_unit : {"particles", "original"}, optional
         Unit of the sizes (histories and kernel classes): default the kernel's (its ``attrs``;
@@ -468,26 +475,45 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
     -------
     matplotlib.figure.Figure
     """
-    from granalytics.analysis.tracking import KINDS
-
     import matplotlib.pyplot as plt
 
-    from granalytics.analysis.stats import size_unit_factor
+    from granalytics.analysis.tracking import size_histories
 
-    unit = _sizes_unit(kernel if kernel is not None else None, size_unit)
+    unit = _sizes_unit(kernel, size_unit)
     if unit == "original" and alpha is None and kernel is not None:
         alpha = kernel.attrs.get("alpha")
-    factor = size_unit_factor(unit, alpha, caller="tracking_figure")
+    histories = size_histories(tracks, n_histories, size_unit=unit, alpha=alpha)
     n = 3 if kernel is not None else 2
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.6), layout="constrained")
-    ax = axes[0]
     per_rev = rates["rate_per_rev"].notna().any()
+    _draw_event_rates(axes[0], rates, per_rev)
+    # the same abscissa as the rates beside it: revolutions when the rates are per revolution
+    scale = (rates["rev_end"] - rates["rev_start"]).max() / (rates["time_end_s"] - rates["time_start_s"]).max() \
+        if per_rev else 1.0
+    _draw_size_histories(axes[1], histories, scale, per_rev)
+    axes[1].set_title(f"size histories ({tracks.n_tracks} tracks)", fontsize=10)
+    if kernel is not None:
+        _draw_kernel(fig, axes[2], kernel)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+#: a legend below its panel (the tracking figure's): never over the curves
+_BELOW = dict(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)
+
+
+def _draw_event_rates(ax, rates, per_rev):
+    """The event rates of :func:`event_rates` with their Poisson errors: markers and lines over
+    the bins, or one bar per kind (its count on top) when there is a single bin."""
+    from granalytics.analysis.tracking import KINDS, rate_errors
+
+    column = "rate_per_rev" if per_rev else "rate_per_s"
+    errors = rate_errors(rates, column)
     n_bins = rates["bin"].nunique() if "bin" in rates else len(rates) // max(1, len(KINDS))
-    below = dict(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)
     for k, kind in enumerate(KINDS):
-        part = rates[rates["kind"] == kind]
-        y = part["rate_per_rev"] if per_rev else part["rate_per_s"]
-        err = np.sqrt(part["count"].to_numpy(dtype=float)) * (y / part["count"].where(part["count"] > 0)).fillna(0)
+        mine = rates["kind"] == kind
+        part, y, err = rates[mine], rates.loc[mine, column], errors[mine]
         if n_bins == 1:  # one bin (a one-revolution window): a bar per kind, its count on top
             height, e = float(np.nan_to_num(y.iloc[0])), float(err.iloc[0])
             ax.bar(k, height, yerr=e, color=f"C{k}", capsize=3, label=kind)
@@ -504,76 +530,50 @@ def tracking_figure(tracks: GranuleTracks, rates: pd.DataFrame, kernel: pd.DataF
         ax.set_xlabel("revolutions t·Ω/2π" if per_rev else "time [s]")
     ax.set_ylabel("events per revolution" if per_rev else "events per second [1/s]")
     ax.set_title("event rates (bars: Poisson ± √count)", fontsize=10)
-    ax.legend(ncol=len(KINDS), **below)
+    ax.legend(ncol=len(KINDS), **_BELOW)
 
-    ax = axes[1]
-    tr = tracks.tracks
-    if len(tr):
-        life = (tr["last_frame"] - tr["first_frame"]).to_numpy()
-        biggest = np.fromiter((max(s) for s in tr["sizes"]), dtype=np.int64, count=len(tr))
-        chosen = np.lexsort((-biggest, -life))[:n_histories]
-        # the same abscissa as the rates beside it: revolutions when the rates are per revolution
-        scale = (rates["rev_end"] - rates["rev_start"]).max() / (rates["time_end_s"] - rates["time_start_s"]).max() \
-            if per_rev else 1.0
-        for row in tr.iloc[np.sort(chosen)].itertuples():
-            times = tracks.times_s[row.first_frame:row.last_frame + 1] * scale
-            ax.plot(times, np.asarray(row.sizes) * factor, marker=".", ms=3, lw=1,
-                    label=f"track {row.track} ({row.origin} → {row.end})")
-        ax.legend(ncol=2, **below)  # below the panel: never over the tracks
-    ax.set_yscale("log")
+
+def _draw_size_histories(ax, histories, scale, per_rev):
+    """The size histories of :func:`~granalytics.size_histories` on a logarithmic size axis, time
+    times ``scale`` (revolutions per second, or 1)."""
     from matplotlib.ticker import FuncFormatter, LogLocator
 
+    for track, history in histories.groupby("track", sort=False):
+        first = history.iloc[0]
+        ax.plot(history["time_s"].to_numpy() * scale, history["size"].to_numpy(), marker=".", ms=3, lw=1,
+                label=f"track {track} ({first['origin']} → {first['end']})")
+    if len(histories):
+        ax.legend(ncol=2, **_BELOW)  # below the panel: never over the tracks
+    ax.set_yscale("log")
     ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
     for axis_formatter in (ax.yaxis.set_major_formatter, ax.yaxis.set_minor_formatter):
         axis_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.set_xlabel("revolutions t·Ω/2π" if per_rev else "time [s]")
-    ax.set_ylabel(SIZE_LABELS[unit])
-    ax.set_title(f"size histories ({tracks.n_tracks} tracks)", fontsize=10)
-
-    if kernel is not None:
-        ax = axes[2]
-        nc = int(max(kernel["class_i"].max(), kernel["class_j"].max())) + 1 if len(kernel) else 0
-        grid = np.full((nc, nc), np.nan)
-        counts = np.zeros((nc, nc), dtype=np.int64)
-        for row in kernel.itertuples():  # one iteration per class pair
-            for i, j in ((row.class_i, row.class_j), (row.class_j, row.class_i)):
-                counts[i, j] = row.n_events
-                if row.n_events > 0 and np.isfinite(row.beta_per_s) and row.beta_per_s > 0:
-                    grid[i, j] = math.log10(row.beta_per_s)
-        mesh = ax.imshow(grid, origin="lower", cmap="viridis", aspect="auto")
-        fig.colorbar(mesh, ax=ax, label="log10 β [1/s]")
-        for i in range(nc):
-            for j in range(nc):
-                dark = np.isfinite(grid[i, j]) and mesh.norm(grid[i, j]) < 0.6
-                ax.text(j, i, str(counts[i, j]), ha="center", va="center", fontsize=7, color="w" if dark else "k")
-        if nc:
-            bounds = kernel.drop_duplicates("class_i").sort_values("class_i")
-            names = [f"{lo:g}" if lo == hi else f"{lo:g}–{hi:g}"
-                     for lo, hi in zip(bounds["size_min_i"], bounds["size_max_i"])]
-            ax.set_xticks(range(nc), names, rotation=45, fontsize=7)
-            ax.set_yticks(range(nc), names, fontsize=7)
-        what = "particles" if _sizes_unit(kernel) == "particles" else "original-particle equivalents α³·n"
-        ax.set_xlabel(f"size class j [{what}]")
-        ax.set_ylabel(f"size class i [{what}]")
-        ax.set_title("coalescence kernel (events annotated)", fontsize=10)
-    if title:
-        fig.suptitle(title)
-    return fig
+    ax.set_ylabel(SIZE_LABELS[histories.attrs["size_unit"]])
 
 
-def _points_over_replicas(group) -> pd.DataFrame:
-    """Rows of one Ω grouped by γ (replicas: several seeds, or rows already combined by
-    ``study_table(replicas=...)``): mean ⟨V_g⟩/V_p ``v``, ``block_sem``, ``replica_sem``
-    (:func:`~granalytics.analysis.stats.combine_replicas`; from the rows' own replica s.e. where they carry
-    one), ``none`` (no granules in any)."""
-    from granalytics.analysis.stats import combine_replicas
+def _draw_kernel(fig, ax, kernel):
+    """The coalescence kernel as a heatmap of log10 β (cells with events only), the number of
+    events annotated in every cell."""
+    from granalytics.analysis.tracking import kernel_matrix
 
-    rows = {}
-    for gamma, g in group.groupby("gamma", sort=True):
-        c = combine_replicas(g[["_v"]].T, g[["_sem"]].T.fillna(0.0)).iloc[0]
-        rsem = c["replica_sem"] if len(g) > 1 else g["_rsem"].iloc[0]
-        rows[gamma] = {"v": c["mean"], "block_sem": c["block_sem"], "replica_sem": rsem, "none": g["_none"].all()}
-    return pd.DataFrame.from_dict(rows, orient="index")
+    counts = kernel_matrix(kernel, "n_events")
+    beta = kernel_matrix(kernel, "beta_per_s")
+    grid = np.log10(beta.where((counts > 0) & np.isfinite(beta) & (beta > 0))).to_numpy()
+    mesh = ax.imshow(grid, origin="lower", cmap="viridis", aspect="auto")
+    fig.colorbar(mesh, ax=ax, label="log10 β [1/s]")
+    nc = len(counts)
+    for i in range(nc):
+        for j in range(nc):
+            dark = np.isfinite(grid[i, j]) and mesh.norm(grid[i, j]) < 0.6
+            ax.text(j, i, str(int(counts.iat[i, j])), ha="center", va="center", fontsize=7, color="w" if dark else "k")
+    if nc:
+        ax.set_xticks(range(nc), list(counts.columns), rotation=45, fontsize=7)
+        ax.set_yticks(range(nc), list(counts.index), fontsize=7)
+    what = "particles" if _sizes_unit(kernel) == "particles" else "original-particle equivalents α³·n"
+    ax.set_xlabel(f"size class j [{what}]")
+    ax.set_ylabel(f"size class i [{what}]")
+    ax.set_title("coalescence kernel (events annotated)", fontsize=10)
 
 
 def growth_figure(table, fit=None, cohesion="acting"):
@@ -581,8 +581,8 @@ def growth_figure(table, fit=None, cohesion="acting"):
     bars: block s.e.m.; band: the replica standard error where there are replicas), the fitted law
     and the paper's β = 70, γ₁ = 0.027 N/m for reference.
 
-    Points of one (Ω, γ) (e.g. several seeds) are averaged (:func:`~granalytics.analysis.stats.combine_replicas`:
-    block sems combined as √(Σ sem²)/n, the replicas' spread as the band); rows that
+    The points are :func:`~granalytics.growth_points` of the table: rows of one (Ω, γ) (e.g.
+    several seeds) averaged, the replicas' spread as the band; rows that
     ``study_table(replicas=...)`` already combined bring their replica s.e.; points without
     granules are drawn at 0 with open markers.
 
@@ -591,7 +591,8 @@ def growth_figure(table, fit=None, cohesion="acting"):
     table : DataFrame
         :func:`study_table` output.
     fit : GrowthFit, optional
-        Default: :func:`fit_granule_growth` of the table's rows (no fitted line if that fails).
+        Default: :func:`~granalytics.analysis.study.fit_growth_of_table` of the table's rows (no
+        fitted line if that fails).
     cohesion : str, default "acting"
         Convention whose rows are drawn (named in the title).
 
@@ -599,42 +600,59 @@ def growth_figure(table, fit=None, cohesion="acting"):
     -------
     matplotlib Figure
     """
-    from granalytics.core.errors import ParameterError
-    from granalytics.analysis.study import PAPER_BETA, PAPER_GAMMA_1, fit_growth_of_table, select_cohesion
-
     import matplotlib.pyplot as plt
 
-    part = select_cohesion(table, cohesion).copy()
+    from granalytics.analysis.study import fit_growth_of_table, growth_points, select_cohesion
+    from granalytics.core.errors import ParameterError
+
+    points = growth_points(table, cohesion)
     if fit is None:
         try:
             fit = fit_growth_of_table(table, cohesion)
         except ParameterError:
             fit = None
-    part["_v"] = part["mean_volume_norm_mean"].fillna(0.0)
-    part["_none"] = part["mean_volume_norm_mean"].isna() | (part["mean_volume_norm_mean"] == 0)
-    nan = pd.Series(np.nan, index=part.index)
-    part["_sem"] = part.get("mean_volume_norm_sem", nan)
-    part["_rsem"] = part.get("mean_volume_norm_replica_sem", nan)
     fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    _draw_growth_points(ax, points)
+    _draw_growth_laws(ax, fit, float(points["gamma"].min()), float(points["gamma"].max()))
+    ax.set_xlabel("γ of the original system [N/m] (paper Fig 7 convention)")
+    ax.set_ylabel("⟨V_g⟩ / V_p")
+    part = select_cohesion(table, cohesion)
+    alphas = sorted(part["alpha"].dropna().unique()) if "alpha" in part else []
+    cg = f", CG{'/'.join(f'{a:g}' for a in alphas)}" if alphas else ""
+    ax.set_title(f"Mean granule volume in steady state vs surface tension{cg}\ncohesion convention: {cohesion}",
+                 fontsize=10)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def _draw_growth_points(ax, points):
+    """The points of :func:`~granalytics.growth_points`, one colour per Ω: block s.e.m. as error
+    bars, the replica s.e. as a band, open markers where there are no granules; a legend key of
+    the errors."""
     drew_band = False
-    for k, (omega, group) in enumerate(part.groupby("omega", sort=True)):
-        agg = _points_over_replicas(group)
+    for k, (omega, agg) in enumerate(points.groupby("omega", sort=True)):
         colour = f"C{k}"
-        ax.errorbar(agg.index, agg["v"], yerr=agg["block_sem"], color=colour, marker="o", ms=5, lw=1, capsize=3,
+        gamma, v, rsem = agg["gamma"], agg["mean_volume_norm"], agg["replica_sem"]
+        ax.errorbar(gamma, v, yerr=agg["block_sem"], color=colour, marker="o", ms=5, lw=1, capsize=3,
                     label=f"Ω = {omega:g} rad/s")
-        band = agg["replica_sem"].notna()
+        band = rsem.notna()
         if band.any():
-            ax.fill_between(agg.index[band], (agg["v"] - agg["replica_sem"])[band],
-                            (agg["v"] + agg["replica_sem"])[band], color=colour, alpha=0.2, lw=0)
+            ax.fill_between(gamma[band], (v - rsem)[band], (v + rsem)[band], color=colour, alpha=0.2, lw=0)
             drew_band = True
-        if agg["none"].any():
-            ax.plot(agg.index[agg["none"]], agg["v"][agg["none"]], ls="none", marker="o", ms=5, mfc="white",
-                    color=colour)
+        none = agg["no_granules"]
+        if none.any():
+            ax.plot(gamma[none], v[none], ls="none", marker="o", ms=5, mfc="white", color=colour)
     if drew_band:
         ax.fill_between([], [], [], color="0.6", alpha=0.3, lw=0, label="band: replica s.e.; bars: block s.e.m.")
     else:
         ax.errorbar([], [], yerr=[], color="0.4", marker="o", ms=5, lw=1, capsize=3, label="bars: block s.e.m.")
-    gmin, gmax = float(part["gamma"].min()), float(part["gamma"].max())
+
+
+def _draw_growth_laws(ax, fit, gmin, gmax):
+    """The fitted law where the data show growth (else the reason in the legend) and the paper's,
+    over γ from below the paper's onset to ``gmax`` [N/m]."""
+    from granalytics.analysis.study import PAPER_BETA, PAPER_GAMMA_1
+
     grid = np.linspace(min(gmin, PAPER_GAMMA_1 * 0.5), gmax, 200)
     if fit is not None and fit.shows_growth:
         ax.plot(grid, fit.predict(grid), color="k", lw=1.5,
@@ -644,14 +662,6 @@ def growth_figure(table, fit=None, cohesion="acting"):
         ax.plot([], [], ls="none", label=f"no growth law: {fit.no_growth_reason()}")
     ax.plot(grid, PAPER_BETA * np.maximum(0.0, grid - PAPER_GAMMA_1), color="0.5", ls="--", lw=1,
             label=f"paper: β ≈ {PAPER_BETA:g}, γ₁ ≈ {PAPER_GAMMA_1:g} N/m")
-    ax.set_xlabel("γ of the original system [N/m] (paper Fig 7 convention)")
-    ax.set_ylabel("⟨V_g⟩ / V_p")
-    alphas = sorted(part["alpha"].dropna().unique()) if "alpha" in part else []
-    cg = f", CG{'/'.join(f'{a:g}' for a in alphas)}" if alphas else ""
-    ax.set_title(f"Mean granule volume in steady state vs surface tension{cg}\ncohesion convention: {cohesion}",
-                 fontsize=10)
-    ax.legend(fontsize=8)
-    return fig
 
 
 def cg_threshold_figures(table) -> dict:
@@ -664,37 +674,16 @@ def cg_threshold_figures(table) -> dict:
     from matplotlib.colors import TwoSlopeNorm
     from matplotlib.ticker import FuncFormatter
 
-    from granalytics.analysis.metrics import BY_FIGURE
-
     finest = table.loc[table["alpha"].idxmin(), "run"]
     runs = [r for r in table["run"].unique() if r != finest]
     figures = {}
     for metric in BY_FIGURE:
-        col = f"{metric}_rel_dev"
-        values = 100 * table.loc[table["run"].isin(runs), col].to_numpy(dtype=float)  # percent, like the cells
+        values = 100 * table.loc[table["run"].isin(runs), f"{metric}_rel_dev"].to_numpy(dtype=float)  # percent
         span = np.nanmax(np.abs(values)) if np.isfinite(values).any() else 1.0
         norm = TwoSlopeNorm(vcenter=0.0, vmin=-max(span, 1e-9), vmax=max(span, 1e-9))
         fig, axes = plt.subplots(1, len(runs), figsize=(4.8 * len(runs), 3.8), layout="constrained", squeeze=False)
         for ax, run in zip(axes[0], runs):
-            part = table[table["run"] == run].pivot(index="a_agg_deg", columns="c_agg", values=col)
-            c, a = part.columns.to_numpy(dtype=float), part.index.to_numpy(dtype=float)
-            grid = np.ma.masked_invalid(100 * part.to_numpy(dtype=float))
-            ax.set_facecolor("0.8")
-            mesh = ax.pcolormesh(np.arange(c.size + 1), np.arange(a.size + 1), grid, cmap="RdBu_r", norm=norm)
-            error = (100 * table[table["run"] == run].pivot(index="a_agg_deg", columns="c_agg",
-                                                             values=f"{metric}_rel_dev_se").to_numpy(dtype=float)
-                     if f"{metric}_rel_dev_se" in table else np.full(grid.shape, np.nan))
-            for i in range(a.size):
-                for j in range(c.size):
-                    if not np.ma.is_masked(grid[i, j]):
-                        dark = abs(grid[i, j]) > 0.6 * span
-                        shown = f"{grid[i, j]:+.0f}" + (f"\n±{error[i, j]:.0f}" if np.isfinite(error[i, j]) else "")
-                        ax.text(j + 0.5, i + 0.5, shown, ha="center", va="center", fontsize=6,
-                                color="w" if dark else "k")
-            ax.set_xticks(np.arange(c.size) + 0.5, [f"{x:.3g}" for x in c], fontsize=7)
-            ax.set_yticks(np.arange(a.size) + 0.5, [f"{x:g}" for x in a], fontsize=7)
-            ax.set_xlabel("C_agg")
-            ax.set_ylabel("A_agg [deg]")
+            mesh = _draw_cg_threshold_panel(ax, table[table["run"] == run], metric, norm, span)
             ax.set_title(f"{run} vs {finest}", fontsize=9)
         bar = fig.colorbar(mesh, ax=axes[0].tolist(), label=f"relative deviation from {finest} [%]")
         bar.ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:+.0f}" if v else "0"))
@@ -705,11 +694,38 @@ def cg_threshold_figures(table) -> dict:
     return figures
 
 
+def _draw_cg_threshold_panel(ax, rows, metric, norm, span):
+    """One run's relative deviation of ``metric`` over the threshold grid, in percent, each cell
+    annotated (± its standard error where the table has one); grey where it has none. Returns
+    the mesh (for the colour bar)."""
+    col = f"{metric}_rel_dev"
+    part = rows.pivot(index="a_agg_deg", columns="c_agg", values=col)
+    c, a = part.columns.to_numpy(dtype=float), part.index.to_numpy(dtype=float)
+    grid = np.ma.masked_invalid(100 * part.to_numpy(dtype=float))
+    ax.set_facecolor("0.8")
+    mesh = ax.pcolormesh(np.arange(c.size + 1), np.arange(a.size + 1), grid, cmap="RdBu_r", norm=norm)
+    error = (100 * rows.pivot(index="a_agg_deg", columns="c_agg", values=f"{col}_se").to_numpy(dtype=float)
+             if f"{col}_se" in rows else np.full(grid.shape, np.nan))
+    for i in range(a.size):
+        for j in range(c.size):
+            if not np.ma.is_masked(grid[i, j]):
+                dark = abs(grid[i, j]) > 0.6 * span
+                shown = f"{grid[i, j]:+.0f}" + (f"\n±{error[i, j]:.0f}" if np.isfinite(error[i, j]) else "")
+                ax.text(j + 0.5, i + 0.5, shown, ha="center", va="center", fontsize=6, color="w" if dark else "k")
+    ax.set_xticks(np.arange(c.size) + 0.5, [f"{x:.3g}" for x in c], fontsize=7)
+    ax.set_yticks(np.arange(a.size) + 0.5, [f"{x:g}" for x in a], fontsize=7)
+    ax.set_xlabel("C_agg")
+    ax.set_ylabel("A_agg [deg]")
+    return mesh
+
+
 def pbm_figure(prediction, times=None, title=None):
     """A population-balance prediction against its DEM (:class:`~granalytics.PBMPrediction`): the
-    DEM as points, the PBM as lines; mean granule size and yield over the prediction window, and
-    the cumulative number distribution of granules at ``times`` [revolutions] (default the middle
-    and the last frame). Returns a matplotlib Figure; the backend is not changed."""
+    DEM as points, the PBM as lines; mean granule size and yield over the prediction window
+    (:meth:`~granalytics.PBMPrediction.summary`), and the cumulative number distribution of
+    granules at ``times`` [revolutions] (default the middle and the last frame;
+    :meth:`~granalytics.PBMPrediction.cumulative_fractions`). Returns a matplotlib Figure; the
+    backend is not changed."""
     from matplotlib.figure import Figure
 
     table = prediction.summary()
@@ -724,15 +740,12 @@ def pbm_figure(prediction, times=None, title=None):
         a.set_xlabel("revolutions")
         a.set_ylabel(label)
         a.legend()
-    grid = prediction.pbm.grid
-    keep = grid >= 2
     for k, rev in enumerate(times):
-        i = int(np.argmin(np.abs(prediction.revolutions - rev)))
-        colour = f"C{k}"
-        for numbers, style, what in ((prediction.dem_numbers[i], "o", "DEM"), (prediction.pbm.numbers[i], "-", "PBM")):
-            n = np.clip(numbers[keep], 0, None)
-            ax[2].plot(grid[keep], np.cumsum(n) / n.sum(), style, color=colour, ms=3,
-                       label=f"{what}, rev {prediction.revolutions[i]:.2f}")
+        cumulative = prediction.cumulative_fractions(rev)
+        for source, style, what in (("dem", "o", "DEM"), ("pbm", "-", "PBM")):
+            part = cumulative[cumulative["source"] == source]
+            ax[2].plot(part["size"].to_numpy(), part["fraction"].to_numpy(), style, color=f"C{k}", ms=3,
+                       label=f"{what}, rev {part['revolution'].iloc[0]:.2f}")
     ax[2].set_xscale("log")
     ax[2].set_xlabel("granule size [particles]")
     ax[2].set_ylabel("cumulative number fraction of granules")
@@ -740,15 +753,6 @@ def pbm_figure(prediction, times=None, title=None):
     fig.suptitle(title or f"{prediction.run}: rates on revolutions {prediction.fit_window[0]:g}–{prediction.fit_window[1]:g}, "
                           f"prediction from {prediction.revolutions[0]:.2f}")
     return fig
-
-
-def _cell_edges(values):
-    """Cell boundaries around grid values (midpoints; the outer cells as wide as their neighbours)."""
-    v = np.asarray(values, dtype=float)
-    if v.size == 1:
-        return np.array([v[0] - 0.5, v[0] + 0.5])
-    mid = (v[1:] + v[:-1]) / 2
-    return np.r_[2 * v[0] - mid[0], mid, 2 * v[-1] - mid[-1]]
 
 
 def calibration_figures(calibration) -> dict:
@@ -763,32 +767,41 @@ def calibration_figures(calibration) -> dict:
         cumulative mass fraction passing against aperture and mass fraction per class, with errors
         (measured σ; simulated block-bootstrap s.e.).
     """
+    s = calibration.settings
+    caption = (f"{', '.join(os.path.basename(str(r)) for r in s['runs'])}; window [{s['window_rev'][0]:g}, "
+               f"{s['window_rev'][1]:g}] rev; size = {'volume-equivalent diameter' if s['measure'] == 'volume' else 'second principal extent'}; "
+               f"cohesion={s['cohesion']}")
+    return {"calibration_objective": _calibration_objective_figure(calibration, caption),
+            "calibration_distributions": _calibration_distributions_figure(calibration, caption)}
+
+
+def _threshold_names(calibration):
+    """The calibration's co-motion threshold: (axis label, short name)."""
+    if calibration.threshold_column == "a_agg_deg":
+        return "A_agg [deg]", "A_agg"
+    return "rigid tolerance", "rigid_tol"
+
+
+def _calibration_objective_figure(cal, caption):
+    """χ² over the threshold grid with the best point and the two confidence regions."""
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
     from matplotlib.patches import Rectangle
 
-    cal = calibration
     col = cal.threshold_column
-    name = "A_agg [deg]" if col == "a_agg_deg" else "rigid tolerance"
-    short = "A_agg" if col == "a_agg_deg" else "rigid_tol"
-    grid = cal.grid
-    c_vals = np.unique(grid.c_agg)
-    a_vals = np.unique(grid[col])
+    name, short = _threshold_names(cal)
+    grid, s = cal.grid, cal.settings
+    c_vals, a_vals = np.unique(grid.c_agg), np.unique(grid[col])
     table = grid.pivot(index=col, columns="c_agg", values="chi2").reindex(index=a_vals, columns=c_vals)
-    s = cal.settings
-    caption = (f"{', '.join(os.path.basename(str(r)) for r in s['runs'])}; window [{s['window_rev'][0]:g}, "
-               f"{s['window_rev'][1]:g}] rev; size = {'volume-equivalent diameter' if s['measure'] == 'volume' else 'second principal extent'}; "
-               f"cohesion={s['cohesion']}")
-    figs = {}
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     values = np.clip(table.to_numpy(), max(1e-3, np.nanmin(table.to_numpy()[table.to_numpy() > 0], initial=1.0) / 2), None)
-    mesh = ax.pcolormesh(_cell_edges(c_vals), _cell_edges(a_vals), values, norm=LogNorm(), cmap="viridis_r", shading="flat")
+    c_edges, a_edges = _edges(c_vals), _edges(a_vals)
+    mesh = ax.pcolormesh(c_edges, a_edges, values, norm=LogNorm(), cmap="viridis_r", shading="flat")
     fig.colorbar(mesh, ax=ax, label="χ² (cumulative passing, weighted by errors)")
-    cw, aw = np.diff(_cell_edges(c_vals)), np.diff(_cell_edges(a_vals))
+    cw, aw = np.diff(c_edges), np.diff(a_edges)
     for _, row in grid[grid.in_region].iterrows():
         i, j = np.searchsorted(c_vals, row.c_agg), np.searchsorted(a_vals, row[col])
-        ax.add_patch(Rectangle((_cell_edges(c_vals)[i], _cell_edges(a_vals)[j]), cw[i], aw[j], fill=False, ec="white",
-                               lw=1.5))
+        ax.add_patch(Rectangle((c_edges[i], a_edges[j]), cw[i], aw[j], fill=False, ec="white", lw=1.5))
     chi = grid[grid.in_chi2_region]
     ax.plot(chi.c_agg, chi[col], ".", color="orange", ms=4, label=f"Δχ² region ({100 * s['level']:g} %)")
     ax.plot([cal.best["c_agg"]], [cal.best[col]], "*", color="red", ms=14, mec="white",
@@ -804,8 +817,15 @@ def calibration_figures(calibration) -> dict:
     fig.text(0.01, 0.005, caption + f"\nC_agg: {cal.constraint['c_agg']}; {short}: {cal.constraint[col]}",
              fontsize=7, va="bottom")
     fig.subplots_adjust(bottom=0.2)
-    figs["calibration_objective"] = fig
+    return fig
 
+
+def _calibration_distributions_figure(cal, caption):
+    """The measured and the best pair's simulated distributions: cumulative mass fraction passing
+    against aperture, and mass fraction per sieve class, with their errors."""
+    import matplotlib.pyplot as plt
+
+    _, short = _threshold_names(cal)
     d = cal.distributions
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2))
     upper_mm = d.upper_m.to_numpy() * 1e3
@@ -830,9 +850,8 @@ def calibration_figures(calibration) -> dict:
     ax2.set_xlabel("sieve class [mm]")
     ax2.set_ylabel("mass fraction per class")
     ax2.legend(fontsize=8)
-    fig.suptitle(f"best pair C_agg = {cal.best['c_agg']:g}, {short} = {cal.best[col]:g}: χ² = "
+    fig.suptitle(f"best pair C_agg = {cal.best['c_agg']:g}, {short} = {cal.best[cal.threshold_column]:g}: χ² = "
                  f"{cal.chi2_min:.3g} on {cal.dof} degrees of freedom (p = {cal.p_value:.2g})", fontsize=10)
     fig.text(0.01, 0.005, caption, fontsize=7, va="bottom")
     fig.tight_layout(rect=(0, 0.04, 1, 1))
-    figs["calibration_distributions"] = fig
-    return figs
+    return fig

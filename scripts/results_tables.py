@@ -190,7 +190,7 @@ def cg_tables(figures=None):
                 drawn["fig5_size_distribution_original"] = original.pop("fig5_size_distribution")
                 for fig in original.values():  # Figs 3, 4, 6 do not depend on the size unit
                     plt.close(fig)
-                for key, fig in drawn.items():  # the figures of CGComparison.save, without its tables
+                for key, fig in drawn.items():  # compare-cg's figures, without its tables
                     fig.savefig(os.path.join(folder, f"{key}.png"), dpi=120)
                     plt.close(fig)
         threads = {}

@@ -81,20 +81,21 @@ def test_bad_requests_are_refused(cg_runs):
         compare_cg(cg_runs[:2], window=(7, 8))
 
 
-def test_save_writes_tables_and_four_figures_and_never_overwrites(tmp_path, cg_runs):
+def test_save_writes_the_three_tables_and_never_overwrites(tmp_path, cg_runs):
     comparison = compare_cg(cg_runs[:2], window=(2, 4))
     written = comparison.save(tmp_path / "out")
-    names = sorted(p.rsplit("/", 1)[-1] for p in map(str, written))
-    assert names == sorted(["cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv"]
-                           + [f"{f}.{e}" for f in ("fig3_mean_volume", "fig4_granule_number",
-                                                    "fig5_size_distribution", "fig6_yield") for e in ("png", "pdf")])
+    assert sorted(p.rsplit("/", 1)[-1] for p in map(str, written)) == ["cg_sizes.csv", "cg_table.csv",
+                                                                       "cg_timeseries.csv"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["cg_sizes.csv", "cg_table.csv", "cg_timeseries.csv"]
     table = pd.read_csv(tmp_path / "out" / "cg_table.csv")
     np.testing.assert_allclose(table["yield_fraction_mean"], comparison.table["yield_fraction_mean"])
-    assert (tmp_path / "out" / "fig5_size_distribution.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert (tmp_path / "out" / "fig6_yield.pdf").read_bytes()[:4] == b"%PDF"
     with pytest.raises(ParameterError, match="exists"):
         comparison.save(tmp_path / "out")
     comparison.save(tmp_path / "out", overwrite=True)
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "fig3_mean_volume.png").write_text("")
+    with pytest.raises(ParameterError, match="fig3_mean_volume.png: exists"):  # a file the caller writes beside them
+        comparison.check_outputs(tmp_path / "other", others=["fig3_mean_volume.png"])
 
 
 def test_compare_cg_cli(tmp_path, cg_runs, capsys):
@@ -104,9 +105,21 @@ def test_compare_cg_cli(tmp_path, cg_runs, capsys):
     printed = capsys.readouterr().out
     assert "cohesion=acting" in printed and "CG3 (300 particles)" in printed and "20.0×" in printed
     assert "mean ± block s.e.m." in printed and "deviation ± s.e." in printed  # every error column named
+    assert "wrote 11 files" in printed
+    # the tables and the four figures (the paper's Figs 3-6) in two formats
+    figures = [f"{f}.{e}" for f in ("fig3_mean_volume", "fig4_granule_number", "fig5_size_distribution", "fig6_yield")
+               for e in ("png", "pdf")]
+    assert sorted(p.name for p in out.iterdir()) == sorted(["cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv",
+                                                            *figures])
+    assert (out / "fig5_size_distribution.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (out / "fig6_yield.pdf").read_bytes()[:4] == b"%PDF"
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert "exists" in err and "\n" not in err
+    for table in ("cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv"):  # a figure alone is refused too
+        (out / table).unlink()
+    assert main(args) == 2
+    assert "fig3_mean_volume.png: exists" in capsys.readouterr().err
     assert main(args + ["--overwrite", "--cohesion", "bridge"]) == 0
     assert "cohesion=bridge" in capsys.readouterr().out
     assert main(["compare-cg", str(cg_runs[0]), "--out", str(out), "--quiet"]) == 2

@@ -157,6 +157,28 @@ def comparison(tmp_path_factory):
         return ga.compare_cg([runs[0], runs[1:]], labels=["cg1", "cg3"], window=(2, 4))
 
 
+def test_a_replica_group_has_a_spread_at_its_common_frames_and_one_pooled_size_distribution(comparison):
+    spread = comparison.replica_spread("cg3", "yield_fraction")
+    group = comparison.timeseries[comparison.timeseries["run"] == "cg3"]
+    wide = group.pivot(index="revolutions", columns="replica", values="yield_fraction")
+    assert len(spread) == len(wide) == 41 and wide.shape[1] == 2
+    np.testing.assert_allclose(spread.index, wide.index, atol=1e-6)
+    np.testing.assert_allclose(spread["mean"], wide.mean(axis=1))
+    np.testing.assert_allclose(spread["min"], wide.min(axis=1))
+    np.testing.assert_allclose(spread["max"], wide.max(axis=1))
+    one = comparison.replica_spread("cg1", "yield_fraction")  # a single run: its own curve
+    assert (one["min"] == one["max"]).all() and (one["mean"] == one["max"]).all()
+    with pytest.raises(ParameterError, match="run must be one of 'cg1', 'cg3', got 'cg2'"):
+        comparison.replica_spread("cg2", "yield_fraction")
+    dists = comparison.size_distributions()
+    assert list(dists) == ["cg1", "cg3"]
+    pd.testing.assert_frame_equal(dists["cg3"], ga.size_distribution(comparison.sizes["cg3"], ci=0.95))
+    original = comparison.size_distributions("original")["cg3"]
+    assert original.attrs["size_unit"] == "original"
+    np.testing.assert_allclose(original["size_center"], 27 * dists["cg3"]["size_center"])
+    np.testing.assert_allclose(original["density_hi"], dists["cg3"]["density_hi"] / 27)
+
+
 def test_the_time_series_figures_name_the_window_the_mean_lines_and_their_errors(comparison):
     figures = plot.cg_figures(comparison)
     assert set(figures) == {"fig3_mean_volume", "fig4_granule_number", "fig5_size_distribution", "fig6_yield"}
@@ -258,6 +280,23 @@ def test_compare_methods_figure_keeps_one_colour_per_method_and_gives_pairs_othe
     pair_colours = {colour(line) for line in ari.lines}
     assert len(pair_colours) == 3 and not pair_colours & set(per_panel[0])
     assert legend_texts(fig.legends[0]) == methods
+
+
+def test_a_method_with_the_statistics_of_an_earlier_one_is_named_and_drawn_dotted_over_it():
+    revs = np.arange(5) * 0.1
+    values = {"gna": revs, "dbscan": revs + 1, "sieve": revs, "community": revs}
+    stats = pd.concat([pd.DataFrame({"method": m, "revolutions": revs, **{h: v for h in HEADLINE}})
+                       for m, v in values.items()])
+    stats.loc[stats["method"] != "dbscan", "n_granules_norm"] = np.nan  # NaN equals NaN
+    assert ga.identical_methods(stats) == {"sieve": "gna", "community": "gna"}  # never a copy of a copy
+    assert ga.identical_methods(stats, ["yield_fraction"]) == {"sieve": "gna", "community": "gna"}
+    different = stats.assign(yield_fraction=np.where(stats["method"] == "sieve", 9.0, stats["yield_fraction"]))
+    assert ga.identical_methods(different) == {"community": "gna"}
+    pairs = pd.DataFrame({"method_a": "gna", "method_b": "sieve", "revolutions": revs, "ari": 1.0})
+    fig = plot.comparison_figure(stats, pairs)
+    assert legend_texts(fig.legends[0]) == ["gna", "dbscan", "sieve (identical to gna)", "community (identical to gna)"]
+    assert [line.get_linestyle() for line in fig.axes[0].lines] == ["-", "-", ":", ":"]
+    assert legend_texts(fig.axes[-1].get_legend()) == ["gna vs sieve (identical: ARI 1)"]
 
 
 def _sensitivity_summary():

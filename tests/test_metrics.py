@@ -40,7 +40,7 @@ def test_a_scratch_metric_is_carried_by_every_consumer_and_removed_after(frames,
 
     matplotlib.use("Agg")
     from granalytics.cli import main
-    from granalytics.plot import comparison_figure, sensitivity_figure, stats_figure
+    from granalytics.plot import cg_figures, comparison_figure, sensitivity_figure, stats_figure
 
     with registered(FREE):
         assert list(HEADLINE) == ["yield_fraction", "mean_volume_norm", "n_granules_norm", "free_fraction"]
@@ -60,7 +60,7 @@ def test_a_scratch_metric_is_carried_by_every_consumer_and_removed_after(frames,
         assert len(sensitivity_figure(summary).axes) >= 8  # a heatmap (with its colour bar) and a line plot each
         assert len(comparison_figure(stats, pairs).axes) == 5
         comparison = ga.compare_cg([frames.path, frames.path], labels=["a", "b"], window=(0.5, 1.0))
-        assert "free_fraction_mean" in comparison.table and "free_fraction" in comparison.figures()
+        assert "free_fraction_mean" in comparison.table and "free_fraction" in cg_figures(comparison)
         assert main(["sensitivity", frames.path, "--c-agg", "0.3,0.6", "--a-agg-deg", "20", "--window", "0.5:1",
                      "--quiet"]) == 0
         assert "free_fraction_mean" in capsys.readouterr().out

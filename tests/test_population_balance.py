@@ -260,6 +260,17 @@ def test_the_pbm_of_a_dem_run_keeps_its_particles_and_stays_near_it():
     assert abs(table["pbm_yield_fraction"].iloc[-1] - table["dem_yield_fraction"].mean()) < 3 * spread
     long = pred.distributions()
     assert set(long["source"]) == {"dem", "pbm"} and len(long) == 2 * pred.pbm.numbers.size
+    # the cumulative number distributions of granules at the frames nearest the revolutions asked
+    cumulative = pred.cumulative_fractions([2.0, 4.04])
+    nearest = pred.revolutions[np.argmin(np.abs(pred.revolutions - 4.04))]
+    assert cumulative.groupby(["revolution", "source"], sort=False).ngroups == 4
+    assert cumulative["revolution"].unique().tolist() == [pred.revolutions[0], nearest]
+    assert (cumulative["size"] >= 2).all()
+    for _, part in cumulative.groupby(["revolution", "source"]):
+        assert (np.diff(part["fraction"]) >= -1e-12).all() and part["fraction"].iloc[-1] == pytest.approx(1.0)
+    first_dem = cumulative[(cumulative["source"] == "dem") & (cumulative["revolution"] == pred.revolutions[0])]
+    granules = pred.dem_numbers[0][pred.pbm.grid >= 2]
+    np.testing.assert_allclose(first_dem["fraction"], np.cumsum(granules) / granules.sum())
 
 
 def test_pbm_command_writes_its_outputs_and_refuses_to_replace_them(tmp_path, capsys):

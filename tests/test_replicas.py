@@ -14,7 +14,7 @@ from granalytics.cli import main
 from granalytics.cli._common import plus_minus
 from granalytics.core.errors import ParameterError
 from granalytics.core.manifest import file_sha256
-from granalytics.plot import growth_figure
+from granalytics.plot import cg_figures, growth_figure
 from granalytics.analysis.stats import combine_replicas
 from granalytics.analysis.study import study_table
 from test_cg import write_run
@@ -81,7 +81,7 @@ def test_replica_bands_are_drawn_and_bad_groups_are_refused(replica_runs):
     single = compare_cg([cg1, cg3[0]], window=(2, 4), c_agg=0.6, a_agg_deg=20)
     bands = {}
     for name, comp in (("grouped", grouped), ("single", single)):
-        fig = comp.figures()["fig6_yield"]
+        fig = cg_figures(comp)["fig6_yield"]
         bands[name] = len(fig.axes[0].collections)
         if name == "grouped":
             labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]

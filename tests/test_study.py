@@ -19,6 +19,7 @@ from granalytics.analysis.study import (
     PAPER_GAMMA_1,
     fit_granule_growth,
     fit_surrogate,
+    growth_points,
     study_table,
 )
 from granalytics.cli.study import add_study_parser, parse_predict
@@ -257,6 +258,29 @@ def test_growth_figure_follows_the_paper_fig7_convention(table):
     assert not any(label.startswith("fit: β =") for label in labels)
     assert f"paper: β ≈ {PAPER_BETA:g}, γ₁ ≈ {PAPER_GAMMA_1:g} N/m" in labels
     plt.close(fig)
+
+
+def test_growth_points_combine_the_rows_of_one_point_and_count_no_granules_as_zero():
+    table = pd.DataFrame({
+        "cohesion": ["acting"] * 5 + ["bridge"],
+        "omega": [2.0, 2.0, 2.0, 3.0, 3.0, 2.0],
+        "gamma": [0.05, 0.05, 0.02, 0.05, 0.02, 0.05],
+        "mean_volume_norm_mean": [2.0, 4.0, np.nan, 3.0, 0.0, 9.0],
+        "mean_volume_norm_sem": [0.3, 0.4, np.nan, 0.5, np.nan, 0.1],
+    })
+    points = growth_points(table)  # acting by default
+    assert points[["omega", "gamma"]].values.tolist() == [[2.0, 0.02], [2.0, 0.05], [3.0, 0.02], [3.0, 0.05]]
+    seeds = points.iloc[1]  # two seeds at Ω = 2, γ = 0.05
+    assert seeds["mean_volume_norm"] == 3.0 and seeds["block_sem"] == pytest.approx(0.5 / 2)  # √(0.3² + 0.4²)/2
+    assert seeds["replica_sem"] == pytest.approx(np.std([2.0, 4.0], ddof=1) / math.sqrt(2))
+    assert points["no_granules"].tolist() == [True, False, True, False]
+    assert points.loc[points["no_granules"], "mean_volume_norm"].tolist() == [0.0, 0.0]
+    assert points["replica_sem"].isna().tolist() == [True, False, True, True]  # one run: no replica error
+    assert growth_points(table, "bridge")["mean_volume_norm"].tolist() == [9.0]
+    combined = table.iloc[[3]].assign(mean_volume_norm_replica_sem=0.2)  # a row study_table(replicas=...) combined
+    assert growth_points(combined)["replica_sem"].tolist() == [0.2]
+    with pytest.raises(ParameterError, match="no column 'omega'"):
+        growth_points(table.drop(columns="omega"))
 
 
 # ----------------------------------------------------------------------------- command line

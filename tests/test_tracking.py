@@ -16,6 +16,9 @@ from granalytics.analysis.tracking import (
     breakage_rate,
     coalescence_kernel,
     event_rates,
+    kernel_matrix,
+    rate_errors,
+    size_histories,
     track_granules,
     track_run,
 )
@@ -493,6 +496,47 @@ def test_kernel_weights_a_three_parent_coalescence_as_two_binary_events():
     assert kernel["n_pairs"].tolist() == [1, 2, 0] and kernel["n_events"].tolist() == [1, 1, 0]
     assert kernel["n_binary"].sum() == pytest.approx(2.0)
     assert kernel.loc[(0, 1), "n_binary"] == pytest.approx(4 / 3)
+
+
+def test_rate_errors_are_poisson_over_the_tracked_time(planted):
+    rates = event_rates(planted, revolution_period_s=2.0).set_index(["bin", "kind"])
+    per_rev = rate_errors(rates)
+    assert per_rev[(0, "coalescence")] == 1.0 and per_rev[(0, "breakage")] == 1.0  # one event: ± the rate
+    assert per_rev[(1, "breakage")] == 0 and per_rev[(0, "birth")] == 0  # no event: no error
+    assert rate_errors(rates, "rate_per_s")[(0, "coalescence")] == 0.5
+    one_bin = event_rates(planted, bin_width=4.0).set_index("kind")  # two coalescences in 4 s
+    assert rate_errors(one_bin, "rate_per_s")["coalescence"] == pytest.approx(math.sqrt(2) / 4)
+    with pytest.raises(ParameterError, match="column must be 'rate_per_rev' or 'rate_per_s', got 'count'"):
+        rate_errors(one_bin, "count")
+
+
+def test_kernel_matrix_is_symmetric_and_labelled_by_the_classes(planted):
+    kernel = coalescence_kernel(planted, size_bins=[2, 4, 8])
+    counts = kernel_matrix(kernel, "n_events")
+    assert list(counts.index) == list(counts.columns) == ["2–3", "4–7"]
+    assert counts.to_numpy().tolist() == [[1, 1], [1, 0]]  # A+B within class 0; a fragment (2) with C (4) across
+    beta = kernel_matrix(kernel)
+    assert beta.iloc[0, 1] == beta.iloc[1, 0] == kernel.set_index(["class_i", "class_j"]).loc[(0, 1), "beta_per_s"]
+    original = kernel_matrix(coalescence_kernel(planted, size_bins=[2, 4, 8], size_unit="original", alpha=2))
+    assert list(original.index) == ["16–24", "32–56"]
+    with pytest.raises(ParameterError, match="column must be a column of the kernel"):
+        kernel_matrix(kernel, "beta")
+
+
+def test_size_histories_are_the_longest_lived_tracks_the_largest_first(planted):
+    histories = size_histories(planted, 3)
+    sizes = sorted(tuple(part["size"]) for _, part in histories.groupby("track"))
+    assert sizes == [(2, 2, 2), (4, 4, 4), (6, 6)]  # a fragment of AB and C live 3 frames, C with a fragment 2
+    assert histories.attrs["size_unit"] == "particles" and list(histories["track"]) == sorted(histories["track"])
+    longest = size_histories(planted, 1)  # of the two that live 3 frames, the larger: C
+    assert longest["size"].tolist() == [4, 4, 4] and longest["time_s"].tolist() == [0.0, 1.0, 2.0]
+    assert longest["origin"].iloc[0] == "initial" and longest["end"].iloc[0] == "coalescence"
+    assert size_histories(planted, 1, size_unit="original", alpha=2)["size"].tolist() == [32, 32, 32]
+    assert size_histories(planted, 0).empty
+    with pytest.raises(ParameterError, match="size_histories: size_unit='original' needs the CG factor"):
+        size_histories(planted, size_unit="original")
+    with pytest.raises(ParameterError, match="n must be a whole number >= 0, got -1"):
+        size_histories(planted, -1)
 
 
 def test_tracking_figure(planted):

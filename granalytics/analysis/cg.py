@@ -10,6 +10,7 @@ are (§3.1 of the paper: F_agg,CG = α²·F_agg,o, A_agg unchanged).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import warnings
@@ -21,14 +22,18 @@ import pandas as pd
 from granalytics.analysis.confinement import confinement_warning, run_confinement
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
 from granalytics.outputs import staged_outputs
-from granalytics.analysis.metrics import BY_FIGURE, METRICS
+from granalytics.analysis.metrics import BY_FIGURE
 from granalytics.core.windows import check_interval, window_mask
 from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
 from granalytics.core.errors import ParameterError
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 
-__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "cg_rule_warning", "CG_RULE_DEVIATION", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
+__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "cg_rule_warning", "CG_RULE_DEVIATION", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS",
+           "CG_TABLES"]
+
+#: the tables :meth:`CGComparison.save` writes (the figures, :func:`granalytics.plot.cg_figures`, are drawn apart)
+CG_TABLES = ("cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv")
 
 #: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
@@ -104,61 +109,75 @@ class CGComparison:
         return (f"{self.method} ({shown}), cohesion={self.cohesion}, "
                 f"window [{self.window[0]:g}, {self.window[1]:g}] rev")
 
-    def figures(self, *, size_unit="particles") -> dict:
-        """The figures (matplotlib), keyed by each headline metric's ``figure_key``
-        (``fig3_mean_volume``, ``fig4_granule_number``, ``fig6_yield``) and ``fig5_size_distribution``
-        (its sizes in ``size_unit``: ``"particles"`` per granule, or ``"original"``-particle
-        equivalents α³·n)."""
-        from granalytics.plot import cg_figures
+    def replica_spread(self, run, column) -> pd.DataFrame:
+        """Mean, min and max of ``column`` (a :func:`~granalytics.run_stats` column) over the
+        replicas of ``run`` (a label of :attr:`runs`) at the frames every replica has, their
+        revolutions matched to 1e-6; a frame where a replica's value is NaN is left out.
 
-        return cg_figures(self, size_unit=size_unit)
+        Returns
+        -------
+        DataFrame
+            Indexed by revolutions: ``mean``, ``min``, ``max``.
+        """
+        part = self.timeseries[self.timeseries["run"] == run]
+        if part.empty:
+            raise ParameterError(f"run must be one of {', '.join(map(repr, self.runs['run']))}, got {run!r}")
+        keyed = part.assign(_rev=part["revolutions"].round(6))
+        wide = keyed.pivot_table(index="_rev", columns="replica", values=column, aggfunc="first").dropna()
+        return pd.DataFrame({"mean": wide.mean(axis=1), "min": wide.min(axis=1), "max": wide.max(axis=1)})
+
+    def size_distributions(self, size_unit="particles", *, ci=0.95) -> dict:
+        """The size distribution of each run's granules pooled over the window (and its replicas)
+        with a bootstrap ``ci`` band over the granules (:func:`~granalytics.size_distribution`),
+        sizes in ``size_unit``: ``"particles"`` of the run, or ``"original"``-particle equivalents
+        α³·n. Bins from the identification's size floor (``min_size``, default 2).
+
+        Returns
+        -------
+        dict
+            Run label -> size distribution table, for every run with granules in the window.
+        """
+        floor = self.params.get("min_size") or 2  # the smallest size that can occur
+        alpha = dict(zip(self.runs["run"], self.runs["alpha"]))
+        return {label: size_distribution(sizes, ci=ci, size_unit=size_unit, alpha=alpha[label], min_size=floor)
+                for label, sizes in self.sizes.items() if len(sizes)}
 
     @staticmethod
-    def check_outputs(out_dir, *, overwrite=False, formats=("png", "pdf")) -> list:
-        """The paths :meth:`save` writes into ``out_dir``; refuses (``ParameterError``) when
-        some exist and not ``overwrite``, or when ``out_dir`` is a file. For checking before the
-        comparison is computed."""
+    def check_outputs(out_dir, *, overwrite=False, others=()) -> list:
+        """The paths of the tables :meth:`save` writes into ``out_dir``; refuses
+        (``ParameterError``) when some of them, or of the files named ``others`` (written beside
+        them by the caller, e.g. the figures of :func:`granalytics.plot.cg_figures`), exist and not
+        ``overwrite``, or when ``out_dir`` is a file. For checking before the comparison is
+        computed."""
         if os.path.exists(out_dir) and not os.path.isdir(out_dir):
             raise ParameterError(f"{out_dir}: exists and is not a folder")
-        names = ["cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv"]
-        figures = [*(METRICS[m].figure_key for m in BY_FIGURE), "fig5_size_distribution"]
-        names += [f"{fig}.{ext}" for fig in sorted(figures) for ext in formats]
-        paths = [os.path.join(out_dir, name) for name in names]
-        existing = [p for p in paths if os.path.exists(p)]
+        paths = [os.path.join(out_dir, name) for name in CG_TABLES]
+        existing = [p for p in (*paths, *(os.path.join(out_dir, name) for name in others)) if os.path.exists(p)]
         if existing and not overwrite:
             raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace "
                                  f"{len(existing)} existing output file(s))")
         return paths
 
-    def save(self, out_dir, *, overwrite=False, formats=("png", "pdf"), size_unit="particles") -> list:
-        """Write ``cg_table.csv``, ``cg_timeseries.csv``, ``cg_sizes.csv`` (sizes in particles of
-        each run, with its α) and the four figures (one file per format, Fig 5's sizes in
-        ``size_unit``, :meth:`figures`) into ``out_dir``; existing files are refused unless ``overwrite``.
+    def save(self, out_dir, *, overwrite=False, stage=None) -> list:
+        """Write ``cg_table.csv``, ``cg_timeseries.csv`` and ``cg_sizes.csv`` (sizes in particles
+        of each run, with its α) into ``out_dir``; existing files are refused unless ``overwrite``.
         Written as one (:func:`granalytics.outputs.staged_outputs`): a failure or Ctrl-C leaves
-        every earlier output in ``out_dir`` as it was, never old and new figures mixed. Returns
-        the written paths."""
-        import matplotlib.pyplot as plt
-
-        paths = self.check_outputs(out_dir, overwrite=overwrite, formats=formats)
+        every earlier output in ``out_dir`` as it was. With ``stage`` (the function of an enclosing
+        ``staged_outputs``) the tables go into it, to change together with the caller's other
+        outputs (the figures, :func:`granalytics.plot.cg_figures`); the caller has checked them
+        (:meth:`check_outputs`). Returns the written paths."""
+        paths = [os.path.join(out_dir, name) for name in CG_TABLES]
+        if stage is None:
+            self.check_outputs(out_dir, overwrite=overwrite)
         try:
-            os.makedirs(out_dir, exist_ok=True)
-            figures = self.figures(size_unit=size_unit)
-            try:
-                with staged_outputs(out_dir) as stage:
-                    for table, path in zip((self.table, self.timeseries, self.distributions), paths):
-                        table.to_csv(stage(path), index=False)
-                    written = paths[:3]
-                    for name, fig in figures.items():
-                        for ext in formats:
-                            path = os.path.join(out_dir, f"{name}.{ext}")
-                            fig.savefig(stage(path), dpi=150, format=ext)
-                            written.append(path)
-            finally:
-                for fig in figures.values():
-                    plt.close(fig)
+            if stage is None:
+                os.makedirs(out_dir, exist_ok=True)
+            with contextlib.nullcontext(stage) if stage is not None else staged_outputs(out_dir) as into:
+                for table, path in zip((self.table, self.timeseries, self.distributions), paths):
+                    table.to_csv(into(path), index=False)
         except OSError as exc:
             raise ParameterError(f"{out_dir}: cannot write the comparison ({exc})") from None
-        return written
+        return paths
 
 
 def _paper_speedup(alpha) -> float:

@@ -1,5 +1,6 @@
 """Compare identification methods on the same frames: adjusted Rand index and differences of
-granule number and yield (scikit-learn metrics)."""
+granule number and yield (scikit-learn metrics); which methods give the same statistics
+(:func:`identical_methods`)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from granalytics.analysis.metrics import HEADLINE
 from granalytics.identification import make_identifier
 from granalytics.analysis.stats import frame_stats
 
-__all__ = ["compare_methods", "partition_labels"]
+__all__ = ["compare_methods", "partition_labels", "identical_methods"]
 
 
 def partition_labels(labels) -> np.ndarray:
@@ -90,3 +91,33 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
             stats.append(row)
         pairs.extend({"frame": int(frame), **p} for p in frame_pairs)
     return pd.concat(stats, ignore_index=True), pd.DataFrame(pairs)
+
+
+def identical_methods(stats, columns=HEADLINE) -> dict:
+    """The methods of a :func:`compare_methods` statistics table that give the same statistics as
+    an earlier one: every column of ``columns`` equal frame by frame (``numpy.allclose``, NaN
+    equal to NaN).
+
+    Parameters
+    ----------
+    stats : DataFrame
+        The first table of :func:`compare_methods` (``method`` and the statistics per frame).
+    columns : sequence of str, default the headline metrics
+
+    Returns
+    -------
+    dict
+        Method -> the first earlier method (in the table's order) it equals that equals none
+        before it; methods that equal no earlier one are left out.
+    """
+    series = {name: part for name, part in stats.groupby("method", sort=False)}
+    methods = list(series)
+    same_as = {}
+    for k, name in enumerate(methods):
+        for earlier in methods[:k]:
+            if earlier not in same_as and all(
+                    np.allclose(series[name][c].to_numpy(dtype=float), series[earlier][c].to_numpy(dtype=float),
+                                equal_nan=True) for c in columns):
+                same_as[name] = earlier
+                break
+    return same_as

@@ -495,8 +495,13 @@ def _paper_criterion(args) -> bool:
     return criterion_params(args) == {"comotion": "angle", "min_size": 2}
 
 
+#: the formats of compare-cg's figures
+_CG_FORMATS = ("png", "pdf")
+
+
 def cmd_compare_cg(args):
     from granalytics.analysis.cg import CGComparison, compare_cg, group_replicas
+    from granalytics.plot import cg_figure_names
 
     labels = [x.strip() for x in args.labels.split(",")] if args.labels else None
     grids = [g for g in (args.c_agg, args.a_agg_deg) if g is not None]
@@ -514,14 +519,40 @@ def cmd_compare_cg(args):
     params.update(accepted_params(args.method, **criterion))
     for param, value in args.set or []:
         params[param] = value
-    CGComparison.check_outputs(args.out, overwrite=args.overwrite)  # before minutes of analysis
+    figure_files = [f"{name}.{ext}" for name in cg_figure_names() for ext in _CG_FORMATS]
+    CGComparison.check_outputs(args.out, overwrite=args.overwrite, others=figure_files)  # before minutes of analysis
     runs = group_replicas(args.runs) if args.replicas else args.runs
     comparison = compare_cg(runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
                             progress=not args.quiet, mixed_systems=args.mixed_systems, **params)
-    written = comparison.save(args.out, overwrite=args.overwrite, size_unit=args.size_unit)
+    written = _write_cg(comparison, args.out, args.size_unit)
     print(f"wrote {len(written)} files to {args.out}: " + ", ".join(os.path.basename(p) for p in written))
     print(format_cg_table(comparison))
     return 0
+
+
+def _write_cg(comparison, out, size_unit) -> list:
+    """The comparison's tables and its Figs 3–6 (Fig 5's sizes in ``size_unit``), one file per
+    format, written into ``out`` as one (a failure leaves every earlier output as it was). Returns
+    the written paths."""
+    import matplotlib.pyplot as plt
+
+    from granalytics.plot import cg_figures
+
+    figures = cg_figures(comparison, size_unit=size_unit)
+    try:
+        with output_folder(out), staged_outputs(out) as stage:
+            written = comparison.save(out, stage=stage)
+            for name, fig in figures.items():
+                for ext in _CG_FORMATS:
+                    path = os.path.join(out, f"{name}.{ext}")
+                    fig.savefig(stage(path), dpi=150, format=ext)
+                    written.append(path)
+    except OSError as exc:
+        raise ParameterError(f"{out}: cannot write the comparison ({exc})") from None
+    finally:
+        for fig in figures.values():
+            plt.close(fig)
+    return written
 
 
 def _compare_cg_thresholds(args, labels) -> int:

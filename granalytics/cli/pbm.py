@@ -59,6 +59,7 @@ def cmd_pbm(args):
     import granalytics as ga
     from granalytics.outputs import output_folder, staged_outputs
     from granalytics.identification import accepted_params
+    from granalytics.plot import pbm_figure
 
     if args.min_fragment < 1:
         raise ParameterError(f"--min-fragment must be >= 1, got {args.min_fragment}")
@@ -86,7 +87,7 @@ def cmd_pbm(args):
                     **pred.setting, "bins_per_decade": args.bins_per_decade, "ratio": args.ratio,
                     "n_particles": pred.rates.n_particles, "pivots": pred.pbm.grid.tolist(),
                     "mass_error": pred.pbm.mass_error, "units": "rates per second; sizes in particles of the run"}
-        fig = pred.figure()  # a matplotlib Figure outside pyplot: nothing to close
+        fig = pbm_figure(pred)  # a matplotlib Figure outside pyplot: nothing to close
         with staged_outputs(args.out) as stage:
             for table, name in ((pred.rates.kernel, "kernel.csv"), (pred.rates.classes, "rates.csv"),
                                 (pred.distributions(), "distributions.csv"), (summary, "summary.csv")):

@@ -228,14 +228,30 @@ class PBMPrediction:
                                         "size": g.ravel(), "number": numbers.ravel()}))
         return pd.concat(frames, ignore_index=True)
 
-    def figure(self, times=None, title=None):
-        """The DEM as points, the PBM as lines: mean granule size and yield over the prediction
-        window, and the cumulative number distribution of granules at ``times`` [revolutions]
-        (default the middle and the last frame). Returns a matplotlib Figure; the backend is not
-        changed."""
-        from granalytics.plot import pbm_figure
+    def cumulative_fractions(self, revolutions, min_size=2) -> pd.DataFrame:
+        """The cumulative number distributions of granules (pivots of ``min_size`` particles or
+        more; negative PBM numbers taken as 0) of the DEM and the PBM at the frames nearest the
+        given revolutions.
 
-        return pbm_figure(self, times=times, title=title)
+        Returns
+        -------
+        DataFrame
+            For each frame, the DEM's then the PBM's rows: ``source`` (``"dem"`` or ``"pbm"``),
+            ``revolution`` (the frame's), ``size`` (pivot [particles]) and ``fraction`` (the
+            fraction of the granules at that pivot or below; NaN in a frame without granules).
+        """
+        grid = self.pbm.grid
+        keep = grid >= min_size
+        frames = []
+        for rev in np.atleast_1d(revolutions):
+            i = int(np.argmin(np.abs(self.revolutions - rev)))
+            for source, numbers in (("dem", self.dem_numbers[i]), ("pbm", self.pbm.numbers[i])):
+                n = np.clip(numbers[keep], 0, None)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    fraction = np.cumsum(n) / n.sum()
+                frames.append(pd.DataFrame({"source": source, "revolution": self.revolutions[i], "size": grid[keep],
+                                            "fraction": fraction}))
+        return pd.concat(frames, ignore_index=True)
 
 
 def pbm_from_run(run, fit_window, predict_window, *, method="gna", min_fragment=2, size_bins=None,

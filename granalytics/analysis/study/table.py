@@ -1,7 +1,8 @@
 """The study table of a sweep folder (``python -m sim sweep``): steady-state yield, mean granule
 volume and granule number of every finished point, for each cohesion convention, with γ and Ω of
 the *original* (α = 1) system taken from the run's metadata (the paper's Fig 7 plots CG2 runs,
-simulated with γ₂ = 2γ, against the original γ); replicas of a point combined.
+simulated with γ₂ = 2γ, against the original γ); replicas of a point combined; the points of
+Fig 7 drawn from it (:func:`growth_points`).
 
 A sweep folder holds ``manifest.csv`` (one row per point: parameters, status, file, …) and the
 run files ``points/<point>.h5``. This module reads only those files; it does not need :mod:`sim`.
@@ -15,7 +16,7 @@ import os
 import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
-from granalytics.analysis.stats import DEFAULT_WINDOW_REV
+from granalytics.analysis.stats import DEFAULT_WINDOW_REV, combine_replicas
 from granalytics.core.errors import ParameterError
 from granalytics.core.manifest import MANIFEST_COLUMNS, file_sha256, read_manifest
 from granalytics.identification.cohesion import check_cohesion
@@ -175,8 +176,6 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
 
 def _combine_replica_rows(table, replicas, sweep_dir) -> pd.DataFrame:
     """Rows of :func:`study_table` that differ only in the ``replicas`` column, combined."""
-    from granalytics.analysis.stats import combine_replicas
-
     if replicas not in table:
         raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: no grid column {replicas!r} "
                              f"to tell replicas apart (it has {', '.join(map(str, table.columns))})")
@@ -215,3 +214,47 @@ def select_cohesion(table, cohesion):
                              f"(it has {sorted(table['cohesion'].dropna().unique())})")
     return part
 
+
+
+def growth_points(table, cohesion="acting") -> pd.DataFrame:
+    """The points of the paper's Fig 7: the steady-state ⟨V_g⟩/V_p of a :func:`study_table` at
+    every (Ω, γ) of one cohesion convention, its rows of one point (several seeds) combined.
+
+    Rows of one (Ω, γ) are averaged by :func:`~granalytics.analysis.stats.combine_replicas`
+    (block sems combined as √(Σ sem²)/n, the replicas' spread as the replica standard error); a
+    single row that ``study_table(replicas=...)`` already combined brings its own replica s.e.
+    A point without granules (⟨V_g⟩/V_p NaN or 0 in every row) counts as 0.
+
+    Parameters
+    ----------
+    table : DataFrame
+        :func:`study_table` output: ``omega``, ``gamma`` [N/m], ``mean_volume_norm_mean`` and,
+        where it has them, ``mean_volume_norm_sem`` and ``mean_volume_norm_replica_sem``.
+    cohesion : str, default "acting"
+        Convention whose rows are taken (:func:`select_cohesion`).
+
+    Returns
+    -------
+    DataFrame
+        One row per (Ω, γ), sorted by both: ``omega`` [rad/s], ``gamma`` [N/m],
+        ``mean_volume_norm`` (0 without granules), ``block_sem``, ``replica_sem`` (NaN for a
+        single run), ``no_granules`` (bool).
+    """
+    part = select_cohesion(table, cohesion)
+    for col in ("omega", "gamma", "mean_volume_norm_mean"):
+        if col not in part:
+            raise ParameterError(f"the table has no column {col!r} (use study_table)")
+    nan = pd.Series(math.nan, index=part.index)
+    part = pd.DataFrame({"omega": part["omega"], "gamma": part["gamma"],
+                         "v": part["mean_volume_norm_mean"].fillna(0.0),
+                         "none": part["mean_volume_norm_mean"].isna() | (part["mean_volume_norm_mean"] == 0),
+                         "sem": part.get("mean_volume_norm_sem", nan),
+                         "rsem": part.get("mean_volume_norm_replica_sem", nan)})
+    rows = []
+    for (omega, gamma), g in part.groupby(["omega", "gamma"], sort=True):
+        c = combine_replicas(g[["v"]].T, g[["sem"]].T.fillna(0.0)).iloc[0]
+        rows.append({"omega": omega, "gamma": gamma, "mean_volume_norm": c["mean"], "block_sem": c["block_sem"],
+                     "replica_sem": c["replica_sem"] if len(g) > 1 else g["rsem"].iloc[0],
+                     "no_granules": bool(g["none"].all())})
+    return pd.DataFrame(rows, columns=["omega", "gamma", "mean_volume_norm", "block_sem", "replica_sem",
+                                       "no_granules"])

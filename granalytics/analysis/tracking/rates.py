@@ -1,6 +1,7 @@
-"""Rates from tracked granules: event rates per revolution or per second (:func:`event_rates`),
-the empirical coalescence kernel β(i, j) on logarithmic size classes (:func:`coalescence_kernel`)
-and the selection (breakage) rate S(i) (:func:`breakage_rate`), the two rate functions of a
+"""Rates from tracked granules: event rates per revolution or per second (:func:`event_rates`,
+with Poisson errors :func:`rate_errors`), the empirical coalescence kernel β(i, j) on logarithmic
+size classes (:func:`coalescence_kernel`, as a class × class matrix :func:`kernel_matrix`) and
+the selection (breakage) rate S(i) (:func:`breakage_rate`), the two rate functions of a
 population balance.
 
 Units: SI, time in seconds (``_s`` suffix); granule sizes in particles, or with
@@ -110,6 +111,29 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
         "rate_per_rev": per_s.reshape(-1) * period if period else np.nan,
     })
     return table
+
+
+def rate_errors(rates, column="rate_per_rev") -> pd.Series:
+    """Poisson standard errors of the rates of :func:`event_rates`: a bin's rate times
+    1/√count (± √count events over the bin's tracked time); 0 where the bin has no event or no
+    tracked time.
+
+    Parameters
+    ----------
+    rates : DataFrame
+        :func:`event_rates` output.
+    column : {"rate_per_rev", "rate_per_s"}, default "rate_per_rev"
+        The rate whose errors are returned (in its unit: per revolution, or per second [1/s]).
+
+    Returns
+    -------
+    Series
+        Indexed as ``rates``.
+    """
+    if column not in ("rate_per_rev", "rate_per_s"):
+        raise ParameterError(f"column must be 'rate_per_rev' or 'rate_per_s', got {column!r}")
+    count = rates["count"]
+    return np.sqrt(count.to_numpy(dtype=float)) * (rates[column] / count.where(count > 0)).fillna(0)
 
 
 def _size_classes(tracks, size_bins, bins_per_decade):
@@ -241,6 +265,34 @@ def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade
     })
     return _in_unit(table, ("size_min_i", "size_max_i", "size_min_j", "size_max_j"), size_unit, alpha,
                     "coalescence_kernel")
+
+
+def kernel_matrix(kernel, column="beta_per_s") -> pd.DataFrame:
+    """One column of a :func:`coalescence_kernel` table as a symmetric class × class matrix.
+
+    Parameters
+    ----------
+    kernel : DataFrame
+        :func:`coalescence_kernel` output (every pair of classes i <= j).
+    column : str, default "beta_per_s"
+        The column, e.g. ``"beta_per_s"`` or ``"n_events"``.
+
+    Returns
+    -------
+    DataFrame
+        Rows i and columns j, both labelled by the class bounds in the kernel's unit (``"5"`` for
+        a class of one size, ``"6–10"``); the entry of (i, j) and of (j, i) is the pair's value.
+    """
+    if column not in kernel:
+        raise ParameterError(f"column must be a column of the kernel ({', '.join(map(str, kernel.columns))}), "
+                             f"got {column!r}")
+    nc = int(max(kernel["class_i"].max(), kernel["class_j"].max())) + 1 if len(kernel) else 0
+    values = np.full((nc, nc), np.nan)
+    i, j = kernel["class_i"].to_numpy(dtype=np.int64), kernel["class_j"].to_numpy(dtype=np.int64)
+    values[i, j] = values[j, i] = kernel[column].to_numpy(dtype=float)
+    bounds = kernel.drop_duplicates("class_i").sort_values("class_i")
+    names = [f"{lo:g}" if lo == hi else f"{lo:g}–{hi:g}" for lo, hi in zip(bounds["size_min_i"], bounds["size_max_i"])]
+    return pd.DataFrame(values, index=names, columns=names)
 
 
 def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, size_unit="particles",
