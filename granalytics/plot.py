@@ -651,7 +651,7 @@ def _draw_growth_points(ax, points):
 def _draw_growth_laws(ax, fit, gmin, gmax):
     """The fitted law where the data show growth (else the reason in the legend) and the paper's,
     over γ from below the paper's onset to ``gmax`` [N/m]."""
-    from granalytics.analysis.study import PAPER_BETA, PAPER_GAMMA_1
+    from granalytics.analysis.study import PAPER_BETA, PAPER_GAMMA_1, paper_growth_law
 
     grid = np.linspace(min(gmin, PAPER_GAMMA_1 * 0.5), gmax, 200)
     if fit is not None and fit.shows_growth:
@@ -660,7 +660,7 @@ def _draw_growth_laws(ax, fit, gmin, gmax):
                       f"γ₁ = {fit.gamma_1:.3g} [{fit.gamma_1_ci[0]:.3g}, {fit.gamma_1_ci[1]:.3g}] N/m")
     elif fit is not None:  # the data show no growth: no law is drawn (GrowthFit.shows_growth)
         ax.plot([], [], ls="none", label=f"no growth law: {fit.no_growth_reason()}")
-    ax.plot(grid, PAPER_BETA * np.maximum(0.0, grid - PAPER_GAMMA_1), color="0.5", ls="--", lw=1,
+    ax.plot(grid, paper_growth_law(grid), color="0.5", ls="--", lw=1,
             label=f"paper: β ≈ {PAPER_BETA:g}, γ₁ ≈ {PAPER_GAMMA_1:g} N/m")
 
 

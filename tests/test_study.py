@@ -393,3 +393,10 @@ def test_a_replaced_point_file_or_one_outside_the_folder_is_refused(sweep_dir, t
     manifest.to_csv(copy / "manifest.csv", index=False)
     with pytest.raises(ParameterError, match="lies outside the sweep folder"):
         study_table(copy, window=(3, 6))
+
+
+def test_the_papers_growth_law_is_zero_below_its_onset_and_grows_by_beta():
+    from granalytics.analysis.study import PAPER_BETA, PAPER_GAMMA_1, paper_growth_law
+
+    assert np.array_equal(paper_growth_law([0.0, PAPER_GAMMA_1]), [0.0, 0.0])
+    assert paper_growth_law(PAPER_GAMMA_1 + 0.01) == pytest.approx(PAPER_BETA * 0.01)

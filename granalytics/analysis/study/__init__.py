@@ -13,7 +13,7 @@ Fig 7 is drawn by :func:`granalytics.plot.growth_figure`.
 """
 
 from granalytics.analysis.study.fit import (PAPER_BETA, PAPER_GAMMA_1, GrowthFit, fit_granule_growth,
-                                            fit_growth_of_table)
+                                            fit_growth_of_table, paper_growth_law)
 from granalytics.analysis.study.surrogate import Surrogate, fit_surrogate
 from granalytics.analysis.study.table import STUDY_METRICS, growth_points, select_cohesion, study_table
 from granalytics.core.manifest import read_manifest
@@ -21,4 +21,4 @@ from granalytics.core.manifest import read_manifest
 
 __all__ = ["study_table", "read_manifest", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
            "PAPER_BETA", "PAPER_GAMMA_1", "STUDY_METRICS", "fit_growth_of_table", "select_cohesion",
-           "growth_points"]
+           "growth_points", "paper_growth_law"]

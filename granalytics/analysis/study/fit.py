@@ -100,8 +100,8 @@ class GrowthFit:
         return "; ".join(reasons)
 
     def predict(self, gamma):
-        """β·max(0, γ − γ₁) at ``gamma`` (array-like)."""
-        return self.beta * np.maximum(0.0, np.asarray(gamma, dtype=float) - self.gamma_1)
+        """β·max(0, γ − γ₁) at ``gamma`` [N/m] (array-like)."""
+        return _hinge(np.asarray(gamma, dtype=float), self.beta, self.gamma_1)
 
     def summary(self) -> str:
         """One line: β and γ₁ with their intervals beside the paper's values ("no growth law: …" first
@@ -124,6 +124,12 @@ class GrowthFit:
                 "dof": self.dof, "n_points": self.n_points, "n_used": self.n_used,
                 "n_no_granules": self.n_no_granules, "weighted": self.weighted, "model": self.model, "rss": self.rss,
                 "shows_growth": self.shows_growth}
+
+
+def paper_growth_law(gamma):
+    """The paper's Fig 7 law, ⟨V_g⟩/V_p = :data:`PAPER_BETA`·max(0, γ − :data:`PAPER_GAMMA_1`), at
+    ``gamma`` [N/m] (array-like)."""
+    return _hinge(np.asarray(gamma, dtype=float), PAPER_BETA, PAPER_GAMMA_1)
 
 
 def _hinge(g, beta, gamma_1):
