@@ -34,7 +34,7 @@ def _touching_snapshot(position, radius, velocity=None, meta=None):
 
 
 def _planar_snapshot(meta=None):
-    """Discs on a square lattice in three axial layers farther apart than a diameter (yesterday's beds)."""
+    """Discs on a square lattice in three axial layers farther apart than a diameter (a planar bed)."""
     r = 1e-3
     g = np.arange(6) * 2 * r
     x, y, z = np.meshgrid(g, g, np.arange(3) * 2.1 * r, indexing="ij")
@@ -124,7 +124,7 @@ def test_flowing_bed_moves_along_the_axis(settled_3d):
 
 
 def _cubic_lattice(params, radius, rng):
-    """Yesterday's insertion: a simple cubic lattice, axial spacing above every diameter, no offsets."""
+    """A planar insertion: a simple cubic lattice, axial spacing above every diameter, no offsets."""
     p = params
     spacing, margin = 2 * p.r_max * 1.02, p.r_max * 1.05
     axis = np.arange(-p.drum_radius + margin, p.drum_radius - margin + 1e-12, spacing)

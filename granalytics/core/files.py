@@ -195,6 +195,7 @@ def interrupted(exc) -> bool:
 _DROPPED = []
 
 
+# Hand-written: no library recovers the Ctrl-C that Python drops in a __del__ or GC callback.
 @contextlib.contextmanager
 def interrupts_not_lost():
     """Inside: a Ctrl-C is never dropped. Python raises the KeyboardInterrupt of a SIGINT in
