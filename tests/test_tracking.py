@@ -394,7 +394,7 @@ def test_main_branch_is_the_same_for_permuted_rows_and_labels_and_keeps_the_even
 def test_invalid_continuation_is_one_line_naming_it():
     lab, ids = np.array([0, 0, -1]), np.arange(3)
     for bad in ("branch", None, 1):
-        with pytest.raises(ParameterError, match=r"^continuation must be 'main' or 'strict', got ") as info:
+        with pytest.raises(ParameterError, match=r"^track_granules: continuation must be one of 'main', 'strict', got ") as info:
             track_granules([lab, lab], [ids, ids], [0, 1], continuation=bad)
         assert "\n" not in str(info.value)
     snaps = [synthetic_snapshot(50, time=0.1 * k, seed=k) for k in range(2)]

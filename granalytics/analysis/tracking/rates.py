@@ -13,24 +13,30 @@ from __future__ import annotations
 import math
 import warnings
 from itertools import combinations
+from numbers import Real
 
 import numpy as np
 import pandas as pd
 
 from granalytics.analysis.stats import size_unit_factor
-from granalytics.analysis.tracking.tracks import GranuleTracks, KINDS, check_tracks
+from granalytics.analysis.tracking.tracks import GranuleTracks, KINDS, TRACKS
 from granalytics.core.windows import window_tolerance
 from granalytics.core.errors import ParameterError
+from granalytics.core.validation import POSITIVE, Array, Interval, validate_params
+
+#: the constraints of the rates by size class: class edges, whole numbers >= 1
+_CLASS_CONSTRAINTS = {"tracks": [TRACKS], "size_bins": [Array(ndim=1, within=Interval(Real, 1, None)), None],
+                      "bins_per_decade": [POSITIVE]}
 
 
-def _steps(tracks, where):
-    check_tracks(where, tracks)
+def _steps(tracks):
     t = np.asarray(tracks.times_s, dtype=float)
     if t.size < 2:
         raise ParameterError("rates need at least two tracked frames (one frame interval)")
     return t, np.diff(t)
 
 
+@validate_params({"tracks": [TRACKS], "revolution_period_s": [POSITIVE, None], "bin_width": [POSITIVE, None]})
 def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=None) -> pd.DataFrame:
     """Event counts and rates per kind, binned in time.
 
@@ -63,23 +69,19 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
         ``rate_per_rev`` (events per revolution, NaN without a period). Rates are NaN in a bin
         with no tracked time.
     """
-    t, dt = _steps(tracks, "event_rates")
+    t, dt = _steps(tracks)
     if dt.max() > 1.5 * dt.min():
         warnings.warn(f"the tracked frames are {dt.min():.3g}–{dt.max():.3g} s apart (a run thinned outside a "
                       "window?): events between frames further apart go uncounted, so rates of bins with other "
                       "frame spacings are not comparable; track the evenly spaced part (--window)", stacklevel=2)
     if revolution_period_s is not None:
         period = float(revolution_period_s)
-        if not (math.isfinite(period) and period > 0):
-            raise ParameterError(f"revolution_period_s must be a positive number of seconds, got {revolution_period_s!r}")
         x = t / period
         width = 1.0 if bin_width is None else float(bin_width)
     else:
         period = None
         x = t
         width = (t[-1] - t[0]) / 10 if bin_width is None else float(bin_width)
-    if not (math.isfinite(width) and width > 0):
-        raise ParameterError(f"bin_width must be positive, got {bin_width!r}")
     # bin edges with the windows' tolerance: a first frame stamped 2.9999 revolutions opens the bin
     # [3, 4), not an empty [2, 3) (frames lie on whole time steps; granalytics.core.windows)
     tol = window_tolerance(x)
@@ -116,14 +118,10 @@ def _size_classes(tracks, size_bins, bins_per_decade):
     """Integer class edges (lower inclusive, upper exclusive) and a classifier."""
     if size_bins is not None:
         edges = np.asarray(size_bins)
-        if edges.ndim != 1 or edges.size < 2 or not np.issubdtype(edges.dtype, np.number):
-            raise ParameterError("size_bins must be at least two increasing integer edges")
-        if (edges != np.round(edges)).any() or (np.diff(edges) <= 0).any() or edges[0] < 1:
-            raise ParameterError(f"size_bins must be increasing integers >= 1, got {edges.tolist()}")
+        if edges.size < 2 or (edges != np.round(edges)).any() or (np.diff(edges) <= 0).any():
+            raise ParameterError(f"size_bins must be at least two increasing whole numbers, got {edges.tolist()}")
         edges = edges.astype(np.int64)
     else:
-        if bins_per_decade <= 0:
-            raise ParameterError(f"bins_per_decade must be positive, got {bins_per_decade!r}")
         all_sizes = np.concatenate([s[s > 0] for s in tracks.sizes_by_frame] + [np.zeros(0, np.int64)])
         lo = int(all_sizes.min()) if all_sizes.size else 2
         top = (int(all_sizes.max()) if all_sizes.size else lo) + 1
@@ -159,6 +157,7 @@ def _in_unit(table, columns, size_unit, alpha, caller):
     return table
 
 
+@validate_params(_CLASS_CONSTRAINTS)
 def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, size_unit="particles",
                        alpha=None) -> pd.DataFrame:
     """Empirical coalescence kernel β(i, j) on logarithmic size classes.
@@ -202,7 +201,7 @@ def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade
         granules]; NaN where a class is never populated). Read β only where ``n_events`` is
         large enough: a cell with a handful of events is noise.
     """
-    t, dt = _steps(tracks, "coalescence_kernel")
+    t, dt = _steps(tracks)
     edges, classify = _size_classes(tracks, size_bins, bins_per_decade)
     nc = edges.size - 1
     n_mean = _mean_numbers(tracks, classify, nc, dt)
@@ -243,6 +242,7 @@ def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade
                     "coalescence_kernel")
 
 
+@validate_params(_CLASS_CONSTRAINTS)
 def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, size_unit="particles",
                   alpha=None) -> pd.DataFrame:
     """Empirical selection (breakage) rate S(i) on logarithmic size classes.
@@ -269,7 +269,7 @@ def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, s
         events), ``rate_per_s`` (n_events / tracked time [1/s]), ``n_mean`` (time-averaged
         number of granules), ``selection_rate_per_s`` (S(i) [1/s]; NaN where N_i = 0).
     """
-    t, dt = _steps(tracks, "breakage_rate")
+    t, dt = _steps(tracks)
     edges, classify = _size_classes(tracks, size_bins, bins_per_decade)
     nc = edges.size - 1
     n_mean = _mean_numbers(tracks, classify, nc, dt)
