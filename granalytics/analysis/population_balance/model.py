@@ -95,10 +95,7 @@ def _values(spec, name, column, grid, extrapolate):
     if callable(spec):
         out = np.broadcast_to(np.asarray(spec(grid.astype(float)), dtype=float), grid.shape).copy()
     else:
-        try:
-            out = np.full(grid.size, float(spec))
-        except (TypeError, ValueError):
-            raise ParameterError(f"{name} must be a table, a function of size or a number, got {type(spec).__name__}") from None
+        out = np.full(grid.size, float(spec))
     if not np.isfinite(out).all() or (out < 0).any():
         bad = int(np.nonzero(~np.isfinite(out) | (out < 0))[0][0])
         raise ParameterError(f"{name} must be finite and >= 0, got {out[bad]!r} at size {grid[bad]}")
@@ -137,10 +134,7 @@ def _kernel_matrix(kernel, grid, extrapolate):
     if callable(kernel):
         out = np.broadcast_to(np.asarray(kernel(x[:, None], x[None, :]), dtype=float), (g, g)).copy()
     else:
-        try:
-            out = np.full((g, g), float(kernel))
-        except (TypeError, ValueError):
-            raise ParameterError(f"kernel must be a table, a function β(x, y) or a number, got {type(kernel).__name__}") from None
+        out = np.full((g, g), float(kernel))
     if not np.isfinite(out).all() or (out < 0).any():
         i, j = (int(v[0]) for v in np.nonzero(~np.isfinite(out) | (out < 0)))
         raise ParameterError(f"kernel must be finite and >= 0, got {out[i, j]!r} at sizes ({grid[i]}, {grid[j]})")
@@ -317,13 +311,10 @@ def _fragment_numbers(breakage, n_fragments, grid, extrapolate):
     ``n_fragments`` (a number or a function of size, >= 2)."""
     if callable(n_fragments):
         default_nu = _values(n_fragments, "n_fragments", None, grid, extrapolate)
+        if (default_nu < 2).any():
+            raise ParameterError(f"n_fragments must be >= 2, got {default_nu.min()!r}")
     else:
-        try:
-            default_nu = np.full(grid.size, float(n_fragments))
-        except (TypeError, ValueError):
-            raise ParameterError(f"n_fragments must be a number >= 2 or a function of size, got {n_fragments!r}") from None
-    if not np.isfinite(default_nu).all() or (default_nu < 2).any():
-        raise ParameterError(f"n_fragments must be >= 2, got {n_fragments!r}")
+        default_nu = np.full(grid.size, float(n_fragments))
     if isinstance(breakage, pd.DataFrame) and "fragments_mean" in breakage.columns:
         measured = _values(breakage.assign(_nu=breakage["fragments_mean"]), "breakage", "_nu", grid, extrapolate)
         return np.where(measured >= 2, measured, default_nu)  # NaN (no breakage seen) reads as 0: the default
@@ -372,7 +363,13 @@ def _rate_functions(stoich, coef, iu, ju, linear):
     return rhs, jac
 
 
+#: the constraints of a rate: a per-class table, a function of size or a number (None: no such events)
+_RATE = [Instance(pd.DataFrame, "a table"), Callable(), Interval(Real, 0, None), None]
+
+
 @validate_params({
+    "kernel": _RATE, "breakage": _RATE, "layering": _RATE, "erosion": _RATE,
+    "n_fragments": [Interval(Real, 2, None), Callable()],
     "initial": [Array(ndim=1, within=Interval(Real, 0, None)), Instance(dict, "a dict {size: number}")],
     "t": [Array(ndim=1, finite=True)], "fragments": [Options(("uniform",)), Callable()],
     "min_fragment": [Interval(Integral, 1, None)], "grid": [GRID, None], "ratio": [RATIO],
