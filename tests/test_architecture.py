@@ -84,15 +84,15 @@ def test_the_core_imports_nothing_of_granalytics_above_it():
 
 def test_importing_the_core_loads_the_run_file_contract_only():
     """``import granalytics.core`` loads the contract (snapshot, format, reader, writer, subset, files,
-    errors and the reader's helpers), not the modules shared for other purposes, nor dask or SciPy."""
+    errors, validation and the reader's helpers), not the modules shared for other purposes, nor dask or SciPy."""
     import subprocess
     import sys
 
     code = "import sys, granalytics.core; print(' '.join(sorted(m for m in sys.modules if m.startswith(('granalytics', 'dask', 'distributed', 'scipy', 'numba')))))"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    contract = {"snapshot", "format", "reader", "writer", "subset", "files", "native", "errors", "checks", "windows",
-                "resources"}
+    contract = {"snapshot", "format", "reader", "writer", "subset", "files", "native", "errors", "validation",
+                "windows", "resources"}
     assert proc.stdout.split() == sorted({"granalytics", "granalytics._version", "granalytics.core"}
                                          | {f"granalytics.core.{m}" for m in contract})
 
@@ -114,7 +114,7 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
 
 #: the layers of granalytics, lowest first: a module imports only modules of its own layer or of a
 #: lower one (docs/architecture.md). ``io`` is the deprecated forward to core and convert.
-LAYERS = {"_version": 0, "core": 0, "validation": 0, "identification": 1, "convert": 1, "outputs": 1, "analysis": 2,
+LAYERS = {"_version": 0, "core": 0, "identification": 1, "convert": 1, "outputs": 1, "analysis": 2,
           "export": 3, "plot": 3, "datasets": 3, "cli": 4, "__main__": 4}
 
 

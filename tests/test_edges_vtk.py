@@ -128,6 +128,6 @@ def test_export_writes_the_track_ids_of_the_continuation_rule(tmp_path):
                 assert np.array_equal(got, np.where(labels[k] >= 0, mapping[np.maximum(labels[k], 0)], -1))
                 written[rule].append(got)
         assert any((a != b).any() for a, b in zip(written["main"], written["strict"]))
-        with pytest.raises(ParameterError, match="^continuation must be 'main' or 'strict'"):
+        with pytest.raises(ParameterError, match="^export_vtk: continuation must be one of 'main', 'strict', got str 'longest'$"):
             export_vtk(run, tmp_path / "bad", c_agg=0.5, continuation="longest")
     assert not (tmp_path / "bad").exists()

@@ -253,7 +253,7 @@ def test_silent_wrong_answers_are_refused_or_warned(run_file):
     with ga.open_run(run_file) as run:
         with pytest.raises(ga.ParameterError, match="another frame"):
             ga.frame_stats(run[6], ga.identify(run[5]))
-        with pytest.raises(ga.ParameterError, match="revolutions must be a finite number, got nan"):
+        with pytest.raises(ga.ParameterError, match="^nearest: revolutions must be a finite number or None, got float nan$"):
             run.nearest(revolutions=float("nan"))
         with pytest.warns(UserWarning, match="no frame near revolutions=100"):
             assert run.nearest(revolutions=100).time == run.times[-1]

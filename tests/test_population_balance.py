@@ -224,16 +224,20 @@ def test_a_kernel_table_gives_zero_to_free_particles_and_nan_cells():
 
 
 @pytest.mark.parametrize("kwargs,match", [
-    ({"kernel": -1.0}, "kernel must be finite and >= 0"),
+    ({"kernel": -1.0}, r"^population_balance: kernel must be a table, a callable, a number >= 0 or None, got float -1.0$"),
+    ({"kernel": lambda x, y: -x * y}, "kernel must be finite and >= 0"),
     ({"kernel": lambda x, y: x + 2 * y}, "symmetric"),
-    ({"t": [1.0, 0.5]}, "t must be finite and increasing"),
+    ({"t": [1.0, 0.5]}, r"^population_balance: t must be at least two increasing times \[s\], got \[1.0, 0.5\]$"),
     ({"t": [0.0]}, "at least two"),
-    ({"initial": [1.0, -2.0]}, "initial must be non-negative"),
+    ({"t": [0.0, float("nan")]}, "t must be a sequence of finite numbers"),
+    ({"initial": [1.0, -2.0]}, "initial must be a sequence of numbers >= 0 or a dict"),
+    ({"initial": {2: -1.0}}, "initial: the numbers of granules must be finite and >= 0"),
     ({"grid": [2, 3, 4]}, "starting at 1"),
     ({"grid": [1, 2]}, "above the grid's largest pivot"),
     ({"min_fragment": 0}, "min_fragment must be a whole number"),
     ({"erosion": "fast"}, "erosion must be a table"),
-    ({"n_fragments": 1.5}, "n_fragments must be >= 2"),
+    ({"n_fragments": 1.5}, "n_fragments must be a number >= 2 or a callable, got float 1.5"),
+    ({"n_fragments": lambda x: x / x, "breakage": 1.0}, "n_fragments must be >= 2"),
     ({"extrapolate": "linear"}, "extrapolate must be"),
 ])
 def test_invalid_arguments_are_named(kwargs, match):

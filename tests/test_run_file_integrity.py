@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import granalytics
-from granalytics import GranalyticsError, RunFileError, RunWriter, ValidationError, WriterLock, open_run
+from granalytics import GranalyticsError, ParameterError, RunFileError, RunWriter, ValidationError, WriterLock, open_run
 from granalytics.cli import main
 from granalytics.core.errors import RunLockedError
 from granalytics.core.snapshot import CONTACT_FIELDS, PARTICLE_FIELDS
@@ -490,9 +490,9 @@ def test_continue_from_keeps_storage_metadata_and_frames(tmp_path, frames):
 
 @pytest.mark.parametrize("n_frames, error, words", [
     (6, RunFileError, "holds 5 complete frames"),
-    (-1, ValidationError, "n_frames"),
-    (True, ValidationError, "n_frames"),
-    (2.5, ValidationError, "n_frames"),
+    (-1, ParameterError, "^RunWriter.continue_from: n_frames must be a whole number >= 0, got int -1$"),
+    (True, ParameterError, "^RunWriter.continue_from: n_frames must be a whole number >= 0, got bool True$"),
+    (2.5, ParameterError, "^RunWriter.continue_from: n_frames must be a whole number >= 0, got float 2.5$"),
 ])
 def test_continue_from_refuses_bad_frame_counts_and_leaves_the_file_alone(run_path, n_frames, error, words):
     before = run_path.read_bytes()

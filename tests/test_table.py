@@ -110,7 +110,7 @@ def test_track_ids_follow_the_main_branch_by_default_and_the_strict_rule_on_requ
 
 def test_invalid_continuation_is_refused_before_any_work(run_file, tmp_path, capsys):
     with ga.open_run(run_file) as run, pytest.raises(ga.ParameterError,
-                                                     match=r"^continuation must be 'main' or 'strict', got 'none'$"):
+                                                     match=r"^track_run: continuation must be one of 'main', 'strict', got str 'none'$"):
         ga.particle_table(run, c_agg=0.5, continuation="none")
     out = tmp_path / "t.csv"
     with pytest.raises(SystemExit) as refused:  # argparse refuses the option value, exit status 2

@@ -397,7 +397,7 @@ def test_main_branch_is_the_same_for_permuted_rows_and_labels_and_keeps_the_even
 def test_invalid_continuation_is_one_line_naming_it():
     lab, ids = np.array([0, 0, -1]), np.arange(3)
     for bad in ("branch", None, 1):
-        with pytest.raises(ParameterError, match=r"^continuation must be 'main' or 'strict', got ") as info:
+        with pytest.raises(ParameterError, match=r"^track_granules: continuation must be one of 'main', 'strict', got ") as info:
             track_granules([lab, lab], [ids, ids], [0, 1], continuation=bad)
         assert "\n" not in str(info.value)
     snaps = [synthetic_snapshot(50, time=0.1 * k, seed=k) for k in range(2)]
@@ -506,7 +506,7 @@ def test_rate_errors_are_poisson_over_the_tracked_time(planted):
     assert rate_errors(rates, "rate_per_s")[(0, "coalescence")] == 0.5
     one_bin = event_rates(planted, bin_width=4.0).set_index("kind")  # two coalescences in 4 s
     assert rate_errors(one_bin, "rate_per_s")["coalescence"] == pytest.approx(math.sqrt(2) / 4)
-    with pytest.raises(ParameterError, match="column must be 'rate_per_rev' or 'rate_per_s', got 'count'"):
+    with pytest.raises(ParameterError, match="rate_errors: column must be one of 'rate_per_rev', 'rate_per_s', got str 'count'"):
         rate_errors(one_bin, "count")
 
 
@@ -535,7 +535,7 @@ def test_size_histories_are_the_longest_lived_tracks_the_largest_first(planted):
     assert size_histories(planted, 0).empty
     with pytest.raises(ParameterError, match="size_histories: size_unit='original' needs the CG factor"):
         size_histories(planted, size_unit="original")
-    with pytest.raises(ParameterError, match="n must be a whole number >= 0, got -1"):
+    with pytest.raises(ParameterError, match="size_histories: n must be a whole number >= 0, got int -1"):
         size_histories(planted, -1)
 
 

@@ -1,7 +1,8 @@
-"""The argument validation of granalytics.validation: each constraint accepts and refuses, and the
+"""The argument validation of granalytics.core.validation: each constraint accepts and refuses, and the
 decorator's one-line error names the function, the parameter and the value."""
 
 import math
+import pathlib
 from numbers import Integral, Real
 
 import numpy as np
@@ -10,8 +11,8 @@ import pytest
 
 from granalytics.core.errors import ParameterError
 from granalytics.datasets.synthetic import synthetic_snapshot
-from granalytics.validation import (FLAG, POSITIVE, SNAPSHOT, Array, Callable, Instance, Interval, Options, validate,
-                                    validate_params)
+from granalytics.core.validation import (FLAG, META, PATH, POSITIVE, SNAPSHOT, Array, Callable, Instance, Interval,
+                                         Options, Path, validate, validate_params)
 
 
 @pytest.mark.parametrize("constraint, good, bad", [
@@ -33,8 +34,9 @@ from granalytics.validation import (FLAG, POSITIVE, SNAPSHOT, Array, Callable, I
     (Array(ndim=1), [[1], np.arange(3), []], [3, np.zeros((2, 2))]),
     (Array(ndim=1, length=2, finite=True), [(3, 6), np.array([0.0, 1.0])], [(3,), (1, 2, 3), (0, math.nan), "3:6", 5]),
     (Array(ndim=1, within=POSITIVE), [[1, 2.5], []], [[1, 0], [1, math.nan], [1, math.inf]]),
-    (Array(dtype=Integral), [[1, 2], np.arange(3, dtype=np.uint8)], [[1.0, 2.0], [1, 2.5]]),
-    (Array(ndim=1, dtype=str), [["a", "b"], ("a",)], [[1, 2], "ab", [b"a"]]),
+    (Array(dtype=Integral), [[1, 2], np.arange(3, dtype=np.uint8), []], [[1.0, 2.0], [1, 2.5]]),
+    (Array(ndim=1, dtype=str), [["a", "b"], ("a",), pd.Index(["a", "b"]), ()], [[1, 2], "ab", [b"a"], ["a", 1]]),
+    (PATH, ["run.h5", pathlib.Path("run.h5")], [None, b"run.h5", 5, ["run.h5"], pathlib.PurePath]),
 ])
 def test_each_constraint_accepts_and_refuses(constraint, good, bad):
     for value in good:
@@ -49,6 +51,12 @@ def test_the_snapshot_constraint_takes_a_frame_only():
     assert "open_run" in str(SNAPSHOT)
 
 
+def test_the_meta_constraint_takes_a_runs_metadata_only():
+    snapshot = synthetic_snapshot(20, seed=1)
+    assert META.accepts(snapshot.meta)
+    assert not META.accepts(snapshot) and not META.accepts(snapshot.meta.to_dict())
+
+
 @pytest.mark.parametrize("constraint, text", [
     (Interval(Real, 0, None), "a number >= 0"), (POSITIVE, "a number > 0"),
     (Interval(Real, 0, 180, closed="right"), "a number in (0, 180]"), (Interval(Real, None, 1, closed="left"), "a number < 1"),
@@ -60,6 +68,7 @@ def test_the_snapshot_constraint_takes_a_frame_only():
     (Array(ndim=1, within=POSITIVE), "a sequence of numbers > 0"), (Array(ndim=1, length=2, finite=True),
                                                                     "a pair of finite numbers"),
     (Array(ndim=1, length=3), "a sequence of 3 numbers"), (Array(ndim=1, dtype=str), "a sequence of str"),
+    (PATH, "a file name (str or path-like)"), (Path("a folder"), "a folder (str or path-like)"),
 ])
 def test_each_constraint_says_what_it_allows(constraint, text):
     assert str(constraint) == text
@@ -71,6 +80,10 @@ def strength(snapshot, c_agg, gamma=None, *, mode="pair", **extra):
 
 
 class Method:
+    @validate_params({"path": [PATH]})
+    def __init__(self, path="run.h5"):
+        self.path = path
+
     @validate_params({"window": [Array(ndim=1, length=2, finite=True)]})
     def steady(self, window=(3, 6)):
         return window
@@ -90,6 +103,7 @@ def test_the_decorator_passes_valid_arguments_through_unchanged():
     (lambda: strength(None, 1, "abc"), "strength: gamma must be a number > 0 or None, got str 'abc'"),
     (lambda: strength(None, 1, mode="max"), "strength: mode must be one of 'pair', 'mean', got str 'max'"),
     (lambda: Method().steady("3:6"), "Method.steady: window must be a pair of finite numbers, got str '3:6'"),
+    (lambda: Method(None), "Method: path must be a file name (str or path-like), got NoneType None"),
 ])
 def test_a_refused_argument_is_one_line_naming_function_parameter_and_value(call, message):
     with pytest.raises(ParameterError) as exc:

@@ -23,6 +23,7 @@ import json
 import math
 import os
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
@@ -31,7 +32,8 @@ from granalytics.analysis.size_classes import MeasuredDistribution, SieveGrid, r
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.windows import check_interval, window_mask
+from granalytics.core.validation import FLAG, POSITIVE, Array, Instance, Interval, Path, validate_params
+from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE
 
@@ -136,6 +138,7 @@ class Calibration:
                                  "points": len(region)},
                       "settings": self.settings})
 
+    @validate_params({"folder": [Path("a folder")], "overwrite": [FLAG]})
     def save(self, folder, *, overwrite=False) -> list:
         """Write ``calibration_grid.csv``, ``calibration_distributions.csv`` and ``calibration.json``
         into ``folder`` (made if missing), all or none (:func:`granalytics.outputs.staged_outputs`);
@@ -152,6 +155,7 @@ class Calibration:
         return paths
 
     @staticmethod
+    @validate_params({"folder": [Path("a folder")], "overwrite": [FLAG], "figures": [Array(ndim=1, dtype=str)]})
     def output_paths(folder, *, overwrite=False, figures=()) -> list:
         """The tables' paths in ``folder`` (and ``figures``' names); refuses existing ones unless
         ``overwrite``, and a ``folder`` that is a file."""
@@ -165,15 +169,6 @@ class Calibration:
             raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace {len(existing)} "
                                  "existing output file(s))")
         return paths
-
-
-def _as_measured(measured) -> MeasuredDistribution:
-    if isinstance(measured, MeasuredDistribution):
-        return measured
-    if isinstance(measured, (str, os.PathLike)):
-        return read_sieve_csv(measured)
-    raise ParameterError(f"measured must be a MeasuredDistribution or the path of a sieve CSV, got "
-                         f"{type(measured).__name__}")
 
 
 def _is_one_run(run) -> bool:
@@ -237,6 +232,14 @@ def _describe(values, inside) -> str:
     return f"constrained to [{lo:g}, {hi:g}]"
 
 
+#: the fraction of a level or an error, in (0, 1)
+_FRACTION = Interval(Real, 0, 1, closed="neither")
+
+
+@validate_params({"measured": [Instance(MeasuredDistribution), Path("the path of a sieve CSV")],
+                  "window": [Array(ndim=1, length=2, finite=True)], "measured_error": [_FRACTION],
+                  "n_boot": [Interval(Integral, 10, None)], "block_rev": [POSITIVE], "level": [_FRACTION],
+                  "seed": [Interval(Integral, 0, None)], "progress": [FLAG]})
 def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT_WINDOW_REV, comotion=DEFAULT_COMOTION,
                          rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE, measure="volume",
                          measured_error=DEFAULT_MEASURED_ERROR, n_boot=200, block_rev=0.5, level=0.95, seed=0,
@@ -282,16 +285,10 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     """
     from scipy.stats import chi2 as chi2_law
 
-    measured = _as_measured(measured)
-    window = check_interval("calibrate_thresholds: window", window)
-    for name, value, ok in (("n_boot", n_boot, isinstance(n_boot, (int, np.integer)) and n_boot >= 10),
-                            ("block_rev", block_rev, isinstance(block_rev, (int, float)) and 0 < block_rev < math.inf),
-                            ("level", level, isinstance(level, (int, float)) and 0 < level < 1),
-                            ("measured_error", measured_error,
-                             isinstance(measured_error, (int, float)) and 0 < measured_error < 1)):
-        if isinstance(value, bool) or not ok:
-            raise ParameterError(f"calibrate_thresholds: {name} out of range, got {value!r} (n_boot: a whole number "
-                                 ">= 10; block_rev > 0; level in (0, 1); measured_error in (0, 1))")
+    measured = measured if isinstance(measured, MeasuredDistribution) else read_sieve_csv(measured)
+    window = (float(window[0]), float(window[1]))
+    if window[0] > window[1]:
+        raise ParameterError(f"calibrate_thresholds: window {window} is empty (lo > hi)")
     runs = [run] if _is_one_run(run) else list(run)
     if not runs:
         raise ParameterError("calibrate_thresholds: no run given")

@@ -26,13 +26,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from numbers import Real
 
 import numpy as np
 import pandas as pd
 
 from granalytics.analysis.bed import DrumConfinement, bed_structure, drum_confinement
-from granalytics.core.checks import check_meta, check_numbers, check_snapshot, shown
 from granalytics.core.errors import ParameterError, ValidationError
+from granalytics.core.validation import FLAG, META, SNAPSHOT, Array, Instance, Interval, validate_params
 from granalytics.core.snapshot import Snapshot
 from granalytics.analysis.frames import map_frames
 from granalytics.identification import make_identifier
@@ -50,6 +51,7 @@ def _drum_params(meta):
     return params if isinstance(params, dict) else None
 
 
+@validate_params({"meta": [META]})
 def run_confinement(meta) -> DrumConfinement | None:
     """The confinement of a run's drum from its metadata (a :class:`RunMeta`): the values the
     simulator recorded in ``sim_config["confinement"]``, or computed from ``sim_config["params"]``
@@ -61,7 +63,6 @@ def run_confinement(meta) -> DrumConfinement | None:
     ValidationError
         The recorded values are not numbers.
     """
-    check_meta("run_confinement", meta)
     recorded = meta.sim_config.get("confinement") if isinstance(meta.sim_config, dict) else None
     if recorded is not None:
         try:
@@ -77,6 +78,7 @@ def run_confinement(meta) -> DrumConfinement | None:
         raise ValidationError("sim_config.params", str(exc)) from None
 
 
+@validate_params({"snapshot": [SNAPSHOT], "meta": [META], "overlap_tolerance": [Interval(Real)]})
 def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> np.ndarray:
     """Which particles of ``snapshot`` touch a wall of the simulator's drum: the cylinder
     (radius R_d about z), a baffle (a radial plate of height baffle_height·R_d, turned to the
@@ -101,8 +103,6 @@ def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> n
     ParameterError
         The run has no drum description.
     """
-    check_snapshot("wall_touching", snapshot)
-    check_meta("wall_touching", meta)
     params = _drum_params(meta)
     needed = ("drum_radius", "drum_length", "n_baffles", "baffle_height", "drum_omega")
     if params is None or not all(k in params for k in needed):
@@ -134,6 +134,7 @@ CONFINEMENT_RULE = {"within_5pc": (62.0, 9.0), "within_10pc": (31.0, 4.0)}
 BED_COLUMNS = ("wall_share", "coordination", "bed_angle_deg", "kinetic_energy_norm")
 
 
+@validate_params({"snapshot": [SNAPSHOT], "meta": [META]})
 def bed_flow(snapshot, meta) -> tuple[float, float]:
     """How the bed flows in one frame: its angle and its agitation, both comparable between drums.
 
@@ -175,6 +176,7 @@ def confinement_warning(drum_ratio, rule=None) -> str | None:
     return None
 
 
+@validate_params({"meta": [META], "progress": [FLAG]})
 def confinement_timeseries(frames, meta, method="gna", *, progress=False, jobs=1, scheduler=None,
                            **params) -> pd.DataFrame:
     """:func:`~granalytics.run_stats`' time series with the bed's share of particles touching a
@@ -215,6 +217,9 @@ def _group_paths(group):
     return [group] if isinstance(group, (str, bytes)) or hasattr(group, "__fspath__") else list(group)
 
 
+@validate_params({"groups": [Instance((list, tuple), "a list of runs or of groups of replicas")],
+                  "window": [Array(ndim=1, length=2, finite=True)], "labels": [Array(ndim=1, dtype=str), None],
+                  "progress": [FLAG]})
 def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gna", *, progress=False,
                       **params) -> pd.DataFrame:
     """The confinement and the steady granule statistics of runs, one row per run or group of
@@ -240,9 +245,6 @@ def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gn
         averaged over replicas) and its error ``<metric>_err``: the replica standard error for a
         group of two or more, the block s.e.m. of the one run otherwise.
     """
-    if not isinstance(groups, (list, tuple)):
-        raise ParameterError(f"confinement_table: groups must be a list of runs or of groups of replicas, got "
-                             f"{shown(groups)}")
     groups = [_group_paths(g) for g in groups]
     if not groups:
         raise ParameterError("confinement_table: no runs")
@@ -304,14 +306,14 @@ class ConfinementFit:
         grad = np.stack([1 - self.b / x, -self.y_inf / x])
         return np.sqrt(np.einsum("i...,ij,j...->...", grad, self.covariance, grad))
 
+    @validate_params({"fraction": [Interval(Real, 0, 1, closed="neither")]})
     def within(self, fraction) -> tuple[float, float]:
         """The smallest D/d at which y is within ``fraction`` of y∞ (b/fraction), with its
         standard error."""
-        if not 0 < fraction < 1:
-            raise ParameterError(f"fraction must be in (0, 1), got {fraction!r}")
         return self.b / fraction, math.sqrt(self.covariance[1, 1]) / fraction
 
 
+@validate_params({"drum_ratio": [Array()], "values": [Array()], "errors": [Array()]})
 def fit_confinement_curve(drum_ratio, values, errors) -> ConfinementFit:
     """Weighted least-squares fit of y = y∞·(1 − b/x) to points (x = D/d, y ± error).
 
@@ -323,8 +325,7 @@ def fit_confinement_curve(drum_ratio, values, errors) -> ConfinementFit:
     ParameterError
         Fewer than three points, or a non-positive error or D/d.
     """
-    x, y, s = (check_numbers("fit_confinement_curve", name, a, ndim=None) for name, a in
-               (("drum_ratio", drum_ratio), ("values", values), ("errors", errors)))
+    x, y, s = (np.asarray(a, dtype=float) for a in (drum_ratio, values, errors))
     if not (x.shape == y.shape == s.shape) or x.size < 3:
         raise ParameterError(f"fit_confinement_curve: needs three or more points of equal length, got {x.size}")
     if not (np.all(np.isfinite(s)) and np.all(s > 0) and np.all(x > 0)):
@@ -344,6 +345,7 @@ def fit_confinement_curve(drum_ratio, values, errors) -> ConfinementFit:
     return ConfinementFit(y_inf=float(y_inf), b=float(c / y_inf), covariance=jac @ cov_lin @ jac.T, chi2=chi2, dof=dof)
 
 
+@validate_params({"cg_rows": [Instance(pd.DataFrame)], "fit": [Instance(ConfinementFit)], "same_drum": [Instance(dict)]})
 def decompose_cg(cg_rows: pd.DataFrame, fit: ConfinementFit, same_drum: dict, metric="yield_fraction") -> pd.DataFrame:
     """Split the deviation of CG runs into the scaling rules' error and what a user gets.
 

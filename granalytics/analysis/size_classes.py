@@ -26,6 +26,7 @@ import csv
 import math
 import os
 from dataclasses import dataclass
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
@@ -36,7 +37,7 @@ from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.analysis.sensitivity import SWEEP_CONSTRAINTS, threshold_grid
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, comotion_mask, contact_strength
-from granalytics.validation import validate_params
+from granalytics.core.validation import FLAG, PATH, SNAPSHOT, Array, Instance, Interval, Options, validate_params
 
 __all__ = ["MeasuredDistribution", "read_sieve_csv", "SIEVE_MEASURES", "SUM_TOLERANCE", "sieve_classes", "grid_measurement",
            "SieveGrid", "sieve_grid"]
@@ -45,6 +46,8 @@ __all__ = ["MeasuredDistribution", "read_sieve_csv", "SIEVE_MEASURES", "SUM_TOLE
 SIEVE_MEASURES = {"volume": 0, "width": 1}
 #: how far from 1 the mass fractions of a measured distribution may sum (then they are rescaled to 1)
 SUM_TOLERANCE = 0.01
+#: the constraints of a sieve-size measure and of a sum tolerance
+_MEASURE, _TOLERANCE = Options(tuple(SIEVE_MEASURES)), Interval(Real, 0, None)
 
 _CLASS_FIELDS = ("lower_m", "upper_m", "mass_fraction")
 _PASSING_FIELDS = ("aperture_m", "passing_fraction")
@@ -94,6 +97,8 @@ class MeasuredDistribution:
         self.table()[list(_CLASS_FIELDS)].to_csv(path, index=False, float_format="%.6g")
 
     @classmethod
+    @validate_params({"lower_m": [Array(ndim=1)], "upper_m": [Array(ndim=1)], "mass_fraction": [Array(ndim=1)],
+                      "sigma": [Array(ndim=1), None], "tolerance": [_TOLERANCE]})
     def from_classes(cls, lower_m, upper_m, mass_fraction, sigma=None, source="measured",
                      tolerance=SUM_TOLERANCE) -> "MeasuredDistribution":
         """From class bounds [m] and mass fractions (validated as :func:`read_sieve_csv` does; rows
@@ -120,6 +125,11 @@ def _number(path, row, field, text, *, allow_inf=False) -> float:
     return value
 
 
+#: class edges [m] (:func:`_edges` checks the rest: two or more, ascending, >= 0)
+_EDGES = [Array(ndim=1), Instance(MeasuredDistribution)]
+
+
+@validate_params({"path": [PATH], "tolerance": [_TOLERANCE]})
 def read_sieve_csv(path, tolerance=SUM_TOLERANCE) -> MeasuredDistribution:
     """Read a measured sieve analysis from a CSV file.
 
@@ -248,13 +258,6 @@ def _from_passing_rows(path, rows, tolerance, sigma):
     return MeasuredDistribution(np.array(edges), np.diff(np.r_[0.0, passing]), sigma, str(path))
 
 
-def check_measure(measure) -> int:
-    """The kernel's code of a sieve-size measure (:data:`SIEVE_MEASURES`)."""
-    if not isinstance(measure, str) or measure not in SIEVE_MEASURES:
-        raise ParameterError(f"measure must be one of {', '.join(map(repr, SIEVE_MEASURES))}, got {measure!r}")
-    return SIEVE_MEASURES[measure]
-
-
 def _alpha(snapshot) -> float:
     alpha = getattr(snapshot.meta, "alpha", 1.0) if snapshot.meta is not None else 1.0
     return float(alpha) if alpha and alpha > 0 else 1.0
@@ -267,11 +270,13 @@ def _free_size(snapshot) -> np.ndarray:
 
 def _edges(edges_m) -> np.ndarray:
     edges = np.asarray(getattr(edges_m, "edges_m", edges_m), dtype=float)
-    if edges.ndim != 1 or edges.size < 2 or np.isnan(edges).any() or (np.diff(edges) <= 0).any() or (edges < 0).any():
-        raise ParameterError("edges_m must be at least two ascending sizes >= 0 in metres (or a MeasuredDistribution)")
+    if edges.size < 2 or np.isnan(edges).any() or (np.diff(edges) <= 0).any() or (edges < 0).any():
+        raise ParameterError(f"edges_m must be at least two ascending sizes >= 0 in metres, got {edges.tolist()[:8]}")
     return edges
 
 
+@validate_params({"snapshot": [SNAPSHOT], "labels": [Array(ndim=1, dtype=Integral)], "edges_m": _EDGES,
+                  "measure": [_MEASURE]})
 def sieve_classes(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
     """Virtual sieve analysis of one identification: mass fraction per class.
 
@@ -290,8 +295,7 @@ def sieve_classes(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
     (K+2,) float array
         Mass fraction below ``edges_m[0]``, in each class, and at or above ``edges_m[-1]``.
     """
-    edges = _edges(edges_m)
-    code = check_measure(measure)
+    edges, code = _edges(edges_m), SIEVE_MEASURES[measure]
     labels = np.asarray(labels, dtype=np.int64)
     n_groups = int(labels.max()) + 1 if labels.size else 0
     hist = _kernels.class_volumes(labels, n_groups, np.ones(n_groups, dtype=np.bool_), np.zeros(n_groups),
@@ -353,7 +357,7 @@ def _frame_grid(snapshot, c_desc, thresholds, edges, code, radius, gamma, cohesi
     return out, snapshot.revolutions, snapshot.time, (snapshot.meta.density if snapshot.meta is not None else math.nan)
 
 
-@validate_params(SWEEP_CONSTRAINTS)
+@validate_params({**SWEEP_CONSTRAINTS, "edges_m": _EDGES, "measure": [_MEASURE], "progress": [FLAG]})
 def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radius="pair", surface_tension=None,
                cohesion=DEFAULT_COHESION, comotion=DEFAULT_COMOTION, rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE,
                min_size=2, jobs=1, scheduler=None, progress=False) -> SieveGrid:
@@ -381,8 +385,7 @@ def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radi
     SieveGrid
         Equal, bin by bin, to :func:`sieve_classes` of the GNA identification at each pair.
     """
-    edges = _edges(edges_m)
-    code = check_measure(measure)
+    edges, code = _edges(edges_m), SIEVE_MEASURES[measure]
     c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "sieve_grid")
     c_asc = c_desc[::-1].copy()
     frame_ids, results = map_frames(
@@ -395,6 +398,8 @@ def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radi
                      density=float(results[0][3]), measure=measure)
 
 
+@validate_params({"grid": [Instance(SieveGrid)], "c_agg": [Interval(Real)], "threshold": [Interval(Real)],
+                  "noise": [Interval(Real, 0, None)], "seed": [Interval(Integral, 0, None)], "source": [Instance(str), None]})
 def grid_measurement(grid: SieveGrid, c_agg, threshold, *, noise=0.0, seed=0, source=None) -> MeasuredDistribution:
     """A "measured" distribution made from a simulation: the mean over ``grid``'s frames at one of its
     grid points, with optional noise (for tests of a calibration and for synthetic examples).

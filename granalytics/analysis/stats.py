@@ -22,7 +22,7 @@ from granalytics.identification.granules import granule_table
 from granalytics.identification import METHODS, make_identifier
 from granalytics.identification.result import RESULT, IdentificationResult
 from granalytics.core.snapshot import Snapshot
-from granalytics.validation import FLAG, SNAPSHOT, Array, Instance, Interval, Options, validate_params
+from granalytics.core.validation import FLAG, SNAPSHOT, Array, Instance, Interval, Options, validate_params
 
 __all__ = [
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "combine_replicas",

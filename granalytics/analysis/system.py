@@ -12,6 +12,7 @@ import math
 import warnings
 
 from granalytics.core.errors import ParameterError
+from granalytics.core.validation import META, validate_params
 
 __all__ = ["system_of", "run_identity", "check_replicas", "check_one_system"]
 
@@ -20,6 +21,7 @@ __all__ = ["system_of", "run_identity", "check_replicas", "check_one_system"]
 _FREE = {"seed", "alpha", "cg_rule"}
 
 
+@validate_params({"meta": [META]})
 def system_of(meta) -> dict | None:
     """The original parameters of a simulator run without seed, α and CG rule (None for a run of
     another code, whose metadata has no parameters)."""

@@ -5,8 +5,9 @@ Modules: :mod:`.snapshot` (:class:`Snapshot`, :class:`RunMeta`), :mod:`.format` 
 ``docs/format.md``), :mod:`.writer` (:class:`RunWriter`), :mod:`.reader` (:func:`open_run`,
 :class:`Run`, :class:`RunSlice`), :mod:`.native` (opening a file for reading), :mod:`.subset`
 (:func:`subset_run`), :mod:`.files` (atomic writes, the writer lock, one-line errors, Ctrl-C),
-:mod:`.errors`; and the reader's helpers :mod:`.checks` (argument checks), :mod:`.windows`
-(revolution windows) and :mod:`.resources` (memory and disk checks).
+:mod:`.errors`, :mod:`.validation` (the argument constraints of every public function, this
+layer's and those above); and the reader's helpers :mod:`.windows` (revolution windows) and
+:mod:`.resources` (memory and disk checks).
 
 The writer works in HDF5's single-writer/multiple-reader (SWMR) mode: the library orders its
 metadata flushes so that the file on disk is always a consistent HDF5 file, even when the writer

@@ -8,7 +8,7 @@ and exit status 2; the Python API lets them propagate.
 from __future__ import annotations
 
 __all__ = ["GranalyticsError", "ValidationError", "RunFileError", "RunWriteError", "RunLockedError", "ParameterError",
-           "exit_after_write_failure"]
+           "FrameKeyError", "exit_after_write_failure"]
 
 
 class GranalyticsError(Exception):
@@ -99,3 +99,8 @@ class RunLockedError(RunFileError, ValueError):
 
 class ParameterError(GranalyticsError, ValueError):
     """A parameter passed to an analysis is outside its valid range."""
+
+
+class FrameKeyError(ParameterError, TypeError):
+    """A run indexed by something other than an int or a slice: granalytics' error, and a
+    TypeError as Python's sequences raise for such a key."""

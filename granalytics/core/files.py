@@ -19,8 +19,8 @@ import sys
 import time as _time
 import warnings
 
-from granalytics.core.checks import check_path
 from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
+from granalytics.core.validation import PATH, validate_params
 
 __all__ = ["check_not_open_elsewhere", "terminate_as_interrupt", "replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
            "warnings_as_lines", "regular_input", "interrupted",
@@ -257,10 +257,11 @@ class WriterLock:
     naming the lock file and its holder. The lock file is removed on release.
     """
 
+    @validate_params({"target": [PATH]})
     def __init__(self, target):
         import filelock
 
-        self.target = check_path("WriterLock", "target", target)
+        self.target = os.fspath(target)
         self.path = self.target + _LOCK_SUFFIX
         self._lock = filelock.FileLock(self.path, timeout=0, thread_local=False, fallback_to_soft=False,
                                        on_acquired=self._name_holder)

@@ -8,6 +8,7 @@ import math
 import os
 import warnings
 from collections.abc import Sequence
+from numbers import Integral, Real
 
 import h5py
 import numpy as np
@@ -16,9 +17,9 @@ from granalytics.core.files import one_line
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_DATASETS, _CONTACT_LAYOUT, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import CONVERT_HINT, _HDF5Handle, _open_h5
 from granalytics.core.resources import check_memory
-from granalytics.core.checks import FrameKeyError, check_indices, shown
+from granalytics.core.validation import FLAG, PATH, Array, Instance, Interval, validate, validate_params
 from granalytics.core.windows import check_interval, window_mask
-from granalytics.core.errors import ParameterError, GranalyticsError, RunFileError, ValidationError
+from granalytics.core.errors import FrameKeyError, ParameterError, GranalyticsError, RunFileError, ValidationError
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
 
 
@@ -147,17 +148,13 @@ class _FrameSequence(Sequence):
         """The frame closest to a time [s] or a revolution count."""
         if (time is None) == (revolutions is None):
             raise ValidationError("nearest", "give exactly one of time= or revolutions=")
+        validate("nearest", {"time": [Interval(Real), None], "revolutions": [Interval(Real), None]},
+                 {"time": time, "revolutions": revolutions})
         if not len(self):
             raise IndexError("no frames")
         values = self.times if time is not None else self.revolutions
-        target = time if time is not None else revolutions
+        target = float(time if time is not None else revolutions)
         name = "time" if time is not None else "revolutions"
-        try:
-            target = float(target)
-        except (TypeError, ValueError):
-            raise ParameterError(f"nearest: {name} must be a number, got {target!r}") from None
-        if not math.isfinite(target):
-            raise ParameterError(f"nearest: {name} must be a finite number, got {target!r}")
         k = int(np.argmin(np.abs(values - target)))
         spacing = float(np.min(np.diff(values))) if len(values) > 1 else 0.0
         if abs(values[k] - target) > max(spacing, 0.0):
@@ -182,9 +179,8 @@ class Run(_HDF5Handle, _FrameSequence):
         Particles per frame.
     """
 
+    @validate_params({"path": [PATH], "validate": [FLAG]})
     def __init__(self, path, *, validate=True):
-        if not isinstance(path, (str, os.PathLike)):
-            raise ParameterError(f"open_run: path must be a file name (str or path-like), got {type(path).__name__} {path!r}")
         self.path = os.fspath(path)
         self.validate = validate
         if not os.path.exists(self.path):
@@ -364,10 +360,10 @@ class Run(_HDF5Handle, _FrameSequence):
 class RunSlice(_FrameSequence):
     """A lazy selection of frames of a :class:`Run` (from slicing or :meth:`Run.select`)."""
 
+    @validate_params({"run": [Instance(Run, "an open Run (granalytics.open_run)")],
+                      "indices": [Array(ndim=1, dtype=Integral)]})
     def __init__(self, run: Run, indices):
-        if not isinstance(run, Run):
-            raise ParameterError(f"RunSlice: run must be an open Run (granalytics.open_run), got {shown(run)}")
-        indices = check_indices("RunSlice", "indices", indices)
+        indices = np.asarray(indices, dtype=np.int64)
         if indices.size and not (0 <= indices.min() and indices.max() < len(run)):
             raise ParameterError(f"RunSlice: frame indices must lie in [0, {len(run)}) for the {len(run)} frames of "
                                  f"{run.path}, got {indices.min()}..{indices.max()}")
@@ -462,6 +458,7 @@ def _check_inside_file(f, path, n_frames, n_rows) -> None:
 
 
 
+@validate_params({"path": [PATH], "validate": [FLAG]})
 def open_run(path, *, validate=True) -> Run:
     """Open a run file for lazy, frame-by-frame reading.
 

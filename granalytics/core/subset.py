@@ -4,19 +4,22 @@ from __future__ import annotations
 
 import contextlib
 import os
+from numbers import Integral
 
 import numpy as np
 
 from granalytics.core.windows import check_interval, window_mask
-from granalytics.core.checks import check_path
 from granalytics.core.files import WriterLock, check_apart, check_replaceable, replaced_atomically
 from granalytics.core.reader import open_run
 from granalytics.core.writer import RunWriter
 from granalytics.core.errors import RunFileError, ValidationError
 from granalytics.core.snapshot import RunMeta
+from granalytics.core.validation import FLAG, PATH, Array, Interval, Options, validate_params
 
 
 
+@validate_params({"revolutions": [Array(ndim=1)], "every": [Interval(Integral, 1, None)],
+                  "window_every": [Interval(Integral, 1, None)]})
 def thinned_frames(revolutions, every=1, full_window=None, window_every=1) -> np.ndarray:
     """Indices of the frames to keep when thinning a run: every ``every``-th frame (the first
     included), and every ``window_every``-th frame whose time in revolutions lies in
@@ -41,13 +44,12 @@ def thinned_frames(revolutions, every=1, full_window=None, window_every=1) -> np
 
     Raises
     ------
+    ParameterError
+        ``every`` or ``window_every`` not a whole number >= 1, or ``full_window`` not two
+        increasing numbers.
     ValidationError
-        ``every`` or ``window_every`` below 1, ``full_window`` not two increasing numbers, or
         ``window_every`` other than 1 without a window.
     """
-    for name, value in (("every", every), ("window_every", window_every)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise ValidationError(name, f"must be an integer >= 1, got {value!r}")
     if window_every != 1 and full_window is None:
         raise ValidationError("window_every", f"thins the full window; got {window_every!r} without one")
     revs = np.asarray(revolutions, dtype=float)
@@ -83,6 +85,8 @@ def replacing_run(dst, overwrite=False):
             yield tmp
 
 
+@validate_params({"src": [PATH], "dst": [PATH], "frames": [Array(ndim=1)], "float_dtype": [Options(("float64", "float32"))],
+                  "overwrite": [FLAG], "progress": [FLAG]})
 def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, progress=False) -> str:
     """Copy some frames of a run into a new run file, optionally stored as float32.
 
@@ -107,19 +111,12 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
     """
     from tqdm.auto import tqdm
 
-    src, dst = check_path("subset_run", "src", src), check_path("subset_run", "dst", dst)
+    src, dst = os.fspath(src), os.fspath(dst)
     check_apart(dst, [src], "subset")  # overwrite=True must never replace its own source
-    try:
-        raw = np.asarray(frames)
-    except (ValueError, TypeError):  # a ragged nested list
-        raise ValidationError("frames", f"must be a sequence of whole frame indices, got {frames!r}") from None
-    if raw.ndim != 1:
-        raise ValidationError("frames", f"must be a flat sequence of whole frame indices, got shape {raw.shape}")
+    raw = np.asarray(frames)
     if raw.dtype.kind == "f" and not np.array_equal(raw, np.round(raw)):
         bad = raw[raw != np.round(raw)][0]
         raise ValidationError("frames", f"must be whole frame indices, got {float(bad)!r}")
-    if raw.dtype.kind not in "iuf" and raw.size:
-        raise ValidationError("frames", f"must be whole frame indices, got {raw.dtype} values")
     frames = raw.astype(np.int64)
     with open_run(src) as run:
         if frames.size == 0 or (np.diff(frames) <= 0).any() or frames[0] < 0 or frames[-1] >= len(run):

@@ -6,18 +6,19 @@ import contextlib
 import json
 import math
 import os
+from numbers import Integral
 
 import h5py
 import numpy as np
 
 from granalytics._version import __version__
-from granalytics.core.checks import check_path
 from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_replaceable, one_line, raise_dropped_interrupt, _LOCK_SUFFIX
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_CHUNK_ROWS, _CONTACT_DATASETS, _CONTACT_LAYOUT, _INDEX_DATASETS, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
 from granalytics.core.native import _HDF5Handle
 from granalytics.core.reader import open_run
 from granalytics.core.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
+from granalytics.core.validation import FLAG, META, PATH, Instance, Interval, Options, validate_params
 
 
 
@@ -71,18 +72,15 @@ class RunWriter(_HDF5Handle):
     _file = None
     _lock = None
 
+    @validate_params({"path": [PATH], "meta": [META], "compression": [Options(("gzip", "lzf")), None],
+                      "compression_level": [Interval(Integral, 0, 9)], "overwrite": [FLAG],
+                      "float_dtype": [Options(("float64", "float32"))]})
     def __init__(self, path, meta, *, compression="gzip", compression_level=4, overwrite=False, float_dtype="float64",
                  _lock=None):
-        if not isinstance(meta, RunMeta):
-            raise ValidationError("meta", f"must be a RunMeta, got {type(meta).__name__}")
         meta.validate()  # fields may have been changed since construction
-        self.path = check_path("RunWriter", "path", path)
+        self.path = os.fspath(path)
         self.meta = meta
-        if float_dtype not in ("float64", "float32"):
-            raise ValidationError("float_dtype", f"must be 'float64' or 'float32', got {float_dtype!r}")
         self._float = np.dtype(float_dtype)
-        if compression not in ("gzip", "lzf", None):
-            raise ValidationError("compression", f"must be 'gzip', 'lzf' or None, got {compression!r}")
         # every dataset gets a Fletcher-32 checksum per chunk: HDF5 refuses a damaged chunk on read
         self._filter = {"fletcher32": True}
         if compression is not None:
@@ -141,6 +139,7 @@ class RunWriter(_HDF5Handle):
         return self.path + _LOCK_SUFFIX
 
     @classmethod
+    @validate_params({"path": [PATH], "n_frames": [Interval(Integral, 0, None)]})
     def continue_from(cls, path, n_frames, **kwargs) -> "RunWriter":
         """Reopen a run for appending after its first ``n_frames`` complete frames.
 
@@ -153,16 +152,15 @@ class RunWriter(_HDF5Handle):
 
         Raises
         ------
+        ParameterError
+            ``n_frames`` is not a whole number >= 0.
         ValidationError
-            ``n_frames`` is not an integer >= 0.
+            ``overwrite`` other than True.
         RunFileError
             ``path`` does not exist, cannot be read, or holds fewer than ``n_frames`` complete
             frames; :class:`~granalytics.core.errors.RunLockedError` if another writer holds its lock.
         """
-        path = os.fspath(path)
-        if isinstance(n_frames, (bool, np.bool_)) or not isinstance(n_frames, (int, np.integer)) or n_frames < 0:
-            raise ValidationError("n_frames", f"must be an integer >= 0, got {n_frames!r}")
-        n_frames = int(n_frames)
+        path, n_frames = os.fspath(path), int(n_frames)
         if kwargs.pop("overwrite", True) is not True:
             raise ValidationError("overwrite", "continue_from always replaces the file it continues")
         if not os.path.exists(path):
@@ -203,6 +201,7 @@ class RunWriter(_HDF5Handle):
         writer.path = path
         return writer
 
+    @validate_params({"snapshot": [Instance(Snapshot)]})
     def append(self, snapshot: Snapshot) -> None:
         """Write one frame and commit it.
 
@@ -214,8 +213,6 @@ class RunWriter(_HDF5Handle):
         """
         if self._file is None:
             raise RunFileError(f"{self.path}: writer is closed")
-        if not isinstance(snapshot, Snapshot):
-            raise ValidationError("snapshot", f"must be a Snapshot, got {type(snapshot).__name__}")
         frame = self._n_frames
         try:
             snapshot.validate()

@@ -31,7 +31,8 @@ from granalytics.analysis.frames import map_frames
 from granalytics.identification import make_identifier
 from granalytics.identification.result import IdentificationResult
 from granalytics.analysis.tracking import track_granules
-from granalytics.analysis.tracking.linking import check_continuation
+from granalytics.analysis.tracking.linking import CONTINUATION
+from granalytics.core.validation import FLAG, validate_params
 
 __all__ = ["export_vtk", "frame_mesh", "drum_mesh"]
 
@@ -96,6 +97,7 @@ def frame_mesh(result, track=None):
     )
 
 
+@validate_params({"continuation": [CONTINUATION], "progress": [FLAG]})
 def export_vtk(frames, out_dir, method="gna", *, continuation="main", progress=False, **params):
     """Write ``out_dir/frame_NNNNN.vtu`` for every frame and ``out_dir/run.pvd``.
 
@@ -123,7 +125,6 @@ def export_vtk(frames, out_dir, method="gna", *, continuation="main", progress=F
     """
     import meshio
 
-    check_continuation(continuation)
     identifier = make_identifier(method, **params)
     # one identification pass (labels, sizes and kept bonds of every frame; the track ids need
     # them all), then the files (a second pass over the frames, reading only)

@@ -16,7 +16,7 @@ from granalytics.identification.dbscan import DBSCANClustering, DBSCANIdentifier
 from granalytics.identification.gna import BACKENDS, GraphNetworkAnalysis
 from granalytics.identification.result import IdentificationResult
 from granalytics.identification.sieve import VirtualSieve, sieve_analysis
-from granalytics.validation import SNAPSHOT, validate_params
+from granalytics.core.validation import SNAPSHOT, validate_params
 
 __all__ = [
     "identify", "make_identifier", "METHODS", "DEFAULT_METHODS", "BACKENDS", "method_parameters", "accepted_params", "IdentificationResult", "Identifier",

@@ -24,7 +24,7 @@ from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
 from granalytics.identification.common import RADIUS_MODE, Identifier
 from granalytics.identification.contacts import contact_table
 from granalytics.identification.result import IdentificationResult
-from granalytics.validation import POSITIVE
+from granalytics.core.validation import POSITIVE
 
 __all__ = ["CustomEdges", "COLUMNS", "compile_criterion"]
 

@@ -24,7 +24,7 @@ from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.identification.common import Identifier, labels_from_clusters, mean_radius
 from granalytics.identification.result import IdentificationResult
-from granalytics.validation import FLAG, POSITIVE, Interval
+from granalytics.core.validation import FLAG, POSITIVE, Interval
 
 __all__ = ["DBSCANClustering", "DBSCANIdentifier"]
 

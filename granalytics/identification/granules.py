@@ -10,7 +10,7 @@ import pandas as pd
 
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.validation import SNAPSHOT, Array, validate_params
+from granalytics.core.validation import SNAPSHOT, Array, validate_params
 
 __all__ = ["granule_table"]
 

@@ -29,7 +29,7 @@ from granalytics.core.snapshot import Snapshot
 from granalytics.identification.common import A_AGG_DEG, C_AGG, PAPER_A_AGG_DEG, PAPER_C_AGG, RADIUS_MODE, Identifier, mean_radius
 from granalytics.identification.gna import GraphNetworkAnalysis
 from granalytics.identification.result import IdentificationResult
-from granalytics.validation import POSITIVE, Array, Interval, Options
+from granalytics.core.validation import POSITIVE, Array, Interval, Options
 
 __all__ = ["VirtualSieve", "sieve_analysis"]
 

@@ -10,14 +10,22 @@ Sizes in primary particles; numbers of granules in the whole system.
 
 from __future__ import annotations
 
-import math
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 
 from granalytics.core import ParameterError
+from granalytics.core.validation import Array, Interval, validate_params
+
+#: the constraint of a ``grid`` of pivots (:func:`check_grid` checks the rest: increasing whole
+#: numbers from 1)
+GRID = Array(ndim=1, within=Interval(Real, 1, None))
+#: the constraint of the ratio of successive pivots
+RATIO = Interval(Real, 1, 10, closed="right")
 
 
+@validate_params({"n_max": [Interval(Integral, 1, None)], "ratio": [RATIO]})
 def pbm_grid(n_max, ratio=2 ** 0.25) -> np.ndarray:
     """Integer pivots from 1 to ``n_max``: every integer while the geometric spacing is below one
     particle, then successive pivots ``ratio`` apart (rounded to integers).
@@ -34,11 +42,7 @@ def pbm_grid(n_max, ratio=2 ** 0.25) -> np.ndarray:
     (G,) int64 array
         Increasing pivots, starting at 1 (free particles) and ending at ``n_max``.
     """
-    if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 1:
-        raise ParameterError(f"pbm_grid: n_max must be a whole number >= 1, got {n_max!r}")
     ratio = float(ratio)
-    if not (math.isfinite(ratio) and 1 < ratio <= 10):
-        raise ParameterError(f"pbm_grid: ratio must be in (1, 10], got {ratio!r}")
     x = [1]
     while x[-1] < n_max:
         x.append(min(int(n_max), max(x[-1] + 1, int(round(x[-1] * ratio)))))
@@ -46,11 +50,11 @@ def pbm_grid(n_max, ratio=2 ** 0.25) -> np.ndarray:
 
 
 def check_grid(grid):
+    """``grid`` (satisfying :data:`GRID`) as int64 pivots: at least two increasing whole numbers
+    from 1 (free particles), else a :class:`ParameterError`."""
     x = np.asarray(grid)
-    if x.ndim != 1 or x.size < 2 or not np.issubdtype(x.dtype, np.number):
-        raise ParameterError(f"grid must be at least two increasing integer pivots, got {np.asarray(grid).tolist()!r}")
-    if not np.isfinite(x).all() or (x != np.round(x)).any() or x[0] != 1 or (np.diff(x) <= 0).any():
-        raise ParameterError(f"grid must be increasing integers starting at 1 (free particles), got "
+    if x.size < 2 or (x != np.round(x)).any() or x[0] != 1 or (np.diff(x) <= 0).any():
+        raise ParameterError(f"grid must be at least two increasing whole numbers starting at 1 (free particles), got "
                              f"{x.tolist()[:8]}{' …' if x.size > 8 else ''}")
     return x.astype(np.int64)
 
@@ -69,6 +73,7 @@ def pivot_weights(grid, v):
     return k, a, upper
 
 
+@validate_params({"counts": [Array(ndim=1, within=Interval(Real, 0, None))], "grid": [GRID]})
 def project_counts(counts, grid) -> np.ndarray:
     """Numbers of granules by integer size, put on the pivots of ``grid`` (fixed pivot split).
 
@@ -87,8 +92,6 @@ def project_counts(counts, grid) -> np.ndarray:
     """
     grid = check_grid(grid)
     counts = np.asarray(counts, dtype=float)
-    if counts.ndim != 1 or not np.isfinite(counts).all() or (counts < 0).any():
-        raise ParameterError("counts must be a 1-D array of non-negative finite numbers of granules by size")
     sizes = np.nonzero(counts)[0] + 1
     if sizes.size and sizes[-1] > grid[-1]:
         raise ParameterError(f"counts has granules of {sizes[-1]} particles, above the grid's largest pivot {grid[-1]}")
@@ -99,6 +102,7 @@ def project_counts(counts, grid) -> np.ndarray:
     return out
 
 
+@validate_params({"granule_sizes": [Array(dtype=Integral)], "n_particles": [Interval(Integral, 1, None)]})
 def size_counts(granule_sizes, n_particles) -> np.ndarray:
     """Numbers of granules by size of one frame, free particles counted as size 1.
 
@@ -117,7 +121,7 @@ def size_counts(granule_sizes, n_particles) -> np.ndarray:
     sizes = np.asarray(granule_sizes, dtype=np.int64).ravel()
     sizes = sizes[sizes > 0]
     n = int(n_particles)
-    if n < 1 or sizes.sum() > n or (sizes.size and sizes.max() > n):
+    if sizes.sum() > n:
         raise ParameterError(f"size_counts: n_particles={n_particles!r} is smaller than the {int(sizes.sum())} particles "
                              "in granules")
     counts = np.bincount(sizes, minlength=n + 1)[1:].astype(float)
@@ -125,6 +129,8 @@ def size_counts(granule_sizes, n_particles) -> np.ndarray:
     return counts
 
 
+@validate_params({"numbers": [Array()], "grid": [Array(ndim=1)], "t_s": [Array(ndim=1), None],
+                  "min_size": [Interval(Integral, 1, None)]})
 def distribution_summary(numbers, grid, t_s=None, min_size=2) -> pd.DataFrame:
     """Number, mean size and yield of the granules of >= ``min_size`` particles of distributions on
     ``grid`` (rows of ``numbers``); see :meth:`PopulationBalance.summary`."""
@@ -144,6 +150,8 @@ def distribution_summary(numbers, grid, t_s=None, min_size=2) -> pd.DataFrame:
     return out
 
 
+@validate_params({"a": [Array(ndim=1)], "b": [Array(ndim=1)], "grid": [Array(ndim=1), None],
+                  "min_size": [Interval(Integral, 1, None)]})
 def ks_distance(a, b, grid=None, min_size=2) -> float:
     """Kolmogorov–Smirnov distance between two number distributions of granules on one grid.
 
@@ -166,8 +174,8 @@ def ks_distance(a, b, grid=None, min_size=2) -> float:
     """
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
-    if a.shape != b.shape or a.ndim != 1:
-        raise ParameterError(f"ks_distance: a and b must be 1-D arrays of one length, got {a.shape} and {b.shape}")
+    if a.shape != b.shape:
+        raise ParameterError(f"ks_distance: a and b must be of one length, got {a.size} and {b.size}")
     if grid is not None:
         keep = np.asarray(grid) >= min_size
         a, b = a[keep], b[keep]

@@ -40,13 +40,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.population_balance.grid import (check_grid, distribution_summary, pbm_grid, pivot_weights,
-                                                          project_counts)
+from granalytics.analysis.population_balance.grid import (GRID, RATIO, check_grid, distribution_summary, pbm_grid,
+                                                          pivot_weights, project_counts)
 from granalytics.core import ParameterError
+from granalytics.core.validation import POSITIVE, Array, Callable, Instance, Interval, Options, validate_params
 
 
 #: the value columns of a per-class rate table that each mechanism reads
@@ -93,10 +95,7 @@ def _values(spec, name, column, grid, extrapolate):
     if callable(spec):
         out = np.broadcast_to(np.asarray(spec(grid.astype(float)), dtype=float), grid.shape).copy()
     else:
-        try:
-            out = np.full(grid.size, float(spec))
-        except (TypeError, ValueError):
-            raise ParameterError(f"{name} must be a table, a function of size or a number, got {type(spec).__name__}") from None
+        out = np.full(grid.size, float(spec))
     if not np.isfinite(out).all() or (out < 0).any():
         bad = int(np.nonzero(~np.isfinite(out) | (out < 0))[0][0])
         raise ParameterError(f"{name} must be finite and >= 0, got {out[bad]!r} at size {grid[bad]}")
@@ -135,10 +134,7 @@ def _kernel_matrix(kernel, grid, extrapolate):
     if callable(kernel):
         out = np.broadcast_to(np.asarray(kernel(x[:, None], x[None, :]), dtype=float), (g, g)).copy()
     else:
-        try:
-            out = np.full((g, g), float(kernel))
-        except (TypeError, ValueError):
-            raise ParameterError(f"kernel must be a table, a function β(x, y) or a number, got {type(kernel).__name__}") from None
+        out = np.full((g, g), float(kernel))
     if not np.isfinite(out).all() or (out < 0).any():
         i, j = (int(v[0]) for v in np.nonzero(~np.isfinite(out) | (out < 0)))
         raise ParameterError(f"kernel must be finite and >= 0, got {out[i, j]!r} at sizes ({grid[i]}, {grid[j]})")
@@ -248,15 +244,6 @@ class PopulationBalance:
         return pd.DataFrame({"t_s": t.ravel(), "size": g.ravel(), "number": self.numbers.ravel()})
 
 
-def _check_times(t):
-    t = np.asarray(t, dtype=float)
-    if t.ndim != 1 or t.size < 2:
-        raise ParameterError(f"t must be at least two increasing times in seconds, got {np.asarray(t).tolist()!r}")
-    if not np.isfinite(t).all() or (np.diff(t) <= 0).any():
-        raise ParameterError(f"t must be finite and increasing (seconds), got {t.tolist()[:6]}")
-    return t
-
-
 def _initial_counts(initial):
     """``initial`` as numbers of granules by size (``counts[s - 1]``: granules of s particles) and
     the primary particles they hold."""
@@ -270,10 +257,10 @@ def _initial_counts(initial):
                 counts[int(s) - 1] += float(v)
         except (TypeError, ValueError):
             raise ParameterError("initial: the keys must be granule sizes >= 1 (particles) and the values numbers") from None
+        if not np.isfinite(counts).all() or (counts < 0).any():
+            raise ParameterError(f"initial: the numbers of granules must be finite and >= 0, got {initial!r}")
     else:
         counts = np.asarray(initial, dtype=float)
-    if counts.ndim != 1 or counts.size < 1 or not np.isfinite(counts).all() or (counts < 0).any():
-        raise ParameterError("initial must be non-negative finite numbers of granules by size (initial[s - 1]: size s)")
     mass0 = float(np.dot(np.arange(1, counts.size + 1), counts))
     if mass0 <= 0:
         raise ParameterError("initial holds no particle")
@@ -287,8 +274,8 @@ def _pivots(grid, counts, mass0, n_max, ratio):
         return check_grid(grid)
     top = int(np.nonzero(counts)[0][-1]) + 1
     n_max = int(round(mass0)) if n_max is None else n_max
-    if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < top:
-        raise ParameterError(f"n_max must be a whole number >= the largest initial granule ({top}), got {n_max!r}")
+    if n_max < top:
+        raise ParameterError(f"n_max must be >= the largest initial granule ({top}), got {n_max!r}")
     return pbm_grid(int(n_max), ratio)
 
 
@@ -324,13 +311,10 @@ def _fragment_numbers(breakage, n_fragments, grid, extrapolate):
     ``n_fragments`` (a number or a function of size, >= 2)."""
     if callable(n_fragments):
         default_nu = _values(n_fragments, "n_fragments", None, grid, extrapolate)
+        if (default_nu < 2).any():
+            raise ParameterError(f"n_fragments must be >= 2, got {default_nu.min()!r}")
     else:
-        try:
-            default_nu = np.full(grid.size, float(n_fragments))
-        except (TypeError, ValueError):
-            raise ParameterError(f"n_fragments must be a number >= 2 or a function of size, got {n_fragments!r}") from None
-    if not np.isfinite(default_nu).all() or (default_nu < 2).any():
-        raise ParameterError(f"n_fragments must be >= 2, got {n_fragments!r}")
+        default_nu = np.full(grid.size, float(n_fragments))
     if isinstance(breakage, pd.DataFrame) and "fragments_mean" in breakage.columns:
         measured = _values(breakage.assign(_nu=breakage["fragments_mean"]), "breakage", "_nu", grid, extrapolate)
         return np.where(measured >= 2, measured, default_nu)  # NaN (no breakage seen) reads as 0: the default
@@ -379,6 +363,18 @@ def _rate_functions(stoich, coef, iu, ju, linear):
     return rhs, jac
 
 
+#: the constraints of a rate: a per-class table, a function of size or a number (None: no such events)
+_RATE = [Instance(pd.DataFrame, "a table"), Callable(), Interval(Real, 0, None), None]
+
+
+@validate_params({
+    "kernel": _RATE, "breakage": _RATE, "layering": _RATE, "erosion": _RATE,
+    "n_fragments": [Interval(Real, 2, None), Callable()],
+    "initial": [Array(ndim=1, within=Interval(Real, 0, None)), Instance(dict, "a dict {size: number}")],
+    "t": [Array(ndim=1, finite=True)], "fragments": [Options(("uniform",)), Callable()],
+    "min_fragment": [Interval(Integral, 1, None)], "grid": [GRID, None], "ratio": [RATIO],
+    "n_max": [Interval(Integral, 1, None), None], "extrapolate": [Options(("nearest", "zero"))], "rtol": [POSITIVE],
+    "atol": [POSITIVE, None]})
 def population_balance(kernel, breakage, initial, t, *, layering=None, erosion=None, fragments="uniform",
                        n_fragments=2.0, min_fragment=1, grid=None, ratio=2 ** 0.25, n_max=None,
                        extrapolate="nearest", method="BDF", rtol=1e-8, atol=None) -> PopulationBalance:
@@ -456,14 +452,10 @@ def population_balance(kernel, breakage, initial, t, *, layering=None, erosion=N
     """
     from scipy.integrate import solve_ivp
 
-    t = _check_times(t)
+    t = np.asarray(t, dtype=float)
+    if t.size < 2 or (np.diff(t) <= 0).any():
+        raise ParameterError(f"population_balance: t must be at least two increasing times [s], got {t.tolist()[:6]}")
     counts, mass0 = _initial_counts(initial)
-    if extrapolate not in ("nearest", "zero"):
-        raise ParameterError(f"extrapolate must be 'nearest' or 'zero', got {extrapolate!r}")
-    if isinstance(min_fragment, bool) or not isinstance(min_fragment, (int, np.integer)) or min_fragment < 1:
-        raise ParameterError(f"min_fragment must be a whole number >= 1, got {min_fragment!r}")
-    if not (fragments == "uniform" or callable(fragments)):
-        raise ParameterError(f"fragments must be 'uniform' or a function b(x), got {fragments!r}")
     grid = _pivots(grid, counts, mass0, n_max, ratio)
     n0 = project_counts(counts, grid)
     beta, iu, ju, coef, stoich = _coalescence_events(kernel, layering, grid, extrapolate)

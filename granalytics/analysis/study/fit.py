@@ -8,12 +8,13 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from numbers import Real
 
 import numpy as np
 
 from granalytics.analysis.study.table import select_cohesion
-from granalytics.core.checks import check_numbers
 from granalytics.core.errors import ParameterError
+from granalytics.core.validation import Array, Interval, Options, validate_params
 
 
 #: the paper's Fig 7 law ⟨V_g⟩/V_p = β(γ − γ₁): slope and onset [N/m]
@@ -140,6 +141,8 @@ def _line(g, beta, gamma_1):
     return beta * (g - gamma_1)
 
 
+@validate_params({"gamma": [Array()], "mean_volume_norm": [Array()], "sem": [Array(), None],
+                  "model": [Options(("hinge", "linear"))], "confidence": [Interval(Real, 0, 1, closed="neither")]})
 def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", confidence=0.95) -> GrowthFit:
     """Fit the paper's Fig 7 law ⟨V_g⟩/V_p = β(γ − γ₁) for γ > γ₁, the onset γ₁ fitted.
 
@@ -178,10 +181,6 @@ def fit_granule_growth(gamma, mean_volume_norm, sem=None, *, model="hinge", conf
     """
     from scipy.stats import t as student_t
 
-    if model not in ("hinge", "linear"):
-        raise ParameterError(f"model must be 'hinge' or 'linear', got {model!r}")
-    if not 0 < confidence < 1:
-        raise ParameterError(f"confidence must be in (0, 1), got {confidence!r}")
     g, v, no_granules, s, weighted = _growth_points(gamma, mean_volume_norm, sem)
     w = 1.0 / s**2
     pos = ~no_granules
@@ -208,8 +207,8 @@ def _growth_points(gamma, mean_volume_norm, sem):
     """The checked points of :func:`fit_granule_growth`: γ [N/m], ⟨V_g⟩/V_p (NaN read as 0), which
     points have no granules, the sems (ones when none are given; missing or zero ones the smallest
     positive sem) and whether they weight the fit."""
-    g = check_numbers("fit_granule_growth", "gamma", gamma, ndim=None).ravel()
-    v = check_numbers("fit_granule_growth", "mean_volume_norm", mean_volume_norm, ndim=None).ravel()
+    g = np.asarray(gamma, dtype=float).ravel()
+    v = np.asarray(mean_volume_norm, dtype=float).ravel()
     if g.shape != v.shape:
         raise ParameterError(f"{g.size} γ values for {v.size} volumes")
     if not np.isfinite(g).all():
@@ -221,7 +220,7 @@ def _growth_points(gamma, mean_volume_norm, sem):
     weighted = False
     s = np.ones_like(g)
     if sem is not None:
-        s_in = check_numbers("fit_granule_growth", "sem", sem, ndim=None).ravel()
+        s_in = np.asarray(sem, dtype=float).ravel()
         if s_in.shape != g.shape:
             raise ParameterError(f"{s_in.size} sems for {g.size} points")
         if (s_in < 0).any():

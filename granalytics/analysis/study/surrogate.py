@@ -6,14 +6,16 @@ from __future__ import annotations
 
 import math
 import warnings
+from numbers import Integral
 
 import numpy as np
 import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.study.table import select_cohesion
-from granalytics.core.checks import shown
 from granalytics.core.errors import ParameterError
+from granalytics.core.validation import Array, Instance, Interval, validate_params
+from granalytics.identification.cohesion import COHESION
 
 
 
@@ -44,6 +46,7 @@ class Surrogate:
     def _x(self, frame):
         return (frame[self.inputs].to_numpy(dtype=float) - self._mean) / self._scale
 
+    @validate_params({"points": [Instance((dict, pd.DataFrame))]})
     def predict(self, points) -> pd.DataFrame:
         """Predicted mean and standard deviation of every output.
 
@@ -67,10 +70,8 @@ class Surrogate:
                 frame = pd.DataFrame({k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in points.items()})
             except (TypeError, ValueError) as exc:
                 raise ParameterError(f"prediction inputs must be numbers ({exc})") from None
-        elif isinstance(points, pd.DataFrame):
-            frame = points
         else:
-            raise ParameterError("points must be a dict or a DataFrame")
+            frame = points
         missing = [k for k in self.inputs if k not in frame]
         if missing:
             raise ParameterError(f"missing input {missing[0]!r}; the surrogate's inputs are {self.inputs}")
@@ -145,6 +146,9 @@ class Surrogate:
         return self._loo_predictions
 
 
+@validate_params({"table": [Instance(pd.DataFrame, "a study table (a DataFrame, study_table's result)")],
+                  "inputs": [Array(ndim=1, dtype=str)], "outputs": [Array(ndim=1, dtype=str), None],
+                  "cohesion": [COHESION, None], "n_restarts": [Interval(Integral, 0, None)]})
 def fit_surrogate(table, inputs=("gamma", "omega"), outputs=None, *, cohesion="acting",
                   n_restarts=3, random_state=0) -> Surrogate:
     """Gaussian-process regression of each output on the inputs.
@@ -175,14 +179,6 @@ def fit_surrogate(table, inputs=("gamma", "omega"), outputs=None, *, cohesion="a
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
-    if not isinstance(table, pd.DataFrame):
-        raise ParameterError(f"fit_surrogate: table must be a study table (a DataFrame, study_table's result), got "
-                             f"{shown(table)}")
-    for name, value in (("inputs", inputs), ("outputs", outputs)):
-        if value is None and name == "outputs":
-            continue
-        if not (isinstance(value, (list, tuple, pd.Index, np.ndarray)) and all(isinstance(v, str) for v in value)):
-            raise ParameterError(f"fit_surrogate: {name} must be a list of column names, got {shown(value)}")
     inputs = list(inputs)
     outputs = [f"{name}_mean" for name in HEADLINE] if outputs is None else list(outputs)
     if not inputs or not outputs:

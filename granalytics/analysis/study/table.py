@@ -19,7 +19,8 @@ from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, combine_replicas
 from granalytics.core.errors import ParameterError
 from granalytics.core.manifest import MANIFEST_COLUMNS, file_sha256, read_manifest
-from granalytics.identification.cohesion import check_cohesion
+from granalytics.core.validation import FLAG, Array, Instance, Path, validate_params
+from granalytics.identification.cohesion import COHESION, check_cohesion
 
 
 #: steady-state metrics of the study table
@@ -72,6 +73,9 @@ def _check_point_parameters(path, record, meta) -> None:
                                  f"{float(listed):g} (another point's file?)")
 
 
+@validate_params({"sweep_dir": [Path("a folder"), Instance((list, tuple), "a list of them")],
+                  "window": [Array(ndim=1, length=2, finite=True)], "cohesion": [COHESION, Array(ndim=1, dtype=str)],
+                  "replicas": [Instance(str), None], "progress": [FLAG]})
 def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("acting", "bridge"), *,
                 replicas=None, progress=False, **params) -> pd.DataFrame:
     """Steady-state statistics of every finished point of a sweep.
@@ -129,7 +133,7 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     if not conventions:
         raise ParameterError("cohesion: give at least one convention")
     for c in conventions:
-        check_cohesion(c)
+        check_cohesion(c, "study_table")
     if "cohesion" not in method_parameters(method):
         conventions = [None]
     lo, hi = (float(w) for w in window)

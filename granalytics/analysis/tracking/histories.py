@@ -7,14 +7,17 @@ Units: SI, time in seconds (``_s`` suffix); granule sizes in particles, or with
 
 from __future__ import annotations
 
+from numbers import Integral
+
 import numpy as np
 import pandas as pd
 
 from granalytics.analysis.stats import size_unit_factor
-from granalytics.analysis.tracking.tracks import GranuleTracks, check_tracks
-from granalytics.core.errors import ParameterError
+from granalytics.analysis.tracking.tracks import TRACKS, GranuleTracks
+from granalytics.core.validation import Interval, validate_params
 
 
+@validate_params({"tracks": [TRACKS], "n": [Interval(Integral, 0, None)]})
 def size_histories(tracks: GranuleTracks, n=8, *, size_unit="particles", alpha=None) -> pd.DataFrame:
     """The size histories of the ``n`` longest-lived tracks (ties: the largest granule first).
 
@@ -35,9 +38,6 @@ def size_histories(tracks: GranuleTracks, n=8, *, size_unit="particles", alpha=N
         ``origin``, ``end`` (as :attr:`GranuleTracks.tracks`), ``time_s`` [s] and ``size``
         (in ``size_unit``). ``attrs["size_unit"]`` names the unit.
     """
-    check_tracks("size_histories", tracks)
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-        raise ParameterError(f"size_histories: n must be a whole number >= 0, got {n!r}")
     factor = size_unit_factor(size_unit, alpha, caller="size_histories")
     tr = tracks.tracks
     life = (tr["last_frame"] - tr["first_frame"]).to_numpy()

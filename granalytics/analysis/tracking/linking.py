@@ -10,40 +10,31 @@ from __future__ import annotations
 
 import gc
 from contextlib import contextmanager
+from numbers import Integral
 
 import numpy as np
 
 from granalytics.analysis.tracking.steps import (_aligned, _fates, _smallest_ids, _sorted_by_id, _step_events,
                                                  _step_links, _step_tracks)
 from granalytics.analysis.tracking.tracks import GranuleTracks, _events_table, _tracks_table
-from granalytics.core.windows import check_interval
 from granalytics.core.errors import ParameterError
+from granalytics.core.validation import FLAG, Array, Instance, Interval, Options, validate_params
 
 
 #: Continuation rules of :func:`track_granules`: ``"main"`` (the main branch continues through
 #: coalescence and breakage) and ``"strict"`` (every coalescence and breakage starts new tracks).
 CONTINUATIONS = ("main", "strict")
+#: the constraint of a ``continuation`` argument (:mod:`granalytics.core.validation`)
+CONTINUATION = Options(CONTINUATIONS)
+#: a sequence with one entry per frame
+_PER_FRAME = Instance((list, tuple, np.ndarray), "a sequence with one entry per frame")
 
 
-def check_continuation(continuation) -> str:
-    """``continuation`` if it is one of :data:`CONTINUATIONS`, else a one-line ParameterError."""
-    if not isinstance(continuation, str) or continuation not in CONTINUATIONS:
-        raise ParameterError(f"continuation must be 'main' or 'strict', got {continuation!r}")
-    return continuation
-
-
-def _check_frames(labels_by_frame, ids_by_frame, times_s, min_fragment):
-    if isinstance(min_fragment, bool) or not isinstance(min_fragment, (int, np.integer)) or min_fragment < 1:
-        raise ParameterError(f"min_fragment must be an integer >= 1, got {min_fragment!r}")
-    for name, value in (("labels_by_frame", labels_by_frame), ("ids_by_frame", ids_by_frame), ("times_s", times_s)):
-        if value is None or isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
-            raise ParameterError(f"track_granules: {name} must be a sequence with one entry per frame, got "
-                                 f"{type(value).__name__}")
+def _frames(labels_by_frame, ids_by_frame, times_s, min_fragment):
+    """The checked frames of :func:`track_granules`: labels (negative ones -1) and ids as int64
+    arrays, times [s] as floats."""
     labels_by_frame, ids_by_frame = list(labels_by_frame), list(ids_by_frame)
-    try:
-        times = np.asarray(times_s, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ParameterError(f"track_granules: times_s must be numbers [s], got {str(times_s)[:40]!r}") from None
+    times = np.asarray(times_s, dtype=float)
     n = len(labels_by_frame)
     if n == 0:
         raise ParameterError("no frames to track")
@@ -84,6 +75,8 @@ def _gc_paused():
             gc.enable()
 
 
+@validate_params({"labels_by_frame": [_PER_FRAME], "ids_by_frame": [_PER_FRAME], "times_s": [Array(ndim=1)],
+                  "min_fragment": [Interval(Integral, 1, None)], "continuation": [CONTINUATION]})
 def track_granules(labels_by_frame, ids_by_frame, times_s, min_fragment=2, continuation="strict") -> GranuleTracks:
     """Follow granules through a sequence of frames and find their births, deaths, coalescences
     and breakages.
@@ -166,8 +159,7 @@ def track_granules(labels_by_frame, ids_by_frame, times_s, min_fragment=2, conti
     The work per step is vectorised (sort-based contingency table, bincounts); Python loops run
     only over event rows to build their lists.
     """
-    check_continuation(continuation)
-    labels, ids, times = _check_frames(labels_by_frame, ids_by_frame, times_s, min_fragment)
+    labels, ids, times = _frames(labels_by_frame, ids_by_frame, times_s, min_fragment)
     with _gc_paused():
         return _track(labels, ids, times, int(min_fragment), continuation)
 
@@ -223,6 +215,8 @@ def _granule_sizes(labels):
     return np.bincount(labels[labels >= 0], minlength=n_labels).astype(np.int64)
 
 
+@validate_params({"window": [Array(ndim=1, length=2, finite=True), None], "progress": [FLAG],
+                  "min_fragment": [Interval(Integral, 1, None)], "continuation": [CONTINUATION], "return_labels": [FLAG]})
 def track_run(frames, method="gna", window=None, progress=False, *, min_fragment=2, continuation="strict",
               return_labels=False, jobs=1, scheduler=None, **params):
     """Identify granules in every frame of a run and track them (:func:`track_granules`).
@@ -260,11 +254,9 @@ def track_run(frames, method="gna", window=None, progress=False, *, min_fragment
     from granalytics.identification import make_identifier
 
     if window is not None:
-        window = check_interval("track_run: window", window)
         if not hasattr(frames, "select"):
-            raise ParameterError("window needs a Run or RunSlice (open_run), not a plain sequence of snapshots")
+            raise ParameterError("track_run: window needs a Run or RunSlice (open_run), not a plain sequence of snapshots")
         frames = frames.select(revolutions=window)
-    check_continuation(continuation)  # before any frame is identified
     identifier = make_identifier(method, **params)
     indices, per_frame = map_frames(frames, lambda s: (identifier.identify(s).labels, s.ids, s.time),
                                     progress=progress, desc="track", what="track", jobs=jobs, scheduler=scheduler)

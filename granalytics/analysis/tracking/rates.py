@@ -14,24 +14,30 @@ from __future__ import annotations
 import math
 import warnings
 from itertools import combinations
+from numbers import Real
 
 import numpy as np
 import pandas as pd
 
 from granalytics.analysis.stats import size_unit_factor
-from granalytics.analysis.tracking.tracks import GranuleTracks, KINDS, check_tracks
+from granalytics.analysis.tracking.tracks import GranuleTracks, KINDS, TRACKS
 from granalytics.core.windows import window_tolerance
 from granalytics.core.errors import ParameterError
+from granalytics.core.validation import POSITIVE, Array, Instance, Interval, Options, validate_params
+
+#: the constraints of the rates by size class: class edges, whole numbers >= 1
+_CLASS_CONSTRAINTS = {"tracks": [TRACKS], "size_bins": [Array(ndim=1, within=Interval(Real, 1, None)), None],
+                      "bins_per_decade": [POSITIVE]}
 
 
-def _steps(tracks, where):
-    check_tracks(where, tracks)
+def _steps(tracks):
     t = np.asarray(tracks.times_s, dtype=float)
     if t.size < 2:
         raise ParameterError("rates need at least two tracked frames (one frame interval)")
     return t, np.diff(t)
 
 
+@validate_params({"tracks": [TRACKS], "revolution_period_s": [POSITIVE, None], "bin_width": [POSITIVE, None]})
 def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=None) -> pd.DataFrame:
     """Event counts and rates per kind, binned in time.
 
@@ -64,23 +70,19 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
         ``rate_per_rev`` (events per revolution, NaN without a period). Rates are NaN in a bin
         with no tracked time.
     """
-    t, dt = _steps(tracks, "event_rates")
+    t, dt = _steps(tracks)
     if dt.max() > 1.5 * dt.min():
         warnings.warn(f"the tracked frames are {dt.min():.3g}–{dt.max():.3g} s apart (a run thinned outside a "
                       "window?): events between frames further apart go uncounted, so rates of bins with other "
                       "frame spacings are not comparable; track the evenly spaced part (--window)", stacklevel=2)
     if revolution_period_s is not None:
         period = float(revolution_period_s)
-        if not (math.isfinite(period) and period > 0):
-            raise ParameterError(f"revolution_period_s must be a positive number of seconds, got {revolution_period_s!r}")
         x = t / period
         width = 1.0 if bin_width is None else float(bin_width)
     else:
         period = None
         x = t
         width = (t[-1] - t[0]) / 10 if bin_width is None else float(bin_width)
-    if not (math.isfinite(width) and width > 0):
-        raise ParameterError(f"bin_width must be positive, got {bin_width!r}")
     # bin edges with the windows' tolerance: a first frame stamped 2.9999 revolutions opens the bin
     # [3, 4), not an empty [2, 3) (frames lie on whole time steps; granalytics.core.windows)
     tol = window_tolerance(x)
@@ -113,6 +115,7 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
     return table
 
 
+@validate_params({"rates": [Instance(pd.DataFrame, "an event_rates table")], "column": [Options(("rate_per_rev", "rate_per_s"))]})
 def rate_errors(rates, column="rate_per_rev") -> pd.Series:
     """Poisson standard errors of the rates of :func:`event_rates`: a bin's rate times
     1/√count (± √count events over the bin's tracked time); 0 where the bin has no event or no
@@ -130,8 +133,6 @@ def rate_errors(rates, column="rate_per_rev") -> pd.Series:
     Series
         Indexed as ``rates``.
     """
-    if column not in ("rate_per_rev", "rate_per_s"):
-        raise ParameterError(f"column must be 'rate_per_rev' or 'rate_per_s', got {column!r}")
     count = rates["count"]
     return np.sqrt(count.to_numpy(dtype=float)) * (rates[column] / count.where(count > 0)).fillna(0)
 
@@ -140,14 +141,10 @@ def _size_classes(tracks, size_bins, bins_per_decade):
     """Integer class edges (lower inclusive, upper exclusive) and a classifier."""
     if size_bins is not None:
         edges = np.asarray(size_bins)
-        if edges.ndim != 1 or edges.size < 2 or not np.issubdtype(edges.dtype, np.number):
-            raise ParameterError("size_bins must be at least two increasing integer edges")
-        if (edges != np.round(edges)).any() or (np.diff(edges) <= 0).any() or edges[0] < 1:
-            raise ParameterError(f"size_bins must be increasing integers >= 1, got {edges.tolist()}")
+        if edges.size < 2 or (edges != np.round(edges)).any() or (np.diff(edges) <= 0).any():
+            raise ParameterError(f"size_bins must be at least two increasing whole numbers, got {edges.tolist()}")
         edges = edges.astype(np.int64)
     else:
-        if bins_per_decade <= 0:
-            raise ParameterError(f"bins_per_decade must be positive, got {bins_per_decade!r}")
         all_sizes = np.concatenate([s[s > 0] for s in tracks.sizes_by_frame] + [np.zeros(0, np.int64)])
         lo = int(all_sizes.min()) if all_sizes.size else 2
         top = (int(all_sizes.max()) if all_sizes.size else lo) + 1
@@ -183,6 +180,7 @@ def _in_unit(table, columns, size_unit, alpha, caller):
     return table
 
 
+@validate_params(_CLASS_CONSTRAINTS)
 def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, size_unit="particles",
                        alpha=None) -> pd.DataFrame:
     """Empirical coalescence kernel β(i, j) on logarithmic size classes.
@@ -226,7 +224,7 @@ def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade
         granules]; NaN where a class is never populated). Read β only where ``n_events`` is
         large enough: a cell with a handful of events is noise.
     """
-    t, dt = _steps(tracks, "coalescence_kernel")
+    t, dt = _steps(tracks)
     edges, classify = _size_classes(tracks, size_bins, bins_per_decade)
     nc = edges.size - 1
     n_mean = _mean_numbers(tracks, classify, nc, dt)
@@ -267,6 +265,7 @@ def coalescence_kernel(tracks: GranuleTracks, size_bins=None, *, bins_per_decade
                     "coalescence_kernel")
 
 
+@validate_params({"kernel": [Instance(pd.DataFrame, "a coalescence_kernel table")], "column": [Instance(str, "a column name")]})
 def kernel_matrix(kernel, column="beta_per_s") -> pd.DataFrame:
     """One column of a :func:`coalescence_kernel` table as a symmetric class × class matrix.
 
@@ -284,8 +283,8 @@ def kernel_matrix(kernel, column="beta_per_s") -> pd.DataFrame:
         a class of one size, ``"6–10"``); the entry of (i, j) and of (j, i) is the pair's value.
     """
     if column not in kernel:
-        raise ParameterError(f"column must be a column of the kernel ({', '.join(map(str, kernel.columns))}), "
-                             f"got {column!r}")
+        raise ParameterError(f"kernel_matrix: column must be a column of the kernel "
+                             f"({', '.join(map(str, kernel.columns))}), got {column!r}")
     nc = int(max(kernel["class_i"].max(), kernel["class_j"].max())) + 1 if len(kernel) else 0
     values = np.full((nc, nc), np.nan)
     i, j = kernel["class_i"].to_numpy(dtype=np.int64), kernel["class_j"].to_numpy(dtype=np.int64)
@@ -295,6 +294,7 @@ def kernel_matrix(kernel, column="beta_per_s") -> pd.DataFrame:
     return pd.DataFrame(values, index=names, columns=names)
 
 
+@validate_params(_CLASS_CONSTRAINTS)
 def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, size_unit="particles",
                   alpha=None) -> pd.DataFrame:
     """Empirical selection (breakage) rate S(i) on logarithmic size classes.
@@ -321,7 +321,7 @@ def breakage_rate(tracks: GranuleTracks, size_bins=None, *, bins_per_decade=4, s
         events), ``rate_per_s`` (n_events / tracked time [1/s]), ``n_mean`` (time-averaged
         number of granules), ``selection_rate_per_s`` (S(i) [1/s]; NaN where N_i = 0).
     """
-    t, dt = _steps(tracks, "breakage_rate")
+    t, dt = _steps(tracks)
     edges, classify = _size_classes(tracks, size_bins, bins_per_decade)
     nc = edges.size - 1
     n_mean = _mean_numbers(tracks, classify, nc, dt)

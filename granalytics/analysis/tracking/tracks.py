@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
-from granalytics.core.errors import ParameterError
+from granalytics.core.validation import Instance
 
 
 #: Event kinds, in the order rows of one step are listed.
@@ -33,14 +33,6 @@ _EVENT_COLUMNS = ("time_s", "frame", "kind", "parents", "children", "n_particles
 
 
 _TRACK_COLUMNS = ("track", "first_time_s", "last_time_s", "first_frame", "last_frame", "sizes", "origin", "end")
-
-
-def check_tracks(where, tracks) -> None:
-    """Refuse (``ParameterError`` naming ``where``) anything but a :class:`GranuleTracks` (the
-    result of :func:`track_granules` or :func:`track_run`)."""
-    if not isinstance(tracks, GranuleTracks):
-        raise ParameterError(f"{where}: tracks must be a GranuleTracks (track_run's or track_granules' result), got "
-                             f"{type(tracks).__name__}")
 
 
 @dataclass(eq=False)
@@ -118,6 +110,10 @@ class GranuleTracks:
         return self.events["kind"].value_counts().reindex(list(KINDS), fill_value=0).astype(int)
 
 
+#: the constraint of a ``tracks`` argument (:mod:`granalytics.core.validation`)
+TRACKS = Instance(GranuleTracks, "a GranuleTracks (track_run's or track_granules' result)")
+
+
 class _EventRows(NamedTuple):
     """The events of one kind in one step k → k+1: lists with one entry per event, ordered by label."""
 
@@ -182,3 +178,4 @@ def _tracks_table(times, labels_to_tracks, sizes_by_frame, n_tracks, origins, en
         "origin": pd.Categorical.from_codes(origin, categories=list(_ORIGINS)),
         "end": pd.Categorical.from_codes(end, categories=list(_ENDS)),
     }, columns=list(_TRACK_COLUMNS))
+

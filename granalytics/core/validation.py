@@ -1,7 +1,9 @@
 """One way to validate arguments (the design of scikit-learn's parameter validation): a public
 function declares a list of constraints per parameter, ``None`` in it allowing None, and
 :func:`validate_params` refuses a value that satisfies none with one line naming the function, the
-parameter, what is allowed and the value::
+parameter, what is allowed and the value (a :class:`ParameterError`: one line on the command line,
+exit status 2, never the AttributeError, TypeError or NumPy ValueError that the first use of the
+value would raise somewhere inside)::
 
     @validate_params({"c_agg": [Interval(Real, 0, None)], "gamma": [Interval(Real, 0, None, closed="neither"), None]})
     def strength(snapshot, c_agg, gamma=None): ...
@@ -15,16 +17,22 @@ from __future__ import annotations
 
 import functools
 import inspect
+import os
 from numbers import Integral, Real
 
 import numpy as np
 
-from granalytics.core.checks import shown
 from granalytics.core.errors import ParameterError
-from granalytics.core.snapshot import Snapshot
+from granalytics.core.snapshot import RunMeta, Snapshot
 
-__all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Callable", "POSITIVE", "FLAG", "SNAPSHOT", "validate",
-           "validate_params"]
+__all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Callable", "Path", "POSITIVE", "FLAG", "SNAPSHOT",
+           "META", "PATH", "shown", "validate", "validate_params"]
+
+
+def shown(value, limit=60) -> str:
+    """``type value`` for a message: the value's repr cut at ``limit`` characters."""
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= limit else text[:limit - 3] + '...'}"
 
 
 def _is_bool(value) -> bool:
@@ -100,8 +108,9 @@ class Instance(Constraint):
 
 class Array(Constraint):
     """Anything ``np.asarray`` turns into an array of ``dtype`` (``numbers.Real``, ``numbers.Integral``
-    or ``str``) with no bool in it, of ``ndim`` dimensions and ``length`` along the first axis (any
-    without), ``finite`` (no NaN, ±inf) or every element ``within`` an :class:`Interval`."""
+    or ``str``; an empty one of any) with no bool in it, of ``ndim`` dimensions and ``length`` along
+    the first axis (any without), ``finite`` (no NaN, ±inf) or every element ``within`` an
+    :class:`Interval`."""
 
     _KINDS = {Real: "iuf", Integral: "iu", str: "U"}
 
@@ -115,11 +124,18 @@ class Array(Constraint):
             array = np.asarray(value)
         except (TypeError, ValueError):  # a ragged list
             return False
-        if (array.dtype.kind not in self._KINDS[self.dtype] or (self.ndim is not None and array.ndim != self.ndim)
-                or (self.length is not None and (array.ndim == 0 or len(array) != self.length))):
+        if self.dtype is str and array.dtype == object and all(isinstance(v, str) for v in array.flat):
+            array = array.astype(str)  # a pandas Index or column of str
+        if (self.ndim is not None and array.ndim != self.ndim) or (
+                self.length is not None and (array.ndim == 0 or len(array) != self.length)):
             return False
-        if isinstance(value, (list, tuple)) and any(map(_is_bool, np.asarray(value, dtype=object).flat)):
-            return False  # [0.5, True] is a float array to NumPy
+        if not array.size:  # no element of another type
+            return True
+        if array.dtype.kind not in self._KINDS[self.dtype]:
+            return False
+        if isinstance(value, (list, tuple)) and any(
+                _is_bool(v) or (self.dtype is str) != isinstance(v, str) for v in np.asarray(value, dtype=object).flat):
+            return False  # NumPy reads [0.5, True] as numbers, ["a", 1] as str
         if self.within is not None:
             return self.within.contains(array)
         return not self.finite or bool(np.isfinite(array).all())
@@ -143,6 +159,20 @@ class Callable(Constraint):
         return "a callable"
 
 
+class Path(Constraint):
+    """A path: a str or a path-like object of str (not bytes, None or a number), described as
+    ``what`` in errors."""
+
+    def __init__(self, what="a file name"):
+        self.what = what
+
+    def accepts(self, value) -> bool:
+        return isinstance(value, (str, os.PathLike)) and isinstance(os.fspath(value), str)
+
+    def __str__(self):
+        return f"{self.what} (str or path-like)"
+
+
 #: a finite number > 0 (a tolerance, a surface tension, a speed)
 POSITIVE = Interval(Real, 0, None, closed="neither")
 #: True or False (NumPy's bools included); never text such as "no" read by its truth value
@@ -150,6 +180,10 @@ FLAG = Instance((bool, np.bool_), "True or False")
 #: one frame of a run
 SNAPSHOT = Instance(Snapshot, "a granalytics Snapshot (open the run with granalytics.open_run and pass one frame, "
                               "e.g. run[0])")
+#: a run's metadata
+META = Instance(RunMeta, "a RunMeta (a run's run.meta)")
+#: a file name
+PATH = Path()
 
 
 def validate(where, constraints, values) -> None:
@@ -167,13 +201,15 @@ def validate(where, constraints, values) -> None:
 def validate_params(constraints):
     """Decorator: check the arguments of the decorated function against ``constraints`` (parameter
     name -> list of constraints: :class:`Constraint` objects, or None to allow None) before it runs;
-    errors name the function by its qualified name (``Class.method`` for a method)."""
+    errors name the function by its qualified name (``Class.method`` for a method, ``Class`` for
+    its ``__init__``)."""
 
     def decorate(func):
         signature = inspect.signature(func)
         unknown = sorted(set(constraints) - set(signature.parameters))
         if unknown:
             raise TypeError(f"validate_params: {func.__qualname__} has no parameter {', '.join(unknown)}")
+        where = func.__qualname__.removesuffix(".__init__")
 
         @functools.wraps(func)
         def validated(*args, **kwargs):
@@ -182,7 +218,7 @@ def validate_params(constraints):
             except TypeError:  # a wrong call: Python's own error, from the call itself
                 return func(*args, **kwargs)
             bound.apply_defaults()
-            validate(func.__qualname__, constraints, bound.arguments)
+            validate(where, constraints, bound.arguments)
             return func(*args, **kwargs)
 
         return validated
