@@ -115,7 +115,7 @@ def test_steady_state_window_mean_std_and_block_sem():
     assert row["sem"] == pytest.approx(blocks.std(ddof=1) / math.sqrt(3))
     with pytest.raises(ParameterError, match="no frame in the window"):
         ga.steady_state(ts, window=(8, 9), columns=["yield_fraction"])
-    with pytest.raises(ParameterError, match="empty"):
+    with pytest.raises(ParameterError, match=r"steady_state: window must be a pair of finite numbers \(lo, hi\) with lo <= hi, got tuple \(5, 4\)"):
         ga.steady_state(ts, window=(5, 4), columns=["yield_fraction"])
 
 

@@ -11,8 +11,8 @@ import pytest
 
 from granalytics.core.errors import ParameterError
 from granalytics.datasets.synthetic import synthetic_snapshot
-from granalytics.core.validation import (FLAG, META, PATH, POSITIVE, SNAPSHOT, Array, Callable, Instance, Interval,
-                                         Options, Path, validate, validate_params)
+from granalytics.core.validation import (FLAG, META, PATH, POSITIVE, SNAPSHOT, WINDOW, Array, Callable, Instance,
+                                         Interval, Options, Path, validate, validate_params)
 
 
 @pytest.mark.parametrize("constraint, good, bad", [
@@ -36,6 +36,8 @@ from granalytics.core.validation import (FLAG, META, PATH, POSITIVE, SNAPSHOT, A
     (Array(ndim=1, within=POSITIVE), [[1, 2.5], []], [[1, 0], [1, math.nan], [1, math.inf]]),
     (Array(dtype=Integral), [[1, 2], np.arange(3, dtype=np.uint8), []], [[1.0, 2.0], [1, 2.5]]),
     (Array(ndim=1, dtype=str), [["a", "b"], ("a",), pd.Index(["a", "b"]), ()], [[1, 2], "ab", [b"a"], ["a", 1]]),
+    (WINDOW, [(3, 6), (2, 2), [0.5, 1e300], np.array([-1.0, 0.0])],
+     [(6, 3), (-1e308, 1e308), (0, math.inf), (0, math.nan), "3:6", (1,), (True, 2), None]),
     (PATH, ["run.h5", pathlib.Path("run.h5")], [None, b"run.h5", 5, ["run.h5"], pathlib.PurePath]),
 ])
 def test_each_constraint_accepts_and_refuses(constraint, good, bad):

@@ -23,8 +23,9 @@ from granalytics.analysis.confinement import confinement_warning, run_confinemen
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
 from granalytics.outputs import staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE
-from granalytics.core.windows import check_interval, window_mask
-from granalytics.identification.cohesion import DEFAULT_COHESION, check_cohesion
+from granalytics.core.validation import FLAG, WINDOW, Array, validate_params
+from granalytics.core.windows import window_mask
+from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
 from granalytics.core.errors import ParameterError
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
@@ -323,6 +324,11 @@ def _relative_deviation(mean, se, ref_mean, ref_se):
     return ratio - 1.0, se_ratio
 
 
+_COMPARE_CONSTRAINTS = {"labels": [Array(ndim=1, dtype=str), None], "window": [WINDOW], "cohesion": [COHESION],
+                        "progress": [FLAG]}
+
+
+@validate_params({**_COMPARE_CONSTRAINTS, "mixed_systems": [FLAG]})
 def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", cohesion=DEFAULT_COHESION,
                progress=False, mixed_systems=False, **params) -> CGComparison:
     """Compare runs of one system at several CG factors (paper §3.1, Figs 3–6).
@@ -362,13 +368,12 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         single run), ``_rel_dev`` and ``_rel_dev_se`` (its standard error, from each side's replica
         s.e. where it has replicas and its block s.e.m. where not), and ``n_replicas``.
     """
-    check_cohesion(cohesion)
     groups = [_replica_group(item) for item in _run_list(runs, "compare_cg")]
     if len(groups) < 2:
         raise ParameterError("compare_cg needs at least two runs")
     if labels is not None and len(labels) != len(groups):
         raise ParameterError(f"{len(labels)} labels for {len(groups)} runs")
-    lo, hi = check_interval("window", window)
+    lo, hi = map(float, window)
     infos, systems, series, dists, steady, sizes = [], [], [], [], {}, {}
     for k, group in enumerate(groups):
         members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
@@ -503,6 +508,7 @@ def _grid_block_sems(table, lo) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+@validate_params(_COMPARE_CONSTRAINTS)
 def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT_WINDOW_REV,
                           cohesion=DEFAULT_COHESION, radius="pair", progress=False) -> pd.DataFrame:
     """Does the CG agreement survive other thresholds? The deviation of each headline statistic
@@ -532,13 +538,12 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
     """
     from granalytics.analysis.sensitivity import sensitivity, sensitivity_summary
 
-    check_cohesion(cohesion)
     runs = [_run_item(item, "compare_cg_thresholds") for item in _run_list(runs, "compare_cg_thresholds")]
     if len(runs) < 2:
         raise ParameterError("compare_cg_thresholds needs at least two runs")
     if labels is not None and len(labels) != len(runs):
         raise ParameterError(f"{len(labels)} labels for {len(runs)} runs")
-    lo, hi = check_interval("window", window)
+    lo, hi = map(float, window)
     rows = []
     for k, path in enumerate(runs):
         with open_run(path) as run:

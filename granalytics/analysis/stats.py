@@ -22,7 +22,7 @@ from granalytics.identification.granules import granule_table
 from granalytics.identification import METHODS, make_identifier
 from granalytics.identification.result import RESULT, IdentificationResult
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.validation import FLAG, SNAPSHOT, Array, Instance, Interval, Options, validate_params
+from granalytics.core.validation import FLAG, SNAPSHOT, WINDOW, Array, Instance, Interval, Options, validate_params
 
 __all__ = [
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "combine_replicas",
@@ -35,7 +35,7 @@ DEFAULT_WINDOW_REV = (3.0, 6.0)
 _STEADY_COLUMNS = STEADY
 #: the constraints of a steady-state window's parameters (:func:`steady_state`, :func:`replica_steady_state`)
 _WINDOW_CONSTRAINTS = {
-    "window": [Array(ndim=1, length=2, finite=True)],
+    "window": [WINDOW],
     "columns": [Instance(str, "a metric name"), Array(ndim=1, dtype=str)],
     "by": [Options(("revolutions", "time_s"))],
 }

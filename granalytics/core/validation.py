@@ -25,8 +25,8 @@ import numpy as np
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import RunMeta, Snapshot
 
-__all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Callable", "Path", "POSITIVE", "FLAG", "SNAPSHOT",
-           "META", "PATH", "shown", "validate", "validate_params"]
+__all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Window", "Callable", "Path", "POSITIVE", "FLAG",
+           "SNAPSHOT", "META", "PATH", "WINDOW", "shown", "validate", "validate_params"]
 
 
 def shown(value, limit=60) -> str:
@@ -149,6 +149,19 @@ class Array(Constraint):
         return f"{shape} of {'' if self.length is None else f'{self.length} '}{items}"
 
 
+class Window(Array):
+    """A closed window ``(lo, hi)`` of revolutions or seconds: two finite numbers, lo <= hi."""
+
+    def __init__(self):
+        super().__init__(ndim=1, length=2, finite=True)
+
+    def accepts(self, value) -> bool:
+        return super().accepts(value) and np.isfinite(float(value[1]) - float(value[0])) and value[0] <= value[1]
+
+    def __str__(self):
+        return "a pair of finite numbers (lo, hi) with lo <= hi"
+
+
 class Callable(Constraint):
     """Anything callable (a function, a class, an object with ``__call__``)."""
 
@@ -184,6 +197,8 @@ SNAPSHOT = Instance(Snapshot, "a granalytics Snapshot (open the run with granaly
 META = Instance(RunMeta, "a RunMeta (a run's run.meta)")
 #: a file name
 PATH = Path()
+#: a window (lo, hi) [revolutions or s]
+WINDOW = Window()
 
 
 def validate(where, constraints, values) -> None:

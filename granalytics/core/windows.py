@@ -16,11 +16,11 @@ not at the times the window asks for.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from granalytics.core.errors import ParameterError
+from granalytics.core.validation import WINDOW, shown
 
 __all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask", "clip_window", "check_interval"]
 
@@ -63,21 +63,9 @@ def clip_window(values, lo, hi, tolerance=None) -> tuple[float, float]:
 
 
 def check_interval(name, value) -> tuple[float, float]:
-    """``value`` as a closed window ``(lo, hi)``: two finite real numbers with lo <= hi.
-
-    Raises
-    ------
-    ParameterError
-        Naming ``name`` and the value (text such as ``"3:6"`` is the command line's spelling;
-        the API takes a pair of numbers).
-    """
-    numbers = (int, float, np.integer, np.floating)
-    if (isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2
-            or not all(isinstance(v, numbers) and not isinstance(v, (bool, np.bool_)) for v in value)):
-        raise ParameterError(f"{name} must be a pair of numbers (lo, hi), got {type(value).__name__} {value!r}")
-    lo, hi = float(value[0]), float(value[1])
-    if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)):
-        raise ParameterError(f"{name} must be two finite numbers with lo <= hi, got {value!r}")
-    if lo > hi:
-        raise ParameterError(f"{name} {value!r} is empty (lo > hi)")
-    return lo, hi
+    """``value`` as floats ``(lo, hi)``, once it is a :data:`~granalytics.core.validation.WINDOW`
+    (else a ParameterError naming ``name`` and the value; text such as ``"3:6"`` is the command
+    line's spelling, the API takes a pair of numbers)."""
+    if not WINDOW.accepts(value):
+        raise ParameterError(f"{name} must be {WINDOW}, got {shown(value)}")
+    return float(value[0]), float(value[1])
