@@ -195,6 +195,14 @@ def _toy_tracks():
     return ga.track_granules(labels, ids, [0.0, 1.0, 2.0, 3.0])
 
 
+def test_rates_refuse_tracks_with_granules_of_one_particle():
+    """A granule of one particle is a free particle to the population balance (its size class 1)."""
+    ids = [np.arange(4)] * 2
+    labels = [np.array([0, 0, 1, -1]), np.array([0, 0, 1, 1])]
+    with pytest.raises(ga.ParameterError, match="fit_pbm_rates: the tracks hold granules of one particle"):
+        ga.fit_pbm_rates(ga.track_granules(labels, ids, [0.0, 1.0]), 4)
+
+
 def test_rates_from_tracks_are_the_hand_counted_ones():
     rates = ga.fit_pbm_rates(_toy_tracks(), 6, size_bins=[2, 3, 4])
     c = rates.classes.set_index("size_min")

@@ -101,6 +101,10 @@ def fit_pbm_rates(tracks, n_particles, size_bins=None, *, bins_per_decade=4) -> 
         raise ParameterError("fit_pbm_rates: the tracks need at least two frames (one frame interval)")
     n_particles = int(n_particles)
     sizes_by_frame = [np.asarray(s, dtype=np.int64) for s in tracks.sizes_by_frame]
+    if any((s == 1).any() for s in sizes_by_frame):
+        raise ParameterError("fit_pbm_rates: the tracks hold granules of one particle (identified with min_size=1); "
+                             "the population balance counts a free particle as size 1: track granules of two or "
+                             "more particles")
     in_granules = max(int(s.sum()) for s in sizes_by_frame)
     if n_particles < in_granules:
         raise ParameterError(f"fit_pbm_rates: n_particles={n_particles} is below the {in_granules} particles in "
