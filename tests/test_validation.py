@@ -142,3 +142,21 @@ def test_validate_checks_a_mapping_of_values_with_or_without_a_name():
         validate("GNA", {"c_agg": [POSITIVE]}, {"c_agg": 0})
     with pytest.raises(ParameterError, match=r"^c_agg must be"):
         validate(None, {"c_agg": [POSITIVE]}, {"c_agg": 0})
+
+
+def test_a_warning_points_at_the_users_call_through_every_decorated_layer(tmp_path):
+    """Warnings name the first caller outside granalytics, not the decorator's wrapper."""
+    import inspect
+    import warnings
+
+    import granalytics as ga
+    from granalytics.datasets.synthetic import write_synthetic_run
+
+    with ga.open_run(write_synthetic_run(tmp_path / "r.h5", 200, revolutions=1.0, frames_per_revolution=8)) as run:
+        ts = ga.run_stats(run)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        line = inspect.currentframe().f_lineno + 1
+        ga.steady_state(ts, window=(0, 1e9))  # past the run's end: clipped, with a warning
+    assert caught and all((w.filename, w.lineno) == (__file__, line) for w in caught), \
+        [(w.filename, w.lineno, str(w.message)[:40]) for w in caught]

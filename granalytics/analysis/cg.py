@@ -26,7 +26,7 @@ from granalytics.analysis.metrics import BY_FIGURE
 from granalytics.core.validation import FLAG, WINDOW, Array, validate_params
 from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
-from granalytics.core.errors import ParameterError
+from granalytics.core.errors import ParameterError, user_stacklevel
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 
@@ -291,7 +291,7 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
         drum = run_confinement(meta)
         if getattr(run, "unfinished", None):
             warnings.warn(f"{os.fspath(run.path)}: unfinished run: {run.unfinished}; its steady state is that of the "
-                          "frames it holds", stacklevel=3)
+                          "frames it holds", stacklevel=user_stacklevel())
         ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
         steady = steady_state(ts, window=(lo, hi), source=os.fspath(run.path))
         revs = ts["revolutions"].to_numpy()
@@ -381,7 +381,7 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         first = members[0]["info"]
         for warning in (confinement_warning(first["drum_ratio"]), cg_rule_warning(first["cg_rule"], first["alpha"])):
             if warning:  # once per system, not per replica
-                warnings.warn(f"{first['path']}{more}: {warning}", stacklevel=2)
+                warnings.warn(f"{first['path']}{more}: {warning}", stacklevel=user_stacklevel())
         label = labels[k] if labels is not None else _alpha_label(members[0]["info"]["alpha"],
                                                                   members[0]["info"]["n_particles"], len(members))
         if label in sizes:
@@ -447,12 +447,12 @@ def _warn_if_not_one_system(infos, systems, mixed_systems) -> None:
     if len(set(rules.values())) > 1:
         warnings.warn("compare_cg: the coarse-grained runs were made under different CG rules ("
                       + ", ".join(f"{run}: {rule}" for run, rule in rules.items())
-                      + "); their deviations mix the two rules", stacklevel=3)
+                      + "); their deviations mix the two rules", stacklevel=user_stacklevel())
     versions = {i["run"]: i["physics_version"] for i in infos if i["physics_version"] is not None}
     if len(set(versions.values())) > 1:
         warnings.warn("compare_cg: the runs were made by different simulator physics versions ("
                       + ", ".join(f"{run}: {v}" for run, v in versions.items())
-                      + "); their differences mix coarse-graining with the change of physics", stacklevel=3)
+                      + "); their differences mix coarse-graining with the change of physics", stacklevel=user_stacklevel())
 
 
 def _comparison_row(row, steady, sizes, reference, ref_row) -> dict:

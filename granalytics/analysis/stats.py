@@ -16,7 +16,7 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE, STEADY, GranuleCounts, metric_values
 from granalytics.core.windows import clip_window, window_mask, window_tolerance
-from granalytics.core.errors import ParameterError
+from granalytics.core.errors import ParameterError, user_stacklevel
 from granalytics.analysis.frames import map_frames
 from granalytics.identification.granules import granule_table
 from granalytics.identification import METHODS, make_identifier
@@ -191,10 +191,10 @@ def check_window(axis, window, *, by="revolutions", source=None, warn=True):
         past = "runs past the run's end" if lo >= first - tol else (
             "starts before the run" if hi <= last + tol else "is wider than the run")
         warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} {past} ({covered}): clipped to "
-                      f"[{used[0]:.4g}, {used[1]:.4g}], {n} frame{'s' if n > 1 else ''}", stacklevel=3)
+                      f"[{used[0]:.4g}, {used[1]:.4g}], {n} frame{'s' if n > 1 else ''}", stacklevel=user_stacklevel())
     elif warn and n == 1:
         warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} holds a single frame: its steady state has "
-                      "no spread", stacklevel=3)
+                      "no spread", stacklevel=user_stacklevel())
     return mask, tol
 
 
@@ -327,7 +327,7 @@ def _warn_if_drifting(inside, by, block, out, lo, hi, source) -> None:
     if drifting:
         where = f"{source}: " if source else ""
         warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {by} is not a steady state: {'; '.join(drifting)}, a trend "
-                      "over its blocks; choose a later window or a longer run", stacklevel=4)
+                      "over its blocks; choose a later window or a longer run", stacklevel=user_stacklevel())
 
 
 @validate_params({"timeseries": [Instance((list, tuple), "a list of run_stats tables (one per replica)")],

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import warnings
 
-from granalytics.core.errors import ParameterError
+from granalytics.core.errors import ParameterError, user_stacklevel
 from granalytics.core.validation import META, validate_params
 
 __all__ = ["system_of", "run_identity", "check_replicas", "check_one_system"]
@@ -119,4 +119,4 @@ def check_one_system(infos, *, mixed_systems=False, where="compare_cg") -> None:
     message = f"{where}: the runs are not coarse-grained from one system: {problems[0]}"
     if not mixed_systems:
         raise ParameterError(message + " (pass mixed_systems=True, or --mixed-systems, to compare them anyway)")
-    warnings.warn(message + "; their differences are not those of coarse-graining", stacklevel=3)
+    warnings.warn(message + "; their differences are not those of coarse-graining", stacklevel=user_stacklevel())

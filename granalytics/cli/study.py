@@ -1,9 +1,8 @@
-"""Parameter-study commands: ``study`` (steady-state table, Fig 7 fit, GP surrogate) and ``sweep``
-(the simulator's sweep runner, imported only when the command runs)."""
+"""The parameter-study command ``study`` (steady-state table, Fig 7 fit, GP surrogate) of a sweep
+folder that ``python -m sim sweep`` made."""
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import gzip
 import warnings
 
-from granalytics.core.errors import GranalyticsError
+from granalytics.core.errors import GranalyticsError, user_stacklevel
 from granalytics.core.files import regular_input
 
 __all__ = ["DumpFormatError", "read_complete_lines", "load_toml", "warn_unused_contact_steps"]
@@ -82,4 +82,4 @@ def warn_unused_contact_steps(contact_steps, particle_steps, contact_files) -> N
         shown = ", ".join(map(str, unused[:5])) + (", ..." if len(unused) > 5 else "")
         warnings.warn(f"{len(unused)} contact timestep(s) without a particle timestep are not converted "
                       f"({shown}; from {', '.join(map(str, contact_files[:3]))}"
-                      f"{', ...' if len(contact_files) > 3 else ''})", stacklevel=3)
+                      f"{', ...' if len(contact_files) > 3 else ''})", stacklevel=user_stacklevel())

@@ -1,14 +1,29 @@
-"""Exceptions raised by granalytics.
+"""Exceptions raised by granalytics, and where its warnings point.
 
 Every problem with user input (a file, a frame, a parameter) raises a subclass of
 :class:`GranalyticsError`. The command-line interface turns these into one line on stderr
-and exit status 2; the Python API lets them propagate.
+and exit status 2; the Python API lets them propagate. A warning points at the user's call
+(:func:`user_stacklevel`).
 """
 
 from __future__ import annotations
 
+import os
+import sys
+
 __all__ = ["GranalyticsError", "ValidationError", "RunFileError", "RunWriteError", "RunLockedError", "ParameterError",
-           "FrameKeyError", "exit_after_write_failure"]
+           "FrameKeyError", "exit_after_write_failure", "user_stacklevel"]
+
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` of :func:`warnings.warn` that names the first caller outside granalytics
+    (the user's line), however deep the warning is raised (pandas' ``find_stack_level``)."""
+    frame, level = sys._getframe(1), 1
+    while frame.f_back is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 class GranalyticsError(Exception):

@@ -19,7 +19,7 @@ from granalytics.core.native import CONVERT_HINT, _HDF5Handle, _open_h5
 from granalytics.core.resources import check_memory
 from granalytics.core.validation import FLAG, PATH, Array, Instance, Interval, validate, validate_params
 from granalytics.core.windows import check_interval, window_mask
-from granalytics.core.errors import FrameKeyError, ParameterError, GranalyticsError, RunFileError, ValidationError
+from granalytics.core.errors import FrameKeyError, GranalyticsError, ParameterError, RunFileError, ValidationError, user_stacklevel
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
 
 
@@ -160,7 +160,7 @@ class _FrameSequence(Sequence):
         if abs(values[k] - target) > max(spacing, 0.0):
             unit = " s" if time is not None else " revolutions"
             warnings.warn(f"nearest: no frame near {name}={target:g}: the frames span {values[0]:g}–{values[-1]:g}"
-                          f"{unit}; returning frame {k} at {values[k]:g}{unit}", stacklevel=2)
+                          f"{unit}; returning frame {k} at {values[k]:g}{unit}", stacklevel=user_stacklevel())
         return self[k]
 
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from granalytics.core.errors import ValidationError
+from granalytics.core.errors import ValidationError, user_stacklevel
 
 __all__ = ["RunMeta", "Snapshot"]
 
@@ -185,7 +185,7 @@ class RunMeta:
         if unknown:
             warnings.warn(
                 f"run metadata has unknown keys {sorted(unknown)}; kept under provenance['unknown_meta']",
-                stacklevel=2,
+                stacklevel=user_stacklevel(),
             )
             known.setdefault("provenance", {})
             known["provenance"] = dict(known["provenance"], unknown_meta=unknown)

@@ -13,7 +13,7 @@ from numbers import Real
 import numpy as np
 
 from granalytics.analysis.study.table import select_cohesion
-from granalytics.core.errors import ParameterError
+from granalytics.core.errors import ParameterError, user_stacklevel
 from granalytics.core.validation import Array, Interval, Options, validate_params
 
 
@@ -231,7 +231,7 @@ def _growth_points(gamma, mean_volume_norm, sem):
         if ok.any() and odd.any():
             warnings.warn(f"{int(odd.sum())} sem(s) zero or NaN at points with granules (γ = "
                           f"{', '.join(f'{x:g}' for x in g[odd])} N/m; a single block?) take the smallest positive "
-                          f"sem given, {s_in[ok].min():.3g}", stacklevel=3)
+                          f"sem given, {s_in[ok].min():.3g}", stacklevel=user_stacklevel())
         if ok.any():
             s = np.where(ok, s_in, s_in[ok].min())
             weighted = True

@@ -13,7 +13,7 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.study.table import select_cohesion
-from granalytics.core.errors import ParameterError
+from granalytics.core.errors import ParameterError, user_stacklevel
 from granalytics.core.validation import Array, Instance, Interval, validate_params
 from granalytics.identification.cohesion import COHESION
 
@@ -87,7 +87,7 @@ class Surrogate:
                    for name, v, lo, hi in zip(self.inputs, row, low, high) if not lo <= v <= hi]
         if outside:
             warnings.warn("surrogate: extrapolating outside the sweep, where a Gaussian process returns to its "
-                          "mean: " + "; ".join(outside), stacklevel=2)
+                          "mean: " + "; ".join(outside), stacklevel=user_stacklevel())
         out = pd.DataFrame(values, columns=self.inputs)
         x = (values - self._mean) / self._scale
         for name in self.outputs:

@@ -22,7 +22,7 @@ import pandas as pd
 from granalytics.analysis.stats import size_unit_factor
 from granalytics.analysis.tracking.tracks import GranuleTracks, KINDS, TRACKS
 from granalytics.core.windows import window_tolerance
-from granalytics.core.errors import ParameterError
+from granalytics.core.errors import ParameterError, user_stacklevel
 from granalytics.core.validation import POSITIVE, Array, Instance, Interval, Options, validate_params
 
 #: the constraints of the rates by size class: class edges, whole numbers >= 1
@@ -74,7 +74,7 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
     if dt.max() > 1.5 * dt.min():
         warnings.warn(f"the tracked frames are {dt.min():.3g}–{dt.max():.3g} s apart (a run thinned outside a "
                       "window?): events between frames further apart go uncounted, so rates of bins with other "
-                      "frame spacings are not comparable; track the evenly spaced part (--window)", stacklevel=2)
+                      "frame spacings are not comparable; track the evenly spaced part (--window)", stacklevel=user_stacklevel())
     if revolution_period_s is not None:
         period = float(revolution_period_s)
         x = t / period
