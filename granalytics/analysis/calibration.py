@@ -24,6 +24,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from numbers import Integral, Real
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -32,7 +33,7 @@ from granalytics.analysis.size_classes import MeasuredDistribution, SieveGrid, r
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.core.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.validation import FLAG, POSITIVE, Array, Instance, Interval, Path, validate_params
+from granalytics.core.validation import FLAG, POSITIVE, WINDOW, Array, Instance, Interval, Path, validate_params
 from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE
@@ -237,7 +238,7 @@ _FRACTION = Interval(Real, 0, 1, closed="neither")
 
 
 @validate_params({"measured": [Instance(MeasuredDistribution), Path("the path of a sieve CSV")],
-                  "window": [Array(ndim=1, length=2, finite=True)], "measured_error": [_FRACTION],
+                  "window": [WINDOW], "measured_error": [_FRACTION],
                   "n_boot": [Interval(Integral, 10, None)], "block_rev": [POSITIVE], "level": [_FRACTION],
                   "seed": [Interval(Integral, 0, None)], "progress": [FLAG]})
 def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT_WINDOW_REV, comotion=DEFAULT_COMOTION,
@@ -287,8 +288,6 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
 
     measured = measured if isinstance(measured, MeasuredDistribution) else read_sieve_csv(measured)
     window = (float(window[0]), float(window[1]))
-    if window[0] > window[1]:
-        raise ParameterError(f"calibrate_thresholds: window {window} is empty (lo > hi)")
     runs = [run] if _is_one_run(run) else list(run)
     if not runs:
         raise ParameterError("calibrate_thresholds: no run given")
@@ -301,7 +300,6 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
         if not (np.array_equal(g.c_agg, first.c_agg) and np.array_equal(g.comotion_values, first.comotion_values)
                 and g.comotion == first.comotion and g.measure == first.measure):
             raise ParameterError("calibrate_thresholds: the replicas' SieveGrids have different grids")
-    n_a, n_c, n_bins = first.volumes.shape[1:]
     used = np.isfinite(measured.edges_m) & (measured.edges_m > 0)
     if not used.any():
         raise ParameterError("the measured distribution has no finite class edge above 0 to compare at")
@@ -309,86 +307,128 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     s_meas = (measured.sigma if measured.sigma is not None else np.full(measured.edges_m.size, measured_error))[used]
 
     rng = np.random.default_rng(seed)
-    sim_p, sim_f, boot_p, boot_f = 0.0, 0.0, 0.0, 0.0
-    for g in grids:
-        passing = g.passing[..., used].reshape(g.volumes.shape[0], -1)  # (F, A·C·E)
-        fractions = g.fractions.reshape(g.volumes.shape[0], -1)
-        weights = _bootstrap_weights(rng, g.revolutions, int(n_boot), block_rev)
-        weights /= weights.sum(axis=1, keepdims=True)
-        sim_p = sim_p + passing.mean(axis=0) / len(grids)
-        sim_f = sim_f + fractions.mean(axis=0) / len(grids)
-        boot_p = boot_p + weights @ passing / len(grids)
-        boot_f = boot_f + weights @ fractions / len(grids)
-    n_e = int(used.sum())
-    sim_p = sim_p.reshape(n_a, n_c, n_e)
-    boot_p = boot_p.reshape(-1, n_a, n_c, n_e)
-    sim_f = sim_f.reshape(n_a, n_c, n_bins)
-    err_p = boot_p.std(axis=0, ddof=1)
-    err_f = boot_f.reshape(-1, n_a, n_c, n_bins).std(axis=0, ddof=1)
-    var = err_p**2 + s_meas**2
-
-    def chi2_of(p_sim, p_ref):
-        d2 = (p_sim - p_ref) ** 2
-        with np.errstate(divide="ignore", invalid="ignore"):
-            terms = np.where(var > 0, d2 / var, np.where(d2 > 0, np.inf, 0.0))
-        return terms.sum(axis=-1)
-
-    chi2 = chi2_of(sim_p, p_meas)  # (A, C)
-    noise = rng.standard_normal((int(n_boot), n_e)) * s_meas
-    boot_chi2 = chi2_of(boot_p, (p_meas + noise)[:, None, None, :]).reshape(int(n_boot), -1)
-    # each replica's best point; points tied with it (grid points that give the same distribution)
-    # share its vote, so that thresholds that change nothing fill the region
-    low = boot_chi2.min(axis=1, keepdims=True)
-    tied = boot_chi2 <= low + 1e-12 * np.maximum(np.abs(low), 1.0)
-    freq = (tied / tied.sum(axis=1, keepdims=True)).sum(axis=0) / int(n_boot)
+    sim = _simulated(grids, used, rng, int(n_boot), block_rev)
+    var = sim.err_p**2 + s_meas**2
+    chi2 = _chi2(sim.p, p_meas, var)  # (A, C)
+    noise = rng.standard_normal((int(n_boot), sim.p.shape[-1])) * s_meas
+    boot_chi2 = _chi2(sim.boot_p, (p_meas + noise)[:, None, None, :], var).reshape(int(n_boot), -1)
     best = int(np.argmin(chi2.ravel()))
-    order = np.argsort(-freq, kind="stable")
-    take = int(np.searchsorted(np.cumsum(freq[order]), level - 1e-12)) + 1
-    region = np.zeros(n_a * n_c, dtype=bool)
-    region[order[:take]] = True
-    region &= freq > 0
-    region[best] = True
+    freq, region = _bootstrap_region(boot_chi2, best, level)
 
-    col = "a_agg_deg" if first.comotion == "angle" else "rigid_tol"
-    a_idx, c_idx = np.unravel_index(np.arange(n_a * n_c), (n_a, n_c))
-    chi2_flat = chi2.ravel()
+    n_a, n_c = chi2.shape
     n_fit = int(n_a > 1) + int(n_c > 1)
-    delta = chi2_flat - chi2_flat[best]
-    grid = pd.DataFrame({
-        "c_agg": first.c_agg[c_idx], col: first.comotion_values[a_idx], "chi2": chi2_flat, "delta_chi2": delta,
-        "max_abs_dpassing": np.abs(sim_p - p_meas).max(axis=-1).ravel(), "boot_frequency": freq, "in_region": region,
-        "in_chi2_region": delta <= (chi2_law.ppf(level, n_fit) if n_fit else 0.0),
-    })
-    a_best, c_best = a_idx[best], c_idx[best]
+    col = "a_agg_deg" if first.comotion == "angle" else "rigid_tol"
+    grid = _grid_table(first, col, chi2, best, np.abs(sim.p - p_meas).max(axis=-1), freq, region,
+                       chi2_law.ppf(level, n_fit) if n_fit else 0.0)
+    a_best, c_best = np.unravel_index(best, (n_a, n_c))
     inside = grid["in_region"].to_numpy()
     constraint = {"c_agg": _describe(first.c_agg, np.isin(first.c_agg, grid.c_agg[inside])),
                   col: _describe(first.comotion_values, np.isin(first.comotion_values, grid[col][inside]))}
-    dof = n_e - n_fit
-    p_value = float(chi2_law.sf(chi2_flat[best], dof)) if dof > 0 else math.nan
-    k = measured.n_classes
-    dist = measured.table().rename(columns={"mass_fraction": "measured_fraction", "passing_upper": "measured_passing"})
-    sigma_all = measured.sigma if measured.sigma is not None else np.full(k + 1, measured_error)
-    dist["measured_sigma"] = sigma_all[1:]
-    dist["simulated_fraction"] = sim_f[a_best, c_best, 1:k + 1]
-    dist["simulated_fraction_error"] = err_f[a_best, c_best, 1:k + 1]
-    full_p = np.full(k + 1, np.nan)
-    full_e = np.full(k + 1, np.nan)
-    full_p[used] = sim_p[a_best, c_best]
-    full_e[used] = err_p[a_best, c_best]
-    cum = np.cumsum(sim_f[a_best, c_best])[:-1]  # passing every edge, the unused ones included
-    full_p[~used] = cum[~used]
-    dist["simulated_passing"] = full_p[1:]
-    dist["simulated_passing_error"] = full_e[1:]
+    chi2_min = float(chi2.ravel()[best])
+    dof = int(used.sum()) - n_fit
+    p_value = float(chi2_law.sf(chi2_min, dof)) if dof > 0 else math.nan
+    at_best = _Simulated(*(x[a_best, c_best] for x in (sim.p, sim.err_p, sim.f, sim.err_f)), boot_p=None)
     settings = {
         "runs": [str(getattr(r, "path", r)) if not isinstance(r, (list, tuple, SieveGrid)) else type(r).__name__
                  for r in runs],
         "n_frames": [int(g.volumes.shape[0]) for g in grids], "window_rev": list(window), "measure": first.measure,
         "comotion": first.comotion, "cohesion": cohesion, "n_boot": int(n_boot), "block_rev": float(block_rev),
         "level": float(level), "seed": seed, "measured": measured.source, "measured_error": measured_error,
-        "edges_compared": n_e, "below_first_class": float(sim_f[a_best, c_best, 0]),
-        "above_last_class": float(sim_f[a_best, c_best, -1]),
+        "edges_compared": int(used.sum()), "below_first_class": float(at_best.f[0]),
+        "above_last_class": float(at_best.f[-1]),
     }
     return Calibration(grid=grid, best={"c_agg": float(first.c_agg[c_best]), col: float(first.comotion_values[a_best]),
-                                        "chi2": float(chi2_flat[best])},
-                       constraint=constraint, distributions=dist, chi2_min=float(chi2_flat[best]), dof=int(dof),
-                       p_value=p_value, poor_fit=bool(dof > 0 and p_value < POOR_FIT_P), settings=settings)
+                                        "chi2": chi2_min},
+                       constraint=constraint, distributions=_distributions(measured, used, at_best, measured_error),
+                       chi2_min=chi2_min, dof=dof, p_value=p_value, poor_fit=bool(dof > 0 and p_value < POOR_FIT_P),
+                       settings=settings)
+
+
+class _Simulated(NamedTuple):
+    """The simulated cumulative passing at the compared edges (``p``, its bootstrap error ``err_p``)
+    and fractions per class (``f``, ``err_f``) at every grid point (A, C, ·), and the bootstrap
+    replicas of the passing ``boot_p`` (B, A, C, E)."""
+
+    p: np.ndarray
+    err_p: np.ndarray
+    f: np.ndarray
+    err_f: np.ndarray
+    boot_p: np.ndarray | None
+
+
+def _simulated(grids, used, rng, n_boot, block_rev) -> _Simulated:
+    """Mean over the replicas' frames and its block bootstrap (each replica resampled on its own)."""
+    n_a, n_c, n_bins = grids[0].volumes.shape[1:]
+    sim_p, sim_f, boot_p, boot_f = 0.0, 0.0, 0.0, 0.0
+    for g in grids:
+        passing = g.passing[..., used].reshape(g.volumes.shape[0], -1)  # (F, A·C·E)
+        fractions = g.fractions.reshape(g.volumes.shape[0], -1)
+        weights = _bootstrap_weights(rng, g.revolutions, n_boot, block_rev)
+        weights /= weights.sum(axis=1, keepdims=True)
+        sim_p = sim_p + passing.mean(axis=0) / len(grids)
+        sim_f = sim_f + fractions.mean(axis=0) / len(grids)
+        boot_p = boot_p + weights @ passing / len(grids)
+        boot_f = boot_f + weights @ fractions / len(grids)
+    n_e = int(used.sum())
+    boot_p = boot_p.reshape(-1, n_a, n_c, n_e)
+    return _Simulated(p=sim_p.reshape(n_a, n_c, n_e), err_p=boot_p.std(axis=0, ddof=1),
+                      f=sim_f.reshape(n_a, n_c, n_bins), err_f=boot_f.reshape(-1, n_a, n_c, n_bins).std(axis=0, ddof=1),
+                      boot_p=boot_p)
+
+
+def _chi2(p_sim, p_ref, var):
+    """χ² over the last axis; an edge without any error counts 0 where the two agree, else inf."""
+    d2 = (p_sim - p_ref) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = np.where(var > 0, d2 / var, np.where(d2 > 0, np.inf, 0.0))
+    return terms.sum(axis=-1)
+
+
+def _bootstrap_region(boot_chi2, best, level):
+    """Each bootstrap replica's best grid point (points tied with it, which give the same
+    distribution, share its vote, so that thresholds that change nothing fill the region); the
+    region is the most voted points holding ``level`` of the votes, and always the best point."""
+    n_boot = boot_chi2.shape[0]
+    low = boot_chi2.min(axis=1, keepdims=True)
+    tied = boot_chi2 <= low + 1e-12 * np.maximum(np.abs(low), 1.0)
+    freq = (tied / tied.sum(axis=1, keepdims=True)).sum(axis=0) / n_boot
+    order = np.argsort(-freq, kind="stable")
+    take = int(np.searchsorted(np.cumsum(freq[order]), level - 1e-12)) + 1
+    region = np.zeros(freq.size, dtype=bool)
+    region[order[:take]] = True
+    region &= freq > 0
+    region[best] = True
+    return freq, region
+
+
+def _grid_table(first, col, chi2, best, max_dpassing, freq, region, delta_limit) -> pd.DataFrame:
+    """One row per grid point: thresholds, χ² and Δχ², the largest |ΔP|, the bootstrap's votes,
+    the bootstrap region and the Δχ² region."""
+    n_a, n_c = chi2.shape
+    a_idx, c_idx = np.unravel_index(np.arange(n_a * n_c), (n_a, n_c))
+    chi2_flat = chi2.ravel()
+    delta = chi2_flat - chi2_flat[best]
+    return pd.DataFrame({
+        "c_agg": first.c_agg[c_idx], col: first.comotion_values[a_idx], "chi2": chi2_flat, "delta_chi2": delta,
+        "max_abs_dpassing": max_dpassing.ravel(), "boot_frequency": freq, "in_region": region,
+        "in_chi2_region": delta <= delta_limit,
+    })
+
+
+def _distributions(measured, used, at_best, measured_error) -> pd.DataFrame:
+    """The measured distribution beside the best point's, per class and cumulative, with errors."""
+    k = measured.n_classes
+    dist = measured.table().rename(columns={"mass_fraction": "measured_fraction", "passing_upper": "measured_passing"})
+    sigma_all = measured.sigma if measured.sigma is not None else np.full(k + 1, measured_error)
+    dist["measured_sigma"] = sigma_all[1:]
+    dist["simulated_fraction"] = at_best.f[1:k + 1]
+    dist["simulated_fraction_error"] = at_best.err_f[1:k + 1]
+    full_p = np.full(k + 1, np.nan)
+    full_e = np.full(k + 1, np.nan)
+    full_p[used] = at_best.p
+    full_e[used] = at_best.err_p
+    cum = np.cumsum(at_best.f)[:-1]  # passing every edge, the unused ones included
+    full_p[~used] = cum[~used]
+    dist["simulated_passing"] = full_p[1:]
+    dist["simulated_passing_error"] = full_e[1:]
+    return dist
