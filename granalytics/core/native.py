@@ -22,7 +22,7 @@ CONVERT_HINT = ("; output of LIGGGHTS/LAMMPS or YADE is read by `granalytics con
                 "(docs/readers.md)")
 
 
-class _HDF5Handle:
+class HDF5Handle:
     """Owns an open h5py file: ``close()`` (idempotent) and context-manager use."""
 
     _file: h5py.File | None
@@ -92,7 +92,7 @@ def _swmr_fapl():
     return fapl
 
 
-def _open_h5(path):
+def open_h5(path):
     """Open for reading; returns ``(file, writer_open)``.
 
     A file whose SWMR writer is still running or was killed is flagged 'open for write' and opens

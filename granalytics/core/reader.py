@@ -15,7 +15,7 @@ import numpy as np
 
 from granalytics.core.files import one_line
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_DATASETS, _CONTACT_LAYOUT, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
-from granalytics.core.native import CONVERT_HINT, _HDF5Handle, _open_h5
+from granalytics.core.native import CONVERT_HINT, HDF5Handle, open_h5
 from granalytics.core.resources import check_memory
 from granalytics.core.validation import FLAG, PATH, Array, Instance, Interval, validate, validate_params
 from granalytics.core.windows import check_interval, window_mask
@@ -164,7 +164,7 @@ class _FrameSequence(Sequence):
         return self[k]
 
 
-class Run(_HDF5Handle, _FrameSequence):
+class Run(HDF5Handle, _FrameSequence):
     """A run file opened for lazy reading: a sequence of :class:`Snapshot`.
 
     Frames are read and validated only when accessed; the frame index (see ``docs/format.md``,
@@ -187,7 +187,7 @@ class Run(_HDF5Handle, _FrameSequence):
             raise RunFileError(f"{self.path}: no such file")
         if not os.path.isfile(self.path):  # a FIFO would block for ever, a folder is no run
             raise RunFileError(f"{self.path}: not a regular file (a folder, FIFO, socket or device is no run file)")
-        self._file, self._writer_open = _open_h5(self.path)
+        self._file, self._writer_open = open_h5(self.path)
         try:
             self._load_index()
         except GranalyticsError:

@@ -14,7 +14,7 @@ import numpy as np
 from granalytics._version import __version__
 from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_replaceable, one_line, raise_dropped_interrupt, _LOCK_SUFFIX
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_CHUNK_ROWS, _CONTACT_DATASETS, _CONTACT_LAYOUT, _INDEX_DATASETS, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
-from granalytics.core.native import _HDF5Handle
+from granalytics.core.native import HDF5Handle
 from granalytics.core.reader import open_run
 from granalytics.core.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
@@ -30,7 +30,7 @@ def _write_failure(exc) -> str:
     return found.group(1) if found else one_line(exc)[:120]
 
 
-class RunWriter(_HDF5Handle):
+class RunWriter(HDF5Handle):
     """Append snapshots to a new run file, one complete frame at a time.
 
     The writer holds an exclusive lock file ``PATH.lock`` (pid and host of the writer) from

@@ -14,9 +14,9 @@ from numbers import Integral
 
 import numpy as np
 
-from granalytics.analysis.tracking.steps import (_aligned, _fates, _smallest_ids, _sorted_by_id, _step_events,
-                                                 _step_links, _step_tracks)
-from granalytics.analysis.tracking.tracks import GranuleTracks, _events_table, _tracks_table
+from granalytics.analysis.tracking.steps import (aligned, smallest_ids, sorted_by_id, step_events,
+                                                 step_fates, step_links, step_tracks)
+from granalytics.analysis.tracking.tracks import GranuleTracks, events_table, tracks_table
 from granalytics.core.errors import ParameterError
 from granalytics.core.validation import FLAG, Array, Instance, Interval, Options, validate_params
 
@@ -178,32 +178,32 @@ def _track(labels, ids, times, m, continuation="strict"):
     from_free, to_free = [np.zeros_like(sizes_by_frame[0])], []
 
     main = continuation == "main"
-    prev_sorted = _sorted_by_id(labels[0], ids[0], 0)
-    first_b = _smallest_ids(*prev_sorted, sizes_by_frame[0].size) if main else None
+    prev_sorted = sorted_by_id(labels[0], ids[0], 0)
+    first_b = smallest_ids(*prev_sorted, sizes_by_frame[0].size) if main else None
     for k in range(len(labels) - 1):
-        cur_sorted = _sorted_by_id(labels[k + 1], ids[k + 1], k + 1)
-        la, lb = _aligned(*prev_sorted, *cur_sorted)
+        cur_sorted = sorted_by_id(labels[k + 1], ids[k + 1], k + 1)
+        la, lb = aligned(*prev_sorted, *cur_sorted)
         prev_sorted = cur_sorted
         first_a = first_b
-        first_b = _smallest_ids(*cur_sorted, sizes_by_frame[k + 1].size) if main else None
+        first_b = smallest_ids(*cur_sorted, sizes_by_frame[k + 1].size) if main else None
         sa, sb = sizes_by_frame[k], sizes_by_frame[k + 1]
-        links = _step_links(la, lb, sa.size, sb.size, m)
+        links = step_links(la, lb, sa.size, sb.size, m)
         to_free.append(links.to_free)
         from_free.append(links.from_free)
-        fates = _fates(links, sa, sb, first_a, first_b, main)
+        fates = step_fates(links, sa, sb, first_a, first_b, main)
         ta = labels_to_tracks[k]
-        tb, new_origins, ended = _step_tracks(fates, ta, sb, next_track)
+        tb, new_origins, ended = step_tracks(fates, ta, sb, next_track)
         next_track += new_origins.size
         origins.append(new_origins)
         labels_to_tracks.append(tb)
         for tracks_ending, codes in ended:
             ended_tracks.append(tracks_ending)
             ended_codes.append(codes)
-        event_rows.extend(_step_events(links, fates, ta, tb, sa, sb, k + 1))
+        event_rows.extend(step_events(links, fates, ta, tb, sa, sb, k + 1))
 
     to_free.append(np.zeros_like(sizes_by_frame[-1]))
-    events = _events_table(times, event_rows)
-    tracks = _tracks_table(times, labels_to_tracks, sizes_by_frame, next_track, origins, ended_tracks, ended_codes)
+    events = events_table(times, event_rows)
+    tracks = tracks_table(times, labels_to_tracks, sizes_by_frame, next_track, origins, ended_tracks, ended_codes)
     return GranuleTracks(events=events, tracks=tracks, labels_to_tracks=labels_to_tracks, times_s=times,
                          sizes_by_frame=sizes_by_frame, from_free_by_frame=from_free, to_free_by_frame=to_free,
                          min_fragment=m, continuation=continuation)

@@ -11,11 +11,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from granalytics.analysis.tracking.tracks import _BIRTH, _BREAK, _COAL, _DEATH, _ENDS, _ORIGINS, _EventRows
+from granalytics.analysis.tracking.tracks import BIRTH, BREAK, COAL, DEATH, ENDS, ORIGINS, EventRows
 from granalytics.core.errors import ParameterError
 
 
-def _sorted_by_id(labels, ids, k):
+def sorted_by_id(labels, ids, k):
     """Labels of frame k in increasing id order, and the sorted ids (duplicate ids are an error)."""
     if ids.size < 2 or (ids[1:] > ids[:-1]).all():
         return labels, ids
@@ -27,7 +27,7 @@ def _sorted_by_id(labels, ids, k):
     return labels[order], sid
 
 
-def _aligned(la, ida, lb, idb):
+def aligned(la, ida, lb, idb):
     """Labels of two frames on the union of their particle ids (−1 where a particle is absent)."""
     if ida.shape == idb.shape and np.array_equal(ida, idb):
         return la, lb
@@ -39,7 +39,7 @@ def _aligned(la, ida, lb, idb):
     return a, b
 
 
-def _smallest_ids(labels, ids, n_labels):
+def smallest_ids(labels, ids, n_labels):
     """The smallest particle id of every granule label (int64 maximum for an unused label), from
     one frame's labels and ids sorted by id."""
     out = np.full(n_labels, np.iinfo(np.int64).max, dtype=np.int64)
@@ -62,7 +62,7 @@ class _Links(NamedTuple):
     from_free: np.ndarray  # (G_k+1,) particles of each granule of k+1 free (or absent) at k
 
 
-def _step_links(la, lb, ga, gb, m):
+def step_links(la, lb, ga, gb, m):
     """The :class:`_Links` of labels ``la`` (frame k, ``ga`` labels) and ``lb`` (frame k+1, ``gb``
     labels) aligned on the same particles: the contingency table of the particles in a granule in
     both frames, as sorted unique (a, b) keys, its entries of at least ``m`` particles kept."""
@@ -89,7 +89,7 @@ class _Fates(NamedTuple):
     broken_end: np.ndarray  # (G_k,) its track ends by breakage
 
 
-def _fates(links, sa, sb, first_a, first_b, main):
+def step_fates(links, sa, sb, first_a, first_b, main):
     """The :class:`_Fates` of a step's granules (sizes ``sa`` at k, ``sb`` at k+1) from its
     ``links``, under the continuation rule ``"main"`` (``main``; ``first_a``, ``first_b``: the
     smallest particle id of each granule, for ties) or ``"strict"``."""
@@ -154,7 +154,7 @@ def _main_continuation(links, sa, sb, first_a, first_b):
     return pred, continuing, continued
 
 
-def _step_tracks(fates, ta, sb, next_track):
+def step_tracks(fates, ta, sb, next_track):
     """Track ids of the granules of k+1 (a continuing granule keeps its predecessor's id of ``ta``,
     every other granule gets a new one from ``next_track`` on, in label order), the origin codes
     of the new tracks, and the tracks of k that end with their end codes."""
@@ -163,9 +163,9 @@ def _step_tracks(fates, ta, sb, next_track):
     new = (sb > 0) & ~fates.continuing
     n_new = int(new.sum())
     tb[new] = np.arange(next_track, next_track + n_new)
-    origin = np.where(fates.coalescing, _ORIGINS.index("coalescence"),
-                      np.where(fates.born, _ORIGINS.index("birth"), _ORIGINS.index("breakage")))
-    ended = [(ta[mask], np.full(int(mask.sum()), _ENDS.index(end), dtype=np.int8))
+    origin = np.where(fates.coalescing, ORIGINS.index("coalescence"),
+                      np.where(fates.born, ORIGINS.index("birth"), ORIGINS.index("breakage")))
+    ended = [(ta[mask], np.full(int(mask.sum()), ENDS.index(end), dtype=np.int8))
              for mask, end in ((fates.dying, "death"), (fates.merged_away, "coalescence"),
                                (fates.broken_end, "breakage"))]
     return tb, origin[new].astype(np.int8), ended
@@ -180,15 +180,15 @@ def _groups(keys, values):
     return [flat[s:e] for s, e in zip(starts.tolist(), ends.tolist())], keys[starts]
 
 
-def _step_events(links, fates, ta, tb, sa, sb, frame):
-    """The :class:`_EventRows` of step ``frame − 1`` → ``frame``, one per kind in the order of
+def step_events(links, fates, ta, tb, sa, sb, frame):
+    """The :class:`EventRows` of step ``frame − 1`` → ``frame``, one per kind in the order of
     :data:`KINDS`: track ids ``ta`` and sizes ``sa`` of the granules of k, ``tb`` and ``sb`` of
     those of k+1."""
     b_born = np.flatnonzero(fates.born)
     a_dead = np.flatnonzero(fates.dying)
-    rows = [_EventRows(frame, _BIRTH, [[] for _ in b_born], [[t] for t in tb[b_born].tolist()], sb[b_born],
+    rows = [EventRows(frame, BIRTH, [[] for _ in b_born], [[t] for t in tb[b_born].tolist()], sb[b_born],
                        [[] for _ in b_born], [[s] for s in sb[b_born].tolist()]),
-            _EventRows(frame, _DEATH, [[t] for t in ta[a_dead].tolist()], [[] for _ in a_dead], sa[a_dead],
+            EventRows(frame, DEATH, [[t] for t in ta[a_dead].tolist()], [[] for _ in a_dead], sa[a_dead],
                        [[s] for s in sa[a_dead].tolist()], [[] for _ in a_dead])]
     # coalescence: links into coalescing granules, grouped by b (then ordered by a)
     into = fates.coalescing[links.b]
@@ -196,13 +196,13 @@ def _step_events(links, fates, ta, tb, sa, sb, frame):
     cb, ca = links.b[into][order], links.a[into][order]
     parents, b_coal = _groups(cb, ta[ca])
     psizes, _ = _groups(cb, sa[ca])
-    rows.append(_EventRows(frame, _COAL, parents, [[t] for t in tb[b_coal].tolist()], sb[b_coal], psizes,
+    rows.append(EventRows(frame, COAL, parents, [[t] for t in tb[b_coal].tolist()], sb[b_coal], psizes,
                            [[s] for s in sb[b_coal].tolist()]))
     # breakage: links out of breaking granules, already ordered by (a, b)
     out = fates.breaking[links.a]
     ba, bb = links.a[out], links.b[out]
     children, a_break = _groups(ba, tb[bb])
     csizes, _ = _groups(ba, sb[bb])
-    rows.append(_EventRows(frame, _BREAK, [[t] for t in ta[a_break].tolist()], children, sa[a_break],
+    rows.append(EventRows(frame, BREAK, [[t] for t in ta[a_break].tolist()], children, sa[a_break],
                            [[s] for s in sa[a_break].tolist()], csizes))
     return rows

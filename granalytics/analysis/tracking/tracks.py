@@ -20,13 +20,13 @@ from granalytics.core.validation import Instance
 KINDS = ("birth", "death", "coalescence", "breakage")
 
 
-_BIRTH, _DEATH, _COAL, _BREAK = range(4)
+BIRTH, DEATH, COAL, BREAK = range(4)
 
 
-_ORIGINS = ("initial", "birth", "coalescence", "breakage")  # codes 0..3
+ORIGINS = ("initial", "birth", "coalescence", "breakage")  # codes 0..3
 
 
-_ENDS = ("alive", "death", "coalescence", "breakage")  # codes 0..3
+ENDS = ("alive", "death", "coalescence", "breakage")  # codes 0..3
 
 
 _EVENT_COLUMNS = ("time_s", "frame", "kind", "parents", "children", "n_particles", "parent_sizes", "child_sizes")
@@ -114,7 +114,7 @@ class GranuleTracks:
 TRACKS = Instance(GranuleTracks, "a GranuleTracks (track_run's or track_granules' result)")
 
 
-class _EventRows(NamedTuple):
+class EventRows(NamedTuple):
     """The events of one kind in one step k → k+1: lists with one entry per event, ordered by label."""
 
     frame: int  # k+1
@@ -126,8 +126,8 @@ class _EventRows(NamedTuple):
     child_sizes: list
 
 
-def _events_table(times, rows):
-    """The events table of :class:`GranuleTracks` from a list of :class:`_EventRows`."""
+def events_table(times, rows):
+    """The events table of :class:`GranuleTracks` from a list of :class:`EventRows`."""
     if rows:
         kind = np.concatenate([np.full(len(r.parents), r.kind, dtype=np.int8) for r in rows])
         frame = np.concatenate([np.full(len(r.parents), r.frame, dtype=np.int64) for r in rows])
@@ -146,7 +146,7 @@ def _events_table(times, rows):
     }, columns=list(_EVENT_COLUMNS))
 
 
-def _tracks_table(times, labels_to_tracks, sizes_by_frame, n_tracks, origins, ended_tracks, ended_codes):
+def tracks_table(times, labels_to_tracks, sizes_by_frame, n_tracks, origins, ended_tracks, ended_codes):
     # every (track, frame, size) of every granule, grouped by track in frame order
     track_of, frame_of, size_of = [], [], []
     for k, (tk, sk) in enumerate(zip(labels_to_tracks, sizes_by_frame)):
@@ -175,7 +175,7 @@ def _tracks_table(times, labels_to_tracks, sizes_by_frame, n_tracks, origins, en
         "first_frame": first,
         "last_frame": last,
         "sizes": pd.Series(sizes, dtype=object),
-        "origin": pd.Categorical.from_codes(origin, categories=list(_ORIGINS)),
-        "end": pd.Categorical.from_codes(end, categories=list(_ENDS)),
+        "origin": pd.Categorical.from_codes(origin, categories=list(ORIGINS)),
+        "end": pd.Categorical.from_codes(end, categories=list(ENDS)),
     }, columns=list(_TRACK_COLUMNS))
 
