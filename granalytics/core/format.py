@@ -12,7 +12,7 @@ FORMAT_NAME = "granalytics-run"
 FORMAT_VERSION = 1
 
 # dataset name in /particles -> (trailing shape, dtype, unit)
-_PARTICLE_LAYOUT = {
+PARTICLE_LAYOUT = {
     "ids": ((), np.int64, "1"),
     "radius": ((), np.float64, "m"),
     "position": ((3,), np.float64, "m"),
@@ -21,7 +21,7 @@ _PARTICLE_LAYOUT = {
     "film_volume": ((), np.float64, "m3"),
 }
 # Snapshot field -> (dataset name in /contacts, unit); index dtype chosen at creation
-_CONTACT_LAYOUT = {
+CONTACT_LAYOUT = {
     "contact_i": ("i", "1"),
     "contact_j": ("j", "1"),
     "f_cap": ("f_cap", "N"),
@@ -29,16 +29,16 @@ _CONTACT_LAYOUT = {
     "gap": ("gap", "m"),
     "bridge_volume": ("bridge_volume", "m3"),
 }
-assert tuple(_PARTICLE_LAYOUT) == PARTICLE_FIELDS and tuple(_CONTACT_LAYOUT) == CONTACT_FIELDS
+assert tuple(PARTICLE_LAYOUT) == PARTICLE_FIELDS and tuple(CONTACT_LAYOUT) == CONTACT_FIELDS
 
-_CONTACT_CHUNK_ROWS = 1 << 10
-_CHUNK_CACHE_BYTES = 64 * 1024**2
-_INDEX_DATASETS = ("frames/time", "frames/step", "contacts/count")
-_PER_FRAME_DATASETS = _INDEX_DATASETS + tuple(f"particles/{name}" for name in PARTICLE_FIELDS)
-_CONTACT_DATASETS = tuple(f"contacts/{name}" for name, _unit in _CONTACT_LAYOUT.values())
+CONTACT_CHUNK_ROWS = 1 << 10
+CHUNK_CACHE_BYTES = 64 * 1024**2
+INDEX_DATASETS = ("frames/time", "frames/step", "contacts/count")
+PER_FRAME_DATASETS = INDEX_DATASETS + tuple(f"particles/{name}" for name in PARTICLE_FIELDS)
+CONTACT_DATASETS = tuple(f"contacts/{name}" for name, _unit in CONTACT_LAYOUT.values())
 # HDF5 retries a metadata read that fails its checksum in SWMR read mode (the writer may be
 # updating it), doubling the wait each time from 1 ns: its default of 100 attempts sleeps for
 # hours on a file that was cut short. 30 attempts wait about 1 s in all.
-_SWMR_READ_ATTEMPTS = 30
+SWMR_READ_ATTEMPTS = 30
 
 

@@ -14,7 +14,7 @@ import re
 import h5py
 
 from granalytics.core.files import one_line
-from granalytics.core.format import _CHUNK_CACHE_BYTES, _SWMR_READ_ATTEMPTS
+from granalytics.core.format import CHUNK_CACHE_BYTES, SWMR_READ_ATTEMPTS
 from granalytics.core.errors import RunFileError
 
 #: how a message tells the user what to do with another code's output
@@ -85,9 +85,9 @@ def _swmr_fapl():
         return None
     fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
     cache = list(fapl.get_cache())
-    cache[2] = _CHUNK_CACHE_BYTES
+    cache[2] = CHUNK_CACHE_BYTES
     fapl.set_cache(*cache)
-    if lib.H5Pset_metadata_read_attempts(fapl.id, _SWMR_READ_ATTEMPTS) < 0:
+    if lib.H5Pset_metadata_read_attempts(fapl.id, SWMR_READ_ATTEMPTS) < 0:
         return None
     return fapl
 
@@ -99,7 +99,7 @@ def open_h5(path):
     only in SWMR read mode, with HDF5's metadata retry loop bounded to about a second. Every other
     file opens normally (HDF5 checks that it is as long as its superblock says)."""
     try:
-        return h5py.File(path, "r", rdcc_nbytes=_CHUNK_CACHE_BYTES), False
+        return h5py.File(path, "r", rdcc_nbytes=CHUNK_CACHE_BYTES), False
     except OSError as exc:
         sizes = re.search(r"truncated file: eof = (\d+).*stored_eof = (\d+)", str(exc))
         if sizes:
@@ -110,7 +110,7 @@ def open_h5(path):
     try:
         fapl = _swmr_fapl()
         if fapl is None:
-            return h5py.File(path, "r", swmr=True, rdcc_nbytes=_CHUNK_CACHE_BYTES), True
+            return h5py.File(path, "r", swmr=True, rdcc_nbytes=CHUNK_CACHE_BYTES), True
         fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
         return h5py.File(fid), True
     except Exception as exc:

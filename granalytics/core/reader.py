@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 
 from granalytics.core.files import one_line
-from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_DATASETS, _CONTACT_LAYOUT, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
+from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_DATASETS, CONTACT_LAYOUT, PARTICLE_LAYOUT, PER_FRAME_DATASETS
 from granalytics.core.native import CONVERT_HINT, HDF5Handle, open_h5
 from granalytics.core.resources import check_memory
 from granalytics.core.validation import FLAG, PATH, Array, Instance, Interval, validate, validate_params
@@ -26,8 +26,8 @@ from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
 
 # bytes of one particle and one contact in memory (float64 and int64 fields; Snapshot and its checks
 # hold about twice that while a frame is read and validated)
-_PARTICLE_BYTES = 2 * 8 * sum(int(np.prod(trailing, dtype=np.int64)) for trailing, _, _ in _PARTICLE_LAYOUT.values())
-_CONTACT_BYTES = 2 * 8 * len(_CONTACT_LAYOUT)
+_PARTICLE_BYTES = 2 * 8 * sum(int(np.prod(trailing, dtype=np.int64)) for trailing, _, _ in PARTICLE_LAYOUT.values())
+_CONTACT_BYTES = 2 * 8 * len(CONTACT_LAYOUT)
 
 
 def _check_format(f, path) -> None:
@@ -212,11 +212,11 @@ class Run(HDF5Handle, _FrameSequence):
             self._offset = np.zeros(1, dtype=np.int64)
             self._indices = np.zeros(0, dtype=np.int64)
             return
-        for name in _PER_FRAME_DATASETS + _CONTACT_DATASETS:
+        for name in PER_FRAME_DATASETS + CONTACT_DATASETS:
             if name not in f:
                 raise RunFileError(f"{path}: missing dataset /{name}")
         n_particles = f["particles/radius"].shape[1]
-        for name, (trailing, _dtype, _unit) in _PARTICLE_LAYOUT.items():
+        for name, (trailing, _dtype, _unit) in PARTICLE_LAYOUT.items():
             shape = f["particles"][name].shape
             if shape[1:] != (n_particles,) + trailing:
                 raise RunFileError(
@@ -228,8 +228,8 @@ class Run(HDF5Handle, _FrameSequence):
                 "/meta", f"attribute n_particles is {self._meta.n_particles}, but /particles/radius holds "
                 f"{n_particles} particles per frame", path=path,
             )
-        lengths = {name: f[name].shape[0] for name in _PER_FRAME_DATASETS}
-        rows = {name: f[name].shape[0] for name in _CONTACT_DATASETS}
+        lengths = {name: f[name].shape[0] for name in PER_FRAME_DATASETS}
+        rows = {name: f[name].shape[0] for name in CONTACT_DATASETS}
         if self._writer_open:
             # the writer is running or was killed: its last frame may be partly written, and a
             # running writer appends while the lengths are read, so the committed frames are
@@ -242,11 +242,11 @@ class Run(HDF5Handle, _FrameSequence):
                 if n != n_frames:
                     raise RunFileError(f"{path}: dataset /{name}, index {min(n, n_frames)}: holds {n} frames, "
                                        f"but /frames/time holds {n_frames}")
-            n_rows = rows[_CONTACT_DATASETS[0]]
+            n_rows = rows[CONTACT_DATASETS[0]]
             for name, n in rows.items():
                 if n != n_rows:
                     raise RunFileError(f"{path}: dataset /{name}, index {min(n, n_rows)}: holds {n} contact rows, "
-                                       f"but /{_CONTACT_DATASETS[0]} holds {n_rows}")
+                                       f"but /{CONTACT_DATASETS[0]} holds {n_rows}")
         # the frame index (time, step, count, offset: 32 bytes a frame) is read whole
         check_memory(f"{path}: reading the index of {n_frames} frames", 32 * n_frames)
         count = _read_index(f, "contacts/count", n_frames, path).astype(np.int64)
@@ -300,7 +300,7 @@ class Run(HDF5Handle, _FrameSequence):
             raise RunFileError(f"{self.path}: run is closed")
         start, stop = int(self._offset[index]), int(self._offset[index + 1])
         data = {name: self._read(f"particles/{name}", index, index) for name in PARTICLE_FIELDS}
-        for field, (name, _unit) in _CONTACT_LAYOUT.items():
+        for field, (name, _unit) in CONTACT_LAYOUT.items():
             data[field] = self._read(f"contacts/{name}", slice(start, stop), index)
         for name, value in data.items():  # float32 storage is read back as float64
             if value.dtype == np.float32:
@@ -439,9 +439,9 @@ def _check_inside_file(f, path, n_frames, n_rows) -> None:
 
     The file size is taken after the chunk index is read: a running writer writes a chunk before
     the index entry that points to it, so only a cut file has chunks beyond its end."""
-    for name in _PER_FRAME_DATASETS + _CONTACT_DATASETS:
+    for name in PER_FRAME_DATASETS + CONTACT_DATASETS:
         ds = f[name]
-        limit = n_frames if name in _PER_FRAME_DATASETS else n_rows
+        limit = n_frames if name in PER_FRAME_DATASETS else n_rows
         if ds.chunks is None or not hasattr(ds.id, "chunk_iter"):
             continue
         chunks = []
@@ -451,7 +451,7 @@ def _check_inside_file(f, path, n_frames, n_rows) -> None:
         beyond = [start for start, end in chunks if start < limit and end > size]
         if beyond:
             first = min(beyond)
-            where = f"frame {first}" if name in _PER_FRAME_DATASETS else f"contact row {first}"
+            where = f"frame {first}" if name in PER_FRAME_DATASETS else f"contact row {first}"
             raise RunFileError(f"{path}: dataset /{name}, {where}: stored beyond the end of the file "
                                f"({size} bytes); the file was cut short")
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from granalytics._version import __version__
 from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_replaceable, one_line, raise_dropped_interrupt, _LOCK_SUFFIX
-from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, _CONTACT_CHUNK_ROWS, _CONTACT_DATASETS, _CONTACT_LAYOUT, _INDEX_DATASETS, _PARTICLE_LAYOUT, _PER_FRAME_DATASETS
+from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS
 from granalytics.core.native import HDF5Handle
 from granalytics.core.reader import open_run
 from granalytics.core.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError
@@ -265,7 +265,7 @@ class RunWriter(HDF5Handle):
                 ds.resize(frame + 1, axis=0)
                 ds[frame] = getattr(snapshot, name)
                 ds.flush()
-            for field, (name, _unit) in _CONTACT_LAYOUT.items():
+            for field, (name, _unit) in CONTACT_LAYOUT.items():
                 ds = f["contacts"][name]
                 ds.resize(stop, axis=0)
                 if m:
@@ -315,11 +315,11 @@ class RunWriter(HDF5Handle):
         if f is None or self._n_particles is None:
             return
         try:
-            for name in _INDEX_DATASETS[::-1] + _PER_FRAME_DATASETS[3:]:  # time first: un-commit
+            for name in INDEX_DATASETS[::-1] + PER_FRAME_DATASETS[3:]:  # time first: un-commit
                 if f[name].shape[0] != self._n_frames:
                     f[name].resize(self._n_frames, axis=0)
                     f[name].flush()
-            for name in _CONTACT_DATASETS:
+            for name in CONTACT_DATASETS:
                 if f[name].shape[0] != self._n_contact_rows:
                     f[name].resize(self._n_contact_rows, axis=0)
                     f[name].flush()
@@ -422,7 +422,7 @@ class RunWriter(HDF5Handle):
         frames.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,), **checksum)
         frames["step"].attrs["unit"] = "1"
         particles = f.create_group("particles")
-        for name, (trailing, dtype, unit) in _PARTICLE_LAYOUT.items():
+        for name, (trailing, dtype, unit) in PARTICLE_LAYOUT.items():
             ds = particles.create_dataset(
                 name, shape=(0, n) + trailing, maxshape=(None, n) + trailing,
                 dtype=self._float if dtype is np.float64 else dtype,
@@ -431,10 +431,10 @@ class RunWriter(HDF5Handle):
             ds.attrs["unit"] = unit
         contacts = f.create_group("contacts")
         index_dtype = np.int32 if n < 2**31 else np.int64
-        for field, (name, unit) in _CONTACT_LAYOUT.items():
+        for field, (name, unit) in CONTACT_LAYOUT.items():
             dtype = index_dtype if field in ("contact_i", "contact_j") else self._float
             ds = contacts.create_dataset(
-                name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(_CONTACT_CHUNK_ROWS,),
+                name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(CONTACT_CHUNK_ROWS,),
                 **self._filter,
             )
             ds.attrs["unit"] = unit
