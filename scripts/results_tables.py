@@ -134,8 +134,8 @@ def replica_table():
         print(f"| {base} | {int(r['n_replicas'].iloc[0])} | {' | '.join(cells)} |")
     names = CG_SETS["lab drum"]
     groups = [replica_paths(n) if n in REPLICAS else dataset_path(n) for n in names]
-    print(f"\n**lab drum, CG deviations with replicas** (lab-cg1: one run; lab-cg2, lab-cg3: three seeds each; "
-          f"deviation ± its standard error from the replica errors of the CG run and the block s.e.m. of lab-cg1)\n")
+    print("\n**lab drum, CG deviations with replicas** (lab-cg1: one run; lab-cg2, lab-cg3: three seeds each; "
+          "deviation ± its standard error from the replica errors of the CG run and the block s.e.m. of lab-cg1)\n")
     print("| run | cohesion | yield (dev.) | ⟨V_g⟩/V_p (dev.) | N_g/N (dev.) | KS D |")
     print("| --- | --- | --- | --- | --- | --- |")
     for cohesion in ga.COHESION_CONVENTIONS:
