@@ -110,6 +110,7 @@ def test_every_registered_method_keeps_the_identifier_contract():
     for name, cls in METHODS.items():
         assert issubclass(cls, Identifier) and cls.method == name
         params = inspect.signature(cls).parameters
+        assert set(cls._parameter_constraints) == set(params), name  # every argument declares its constraints
         assert "cohesion" in params and params["cohesion"].kind is inspect.Parameter.KEYWORD_ONLY
         assert params["cohesion"].default in COHESION_CONVENTIONS
     assert set(DEFAULT_METHODS) == set(METHODS) - {"custom"}  # custom needs its criterion

@@ -117,6 +117,8 @@ def test_steady_state_window_mean_std_and_block_sem():
         ga.steady_state(ts, window=(8, 9), columns=["yield_fraction"])
     with pytest.raises(ParameterError, match=r"steady_state: window must be a pair of finite numbers \(lo, hi\) with lo <= hi, got tuple \(5, 4\)"):
         ga.steady_state(ts, window=(5, 4), columns=["yield_fraction"])
+    with pytest.raises(ParameterError, match="steady_state: columns must name at least one metric"):
+        ga.steady_state(ts, window=(3, 6), columns=[])
 
 
 def test_steady_state_skips_nan_frames_and_counts_them():

@@ -240,7 +240,7 @@ _FRACTION = Interval(Real, 0, 1, closed="neither")
 @validate_params({"measured": [Instance(MeasuredDistribution), Path("the path of a sieve CSV")],
                   "window": [WINDOW], "measured_error": [_FRACTION],
                   "n_boot": [Interval(Integral, 10, None)], "block_rev": [POSITIVE], "level": [_FRACTION],
-                  "seed": [Interval(Integral, 0, None)], "progress": [FLAG]})
+                  "seed": [Interval(Integral, 0, None), None], "progress": [FLAG]})
 def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT_WINDOW_REV, comotion=DEFAULT_COMOTION,
                          rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE, measure="volume",
                          measured_error=DEFAULT_MEASURED_ERROR, n_boot=200, block_rev=0.5, level=0.95, seed=0,
@@ -275,8 +275,8 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
         correlated: a granule lives for a fraction of a revolution or more).
     level : float, default 0.95
         Confidence level of the region.
-    seed : int, default 0
-        Seed of the bootstrap.
+    seed : int or None, default 0
+        Seed of the bootstrap (None: fresh randomness, different at every call).
     radius, cohesion, min_size, jobs, progress :
         As for :func:`granalytics.sensitivity`.
 

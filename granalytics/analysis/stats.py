@@ -244,6 +244,8 @@ def steady_state(timeseries: pd.DataFrame, window=DEFAULT_WINDOW_REV, columns=_S
             raise ParameterError("steady_state: n_blocks is for one time series; replicas get the default blocks")
         return replica_steady_state(timeseries, window, columns, by=by, source=source)
     columns = (columns,) if isinstance(columns, str) else tuple(columns)
+    if not columns:
+        raise ParameterError("steady_state: columns must name at least one metric, got none")
     missing = [c for c in (by, *columns) if c not in timeseries]
     if missing:
         raise ParameterError(f"steady_state: the time series has no column {missing[0]!r} "

@@ -36,7 +36,8 @@ class Identifier:
     - a class attribute ``method``, its name in :data:`granalytics.identification.METHODS`;
     - every constructor argument stored under the same attribute name, its constraints declared in
       the class attribute ``_parameter_constraints`` (name -> list of constraints,
-      :mod:`granalytics.core.validation`) and checked when :meth:`identify` runs (not in the constructor);
+      :mod:`granalytics.core.validation`) and checked when :meth:`identify` runs (``"custom"`` also
+      parses its criterion string in the constructor);
     - a keyword argument ``cohesion`` (one of :data:`granalytics.COHESION_CONVENTIONS`), also for
       methods that do not use it: commands and :func:`granalytics.compare_methods` hand it to any method;
     - :meth:`identify` ``(snapshot)`` returning an :class:`~granalytics.IdentificationResult`.

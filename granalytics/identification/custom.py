@@ -24,7 +24,7 @@ from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
 from granalytics.identification.common import RADIUS_MODE, Identifier
 from granalytics.identification.contacts import contact_table
 from granalytics.identification.result import IdentificationResult
-from granalytics.core.validation import POSITIVE
+from granalytics.core.validation import POSITIVE, Callable, Instance
 
 __all__ = ["CustomEdges", "COLUMNS", "compile_criterion"]
 
@@ -159,7 +159,8 @@ class CustomEdges(Identifier):
     """
 
     method = "custom"
-    _parameter_constraints = {"radius": [RADIUS_MODE], "surface_tension": [POSITIVE, None], "cohesion": [COHESION]}
+    _parameter_constraints = {"criterion": [Callable(), Instance(str, "a criterion string")], "radius": [RADIUS_MODE],
+                              "surface_tension": [POSITIVE, None], "cohesion": [COHESION]}
 
     def __init__(self, criterion, *, radius="pair", surface_tension=None, cohesion=DEFAULT_COHESION):
         self._select = criterion if callable(criterion) else compile_criterion(criterion)
