@@ -275,7 +275,7 @@ def main(argv=None):
 def reporting_errors(command) -> int:
     """``command()``'s exit status, with bad input or environment (``ValueError``, ``OSError``,
     ``OverflowError``) as one line ``sim: error: ...`` and exit status 2, and warnings as one
-    line each (e.g. a stale lock taken over); shared by ``python -m sim`` and ``python -m sim.sweep``."""
+    line each; shared by ``python -m sim`` and ``python -m sim.sweep``."""
     with warnings_as_lines("sim"):
         try:
             return command()

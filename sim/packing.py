@@ -106,14 +106,17 @@ def settled_solid_fraction(params, position: np.ndarray, radius: np.ndarray) -> 
 
 def settled_bed_report(params, snapshot: Snapshot) -> dict:
     """The settled bed's touching contacts, the share of them that cross axial layers (|n_z| >
-    :data:`AXIAL_NORMAL_MIN`), the mean coordination and the bulk solid fraction, as a dict (kept
-    in the run metadata; :func:`granalytics.bed_structure` measures more on any frame)."""
+    :data:`AXIAL_NORMAL_MIN`), ⟨n_z²⟩ over them, the mean coordination and the bulk solid fraction,
+    as a dict (kept in the run metadata; :func:`granalytics.bed_structure` measures the same and
+    more on any frame)."""
     touching = snapshot.gap < 0
     normal = snapshot.position[snapshot.contact_j[touching]] - snapshot.position[snapshot.contact_i[touching]]
-    crossing = np.abs(normal[:, 2]) > AXIAL_NORMAL_MIN * np.linalg.norm(normal, axis=1)
+    length = np.linalg.norm(normal, axis=1)
+    n_z = np.abs(normal[length > 0, 2]) / length[length > 0]
     n, n_touching = snapshot.n_particles, int(touching.sum())
     return {"n_particles": n, "n_touching": n_touching,
-            "crossing_fraction": float(crossing.mean()) if n_touching else None,
+            "crossing_fraction": float(np.mean(n_z > AXIAL_NORMAL_MIN)) if n_z.size else None,
+            "axial_fabric": float(np.mean(n_z**2)) if n_z.size else None,
             "coordination": 2 * n_touching / n,
             "solid_fraction": settled_solid_fraction(params, snapshot.position, snapshot.radius)}
 

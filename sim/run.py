@@ -346,7 +346,10 @@ class Simulation:
             with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:  # closed also when not a zip
                 arrays = {name: data[name] for name in data.files}
             if _INFO_KEY not in arrays:
-                raise ValueError(f"{path}: not a checkpoint of this simulator (no '{_INFO_KEY}' inside)")
+                earlier = (f"; {os.path.basename(path)}.json beside it is the two-file checkpoint of an earlier "
+                           "version: finish the run with that version, or start it again" if os.path.exists(
+                               f"{path}.json") else "")
+                raise ValueError(f"{path}: not a checkpoint of this simulator (no '{_INFO_KEY}' inside){earlier}")
             info = json.loads(str(arrays.pop(_INFO_KEY)))
             state = State.from_arrays(arrays)
             params = SimParams.from_dict(info.pop("params"))

@@ -111,6 +111,7 @@ def test_simulator_guard_measures_what_bed_structure_measures(settled_3d):
     report, bed = settled_3d.settled_bed, bed_structure(settled_3d.snapshot())
     assert (report["n_touching"], report["n_particles"]) == (bed.n_touching, bed.n_particles)
     assert report["crossing_fraction"] == pytest.approx(bed.crossing_fraction, abs=1e-12)
+    assert report["axial_fabric"] == pytest.approx(bed.axial_fabric, abs=1e-12)
     assert report["coordination"] == pytest.approx(bed.coordination, abs=1e-12)
     assert (sim.packing.PLANAR_FRACTION, sim.packing.AXIAL_NORMAL_MIN) == (ga.PLANAR_FRACTION,
                                                                            ga.analysis.bed.AXIAL_NORMAL_MIN)

@@ -560,6 +560,16 @@ def test_a_kill_at_any_point_of_a_checkpoint_leaves_a_complete_one(tmp_path, mon
     assert_same_run(full_run, part)
 
 
+def test_an_earlier_versions_two_file_checkpoint_is_refused_naming_it(tmp_path):
+    ckpt = tmp_path / "run.h5.ckpt.npz"
+    np.savez(ckpt, position=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="no 'checkpoint_info' inside"):
+        Simulation.from_checkpoint(ckpt)
+    (tmp_path / "run.h5.ckpt.npz.json").write_text("{}")
+    with pytest.raises(ValueError, match="run.h5.ckpt.npz.json beside it is the two-file checkpoint of an earlier version"):
+        Simulation.from_checkpoint(ckpt)
+
+
 def test_resume_refuses_a_run_file_that_is_not_the_checkpoints(tmp_path):
     import os
     import shutil

@@ -16,7 +16,8 @@ from granalytics.core.validation import (FLAG, META, PATH, POSITIVE, SNAPSHOT, W
 
 
 @pytest.mark.parametrize("constraint, good, bad", [
-    (Interval(Real, 0, None), [0, 0.5, np.float32(2), np.int64(3), 10**400], [-1e-9, math.nan, math.inf, "1", True, None]),
+    (Interval(Real, 0, None), [0, 0.5, np.float32(2), np.int64(3), 10**300], [-1e-9, math.nan, math.inf, 10**400, "1", True,
+                                                                            None]),
     (Interval(Real, 0, 180, closed="right"), [1e-9, 180, 90.0], [0, 180.0001, math.nan, False]),
     (Interval(Real, 0, 1, closed="neither"), [0.5], [0, 1, math.nan]),
     (Interval(Real, 1, 2, closed="left"), [1, 1.5], [2]),
@@ -36,7 +37,7 @@ from granalytics.core.validation import (FLAG, META, PATH, POSITIVE, SNAPSHOT, W
     (Array(ndim=1, within=POSITIVE), [[1, 2.5], []], [[1, 0], [1, math.nan], [1, math.inf]]),
     (Array(dtype=Integral), [[1, 2], np.arange(3, dtype=np.uint8), []], [[1.0, 2.0], [1, 2.5]]),
     (Array(ndim=1, dtype=str), [["a", "b"], ("a",), pd.Index(["a", "b"]), ()], [[1, 2], "ab", [b"a"], ["a", 1]]),
-    (WINDOW, [(3, 6), (2, 2), [0.5, 1e300], np.array([-1.0, 0.0])],
+    (WINDOW, [(3, 6), (2, 2), [0.5, 1e300], np.array([-1.0, 0.0]), pd.Series([1.0, 2.0], index=[5, 7])],
      [(6, 3), (-1e308, 1e308), (0, math.inf), (0, math.nan), "3:6", (1,), (True, 2), None]),
     (PATH, ["run.h5", pathlib.Path("run.h5")], [None, b"run.h5", 5, ["run.h5"], pathlib.PurePath]),
 ])

@@ -263,8 +263,10 @@ class WriterLock:
 
         self.target = os.fspath(target)
         self.path = self.target + _LOCK_SUFFIX
-        self._lock = filelock.FileLock(self.path, timeout=0, thread_local=False, fallback_to_soft=False,
-                                       on_acquired=self._name_holder)
+        # a short timeout, not 0: a writer that opened the file just as its holder released and
+        # removed it finds a removed file locked and tries the new one (filelock retries it)
+        self._lock = filelock.FileLock(self.path, timeout=0.2, poll_interval=0.02, thread_local=False,
+                                       fallback_to_soft=False, on_acquired=self._name_holder)
 
     def __enter__(self) -> "WriterLock":
         return self.acquire()

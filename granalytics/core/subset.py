@@ -8,18 +8,18 @@ from numbers import Integral
 
 import numpy as np
 
-from granalytics.core.windows import check_interval, window_mask
+from granalytics.core.windows import window_mask
 from granalytics.core.files import WriterLock, check_apart, check_replaceable, replaced_atomically
 from granalytics.core.reader import open_run
 from granalytics.core.writer import RunWriter
 from granalytics.core.errors import RunFileError, ValidationError
 from granalytics.core.snapshot import RunMeta
-from granalytics.core.validation import FLAG, PATH, Array, Interval, Options, validate_params
+from granalytics.core.validation import FLAG, PATH, WINDOW, Array, Interval, Options, validate_params
 
 
 
 @validate_params({"revolutions": [Array(ndim=1)], "every": [Interval(Integral, 1, None)],
-                  "window_every": [Interval(Integral, 1, None)]})
+                  "full_window": [WINDOW, None], "window_every": [Interval(Integral, 1, None)]})
 def thinned_frames(revolutions, every=1, full_window=None, window_every=1) -> np.ndarray:
     """Indices of the frames to keep when thinning a run: every ``every``-th frame (the first
     included), and every ``window_every``-th frame whose time in revolutions lies in
@@ -56,7 +56,7 @@ def thinned_frames(revolutions, every=1, full_window=None, window_every=1) -> np
     index = np.arange(revs.size)
     keep = index % every == 0
     if full_window is not None:
-        r0, r1 = check_interval("full_window", full_window)
+        r0, r1 = map(float, full_window)
         # the analyses' window rule (edges widened by a tenth of a frame spacing), so that a frame
         # stamped at 2.99997 revolutions belongs to [3, 6] here as in every steady state
         keep |= window_mask(revs, r0, r1) & (index % window_every == 0)

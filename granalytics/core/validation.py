@@ -63,7 +63,14 @@ class Interval(Constraint):
         return bool(np.all(((values >= lo) if left else (values > lo)) & ((values <= hi) if right else (values < hi))))
 
     def accepts(self, value) -> bool:
-        return isinstance(value, self.type) and not _is_bool(value) and self.contains(value)
+        if not isinstance(value, self.type) or _is_bool(value):
+            return False
+        if self.type is not Integral:  # a real number is one a float holds: 10**400 is refused
+            try:
+                value = float(value)
+            except OverflowError:
+                return False
+        return self.contains(value)
 
     def describe(self, plural=False) -> str:
         """``"a number > 0"``; ``"numbers > 0"`` with ``plural``."""
@@ -156,7 +163,10 @@ class Window(Array):
         super().__init__(ndim=1, length=2, finite=True)
 
     def accepts(self, value) -> bool:
-        return super().accepts(value) and np.isfinite(float(value[1]) - float(value[0])) and value[0] <= value[1]
+        if not super().accepts(value):
+            return False
+        lo, hi = np.asarray(value, dtype=float)  # a pandas Series by position, not by its index
+        return bool(np.isfinite(hi - lo) and lo <= hi)
 
     def __str__(self):
         return "a pair of finite numbers (lo, hi) with lo <= hi"

@@ -33,10 +33,11 @@ def _write_failure(exc) -> str:
 class RunWriter(HDF5Handle):
     """Append snapshots to a new run file, one complete frame at a time.
 
-    The writer holds an exclusive lock file ``PATH.lock`` (pid and host of the writer) from
-    before it creates the file until :meth:`close` has finished; a second writer on the same
-    path raises :class:`~granalytics.core.errors.RunLockedError`. A lock left by a writer that is no
-    longer running on this host is taken over with a warning.
+    The writer holds the lock file ``PATH.lock`` (:class:`~granalytics.core.files.WriterLock`:
+    the operating system's lock, the file naming the writer's pid and host) from before it creates
+    the file until :meth:`close` has finished; a second writer on the same path raises
+    :class:`~granalytics.core.errors.RunLockedError`. A writer that is killed releases the lock
+    with its process.
 
     Parameters
     ----------
@@ -46,8 +47,8 @@ class RunWriter(HDF5Handle):
         Run metadata, stored once in the file.
     compression : {"gzip", "lzf", None}, default "gzip"
         HDF5 filter for every dataset (gzip is readable by every HDF5 tool).
-    compression_level : int, default 4
-        gzip level 0–9.
+    compression_level : int or None, default 4
+        gzip level 0–9 (None: HDF5's default; not used by lzf).
     overwrite : bool, default False
         Replace an existing file.
     float_dtype : {"float64", "float32"}, default "float64"
@@ -73,7 +74,7 @@ class RunWriter(HDF5Handle):
     _lock = None
 
     @validate_params({"path": [PATH], "meta": [META], "compression": [Options(("gzip", "lzf")), None],
-                      "compression_level": [Interval(Integral, 0, 9)], "overwrite": [FLAG],
+                      "compression_level": [Interval(Integral, 0, 9), None], "overwrite": [FLAG],
                       "float_dtype": [Options(("float64", "float32"))]})
     def __init__(self, path, meta, *, compression="gzip", compression_level=4, overwrite=False, float_dtype="float64",
                  _lock=None):
@@ -85,7 +86,7 @@ class RunWriter(HDF5Handle):
         self._filter = {"fletcher32": True}
         if compression is not None:
             self._filter.update(compression=compression, shuffle=True)
-            if compression == "gzip":
+            if compression == "gzip" and compression_level is not None:
                 self._filter["compression_opts"] = int(compression_level)
         check_replaceable(self.path)  # a device such as /dev/null, or a folder: no lock file beside it either
         # the lock exists before the file is created or truncated, and until close() is done

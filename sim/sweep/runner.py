@@ -61,7 +61,7 @@ def run_point(task: PointTask) -> dict:
 
     configure_threading()  # before numba starts its threads: OpenMP, not TBB (tens of times slower here)
     numba.set_num_threads(max(1, min(task.threads, numba.config.NUMBA_NUM_THREADS)))
-    # a worker's warnings (e.g. a stale lock of the point file taken over) as one line each, naming the point
+    # a worker's warnings as one line each, naming the point
     with warnings_as_lines(f"sim sweep: {os.path.basename(task.out)}"):
         return _run_point(task)
 
@@ -175,7 +175,7 @@ def run_sweep(spec_path, out_dir, workers=None, scheduler=None, progress=True, p
     runner = point_runner if point_runner is not None else run_point
     os.makedirs(os.path.join(out_dir, "points"), exist_ok=True)
     # one sweep at a time per folder: a second one would run the same points and overwrite the
-    # manifest (the lock file of its manifest, taken over when its holder was killed)
+    # manifest (the lock of its manifest is released when its holder is killed)
     with WriterLock(manifest_path(out_dir)):
         rows = manifest_rows(out_dir)
         settings = {"preset": spec.preset, "revolutions": spec.revolutions, "frame_every_rev": spec.frame_every_rev,
