@@ -151,6 +151,20 @@ def _merge_order(f, passes):
     return idx[np.argsort(-f[idx], kind="mergesort")]
 
 
+@njit(cache=True, inline="always")
+def _next_merge(parent, ci, cj, f, order, p, c):
+    """The next contact of ``order`` from position ``p`` with f ≥ ``c`` that joins two granules:
+    returns ``(p after it, root a, root b)``, or ``(p, -1, -1)`` when no such contact is left."""
+    while p < order.shape[0] and f[order[p]] >= c:
+        k = order[p]
+        p += 1
+        a = _find(parent, ci[k])
+        b = _find(parent, cj[k])
+        if a != b:
+            return p, a, b
+    return p, -1, -1
+
+
 @njit(cache=True)
 def _rank_by_size(comp_size):
     """Rank of each component when ordered by decreasing size, ties in index order (a stable
@@ -377,14 +391,10 @@ def threshold_sweep(ci, cj, f, passes, particle_volume, thresholds_desc, min_siz
     volume = 0.0
     p = 0
     for t in range(t_count):
-        c = thresholds_desc[t]
-        while p < order.shape[0] and f[order[p]] >= c:
-            k = order[p]
-            p += 1
-            a = _find(parent, ci[k])
-            b = _find(parent, cj[k])
-            if a == b:
-                continue
+        while True:
+            p, a, b = _next_merge(parent, ci, cj, f, order, p, thresholds_desc[t])
+            if a < 0:
+                break
             sa, sb = size[a], size[b]
             va, vb = vol[a], vol[b]
             if sa >= min_size:
@@ -507,14 +517,10 @@ def threshold_sweep_classes(ci, cj, f, passes, particle_volume, free_size, posit
     out = np.zeros((t_count, edges.shape[0] + 1))
     p = 0
     for t in range(t_count):
-        c = thresholds_desc[t]
-        while p < order.shape[0] and f[order[p]] >= c:
-            k = order[p]
-            p += 1
-            a = _find(parent, ci[k])
-            b = _find(parent, cj[k])
-            if a == b:
-                continue
+        while True:
+            p, a, b = _next_merge(parent, ci, cj, f, order, p, thresholds_desc[t])
+            if a < 0:
+                break
             root, other = _link(parent, a, b)
             size[root] = size[a] + size[b]
             dirty[other] = False  # only roots of granules are ever dirty
