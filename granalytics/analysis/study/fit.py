@@ -12,7 +12,7 @@ from numbers import Real
 
 import numpy as np
 
-from granalytics.analysis.study.table import select_cohesion
+from granalytics.analysis.study.table import growth_rows
 from granalytics.core.errors import ParameterError, user_stacklevel
 from granalytics.core.validation import Array, Interval, Options, validate_params
 
@@ -311,10 +311,7 @@ def _polish(func, g, v, s, w, used, p0, hinge):
 
 
 def fit_growth_of_table(table, cohesion="acting", **kwargs) -> GrowthFit:
-    part = select_cohesion(table, cohesion)
-    for col in ("gamma", "mean_volume_norm_mean"):
-        if col not in part:
-            raise ParameterError(f"the table has no column {col!r} (use study_table)")
+    part = growth_rows(table, cohesion)
     sem = part["mean_volume_norm_sem"] if "mean_volume_norm_sem" in part else None
     if "mean_volume_norm_replica_sem" in part:  # rows over replicas: the run-to-run error where it exists
         sem = part["mean_volume_norm_replica_sem"].fillna(sem if sem is not None else np.nan)

@@ -220,6 +220,16 @@ def select_cohesion(table, cohesion):
 
 
 
+def growth_rows(table, cohesion, columns=("gamma", "mean_volume_norm_mean")) -> pd.DataFrame:
+    """The rows of ``table`` under ``cohesion`` (:func:`select_cohesion`), once it has ``columns``
+    (a ParameterError naming the first missing one otherwise)."""
+    part = select_cohesion(table, cohesion)
+    for col in columns:
+        if col not in part:
+            raise ParameterError(f"the table has no column {col!r} (use study_table)")
+    return part
+
+
 def growth_points(table, cohesion="acting") -> pd.DataFrame:
     """The points of the paper's Fig 7: the steady-state ⟨V_g⟩/V_p of a :func:`study_table` at
     every (Ω, γ) of one cohesion convention, its rows of one point (several seeds) combined.
@@ -244,10 +254,7 @@ def growth_points(table, cohesion="acting") -> pd.DataFrame:
         ``mean_volume_norm`` (0 without granules), ``block_sem``, ``replica_sem`` (NaN for a
         single run), ``no_granules`` (bool).
     """
-    part = select_cohesion(table, cohesion)
-    for col in ("omega", "gamma", "mean_volume_norm_mean"):
-        if col not in part:
-            raise ParameterError(f"the table has no column {col!r} (use study_table)")
+    part = growth_rows(table, cohesion, ("omega", "gamma", "mean_volume_norm_mean"))
     nan = pd.Series(math.nan, index=part.index)
     part = pd.DataFrame({"omega": part["omega"], "gamma": part["gamma"],
                          "v": part["mean_volume_norm_mean"].fillna(0.0),
