@@ -17,8 +17,8 @@ from granalytics.core.files import one_line
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_DATASETS, CONTACT_LAYOUT, PARTICLE_LAYOUT, PER_FRAME_DATASETS
 from granalytics.core.native import CONVERT_HINT, HDF5Handle, open_h5
 from granalytics.core.resources import check_memory
-from granalytics.core.validation import FLAG, PATH, Array, Instance, Interval, validate, validate_params
-from granalytics.core.windows import check_interval, window_mask
+from granalytics.core.validation import FLAG, PATH, WINDOW, Array, Instance, Interval, validate, validate_params
+from granalytics.core.windows import window_mask
 from granalytics.core.errors import FrameKeyError, GranalyticsError, ParameterError, RunFileError, ValidationError, user_stacklevel
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
 
@@ -139,8 +139,9 @@ class _FrameSequence(Sequence):
         """
         if (time is None) == (revolutions is None):
             raise ValidationError("select", "give exactly one of time=(t0, t1) or revolutions=(r0, r1)")
-        lo, hi = check_interval("select: time" if time is not None else "select: revolutions",
-                                time if time is not None else revolutions)
+        name, window = ("time", time) if time is not None else ("revolutions", revolutions)
+        validate("select", {name: [WINDOW]}, {name: window})
+        lo, hi = np.asarray(window, dtype=float)
         values = self.times if time is not None else self.revolutions
         return RunSlice(self._run, self._indices[window_mask(values, lo, hi)])
 

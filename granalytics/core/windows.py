@@ -19,10 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from granalytics.core.errors import ParameterError
-from granalytics.core.validation import WINDOW, shown
 
-__all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask", "clip_window", "check_interval"]
+__all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask", "clip_window"]
 
 #: fraction of the smallest frame spacing by which a frame may lie outside a window's edge
 WINDOW_TOLERANCE = 0.1
@@ -60,12 +58,3 @@ def clip_window(values, lo, hi, tolerance=None) -> tuple[float, float]:
     tol = window_tolerance(values) if tolerance is None else tolerance
     first, last = float(finite.min()), float(finite.max())
     return (first if lo < first - tol else float(lo)), (last if hi > last + tol else float(hi))
-
-
-def check_interval(name, value) -> tuple[float, float]:
-    """``value`` as floats ``(lo, hi)``, once it is a :data:`~granalytics.core.validation.WINDOW`
-    (else a ParameterError naming ``name`` and the value; text such as ``"3:6"`` is the command
-    line's spelling, the API takes a pair of numbers)."""
-    if not WINDOW.accepts(value):
-        raise ParameterError(f"{name} must be {WINDOW}, got {shown(value)}")
-    return float(value[0]), float(value[1])
