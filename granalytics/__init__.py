@@ -44,13 +44,14 @@ from granalytics._version import __version__
 #: loads no analysis module, so that the simulator, which needs only :mod:`granalytics.core`,
 #: stays light)
 _EXPORTS = {
-    **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".core.errors"),
+    **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".base.errors"),
     **dict.fromkeys(("CGComparison", "cg_rule_of", "compare_cg", "compare_cg_thresholds"), ".analysis.cg"),
     **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".identification.cohesion"),
     **dict.fromkeys(("compare_methods", "identical_methods"), ".analysis.method_comparison"),
     **dict.fromkeys(("CommunityDetection", "DBSCANClustering", "DBSCANIdentifier", "GraphNetworkAnalysis",
                      "IdentificationResult", "VirtualSieve", "identify", "CustomEdges"), ".identification"),
-    **dict.fromkeys(("Run", "RunSlice", "RunWriter", "WriterLock", "open_run", "subset_run"), ".core"),
+    **dict.fromkeys(("Run", "RunSlice", "RunWriter", "open_run", "subset_run"), ".core"),
+    "WriterLock": ".base.files",
     **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".analysis.sensitivity"),
     **dict.fromkeys(("Calibration", "calibrate_thresholds"), ".analysis.calibration"),
     **dict.fromkeys(("MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid"),
@@ -72,10 +73,10 @@ _EXPORTS = {
                      "size_counts"), ".analysis.population_balance"),
 }
 #: public submodules (``granalytics.datasets.open_dataset(...)``, ``granalytics.edges.edge_table(...)``):
-#: attribute name -> module. The layers themselves (core, identification, analysis, convert, export) are
+#: attribute name -> module. The layers themselves (base, core, identification, analysis, convert, export) are
 #: ordinary subpackages.
 _SUBMODULES = {
-    "datasets": ".datasets", "core": ".core", "convert": ".convert", "export": ".export",
+    "datasets": ".datasets", "base": ".base", "core": ".core", "convert": ".convert", "export": ".export",
     "analysis": ".analysis", "edges": ".identification.edges", "table": ".analysis.table",
 }
 
@@ -104,7 +105,7 @@ __all__ = [
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges",
-    "edges", "datasets", "core", "convert", "export", "analysis",
+    "edges", "datasets", "base", "core", "convert", "export", "analysis",
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods", "identical_methods",
     "calibrate_thresholds", "Calibration", "MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid",

@@ -2,15 +2,16 @@
 the work and removed again when it fails (:func:`output_folder`), several files that change
 together or not at all (:func:`staged_outputs`), a finished folder put in the place of an earlier
 one (:func:`swap_folder`). One file alone is written with
-:func:`granalytics.core.files.replaced_atomically`."""
+:func:`granalytics.base.files.replaced_atomically`."""
 
 from __future__ import annotations
 
 import contextlib
 import os
 
-from granalytics.core.errors import ParameterError
-from granalytics.core.files import check_replaceable, raise_dropped_interrupt
+from granalytics.base.errors import ParameterError
+from granalytics.base.files import check_replaceable
+from granalytics.base.interrupts import raise_dropped_interrupt
 
 __all__ = ["staged_outputs", "swap_folder", "output_folder"]
 

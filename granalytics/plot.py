@@ -76,7 +76,7 @@ def _sizes_unit(table, size_unit=None) -> str:
     :func:`~granalytics.coalescence_kernel` (its ``attrs``), unless given."""
     unit = size_unit or getattr(table, "attrs", {}).get("size_unit", "particles")
     if unit not in SIZE_LABELS:
-        from granalytics.core.errors import ParameterError
+        from granalytics.base.errors import ParameterError
 
         raise ParameterError(f"size_unit must be one of {', '.join(SIZE_LABELS)}, got {unit!r}")
     return unit
@@ -603,7 +603,7 @@ def growth_figure(table, fit=None, cohesion="acting"):
     import matplotlib.pyplot as plt
 
     from granalytics.analysis.study import fit_growth_of_table, growth_points, select_cohesion
-    from granalytics.core.errors import ParameterError
+    from granalytics.base.errors import ParameterError
 
     points = growth_points(table, cohesion)
     if fit is None:

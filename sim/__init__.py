@@ -1,6 +1,8 @@
 """sim: the reference Numba wet-DEM simulator of a baffled drum granulator.
 
-It writes runs through :class:`granalytics.core.RunWriter` (the run-file contract, the only part of granalytics it imports); granalytics never imports sim.
+It writes runs through :class:`granalytics.core.RunWriter` (the run-file contract) and imports
+nothing of granalytics beyond :mod:`granalytics.core` and :mod:`granalytics.base`; granalytics
+never imports sim.
 
 Public force laws (numpy arrays in, SI units):
 

@@ -18,8 +18,9 @@ import math
 import os
 import sys
 
-from granalytics.core import (RunWriteError, check_not_open_elsewhere, check_output_folder, exit_after_write_failure,
-                              interrupted, one_line, terminate_as_interrupt, warnings_as_lines)
+from granalytics.base.errors import RunWriteError, exit_after_write_failure, one_line, warnings_as_lines
+from granalytics.base.files import check_not_open_elsewhere, check_output_folder
+from granalytics.base.interrupts import interrupted, terminate_as_interrupt
 from granalytics.core.manifest import manifest_path
 
 from .cg_rules import CG_RULES, DEFAULT_CG_RULE

@@ -18,7 +18,7 @@ import warnings
 import numpy as np
 
 from granalytics.core import RunMeta, RunWriter, Snapshot, __version__
-from granalytics.core.resources import check_disk, check_memory
+from granalytics.base.resources import check_disk, check_memory
 
 from . import _kernels
 from .capillary import pair_capillary_force

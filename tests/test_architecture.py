@@ -62,39 +62,40 @@ def test_granalytics_never_imports_sim():
     assert edges == []
 
 
-def test_sim_uses_the_core_layer_only():
-    """sim imports granalytics through granalytics.core and its modules (the data model, run files,
-    file helpers, the manifest's schema, the dask client) and nothing else."""
+def test_sim_uses_the_base_and_core_layers_only():
+    """sim imports granalytics through granalytics.core (the data model, run files, the manifest's
+    schema) and granalytics.base (errors, output files, Ctrl-C, resource checks, the dask client),
+    and nothing else."""
     offenders = [f"{name}:{line} imports {module}"
                  for name, path in _modules("sim")
                  for module, line in _imports(name, path)
-                 if module.startswith("granalytics") and not (module == "granalytics.core"
-                                                               or module.startswith("granalytics.core."))]
+                 if module.startswith("granalytics") and _layer(module) not in ("core", "base")]
     assert offenders == []
 
 
-def test_the_core_imports_nothing_of_granalytics_above_it():
+@pytest.mark.parametrize("package, allowed", [("base", ("base", "_version")), ("core", ("base", "core", "_version"))])
+def test_the_base_and_the_core_import_nothing_of_granalytics_above_them(package, allowed):
     offenders = [f"{name}:{line} imports {module}"
-                 for name, path in _modules("granalytics/core")
+                 for name, path in _modules(f"granalytics/{package}")
                  for module, line in _imports(name, path)
-                 if module.startswith("granalytics") and not (module.startswith("granalytics.core")
-                                                               or module == "granalytics._version")]
+                 if module.startswith("granalytics") and _layer(module) not in allowed]
     assert offenders == []
 
 
 def test_importing_the_core_loads_the_run_file_contract_only():
-    """``import granalytics.core`` loads the contract (snapshot, format, reader, writer, subset, files,
-    errors, validation and the reader's helpers), not the modules shared for other purposes, nor dask or SciPy."""
+    """``import granalytics.core`` loads the contract (snapshot, format, reader, writer, subset and the
+    reader's helpers) and the base modules it stands on, not the manifest, the dask client, dask or SciPy."""
     import subprocess
     import sys
 
     code = "import sys, granalytics.core; print(' '.join(sorted(m for m in sys.modules if m.startswith(('granalytics', 'dask', 'distributed', 'scipy', 'numba')))))"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    contract = {"snapshot", "format", "reader", "writer", "subset", "files", "native", "errors", "validation",
-                "windows", "resources"}
-    assert proc.stdout.split() == sorted({"granalytics", "granalytics._version", "granalytics.core"}
-                                         | {f"granalytics.core.{m}" for m in contract})
+    contract = {"snapshot", "format", "reader", "writer", "subset", "native", "windows"}
+    base = {"errors", "validation", "files", "interrupts", "resources"}
+    assert proc.stdout.split() == sorted({"granalytics", "granalytics._version", "granalytics.base", "granalytics.core"}
+                                         | {f"granalytics.core.{m}" for m in contract}
+                                         | {f"granalytics.base.{m}" for m in base})
 
 
 def test_the_contract_and_the_simulator_load_no_analysis_library():
@@ -113,9 +114,9 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
 
 
 #: the layers of granalytics, lowest first: a module imports only modules of its own layer or of a
-#: lower one (docs/architecture.md). ``io`` is the deprecated forward to core and convert.
-LAYERS = {"_version": 0, "core": 0, "identification": 1, "convert": 1, "outputs": 1, "analysis": 2,
-          "export": 3, "plot": 3, "datasets": 3, "cli": 4, "__main__": 4}
+#: lower one (docs/architecture.md).
+LAYERS = {"_version": 0, "base": 0, "core": 1, "identification": 2, "convert": 2, "outputs": 2, "analysis": 3,
+          "export": 4, "plot": 4, "datasets": 4, "cli": 5, "__main__": 5}
 
 
 def _layer(module):
@@ -138,7 +139,8 @@ def _draws(module):
     return module in ("granalytics.plot", "matplotlib") or module.startswith(("granalytics.plot.", "matplotlib."))
 
 
-@pytest.mark.parametrize("package", ["granalytics/analysis", "granalytics/identification", "granalytics/core"])
+@pytest.mark.parametrize("package", ["granalytics/analysis", "granalytics/identification", "granalytics/core",
+                                     "granalytics/base"])
 def test_only_plot_and_the_command_line_draw(package):
     """The analysis, identification and core layers compute; no module of theirs imports
     granalytics.plot or matplotlib, not even inside a function (figures are drawn by plot.py from

@@ -10,7 +10,7 @@ import pytest
 import granalytics as ga
 from granalytics.analysis.cg import compare_cg
 from granalytics.cli import main
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core import RunWriter, subset_run
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 

@@ -190,7 +190,7 @@ def test_compare_cg_refuses_existing_outputs_before_analysing(run_file, tmp_path
 
 
 def test_an_output_is_replaced_only_when_complete(tmp_path):
-    from granalytics.core.files import write_atomically
+    from granalytics.base.files import write_atomically
 
     path = tmp_path / "table.csv"
     path.write_text("old, complete")
@@ -336,7 +336,7 @@ def test_tracking_reports_uneven_frame_spacing_and_bins_from_the_window(tmp_path
     (["export-vtk", "--window-rev", "1:2"], "run.pvd.lock"),
 ])
 def test_a_second_writer_into_an_output_folder_is_refused(run_file, tmp_path, capsys, command, lock):
-    from granalytics.core import WriterLock
+    from granalytics.base.files import WriterLock
 
     out = tmp_path / "out"
     out.mkdir()

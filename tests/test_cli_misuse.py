@@ -9,7 +9,7 @@ import pytest
 
 import granalytics as ga
 from granalytics.cli import main
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core import RunWriter
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot, write_synthetic_run
 
@@ -141,9 +141,9 @@ def test_the_api_refuses_a_flag_that_is_not_a_bool(run_file):
 
 def test_a_sensitivity_grid_out_of_reach_is_refused_with_its_size(run_file, capsys, monkeypatch):
     """A 10 000 × 10 000 grid ran (for hours, towards hundreds of GB) instead of being refused."""
-    import granalytics.core.resources
+    import granalytics.base.resources
 
-    monkeypatch.setattr(granalytics.core.resources, "physical_memory", lambda: 16 * 10**9)
+    monkeypatch.setattr(granalytics.base.resources, "physical_memory", lambda: 16 * 10**9)
     assert main(["sensitivity", run_file, "--c-agg", "0:1:10000", "--a-agg-deg", "1:90:10000", "--window", "0:3",
                  "--quiet"]) == 2
     one_line_error(capsys, "100000000 grid points", "GB of memory", "refused before starting")
@@ -155,9 +155,9 @@ def test_a_sensitivity_grid_out_of_reach_is_refused_with_its_size(run_file, caps
     (["--frames-per-revolution", "0"], "frames_per_revolution must be a whole number >= 1"),
 ])
 def test_synthetic_refuses_a_run_out_of_reach_before_writing(tmp_path, capsys, monkeypatch, argv, words):
-    import granalytics.core.resources
+    import granalytics.base.resources
 
-    monkeypatch.setattr(granalytics.core.resources, "physical_memory", lambda: 16 * 10**9)
+    monkeypatch.setattr(granalytics.base.resources, "physical_memory", lambda: 16 * 10**9)
     assert main(["synthetic", "--out", str(tmp_path / "s.h5"), *argv]) == 2
     one_line_error(capsys, words)
     assert list(tmp_path.iterdir()) == []

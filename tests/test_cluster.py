@@ -8,8 +8,8 @@ import time
 
 import pytest
 
-from granalytics.core.cluster import dask_client
-from granalytics.core.errors import ParameterError
+from granalytics.base.cluster import dask_client
+from granalytics.base.errors import ParameterError
 
 
 def _server(reply: bytes | None):

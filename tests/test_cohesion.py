@@ -8,7 +8,7 @@ import pytest
 
 import granalytics as ga
 from granalytics.identification.cohesion import cohesion_counts, cohesive_force
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.convert.lammps import DumpMapping, read_liggghts
 
 from conftest import make_meta, make_snapshot

@@ -198,8 +198,8 @@ def test_bundle_sweep_copies_finished_points_as_float32_with_their_new_sums(tmp_
     assert _main(["bundle-sweep", str(src), str(target), "--overwrite"]) == 2
     assert "exists and is not a folder" in capsys.readouterr().err and target.read_text() == "x"
     # one bundling at a time into a target (DST.lock beside it)
-    from granalytics.core.errors import RunLockedError
-    from granalytics.core import WriterLock
+    from granalytics.base.errors import RunLockedError
+    from granalytics.base.files import WriterLock
 
     with WriterLock(tmp_path / "busy"):
         with pytest.raises(RunLockedError, match="busy.lock"):

@@ -17,7 +17,7 @@ import granalytics as ga  # noqa: E402
 from granalytics import plot  # noqa: E402
 from granalytics.analysis.metrics import BY_FIGURE, HEADLINE  # noqa: E402
 from granalytics.core import RunWriter  # noqa: E402
-from granalytics.core.errors import ParameterError  # noqa: E402
+from granalytics.base.errors import ParameterError  # noqa: E402
 from granalytics.datasets import dataset_path  # noqa: E402
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot  # noqa: E402
 

@@ -7,7 +7,7 @@ import pytest
 
 import granalytics as ga
 from granalytics.analysis.frames import map_frames
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.datasets import dataset_path
 
 

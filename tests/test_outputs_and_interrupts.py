@@ -175,9 +175,9 @@ def test_stats_writes_all_its_outputs_or_none(run_file, tmp_path, monkeypatch, c
 
 
 def test_a_numba_kernel_interrupted_by_ctrl_c_counts_as_an_interrupt():
-    """The simulator's command line and granalytics' share one test (granalytics.core.interrupted)."""
+    """The simulator's command line and granalytics' share one test (granalytics.base.interrupts.interrupted)."""
     import sim.cli
-    from granalytics.core import interrupted
+    from granalytics.base.interrupts import interrupted
 
     assert sim.cli.interrupted is interrupted
     try:
@@ -329,7 +329,7 @@ def test_python_m_granalytics_datasets_gives_no_runpy_warning():
 def test_a_sweep_workers_warning_is_one_line(capsys, tmp_path):
     import warnings
 
-    from granalytics.core.files import warnings_as_lines
+    from granalytics.base.errors import warnings_as_lines
 
     with warnings_as_lines("sim sweep: p.h5"):
         warnings.warn("took over the stale lock file\nof a dead writer", UserWarning)
@@ -625,7 +625,8 @@ def test_a_ctrl_c_that_python_drops_in_a_del_method_is_raised_at_the_next_frame(
 
 
 def test_a_dropped_ctrl_c_replaces_no_output_and_is_not_lost_at_the_end(run_file, tmp_path, monkeypatch, capsys):
-    from granalytics.core.files import interrupts_not_lost, raise_dropped_interrupt, write_atomically
+    from granalytics.base.files import write_atomically
+    from granalytics.base.interrupts import interrupts_not_lost, raise_dropped_interrupt
 
     target = tmp_path / "t.txt"
     target.write_text("precious")
@@ -667,7 +668,7 @@ def test_a_dropped_ctrl_c_replaces_no_output_and_is_not_lost_at_the_end(run_file
 def test_ctrl_c_inside_numbas_unpickling_is_an_interrupt_too():
     """A Ctrl-C while numba loaded a cached kernel came as a SystemError caused by a SystemError
     caused by the KeyboardInterrupt: a traceback and exit 1."""
-    from granalytics.core.files import interrupted
+    from granalytics.base.interrupts import interrupted
 
     def chained(depth):
         try:
@@ -731,7 +732,7 @@ def test_sigterm_is_cleaned_up_as_a_ctrl_c(tmp_path, capsys):
     command lines now raise it as a KeyboardInterrupt, so the clean-up of a Ctrl-C runs."""
     import signal
 
-    from granalytics.core import terminate_as_interrupt
+    from granalytics.base.interrupts import terminate_as_interrupt
     from granalytics.outputs import staged_outputs
 
     target = tmp_path / "out.csv"

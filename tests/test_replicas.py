@@ -12,7 +12,7 @@ import granalytics as ga
 from granalytics.analysis.cg import compare_cg, group_replicas
 from granalytics.cli import main
 from granalytics.cli._common import plus_minus
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.manifest import file_sha256
 from granalytics.plot import cg_figures, growth_figure
 from granalytics.analysis.stats import combine_replicas

@@ -17,7 +17,7 @@ import pytest
 import granalytics
 from granalytics import GranalyticsError, ParameterError, RunFileError, RunWriter, ValidationError, WriterLock, open_run
 from granalytics.cli import main
-from granalytics.core.errors import RunLockedError
+from granalytics.base.errors import RunLockedError
 from granalytics.core.snapshot import CONTACT_FIELDS, PARTICLE_FIELDS
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 
@@ -662,9 +662,9 @@ def test_a_run_stopped_before_its_planned_frames_is_unfinished(tmp_path, frames,
 def test_a_small_file_declaring_2e8_particles_is_refused_at_once(tmp_path, run_path, capsys, monkeypatch):
     """450 kB declaring 2·10⁸ particles drove info/stats/subset past 8 GB of memory (the machine
     taken to have 16 GB, so that the test refuses on any machine)."""
-    import granalytics.core.resources
+    import granalytics.base.resources
 
-    monkeypatch.setattr(granalytics.core.resources, "physical_memory", lambda: 16 * 10**9)
+    monkeypatch.setattr(granalytics.base.resources, "physical_memory", lambda: 16 * 10**9)
     n = 200_000_000
     path = tmp_path / "huge.h5"
     with h5py.File(path, "w") as f, h5py.File(run_path, "r") as src:

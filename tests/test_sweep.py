@@ -395,8 +395,8 @@ except Started as started:
 
 
 def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path, scheduler, capsys):
-    from granalytics.core.errors import RunLockedError
-    from granalytics.core import WriterLock
+    from granalytics.base.errors import RunLockedError
+    from granalytics.base.files import WriterLock
 
     spec = write_spec(tmp_path / "spec.toml", FAKE_SPEC)
     out = tmp_path / "out"

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 import granalytics as ga
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.datasets.synthetic import synthetic_snapshot, write_synthetic_run
 from granalytics.analysis.tracking import (
     KINDS,

@@ -1,4 +1,4 @@
-"""The argument validation of granalytics.core.validation: each constraint accepts and refuses, and the
+"""The argument validation of granalytics.base.validation: each constraint accepts and refuses, and the
 decorator's one-line error names the function, the parameter and the value."""
 
 import math
@@ -9,10 +9,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.datasets.synthetic import synthetic_snapshot
-from granalytics.core.validation import (FLAG, META, PATH, POSITIVE, SNAPSHOT, WINDOW, Array, Callable, Instance,
-                                         Interval, Options, Path, validate, validate_params)
+from granalytics.base.validation import (FLAG, PATH, POSITIVE, WINDOW, Array, Callable, Instance, Interval, Options,
+                                         Path, validate, validate_params)
+from granalytics.core.snapshot import META, SNAPSHOT
 
 
 @pytest.mark.parametrize("constraint, good, bad", [

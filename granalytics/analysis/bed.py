@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 
 __all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "drum_confinement",

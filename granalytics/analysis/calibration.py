@@ -31,9 +31,9 @@ import pandas as pd
 
 from granalytics.analysis.size_classes import MeasuredDistribution, SieveGrid, read_sieve_csv, sieve_grid
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.validation import FLAG, POSITIVE, WINDOW, Array, Instance, Interval, Path, validate_params
+from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Array, Instance, Interval, Path, validate_params
 from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE

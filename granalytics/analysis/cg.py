@@ -23,10 +23,10 @@ from granalytics.analysis.confinement import confinement_warning, run_confinemen
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
 from granalytics.outputs import staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE
-from granalytics.core.validation import FLAG, WINDOW, Array, validate_params
+from granalytics.base.validation import FLAG, WINDOW, Array, validate_params
 from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
-from granalytics.core.errors import ParameterError, user_stacklevel
+from granalytics.base.errors import ParameterError, user_stacklevel
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 

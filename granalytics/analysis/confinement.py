@@ -32,8 +32,9 @@ import numpy as np
 import pandas as pd
 
 from granalytics.analysis.bed import DrumConfinement, bed_structure, drum_confinement
-from granalytics.core.errors import ParameterError, ValidationError
-from granalytics.core.validation import FLAG, META, SNAPSHOT, Array, Instance, Interval, validate_params
+from granalytics.base.errors import ParameterError, ValidationError
+from granalytics.base.validation import FLAG, Array, Instance, Interval, validate_params
+from granalytics.core.snapshot import META, SNAPSHOT
 from granalytics.core.snapshot import Snapshot
 from granalytics.analysis.frames import map_frames
 from granalytics.identification import make_identifier

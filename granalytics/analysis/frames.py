@@ -19,9 +19,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from tqdm.auto import tqdm
 
-from granalytics.core.cluster import dask_client
-from granalytics.core.errors import ParameterError
-from granalytics.core.files import raise_dropped_interrupt
+from granalytics.base.cluster import dask_client
+from granalytics.base.errors import ParameterError
+from granalytics.base.interrupts import raise_dropped_interrupt
 
 __all__ = ["frame_indices", "map_frames"]
 
@@ -36,7 +36,7 @@ def _advance(bar) -> None:
     against milliseconds per frame after it): the bar's clock and rate restart after it, so that
     the rate and the time left are those of the frames (the elapsed time shown then counts from
     the end of the first frame). A Ctrl-C that Python dropped during the frame (in a ``__del__`` or
-    GC callback, :func:`~granalytics.core.files.interrupts_not_lost`) is raised here."""
+    GC callback, :func:`~granalytics.base.interrupts.interrupts_not_lost`) is raised here."""
     raise_dropped_interrupt()
     bar.update(1)
     if bar.n == 1 and not bar.disable and bar.total and bar.total > 1:

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.identification.cohesion import DEFAULT_COHESION
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.identification import make_identifier

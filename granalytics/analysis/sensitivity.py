@@ -19,19 +19,19 @@ from granalytics.identification import kernels as _kernels
 from granalytics.analysis.metrics import HEADLINE, GranuleCounts, metric_values
 from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.analysis.frames import map_frames
 from granalytics.identification.contacts import (COMOTION, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, RIGID_SCALE, comotion_mask,
                                                  contact_strength)
 from granalytics.identification.common import A_AGG_DEG, C_AGG, MIN_SIZE, RADIUS_MODE
-from granalytics.core.validation import POSITIVE, Array, Instance, validate_params
+from granalytics.base.validation import POSITIVE, Array, Instance, validate_params
 
 __all__ = ["sensitivity", "sensitivity_summary", "COMOTION_COLUMNS", "comotion_column", "SWEEP_CONSTRAINTS"]
 
 _METRICS = HEADLINE
 #: the column of the co-motion threshold in a sensitivity table, by co-motion test
 COMOTION_COLUMNS = {"angle": "a_agg_deg", "rigid": "rigid_tol"}
-#: the constraints (:mod:`granalytics.core.validation`) of a one-pass threshold sweep's parameters
+#: the constraints (:mod:`granalytics.base.validation`) of a one-pass threshold sweep's parameters
 #: (:func:`sensitivity`, :func:`~granalytics.sieve_grid`): thresholds one number or a list of them
 SWEEP_CONSTRAINTS = {
     "c_agg": [C_AGG, Array(ndim=1, within=C_AGG)], "a_agg_deg": [A_AGG_DEG, Array(ndim=1, within=A_AGG_DEG), None],

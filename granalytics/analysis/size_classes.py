@@ -32,12 +32,13 @@ import numpy as np
 import pandas as pd
 
 from granalytics.analysis.frames import map_frames
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.analysis.sensitivity import SWEEP_CONSTRAINTS, threshold_grid
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, comotion_mask, contact_strength
-from granalytics.core.validation import FLAG, PATH, SNAPSHOT, Array, Instance, Interval, Options, validate_params
+from granalytics.base.validation import FLAG, PATH, Array, Instance, Interval, Options, validate_params
+from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = ["MeasuredDistribution", "read_sieve_csv", "SIEVE_MEASURES", "SUM_TOLERANCE", "sieve_classes", "grid_measurement",
            "SieveGrid", "sieve_grid"]

@@ -16,13 +16,14 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE, STEADY, GranuleCounts, metric_values
 from granalytics.core.windows import clip_window, window_mask, window_tolerance
-from granalytics.core.errors import ParameterError, user_stacklevel
+from granalytics.base.errors import ParameterError, user_stacklevel
 from granalytics.analysis.frames import map_frames
 from granalytics.identification.granules import granule_table
 from granalytics.identification import METHODS, make_identifier
 from granalytics.identification.result import RESULT, IdentificationResult
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.validation import FLAG, SNAPSHOT, WINDOW, Array, Instance, Interval, Options, validate_params
+from granalytics.base.validation import FLAG, WINDOW, Array, Instance, Interval, Options, validate_params
+from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = [
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "combine_replicas",

@@ -11,8 +11,9 @@ from __future__ import annotations
 import math
 import warnings
 
-from granalytics.core.errors import ParameterError, user_stacklevel
-from granalytics.core.validation import META, validate_params
+from granalytics.base.errors import ParameterError, user_stacklevel
+from granalytics.base.validation import validate_params
+from granalytics.core.snapshot import META
 
 __all__ = ["system_of", "run_identity", "check_replicas", "check_one_system"]
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.analysis.frames import frame_indices as _frame_indices
 
 __all__ = ["PARTICLE_COLUMNS", "particle_frames", "write_frames", "particle_table", "granule_tracks",

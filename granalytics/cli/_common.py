@@ -11,8 +11,8 @@ import warnings
 import numpy as np
 
 from granalytics.identification.cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
-from granalytics.core.errors import GranalyticsError, ParameterError, ValidationError
-from granalytics.core.files import check_output_folder, check_replaceable, write_atomically
+from granalytics.base.errors import GranalyticsError, ParameterError, ValidationError
+from granalytics.base.files import check_output_folder, check_replaceable, write_atomically
 from granalytics.identification import BACKENDS, make_identifier
 from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 

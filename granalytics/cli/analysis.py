@@ -11,12 +11,12 @@ import warnings
 
 import numpy as np
 
-from granalytics.core.resources import check_memory
+from granalytics.base.resources import check_memory
 from granalytics.core.windows import clip_window, window_mask
 from granalytics.analysis.metrics import HEADLINE, METRICS
 from granalytics.analysis.system import check_replicas, run_identity
-from granalytics.core.errors import GranalyticsError, ParameterError
-from granalytics.core.files import WriterLock, write_atomically
+from granalytics.base.errors import GranalyticsError, ParameterError
+from granalytics.base.files import WriterLock, write_atomically
 from granalytics.outputs import output_folder, staged_outputs
 from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG

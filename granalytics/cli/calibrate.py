@@ -6,7 +6,7 @@ import os
 
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.cli._common import (add_cohesion_option, add_criterion_options, grid, interval, resolve_rigid_options)
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.outputs import output_folder, staged_outputs
 
 __all__ = ["add_calibrate_parser", "cmd_calibrate"]

@@ -6,8 +6,8 @@ from __future__ import annotations
 import os
 
 
-from granalytics.core.errors import ParameterError
-from granalytics.core.files import WriterLock, check_apart, regular_input
+from granalytics.base.errors import ParameterError
+from granalytics.base.files import WriterLock, check_apart, regular_input
 from granalytics.outputs import output_folder, staged_outputs
 from granalytics.convert.registry import READERS
 from granalytics.core import open_run
@@ -94,7 +94,7 @@ def cmd_subset(args):
 
 
 def cmd_export_vtk(args):
-    from granalytics.core import WriterLock
+    from granalytics.base.files import WriterLock
     from granalytics.export.vtk import export_vtk
 
     pvd_path = os.path.join(args.out, "run.pvd")

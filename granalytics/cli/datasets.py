@@ -8,8 +8,8 @@ from concurrent.futures import ThreadPoolExecutor
 import argparse
 
 from granalytics import datasets
-from granalytics.core.errors import GranalyticsError
-from granalytics.core.files import interrupted
+from granalytics.base.errors import GranalyticsError
+from granalytics.base.interrupts import interrupted
 from granalytics.cli._common import every, interval
 
 

@@ -7,7 +7,8 @@ import json
 import os
 
 from granalytics.cli._common import add_cohesion_option, interval, json_safe, save_figure, threshold_options, write_table
-from granalytics.core import ParameterError, WriterLock
+from granalytics.base.errors import ParameterError
+from granalytics.base.files import WriterLock
 
 _OUTPUTS = ("kernel.csv", "rates.csv", "distributions.csv", "summary.csv", "settings.json", "pbm.png")
 

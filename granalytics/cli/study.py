@@ -10,7 +10,7 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.identification import DEFAULT_METHODS
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.manifest import read_manifest
 from granalytics.plot import growth_figure
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 import os
 
-from granalytics.core.errors import ParameterError
-from granalytics.core.files import WriterLock
+from granalytics.base.errors import ParameterError
+from granalytics.base.files import WriterLock
 from granalytics.outputs import output_folder, staged_outputs
 from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.core import open_run

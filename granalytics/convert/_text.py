@@ -7,8 +7,8 @@ from __future__ import annotations
 import gzip
 import warnings
 
-from granalytics.core.errors import GranalyticsError, user_stacklevel
-from granalytics.core.files import regular_input
+from granalytics.base.errors import GranalyticsError, user_stacklevel
+from granalytics.base.files import regular_input
 
 __all__ = ["DumpFormatError", "read_complete_lines", "load_toml", "warn_unused_contact_steps"]
 

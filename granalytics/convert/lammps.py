@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from granalytics.core.errors import ValidationError
+from granalytics.base.errors import ValidationError
 from granalytics.core.snapshot import RunMeta, Snapshot
 from granalytics.convert._text import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps
 

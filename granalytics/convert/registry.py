@@ -59,7 +59,7 @@ READERS = {r.name: r for r in (
 
 def read_run_files(source, particle_files, contact_files, mapping_path, dt_s=None):
     """``(snapshots, meta)`` of the files of code ``source`` (a :data:`READERS` key)."""
-    from granalytics.core.errors import ParameterError
+    from granalytics.base.errors import ParameterError
 
     try:
         reader = READERS[source]

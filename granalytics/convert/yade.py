@@ -21,7 +21,7 @@ import re
 import numpy as np
 import pandas as pd
 
-from granalytics.core.errors import GranalyticsError, ValidationError
+from granalytics.base.errors import GranalyticsError, ValidationError
 from granalytics.core.snapshot import RunMeta, Snapshot
 from granalytics.convert._capillary import effective_radius, willett_numeric_contact_force
 from granalytics.convert._text import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps

@@ -14,8 +14,9 @@ from __future__ import annotations
 import math
 import os
 
-from granalytics.core.errors import ParameterError
-from granalytics.core.files import one_line, write_atomically
+from granalytics.base.errors import ParameterError
+from granalytics.base.errors import one_line
+from granalytics.base.files import write_atomically
 
 __all__ = ["MANIFEST_NAME", "NAMED_PARAMETERS", "MANIFEST_COLUMNS", "manifest_path", "read_manifest",
            "write_manifest", "manifest_rows", "file_sha256"]

@@ -19,9 +19,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from granalytics.core.errors import ValidationError, user_stacklevel
+from granalytics.base.errors import ValidationError, user_stacklevel
+from granalytics.base.validation import Instance
 
-__all__ = ["RunMeta", "Snapshot"]
+__all__ = ["RunMeta", "Snapshot", "SNAPSHOT", "META"]
 
 
 def json_problem(value) -> str | None:
@@ -503,3 +504,10 @@ def _check_unique(name, keys, what, ci=None, cj=None):
         k = int(order[dup + 1].min())
         shown = f"({int(ci[k])}, {int(cj[k])})" if ci is not None else f"{int(keys[k])}"
         raise ValidationError(name, f"duplicate {what} {shown}", index=k)
+
+
+#: the constraint of an argument that takes one frame of a run (:mod:`granalytics.base.validation`)
+SNAPSHOT = Instance(Snapshot, "a granalytics Snapshot (open the run with granalytics.open_run and pass one frame, "
+                              "e.g. run[0])")
+#: the constraint of an argument that takes a run's metadata
+META = Instance(RunMeta, "a RunMeta (a run's run.meta)")

@@ -9,12 +9,12 @@ from numbers import Integral
 import numpy as np
 
 from granalytics.core.windows import window_mask
-from granalytics.core.files import WriterLock, check_apart, check_replaceable, replaced_atomically
+from granalytics.base.files import WriterLock, check_apart, check_replaceable, replaced_atomically
 from granalytics.core.reader import open_run
 from granalytics.core.writer import RunWriter
-from granalytics.core.errors import RunFileError, ValidationError
+from granalytics.base.errors import RunFileError, ValidationError
 from granalytics.core.snapshot import RunMeta
-from granalytics.core.validation import FLAG, PATH, WINDOW, Array, Interval, Options, validate_params
+from granalytics.base.validation import FLAG, PATH, WINDOW, Array, Interval, Options, validate_params
 
 
 
@@ -73,7 +73,7 @@ def replacing_run(dst, overwrite=False):
     Raises
     ------
     RunFileError
-        ``dst`` exists and not ``overwrite``; :class:`~granalytics.core.errors.RunLockedError` if
+        ``dst`` exists and not ``overwrite``; :class:`~granalytics.base.errors.RunLockedError` if
         another writer holds its lock.
     """
     dst = os.fspath(dst)

@@ -12,13 +12,16 @@ import h5py
 import numpy as np
 
 from granalytics._version import __version__
-from granalytics.core.files import WriterLock, check_not_open_elsewhere, check_replaceable, one_line, raise_dropped_interrupt, _LOCK_SUFFIX
+from granalytics.base.errors import one_line
+from granalytics.base.files import WriterLock, check_not_open_elsewhere, check_replaceable, _LOCK_SUFFIX
+from granalytics.base.interrupts import raise_dropped_interrupt
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS
 from granalytics.core.native import HDF5Handle
 from granalytics.core.reader import open_run
-from granalytics.core.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError
+from granalytics.base.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
-from granalytics.core.validation import FLAG, META, PATH, Instance, Interval, Options, validate_params
+from granalytics.base.validation import FLAG, PATH, Instance, Interval, Options, validate_params
+from granalytics.core.snapshot import META
 
 
 
@@ -33,10 +36,10 @@ def _write_failure(exc) -> str:
 class RunWriter(HDF5Handle):
     """Append snapshots to a new run file, one complete frame at a time.
 
-    The writer holds the lock file ``PATH.lock`` (:class:`~granalytics.core.files.WriterLock`:
+    The writer holds the lock file ``PATH.lock`` (:class:`~granalytics.base.files.WriterLock`:
     the operating system's lock, the file naming the writer's pid and host) from before it creates
     the file until :meth:`close` has finished; a second writer on the same path raises
-    :class:`~granalytics.core.errors.RunLockedError`. A writer that is killed releases the lock
+    :class:`~granalytics.base.errors.RunLockedError`. A writer that is killed releases the lock
     with its process.
 
     Parameters
@@ -159,7 +162,7 @@ class RunWriter(HDF5Handle):
             ``overwrite`` other than True.
         RunFileError
             ``path`` does not exist, cannot be read, or holds fewer than ``n_frames`` complete
-            frames; :class:`~granalytics.core.errors.RunLockedError` if another writer holds its lock.
+            frames; :class:`~granalytics.base.errors.RunLockedError` if another writer holds its lock.
         """
         path, n_frames = os.fspath(path), int(n_frames)
         if kwargs.pop("overwrite", True) is not True:

@@ -11,7 +11,7 @@ import sys
 import threading
 from pathlib import Path
 
-from granalytics.core.errors import GranalyticsError
+from granalytics.base.errors import GranalyticsError
 from granalytics.datasets.catalogue import DATASET_DIR, DATASETS, FOREIGN, SWEEPS, file_sha256
 
 __all__ = ["make_dataset", "make_foreign", "make_sweep", "bundle_sweep"]
@@ -110,10 +110,11 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     import shutil
     import tempfile
 
-    from granalytics.core import WriterLock, open_run, subset_run, thinned_frames
+    from granalytics.base.files import WriterLock
+    from granalytics.core import open_run, subset_run, thinned_frames
     from granalytics.core.manifest import read_manifest
 
-    from granalytics.core.files import check_apart
+    from granalytics.base.files import check_apart
     from granalytics.outputs import swap_folder
 
     src, dst = Path(src), Path(dst)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from granalytics.core.errors import GranalyticsError
+from granalytics.base.errors import GranalyticsError
 from granalytics.core.manifest import file_sha256
 
 __all__ = ["SIMULATOR_PHYSICS_VERSION", "PHYSICS_RECHECKS", "physics_note", "DATASETS", "REPLICAS", "replica_paths", "CONFINEMENT", "confinement_groups", "NOT_BUNDLED", "FOREIGN",

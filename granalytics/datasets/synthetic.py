@@ -15,7 +15,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import RunMeta, Snapshot
 
 __all__ = ["synthetic_meta", "synthetic_snapshot", "write_synthetic_run"]
@@ -220,7 +220,7 @@ def write_synthetic_run(path, n_particles=3000, revolutions=6.0, frames_per_revo
         The run would need more memory or disk than this machine has (its size is named).
     """
     from granalytics.core import RunWriter, replacing_run
-    from granalytics.core.resources import check_disk, check_memory
+    from granalytics.base.resources import check_disk, check_memory
 
     meta = synthetic_meta(n_particles, alpha)
     meta.provenance["command"] = (

@@ -26,13 +26,13 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from granalytics.outputs import staged_outputs
-from granalytics.core.errors import GranalyticsError
+from granalytics.base.errors import GranalyticsError
 from granalytics.analysis.frames import map_frames
 from granalytics.identification import make_identifier
 from granalytics.identification.result import IdentificationResult
 from granalytics.analysis.tracking import track_granules
 from granalytics.analysis.tracking.linking import CONTINUATION
-from granalytics.core.validation import FLAG, validate_params
+from granalytics.base.validation import FLAG, validate_params
 
 __all__ = ["export_vtk", "frame_mesh", "drum_mesh"]
 

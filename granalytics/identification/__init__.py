@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import inspect
 
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.identification.common import Identifier
 from granalytics.identification.community import CommunityDetection
 from granalytics.identification.custom import CustomEdges
@@ -16,7 +16,8 @@ from granalytics.identification.dbscan import DBSCANClustering, DBSCANIdentifier
 from granalytics.identification.gna import BACKENDS, GraphNetworkAnalysis
 from granalytics.identification.result import IdentificationResult
 from granalytics.identification.sieve import VirtualSieve, sieve_analysis
-from granalytics.core.validation import SNAPSHOT, validate_params
+from granalytics.base.validation import validate_params
+from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = [
     "identify", "make_identifier", "METHODS", "DEFAULT_METHODS", "BACKENDS", "method_parameters", "accepted_params", "IdentificationResult", "Identifier",

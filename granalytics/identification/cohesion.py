@@ -24,21 +24,22 @@ from __future__ import annotations
 import numpy as np
 
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.validation import SNAPSHOT, Options, validate, validate_params
+from granalytics.base.validation import Options, validate, validate_params
+from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = ["COHESION_CONVENTIONS", "DEFAULT_COHESION", "COHESION", "check_cohesion", "cohesion_counts",
            "cohesion_counts_all", "cohesive_force"]
 
 COHESION_CONVENTIONS = ("acting", "bridge")
 DEFAULT_COHESION = "acting"
-#: the constraint of a ``cohesion`` argument (:mod:`granalytics.core.validation`)
+#: the constraint of a ``cohesion`` argument (:mod:`granalytics.base.validation`)
 COHESION = Options(COHESION_CONVENTIONS)
 
 
 def check_cohesion(cohesion, where=None) -> str:
-    """``cohesion`` if it names a convention, else a :class:`~granalytics.core.errors.ParameterError`
+    """``cohesion`` if it names a convention, else a :class:`~granalytics.base.errors.ParameterError`
     (naming ``where`` if given), for a function that checks it in its body rather than declaring
-    :data:`COHESION` with :func:`~granalytics.core.validation.validate_params`."""
+    :data:`COHESION` with :func:`~granalytics.base.validation.validate_params`."""
     validate(where, {"cohesion": [COHESION]}, {"cohesion": cohesion})
     return cohesion
 

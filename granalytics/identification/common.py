@@ -14,13 +14,14 @@ import numpy as np
 
 from granalytics.identification import kernels as _kernels
 from granalytics.identification.contacts import A_AGG_DEG, RADIUS_MODE, co_moving, contact_strength, mean_radius, surface_tension
-from granalytics.core.validation import SNAPSHOT, Interval, validate, validate_params
+from granalytics.base.validation import Interval, validate, validate_params
+from granalytics.core.snapshot import SNAPSHOT
 
 #: the paper's thresholds, the defaults of every method that filters contacts by them (GNA, the
 #: sieve over GNA granules, community detection): C_agg (F_coh ≥ C_agg·2πγR) and A_agg [deg]
 PAPER_C_AGG = 0.6
 PAPER_A_AGG_DEG = 20.0
-#: the constraints (:mod:`granalytics.core.validation`) of C_agg, ≥ 0, and of the fewest particles of a granule, ≥ 2
+#: the constraints (:mod:`granalytics.base.validation`) of C_agg, ≥ 0, and of the fewest particles of a granule, ≥ 2
 C_AGG = Interval(Real, 0, None)
 MIN_SIZE = Interval(Integral, 2, None)
 
@@ -36,7 +37,7 @@ class Identifier:
     - a class attribute ``method``, its name in :data:`granalytics.identification.METHODS`;
     - every constructor argument stored under the same attribute name, its constraints declared in
       the class attribute ``_parameter_constraints`` (name -> list of constraints,
-      :mod:`granalytics.core.validation`) and checked when :meth:`identify` runs (``"custom"`` also
+      :mod:`granalytics.base.validation`) and checked when :meth:`identify` runs (``"custom"`` also
       parses its criterion string in the constructor);
     - a keyword argument ``cohesion`` (one of :data:`granalytics.COHESION_CONVENTIONS`), also for
       methods that do not use it: commands and :func:`granalytics.compare_methods` hand it to any method;

@@ -26,7 +26,7 @@ from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
 from granalytics.identification.common import (A_AGG_DEG, C_AGG, PAPER_A_AGG_DEG, PAPER_C_AGG, RADIUS_MODE, Identifier, co_moving,
                                                contact_strength)
 from granalytics.identification.result import IdentificationResult
-from granalytics.core.validation import POSITIVE, Interval
+from granalytics.base.validation import POSITIVE, Interval
 
 __all__ = ["CommunityDetection"]
 

@@ -12,9 +12,10 @@ import pandas as pd
 
 from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION, cohesive_force
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.validation import POSITIVE, SNAPSHOT, Interval, Options, validate_params
+from granalytics.base.validation import POSITIVE, Interval, Options, validate_params
+from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = ["surface_tension", "mean_radius", "RADIUS_MODE", "A_AGG_DEG", "contact_strength", "largest_strength", "co_moving",
            "contact_table", "COMOTION_TESTS", "COMOTION", "DEFAULT_COMOTION", "DEFAULT_RIGID_TOL", "rigid_residual",
@@ -33,7 +34,7 @@ DEFAULT_RIGID_SCALE = "granular"
 #: on lab-cg1 the rigid test passes the share of force-passing pairs the angle test passes at 20°;
 #: docs/identification.md, "The rigid co-motion test")
 DEFAULT_RIGID_TOL = 0.2
-#: constraints (:mod:`granalytics.core.validation`): R in 2πγR, the pair's or the mean radius; A_agg [deg]
+#: constraints (:mod:`granalytics.base.validation`): R in 2πγR, the pair's or the mean radius; A_agg [deg]
 #: in (0, 180]; the co-motion test; the rigid test's velocity scale
 RADIUS_MODE = Options(("pair", "mean"))
 A_AGG_DEG = Interval(Real, 0, 180, closed="right")

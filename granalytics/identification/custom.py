@@ -6,7 +6,7 @@ clauses ``COLUMN OP NUMBER`` / ``NUMBER OP COLUMN`` (:data:`COLUMNS`; OP one of 
 !=``; chained: ``0.2 < f_norm <= 0.8``) joined by ``and``, ``or``, ``not`` and parentheses. A
 string is parsed with :mod:`ast`, checked node by node against that whitelist and evaluated
 with numpy (never ``eval``); anything else is refused with a one-line
-:class:`~granalytics.core.errors.ParameterError` before any data is read.
+:class:`~granalytics.base.errors.ParameterError` before any data is read.
 """
 
 from __future__ import annotations
@@ -17,14 +17,14 @@ import sys
 
 import numpy as np
 
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
 from granalytics.identification.common import RADIUS_MODE, Identifier
 from granalytics.identification.contacts import contact_table
 from granalytics.identification.result import IdentificationResult
-from granalytics.core.validation import POSITIVE, Callable, Instance
+from granalytics.base.validation import POSITIVE, Callable, Instance
 
 __all__ = ["CustomEdges", "COLUMNS", "compile_criterion"]
 

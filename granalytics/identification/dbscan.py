@@ -20,11 +20,11 @@ import numpy as np
 from scipy.sparse import coo_matrix
 
 from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION, cohesion_counts
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.identification.common import Identifier, labels_from_clusters, mean_radius
 from granalytics.identification.result import IdentificationResult
-from granalytics.core.validation import FLAG, POSITIVE, Interval
+from granalytics.base.validation import FLAG, POSITIVE, Interval
 
 __all__ = ["DBSCANClustering", "DBSCANIdentifier"]
 

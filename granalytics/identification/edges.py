@@ -8,9 +8,9 @@ import pandas as pd
 
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import contact_table
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.identification.result import RESULT, IdentificationResult
-from granalytics.core.validation import validate_params
+from granalytics.base.validation import validate_params
 
 __all__ = ["contact_table", "edge_table", "to_networkx", "to_igraph"]
 

@@ -40,7 +40,7 @@ from granalytics.identification.contacts import (COMOTION, DEFAULT_COMOTION, DEF
 from granalytics.identification.common import (A_AGG_DEG, C_AGG, MIN_SIZE, PAPER_A_AGG_DEG, PAPER_C_AGG, RADIUS_MODE, Identifier,
                                                mean_radius, surface_tension)
 from granalytics.identification.result import IdentificationResult
-from granalytics.core.validation import POSITIVE, Options
+from granalytics.base.validation import POSITIVE, Options
 
 __all__ = ["GraphNetworkAnalysis", "BACKENDS"]
 

@@ -8,9 +8,10 @@ from numbers import Integral
 import numpy as np
 import pandas as pd
 
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.validation import SNAPSHOT, Array, validate_params
+from granalytics.base.validation import Array, validate_params
+from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = ["granule_table"]
 

@@ -10,7 +10,7 @@ import pandas as pd
 
 from granalytics.identification.granules import granule_table
 from granalytics.core.snapshot import Snapshot
-from granalytics.core.validation import Instance
+from granalytics.base.validation import Instance
 
 __all__ = ["IdentificationResult", "RESULT"]
 
@@ -70,5 +70,5 @@ class IdentificationResult:
         return {frozenset(ids[order[a:b]].tolist()) for a, b in zip(bounds[:-1], bounds[1:])}
 
 
-#: the constraint of an argument that takes an identification's result (:mod:`granalytics.core.validation`)
+#: the constraint of an argument that takes an identification's result (:mod:`granalytics.base.validation`)
 RESULT = Instance(IdentificationResult, "an IdentificationResult (of granalytics.identify)")

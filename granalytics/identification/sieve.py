@@ -24,12 +24,12 @@ import pandas as pd
 
 from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION
 from granalytics.identification import kernels as _kernels
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
 from granalytics.identification.common import A_AGG_DEG, C_AGG, PAPER_A_AGG_DEG, PAPER_C_AGG, RADIUS_MODE, Identifier, mean_radius
 from granalytics.identification.gna import GraphNetworkAnalysis
 from granalytics.identification.result import IdentificationResult
-from granalytics.core.validation import POSITIVE, Array, Interval, Options
+from granalytics.base.validation import POSITIVE, Array, Interval, Options
 
 __all__ = ["VirtualSieve", "sieve_analysis"]
 

@@ -11,8 +11,9 @@ import time
 import uuid
 from dataclasses import dataclass
 
-from granalytics.core import ParameterError, WriterLock, one_line, warnings_as_lines
-from granalytics.core.cluster import dask_client
+from granalytics.base.errors import ParameterError, one_line, warnings_as_lines
+from granalytics.base.files import WriterLock
+from granalytics.base.cluster import dask_client
 from granalytics.core.manifest import file_sha256, manifest_path, manifest_rows, read_manifest, write_manifest
 
 from ..params import PHYSICS_VERSION, SimParams, frame_interval_steps

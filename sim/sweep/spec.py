@@ -11,7 +11,8 @@ import itertools
 import math
 from dataclasses import dataclass, field
 
-from granalytics.core import ParameterError, regular_input
+from granalytics.base.errors import ParameterError
+from granalytics.base.files import regular_input
 from granalytics.core.manifest import NAMED_PARAMETERS
 
 from ..params import (PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,

@@ -18,7 +18,7 @@ from granalytics.analysis.population_balance.grid import (distribution_summary, 
                                                           size_counts)
 from granalytics.analysis.population_balance.model import PopulationBalance, population_balance
 from granalytics.analysis.tracking import breakage_rate, coalescence_kernel, track_run
-from granalytics.core import ParameterError
+from granalytics.base.errors import ParameterError
 
 
 @dataclass(eq=False)

@@ -15,8 +15,8 @@ from numbers import Integral, Real
 import numpy as np
 import pandas as pd
 
-from granalytics.core import ParameterError
-from granalytics.core.validation import Array, Interval, validate_params
+from granalytics.base.errors import ParameterError
+from granalytics.base.validation import Array, Interval, validate_params
 
 #: the constraint of a ``grid`` of pivots (:func:`check_grid` checks the rest: increasing whole
 #: numbers from 1)

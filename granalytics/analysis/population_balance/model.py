@@ -47,8 +47,8 @@ import pandas as pd
 
 from granalytics.analysis.population_balance.grid import (GRID, RATIO, check_grid, distribution_summary, pbm_grid,
                                                           pivot_weights, project_counts)
-from granalytics.core import ParameterError
-from granalytics.core.validation import POSITIVE, Array, Callable, Instance, Interval, Options, validate_params
+from granalytics.base.errors import ParameterError
+from granalytics.base.validation import POSITIVE, Array, Callable, Instance, Interval, Options, validate_params
 
 
 #: the value columns of a per-class rate table that each mechanism reads

@@ -13,8 +13,8 @@ from numbers import Real
 import numpy as np
 
 from granalytics.analysis.study.table import growth_rows
-from granalytics.core.errors import ParameterError, user_stacklevel
-from granalytics.core.validation import Array, Interval, Options, validate_params
+from granalytics.base.errors import ParameterError, user_stacklevel
+from granalytics.base.validation import Array, Interval, Options, validate_params
 
 
 #: the paper's Fig 7 law ⟨V_g⟩/V_p = β(γ − γ₁): slope and onset [N/m]

@@ -13,8 +13,8 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.study.table import select_cohesion
-from granalytics.core.errors import ParameterError, user_stacklevel
-from granalytics.core.validation import Array, Instance, Interval, validate_params
+from granalytics.base.errors import ParameterError, user_stacklevel
+from granalytics.base.validation import Array, Instance, Interval, validate_params
 from granalytics.identification.cohesion import COHESION
 
 

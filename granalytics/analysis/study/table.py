@@ -17,9 +17,9 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, combine_replicas
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 from granalytics.core.manifest import MANIFEST_COLUMNS, file_sha256, read_manifest
-from granalytics.core.validation import FLAG, Array, Instance, Path, validate_params
+from granalytics.base.validation import FLAG, Array, Instance, Path, validate_params
 from granalytics.identification.cohesion import COHESION, check_cohesion
 
 

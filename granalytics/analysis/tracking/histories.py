@@ -14,7 +14,7 @@ import pandas as pd
 
 from granalytics.analysis.stats import size_unit_factor
 from granalytics.analysis.tracking.tracks import TRACKS, GranuleTracks
-from granalytics.core.validation import Interval, validate_params
+from granalytics.base.validation import Interval, validate_params
 
 
 @validate_params({"tracks": [TRACKS], "n": [Interval(Integral, 0, None)]})

@@ -17,14 +17,14 @@ import numpy as np
 from granalytics.analysis.tracking.steps import (aligned, smallest_ids, sorted_by_id, step_events,
                                                  step_fates, step_links, step_tracks)
 from granalytics.analysis.tracking.tracks import GranuleTracks, events_table, tracks_table
-from granalytics.core.errors import ParameterError
-from granalytics.core.validation import FLAG, Array, Instance, Interval, Options, validate_params
+from granalytics.base.errors import ParameterError
+from granalytics.base.validation import FLAG, Array, Instance, Interval, Options, validate_params
 
 
 #: Continuation rules of :func:`track_granules`: ``"main"`` (the main branch continues through
 #: coalescence and breakage) and ``"strict"`` (every coalescence and breakage starts new tracks).
 CONTINUATIONS = ("main", "strict")
-#: the constraint of a ``continuation`` argument (:mod:`granalytics.core.validation`)
+#: the constraint of a ``continuation`` argument (:mod:`granalytics.base.validation`)
 CONTINUATION = Options(CONTINUATIONS)
 #: a sequence with one entry per frame
 _PER_FRAME = Instance((list, tuple, np.ndarray), "a sequence with one entry per frame")

@@ -22,8 +22,8 @@ import pandas as pd
 from granalytics.analysis.stats import size_unit_factor
 from granalytics.analysis.tracking.tracks import GranuleTracks, KINDS, TRACKS
 from granalytics.core.windows import window_tolerance
-from granalytics.core.errors import ParameterError, user_stacklevel
-from granalytics.core.validation import POSITIVE, Array, Instance, Interval, Options, validate_params
+from granalytics.base.errors import ParameterError, user_stacklevel
+from granalytics.base.validation import POSITIVE, Array, Instance, Interval, Options, validate_params
 
 #: the constraints of the rates by size class: class edges, whole numbers >= 1
 _CLASS_CONSTRAINTS = {"tracks": [TRACKS], "size_bins": [Array(ndim=1, within=Interval(Real, 1, None)), None],

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from granalytics.analysis.tracking.tracks import BIRTH, BREAK, COAL, DEATH, ENDS, ORIGINS, EventRows
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 
 
 def sorted_by_id(labels, ids, k):

@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
-from granalytics.core.validation import Instance
+from granalytics.base.validation import Instance
 
 
 #: Event kinds, in the order rows of one step are listed.
@@ -110,7 +110,7 @@ class GranuleTracks:
         return self.events["kind"].value_counts().reindex(list(KINDS), fill_value=0).astype(int)
 
 
-#: the constraint of a ``tracks`` argument (:mod:`granalytics.core.validation`)
+#: the constraint of a ``tracks`` argument (:mod:`granalytics.base.validation`)
 TRACKS = Instance(GranuleTracks, "a GranuleTracks (track_run's or track_granules' result)")
 
 

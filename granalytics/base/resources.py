@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 import shutil
 
-from granalytics.core.errors import ParameterError
+from granalytics.base.errors import ParameterError
 
 #: the largest share of this machine's physical memory one request may need
 MEMORY_FRACTION = 0.5

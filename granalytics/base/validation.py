@@ -22,11 +22,10 @@ from numbers import Integral, Real
 
 import numpy as np
 
-from granalytics.core.errors import ParameterError
-from granalytics.core.snapshot import RunMeta, Snapshot
+from granalytics.base.errors import ParameterError
 
 __all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Window", "Callable", "Path", "POSITIVE", "FLAG",
-           "SNAPSHOT", "META", "PATH", "WINDOW", "shown", "validate", "validate_params"]
+           "PATH", "WINDOW", "shown", "validate", "validate_params"]
 
 
 def shown(value, limit=60) -> str:
@@ -200,11 +199,6 @@ class Path(Constraint):
 POSITIVE = Interval(Real, 0, None, closed="neither")
 #: True or False (NumPy's bools included); never text such as "no" read by its truth value
 FLAG = Instance((bool, np.bool_), "True or False")
-#: one frame of a run
-SNAPSHOT = Instance(Snapshot, "a granalytics Snapshot (open the run with granalytics.open_run and pass one frame, "
-                              "e.g. run[0])")
-#: a run's metadata
-META = Instance(RunMeta, "a RunMeta (a run's run.meta)")
 #: a file name
 PATH = Path()
 #: a window (lo, hi) [revolutions or s]

@@ -1,12 +1,11 @@
-"""Files that granalytics and the simulator write: shared helpers (public, used by both packages).
+"""Output files: written whole or not at all, one writer at a time, never over a source.
 
 - :func:`replaced_atomically` / :func:`write_atomically`: write into a temporary file beside the
   target and rename it into place only when the writing succeeded;
-- :func:`check_output_folder`: refuse an output whose folder is missing or not writable, before
-  the work that makes it;
-- :class:`WriterLock`: one writer at a time on an output (the lock file ``OUTPUT.lock``);
-- :func:`one_line` and :func:`warnings_as_lines`: errors and warnings as one line each, as every
-  command line of the project prints them.
+- :func:`check_output_folder`, :func:`check_replaceable`, :func:`check_apart`,
+  :func:`check_not_open_elsewhere`: refuse an output that cannot or must not be written, before
+  the work that makes it; :func:`regular_input`: refuse an input that cannot be read as a file;
+- :class:`WriterLock`: one writer at a time on an output (the lock file ``OUTPUT.lock``).
 """
 
 from __future__ import annotations
@@ -15,16 +14,14 @@ import contextlib
 import json
 import os
 import socket
-import sys
 import time as _time
-import warnings
 
-from granalytics.core.errors import ParameterError, RunFileError, RunLockedError
-from granalytics.core.validation import PATH, validate_params
+from granalytics.base.errors import ParameterError, RunFileError, RunLockedError, one_line
+from granalytics.base.interrupts import raise_dropped_interrupt
+from granalytics.base.validation import PATH, validate_params
 
-__all__ = ["check_not_open_elsewhere", "terminate_as_interrupt", "replaced_atomically", "write_atomically", "check_output_folder", "check_apart", "WriterLock", "one_line",
-           "warnings_as_lines", "regular_input", "interrupted",
-           "check_replaceable", "interrupts_not_lost", "raise_dropped_interrupt"]
+__all__ = ["replaced_atomically", "write_atomically", "check_output_folder", "check_replaceable", "check_apart",
+           "check_not_open_elsewhere", "regular_input", "WriterLock"]
 
 
 @contextlib.contextmanager
@@ -148,98 +145,8 @@ def check_not_open_elsewhere(path) -> None:
                                "replaced)") from None
 
 
+
 _LOCK_SUFFIX = ".lock"
-
-
-@contextlib.contextmanager
-def terminate_as_interrupt():
-    """Inside, SIGTERM (``kill PID``, a batch system's time limit) is raised as a KeyboardInterrupt,
-    so that the clean-up of a Ctrl-C runs for it too: staged outputs and ``.staging-*`` folders
-    removed, lock files released. Only the main thread receives signals; elsewhere nothing is
-    changed."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def raise_interrupt(signum, frame):
-        raise KeyboardInterrupt("SIGTERM")
-
-    previous = signal.signal(signal.SIGTERM, raise_interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
-def interrupted(exc) -> bool:
-    """Whether ``exc`` is a Ctrl-C: a KeyboardInterrupt, or the SystemError that a numba kernel
-    raises when the interrupt arrives while it runs ("... returned a result with an exception set"),
-    however deep the chain: an interrupt inside numba's unpickling of a cached kernel comes as a
-    SystemError caused by a SystemError caused by the KeyboardInterrupt."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        if not isinstance(exc, SystemError) and seen:
-            return False
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
-
-
-#: Ctrl-Cs that Python dropped inside :func:`interrupts_not_lost` (raised where they could not
-#: propagate), waiting for :func:`raise_dropped_interrupt`
-_DROPPED = []
-
-
-# Hand-written: no library recovers the Ctrl-C that Python drops in a __del__ or GC callback.
-@contextlib.contextmanager
-def interrupts_not_lost():
-    """Inside: a Ctrl-C is never dropped. Python raises the KeyboardInterrupt of a SIGINT in
-    whatever code runs when it arrives; in a ``__del__`` method or a weakref or garbage-collection
-    callback (an llvmlite object freed, a WeakValueDictionary entry removed) it cannot propagate,
-    is printed as "Exception ignored in ..." and dropped, and a command went on to finish with
-    exit status 0. Here such an interrupt is recorded instead (nothing printed) and raised by
-    :func:`raise_dropped_interrupt` at the next point that checks: after each frame of the frame
-    loop, before any output replaces an earlier one, and when the command returns. Only the main
-    thread receives signals; elsewhere nothing is changed."""
-    import sys
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = sys.unraisablehook
-
-    def record(unraisable):
-        if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt):
-            _DROPPED.append(unraisable.exc_type)
-            return
-        previous(unraisable)
-
-    _DROPPED.clear()
-    sys.unraisablehook = record
-    try:
-        yield
-    finally:
-        sys.unraisablehook = previous
-        _DROPPED.clear()
-
-
-def raise_dropped_interrupt() -> None:
-    """Raise the KeyboardInterrupt of a Ctrl-C that Python dropped inside
-    :func:`interrupts_not_lost`; nothing if there was none."""
-    if _DROPPED:
-        _DROPPED.clear()
-        raise KeyboardInterrupt
-
-
-def one_line(exc) -> str:
-    """An exception's message on one line."""
-    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 class WriterLock:
@@ -253,7 +160,7 @@ class WriterLock:
         with WriterLock("study/manifest.csv"):
             ...
 
-    A lock that another writer holds raises :class:`~granalytics.core.errors.RunLockedError`,
+    A lock that another writer holds raises :class:`~granalytics.base.errors.RunLockedError`,
     naming the lock file and its holder. The lock file is removed on release.
     """
 
@@ -325,15 +232,3 @@ def _process_is_gone(pid) -> bool:
     except OSError:  # exists, owned by another user
         return False
     return False
-
-
-@contextlib.contextmanager
-def warnings_as_lines(prog):
-    """Inside: every warning that Python's filters let through is printed as one line
-    ``PROG: warning: message`` on stderr, instead of Python's file, line and source."""
-    def show(message, category, filename, lineno, file=None, line=None):
-        print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
-
-    with warnings.catch_warnings():
-        warnings.showwarning = show
-        yield

@@ -1,18 +1,21 @@
-"""Exceptions raised by granalytics, and where its warnings point.
+"""Exceptions raised by granalytics, and errors and warnings as a user sees them.
 
 Every problem with user input (a file, a frame, a parameter) raises a subclass of
 :class:`GranalyticsError`. The command-line interface turns these into one line on stderr
-and exit status 2; the Python API lets them propagate. A warning points at the user's call
-(:func:`user_stacklevel`).
+(:func:`one_line`) and exit status 2; the Python API lets them propagate. A warning points at the
+user's call (:func:`user_stacklevel`); a command line prints it as one line
+(:func:`warnings_as_lines`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
+import warnings
 
 __all__ = ["GranalyticsError", "ValidationError", "RunFileError", "RunWriteError", "RunLockedError", "ParameterError",
-           "FrameKeyError", "exit_after_write_failure", "user_stacklevel"]
+           "FrameKeyError", "exit_after_write_failure", "user_stacklevel", "one_line", "warnings_as_lines"]
 
 _PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
 
@@ -93,9 +96,6 @@ class RunWriteError(RunFileError):
 def exit_after_write_failure(status: int) -> None:
     """End the process with ``status`` without the interpreter's shutdown (streams flushed), after
     a :class:`RunWriteError`: closing the broken HDF5 file at exit would be a segmentation fault."""
-    import os
-    import sys
-
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
@@ -119,3 +119,20 @@ class ParameterError(GranalyticsError, ValueError):
 class FrameKeyError(ParameterError, TypeError):
     """A run indexed by something other than an int or a slice: granalytics' error, and a
     TypeError as Python's sequences raise for such a key."""
+
+
+def one_line(exc) -> str:
+    """An exception's message on one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+@contextlib.contextmanager
+def warnings_as_lines(prog):
+    """Inside: every warning that Python's filters let through is printed as one line
+    ``PROG: warning: message`` on stderr, instead of Python's file, line and source."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield

@@ -9,8 +9,8 @@ import contextlib
 import logging
 import os
 
-from granalytics.core.errors import ParameterError
-from granalytics.core.files import one_line
+from granalytics.base.errors import ParameterError
+from granalytics.base.errors import one_line
 
 __all__ = ["dask_client"]
 
