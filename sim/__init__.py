@@ -15,10 +15,31 @@ Public force laws (numpy arrays in, SI units):
 ``sim.capillary.rupture_distance_scalar``, with the effective radius as argument.)
 """
 
-from .capillary import CAPILLARY_MODELS
-from .capillary import pair_capillary_force as capillary_force
-from .capillary import pair_rupture_distance as rupture_distance
-from .params import PRESETS, SimParams, preset
-from .params import cg_scale as scale_parameters
+import importlib
+
+#: public name -> (module, name there), imported on first use (PEP 562): ``python -m sim`` starts
+#: without loading numba, so that a Ctrl-C while it loads is held (``sim/__main__.py``)
+_EXPORTS = {
+    "capillary_force": (".capillary", "pair_capillary_force"),
+    "rupture_distance": (".capillary", "pair_rupture_distance"),
+    "CAPILLARY_MODELS": (".capillary", "CAPILLARY_MODELS"),
+    "scale_parameters": (".params", "cg_scale"),
+    "SimParams": (".params", "SimParams"),
+    "PRESETS": (".params", "PRESETS"),
+    "preset": (".params", "preset"),
+}
 
 __all__ = ["capillary_force", "rupture_distance", "scale_parameters", "SimParams", "PRESETS", "preset", "CAPILLARY_MODELS"]
+
+
+def __getattr__(name):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'sim' has no attribute {name!r}")
+    module, attribute = _EXPORTS[name]
+    value = getattr(importlib.import_module(module, __name__), attribute)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -433,3 +433,33 @@ def test_a_simulation_that_becomes_unstable_stops_naming_the_particle(cli, tmp_p
     monkeypatch.setattr(sim.run.Simulation, "_advance", advance)
     code, err = cli("unstable.h5")
     assert code == 1 and len(err) == 1 and "became unstable at step" in err[0] and "not finite" in err[0], err
+
+
+def test_a_ctrl_c_while_the_simulator_loads_is_one_line_and_exit_130(monkeypatch, capsys):
+    """``python -m sim`` loads numba for a fraction of a second; a Ctrl-C then printed a traceback
+    and the process died by SIGINT, or was swallowed inside a library's import and the command ran
+    on. Here the Ctrl-C comes inside an import that swallows it, as such a library does."""
+    import builtins
+    import os
+    import runpy
+    import signal
+    import time
+
+    real = builtins.__import__
+
+    def swallowing_import(name, *args, **kwargs):
+        if name == "sim.cli":
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)
+            except BaseException:  # noqa: BLE001 - what a bare except around an optional import does
+                pass
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", swallowing_import)
+    monkeypatch.setattr("sys.argv", ["sim", "--help"])
+    with pytest.raises(SystemExit) as stop:
+        runpy.run_module("sim", run_name="__main__")
+    assert stop.value.code == 130
+    assert capsys.readouterr().err.strip() == "sim: interrupted before any work; nothing was written"
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -5,7 +5,28 @@ from __future__ import annotations
 
 import contextlib
 
-__all__ = ["terminate_as_interrupt", "interrupted", "interrupts_not_lost", "raise_dropped_interrupt"]
+__all__ = ["interrupts_held", "terminate_as_interrupt", "interrupted", "interrupts_not_lost", "raise_dropped_interrupt"]
+
+
+@contextlib.contextmanager
+def interrupts_held():
+    """Inside, a Ctrl-C (SIGINT) is recorded instead of raised; yields the list of the signals held,
+    for the caller to act on after the block. For a program's imports: raised inside a library's
+    import, a KeyboardInterrupt can be swallowed by the library (an ``except:`` around an optional
+    import, and the command then runs to its end) or leave CPython to end the process by SIGINT.
+    Only the main thread receives signals; elsewhere nothing is held."""
+    import signal
+    import threading
+
+    held = []
+    if threading.current_thread() is not threading.main_thread():
+        yield held
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    try:
+        yield held
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
