@@ -11,7 +11,7 @@ import os
 
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import check_replaceable
-from granalytics.base.interrupts import raise_dropped_interrupt
+from granalytics.base.interrupts import interrupts_held, raise_dropped_interrupt
 
 __all__ = ["staged_outputs", "swap_folder", "output_folder"]
 
@@ -57,7 +57,7 @@ def _swap_in(staging) -> None:
     swap) every target done so far is put back as it was and the error (the interrupt) raised."""
     done = []  # (target, where its earlier version was set aside, or None if it had none)
     raise_dropped_interrupt()
-    with _interrupts_held() as held:
+    with interrupts_held() as held:
         try:
             for target, tmp in staging.items():
                 old = None
@@ -89,7 +89,7 @@ def swap_folder(new, dst) -> None:
     new, dst = os.fspath(new), os.fspath(dst)
     aside = f"{dst}.old-{os.getpid()}" if os.path.lexists(dst) else None
     raise_dropped_interrupt()
-    with _interrupts_held() as held:
+    with interrupts_held() as held:
         if aside is not None:
             os.replace(dst, aside)
         try:
@@ -103,24 +103,6 @@ def swap_folder(new, dst) -> None:
             raise
     if aside is not None:
         shutil.rmtree(aside, ignore_errors=True)
-
-
-@contextlib.contextmanager
-def _interrupts_held():
-    """Inside: a Ctrl-C (SIGINT) is recorded instead of raised; yields a list that is non-empty
-    once one arrived. Only the main thread receives signals; elsewhere nothing is changed."""
-    import signal
-    import threading
-
-    arrived = []
-    if threading.current_thread() is not threading.main_thread():
-        yield arrived
-        return
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
-    try:
-        yield arrived
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager

@@ -86,3 +86,26 @@ def former_lab_original(n_particles):
     bed_volume = 10_000 * math.pi * 1.5e-3**3 / 6 / 0.6
     radius = (bed_volume / (0.25 * math.pi * 0.6)) ** (1 / 3)
     return SimParams(n_particles=n_particles, drum_radius=radius, drum_length=0.6 * radius, spray_radius=0.63 * radius)
+
+
+def swallow_an_interrupt_in_import(monkeypatch, module):
+    """Make ``import module`` (``from module import ...``) receive a Ctrl-C that it swallows, as a
+    library does with a bare ``except:`` around an optional import."""
+    import builtins
+    import os
+    import signal
+    import time
+
+    real = builtins.__import__
+
+    def swallowing_import(name, *args, **kwargs):
+        if name == module:
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)
+            except BaseException:  # noqa: BLE001 - what a bare except around an optional import does
+                pass
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", swallowing_import)
+

@@ -8,6 +8,7 @@ import shutil
 import pandas as pd
 import pytest
 
+from conftest import swallow_an_interrupt_in_import
 import granalytics as ga
 from granalytics.cli import main
 from granalytics.datasets.synthetic import write_synthetic_run
@@ -397,25 +398,11 @@ def test_a_ctrl_c_while_the_commands_load_is_held_not_lost_in_a_library(monkeypa
     Ctrl-C that was raised inside it, and the command ran to its end with status 0 (seen in 1 of 40
     interrupts under load); one raised inside a nested PyRun call left CPython to end the process
     by SIGINT after the message. While the commands load, the Ctrl-C is held and then acted on."""
-    import builtins
-    import os
     import signal
-    import time
 
     import granalytics.__main__ as entry
 
-    real = builtins.__import__
-
-    def swallowing_import(name, *args, **kwargs):
-        if name == "granalytics.cli":
-            try:
-                os.kill(os.getpid(), signal.SIGINT)
-                time.sleep(0.05)
-            except BaseException:  # noqa: BLE001 - what a bare except around an optional import does
-                pass
-        return real(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", swallowing_import)
+    swallow_an_interrupt_in_import(monkeypatch, "granalytics.cli")
     assert entry.main(["--version"]) == 130
     assert capsys.readouterr().err.strip() == "granalytics: interrupted before any work; nothing was written"
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -1,5 +1,6 @@
 import pytest
 
+from conftest import swallow_an_interrupt_in_import
 from sim.cli import main
 from sim.params import PRESETS
 
@@ -439,24 +440,10 @@ def test_a_ctrl_c_while_the_simulator_loads_is_one_line_and_exit_130(monkeypatch
     """``python -m sim`` loads numba for a fraction of a second; a Ctrl-C then printed a traceback
     and the process died by SIGINT, or was swallowed inside a library's import and the command ran
     on. Here the Ctrl-C comes inside an import that swallows it, as such a library does."""
-    import builtins
-    import os
     import runpy
     import signal
-    import time
 
-    real = builtins.__import__
-
-    def swallowing_import(name, *args, **kwargs):
-        if name == "sim.cli":
-            try:
-                os.kill(os.getpid(), signal.SIGINT)
-                time.sleep(0.05)
-            except BaseException:  # noqa: BLE001 - what a bare except around an optional import does
-                pass
-        return real(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", swallowing_import)
+    swallow_an_interrupt_in_import(monkeypatch, "sim.cli")
     monkeypatch.setattr("sys.argv", ["sim", "--help"])
     with pytest.raises(SystemExit) as stop:
         runpy.run_module("sim", run_name="__main__")
