@@ -41,8 +41,8 @@ import importlib
 from granalytics._version import __version__
 
 #: public name -> the module that defines it (imported on first use, PEP 562: ``import granalytics``
-#: loads no analysis module, so that the simulator, which needs only :mod:`granalytics.core`,
-#: stays light)
+#: loads no analysis module, so that the simulator, which needs only :mod:`granalytics.core` and
+#: :mod:`granalytics.base`, stays light)
 _EXPORTS = {
     **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".base.errors"),
     **dict.fromkeys(("CGComparison", "cg_rule_of", "compare_cg", "compare_cg_thresholds"), ".analysis.cg"),

@@ -142,7 +142,7 @@ def _draws(module):
 @pytest.mark.parametrize("package", ["granalytics/analysis", "granalytics/identification", "granalytics/core",
                                      "granalytics/base"])
 def test_only_plot_and_the_command_line_draw(package):
-    """The analysis, identification and core layers compute; no module of theirs imports
+    """The analysis, identification, core and base layers compute; no module of theirs imports
     granalytics.plot or matplotlib, not even inside a function (figures are drawn by plot.py from
     their results, and written by the command line)."""
     offenders = [f"{name}:{line} imports {module}" for name, path in _modules(package)

@@ -408,6 +408,25 @@ def test_a_ctrl_c_while_the_commands_load_is_held_not_lost_in_a_library(monkeypa
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+def test_a_sigint_that_the_process_ignores_stays_ignored_while_the_commands_load():
+    """A script's background job (``cmd &``) is started with SIGINT ignored and must survive a
+    Ctrl-C; holding the interrupt while the commands load turned it into exit 130."""
+    import signal
+    import time
+
+    from granalytics.base.interrupts import interrupts_held
+
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with interrupts_held() as held:
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        assert held == [] and signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def test_ctrl_c_inside_a_numba_kernel_is_an_interrupt_too(run_file, tmp_path, monkeypatch, capsys):
     """A Ctrl-C while a numba kernel runs surfaces as SystemError ('... returned a result with an
     exception set'), which export-vtk printed as a traceback with exit 1."""

@@ -440,13 +440,11 @@ def test_a_ctrl_c_while_the_simulator_loads_is_one_line_and_exit_130(monkeypatch
     """``python -m sim`` loads numba for a fraction of a second; a Ctrl-C then printed a traceback
     and the process died by SIGINT, or was swallowed inside a library's import and the command ran
     on. Here the Ctrl-C comes inside an import that swallows it, as such a library does."""
-    import runpy
     import signal
 
+    import sim.__main__ as entry
+
     swallow_an_interrupt_in_import(monkeypatch, "sim.cli")
-    monkeypatch.setattr("sys.argv", ["sim", "--help"])
-    with pytest.raises(SystemExit) as stop:
-        runpy.run_module("sim", run_name="__main__")
-    assert stop.value.code == 130
+    assert entry.main(["--help"]) == 130
     assert capsys.readouterr().err.strip() == "sim: interrupted before any work; nothing was written"
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

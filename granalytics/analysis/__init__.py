@@ -10,7 +10,7 @@
   per-track tables;
 - :mod:`.study`: parameter studies (tables, replicas, growth fits, surrogates).
 
-It imports the identification layer (:mod:`granalytics.identification`) and the core
-(:mod:`granalytics.core`), never the command line, the plots or the exports. Public names are
+It imports the identification layer (:mod:`granalytics.identification`), the core
+(:mod:`granalytics.core`) and the base (:mod:`granalytics.base`), never the command line, the plots or the exports. Public names are
 re-exported by the top-level package; import them from there.
 """

@@ -34,8 +34,7 @@ import pandas as pd
 from granalytics.analysis.bed import DrumConfinement, bed_structure, drum_confinement
 from granalytics.base.errors import ParameterError, ValidationError
 from granalytics.base.validation import FLAG, Array, Instance, Interval, validate_params
-from granalytics.core.snapshot import META, SNAPSHOT
-from granalytics.core.snapshot import Snapshot
+from granalytics.core.snapshot import META, SNAPSHOT, Snapshot
 from granalytics.analysis.frames import map_frames
 from granalytics.identification import make_identifier
 from granalytics.core import open_run

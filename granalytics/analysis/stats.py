@@ -21,9 +21,8 @@ from granalytics.analysis.frames import map_frames
 from granalytics.identification.granules import granule_table
 from granalytics.identification import METHODS, make_identifier
 from granalytics.identification.result import RESULT, IdentificationResult
-from granalytics.core.snapshot import Snapshot
+from granalytics.core.snapshot import SNAPSHOT, Snapshot
 from granalytics.base.validation import FLAG, WINDOW, Array, Instance, Interval, Options, validate_params
-from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = [
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "combine_replicas",

@@ -8,8 +8,8 @@ contract, each imported from its own module (this package imports none of them).
 - :mod:`.resources`: memory and disk needs refused up front;
 - :mod:`.cluster`: a dask cluster for sweeps and frame loops.
 
-It imports nothing of granalytics above it, and its modules load NumPy at most (h5py, filelock,
-pandas and dask inside the functions that need them); :mod:`.interrupts` loads the standard library
+It imports nothing of granalytics above it, and its modules load NumPy at most (h5py, filelock
+and dask inside the functions that need them); :mod:`.interrupts` loads the standard library
 only, so that a program can hold a Ctrl-C from its first line
 (:func:`~granalytics.base.interrupts.interrupts_held`).
 """

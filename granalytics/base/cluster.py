@@ -9,8 +9,7 @@ import contextlib
 import logging
 import os
 
-from granalytics.base.errors import ParameterError
-from granalytics.base.errors import one_line
+from granalytics.base.errors import ParameterError, one_line
 
 __all__ = ["dask_client"]
 

@@ -14,12 +14,14 @@ def interrupts_held():
     for the caller to act on after the block. For a program's imports: raised inside a library's
     import, a KeyboardInterrupt can be swallowed by the library (an ``except:`` around an optional
     import, and the command then runs to its end) or leave CPython to end the process by SIGINT.
-    Only the main thread receives signals; elsewhere nothing is held."""
+    Only the main thread receives signals; elsewhere nothing is held, and neither where SIGINT is
+    ignored (a script's background job) or handled outside Python."""
     import signal
     import threading
 
     held = []
-    if threading.current_thread() is not threading.main_thread():
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None):
         yield held
         return
     previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))

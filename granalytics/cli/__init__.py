@@ -18,9 +18,7 @@ import os
 import sys
 
 from granalytics._version import __version__
-from granalytics.base.errors import GranalyticsError
-from granalytics.base.errors import RunWriteError, exit_after_write_failure
-from granalytics.base.errors import warnings_as_lines
+from granalytics.base.errors import GranalyticsError, RunWriteError, exit_after_write_failure, warnings_as_lines
 from granalytics.base.interrupts import (interrupted, interrupts_not_lost, raise_dropped_interrupt,
                                          terminate_as_interrupt)
 from granalytics.cli import analysis, calibrate, data, datasets, pbm, study, tracking

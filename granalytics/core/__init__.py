@@ -1,5 +1,5 @@
-"""The core layer: the run-file contract, everything the simulator (``sim``) needs from
-granalytics to write runs and sweeps, and nothing that analyses granules.
+"""The core layer: the run-file contract, the part of granalytics the simulator (``sim``) writes
+runs and sweeps through, and nothing that analyses granules.
 
 Modules: :mod:`.snapshot` (:class:`Snapshot`, :class:`RunMeta`), :mod:`.format` (the HDF5 layout,
 ``docs/format.md``), :mod:`.writer` (:class:`RunWriter`), :mod:`.reader` (:func:`open_run`,

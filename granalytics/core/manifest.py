@@ -14,8 +14,7 @@ from __future__ import annotations
 import math
 import os
 
-from granalytics.base.errors import ParameterError
-from granalytics.base.errors import one_line
+from granalytics.base.errors import ParameterError, one_line
 from granalytics.base.files import write_atomically
 
 __all__ = ["MANIFEST_NAME", "NAMED_PARAMETERS", "MANIFEST_COLUMNS", "manifest_path", "read_manifest",

@@ -13,9 +13,8 @@ import re
 
 import h5py
 
-from granalytics.base.errors import one_line
+from granalytics.base.errors import RunFileError, one_line
 from granalytics.core.format import CHUNK_CACHE_BYTES, SWMR_READ_ATTEMPTS
-from granalytics.base.errors import RunFileError
 
 #: how a message tells the user what to do with another code's output
 CONVERT_HINT = ("; output of LIGGGHTS/LAMMPS or YADE is read by `granalytics convert` into a run file "

@@ -13,14 +13,13 @@ from numbers import Integral, Real
 import h5py
 import numpy as np
 
-from granalytics.base.errors import one_line
+from granalytics.base.errors import (FrameKeyError, GranalyticsError, ParameterError, RunFileError, ValidationError,
+                                     one_line, user_stacklevel)
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_DATASETS, CONTACT_LAYOUT, PARTICLE_LAYOUT, PER_FRAME_DATASETS
 from granalytics.core.native import CONVERT_HINT, HDF5Handle, open_h5
 from granalytics.base.resources import check_memory
 from granalytics.base.validation import FLAG, PATH, WINDOW, Array, Instance, Interval, validate, validate_params
 from granalytics.core.windows import window_mask
-from granalytics.base.errors import (FrameKeyError, GranalyticsError, ParameterError, RunFileError, ValidationError,
-                                     user_stacklevel)
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
 
 

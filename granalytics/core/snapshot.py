@@ -7,6 +7,9 @@ Contacts and liquid bridges are stored as pairs of *row indices* into the snapsh
 arrays (not particle ids), with ``contact_i < contact_j``. A pair appears at most once: a pair
 that touches and shares a liquid bridge is one entry carrying both its forces and its bridge
 volume.
+
+:data:`SNAPSHOT` and :data:`META` are the constraints of an argument that takes a frame or a run's
+metadata (:mod:`granalytics.base.validation`).
 """
 
 from __future__ import annotations

@@ -12,16 +12,14 @@ import h5py
 import numpy as np
 
 from granalytics._version import __version__
-from granalytics.base.errors import one_line
+from granalytics.base.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError, one_line
 from granalytics.base.files import WriterLock, check_not_open_elsewhere, check_replaceable, _LOCK_SUFFIX
 from granalytics.base.interrupts import raise_dropped_interrupt
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS
 from granalytics.core.native import HDF5Handle
 from granalytics.core.reader import open_run
-from granalytics.base.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError
-from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
+from granalytics.core.snapshot import META, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
 from granalytics.base.validation import FLAG, PATH, Instance, Interval, Options, validate_params
-from granalytics.core.snapshot import META
 
 
 

@@ -23,9 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from granalytics.core.snapshot import Snapshot
+from granalytics.core.snapshot import SNAPSHOT, Snapshot
 from granalytics.base.validation import Options, validate, validate_params
-from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = ["COHESION_CONVENTIONS", "DEFAULT_COHESION", "COHESION", "check_cohesion", "cohesion_counts",
            "cohesion_counts_all", "cohesive_force"]

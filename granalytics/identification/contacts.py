@@ -13,9 +13,8 @@ import pandas as pd
 from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import COHESION, DEFAULT_COHESION, cohesive_force
 from granalytics.base.errors import ParameterError
-from granalytics.core.snapshot import Snapshot
+from granalytics.core.snapshot import SNAPSHOT, Snapshot
 from granalytics.base.validation import POSITIVE, Interval, Options, validate_params
-from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = ["surface_tension", "mean_radius", "RADIUS_MODE", "A_AGG_DEG", "contact_strength", "largest_strength", "co_moving",
            "contact_table", "COMOTION_TESTS", "COMOTION", "DEFAULT_COMOTION", "DEFAULT_RIGID_TOL", "rigid_residual",

@@ -9,9 +9,8 @@ import numpy as np
 import pandas as pd
 
 from granalytics.base.errors import ParameterError
-from granalytics.core.snapshot import Snapshot
+from granalytics.core.snapshot import SNAPSHOT, Snapshot
 from granalytics.base.validation import Array, validate_params
-from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = ["granule_table"]
 
