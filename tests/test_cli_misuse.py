@@ -338,7 +338,7 @@ def test_inputs_no_analysis_can_use_are_refused_in_one_line(tmp_path, capsys):
                  "--min-fragment", "1000", "--quiet"]) == 2
     assert "larger than the run's 111 particles" in capsys.readouterr().err
     for alpha in (0.5, 1e6):
-        with pytest.raises(ValidationError, match="a CG factor must be in"):
+        with pytest.raises(ValidationError, match=r"alpha.: must be a number in \[1, 100\]"):
             RunMeta(surface_tension=0.1, density=2500.0, drum_omega=2.0, n_particles=10, mean_radius=1e-3, alpha=alpha)
     with pytest.raises(ga.ParameterError, match="gamma is a surface tension"):
         parse_predict("gamma=-1,omega=2")

@@ -25,7 +25,7 @@ import numpy as np
 from granalytics.base.errors import ParameterError
 
 __all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Window", "Callable", "Path", "POSITIVE", "FLAG",
-           "PATH", "WINDOW", "shown", "validate", "validate_params"]
+           "PATH", "WINDOW", "shown", "complaint", "validate", "validate_params"]
 
 
 def shown(value, limit=60) -> str:
@@ -205,16 +205,24 @@ PATH = Path()
 WINDOW = Window()
 
 
+def complaint(allowed, value) -> str | None:
+    """``"must be <allowed>, got <type> <value>"`` when ``value`` satisfies none of ``allowed`` (a list
+    of constraints, None allowing None), else None."""
+    if any(value is None if c is None else c.accepts(value) for c in allowed):
+        return None
+    text = [str(c) for c in allowed]
+    text = text[0] if len(text) == 1 else f"{', '.join(text[:-1])} or {text[-1]}"
+    return f"must be {text}, got {' '.join(shown(value).split())}"
+
+
 def validate(where, constraints, values) -> None:
     """Raise :class:`ParameterError` (``"where: name must be …, got …"``, no prefix without ``where``)
     for the first parameter of ``constraints`` (name -> list of constraints) whose value in
     ``values`` satisfies none of them."""
     for name, allowed in constraints.items():
-        value = values[name]
-        if not any(value is None if c is None else c.accepts(value) for c in allowed):
-            text = [str(c) for c in allowed]
-            text = text[0] if len(text) == 1 else f"{', '.join(text[:-1])} or {text[-1]}"
-            raise ParameterError(f"{f'{where}: ' if where else ''}{name} must be {text}, got {' '.join(shown(value).split())}")
+        why = complaint(allowed, values[name])
+        if why:
+            raise ParameterError(f"{f'{where}: ' if where else ''}{name} {why}")
 
 
 def validate_params(constraints):

@@ -19,11 +19,12 @@ import json
 import math
 import warnings
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 
 import numpy as np
 
 from granalytics.base.errors import ValidationError, user_stacklevel
-from granalytics.base.validation import Instance
+from granalytics.base.validation import FLAG, POSITIVE, Array, Instance, Interval, complaint, shown
 
 __all__ = ["RunMeta", "Snapshot", "SNAPSHOT", "META"]
 
@@ -108,47 +109,20 @@ class RunMeta:
     provenance: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        def number(name):
-            return _real(name, getattr(self, name))
-
-        def positive(name):
-            value = number(name)
-            if not math.isfinite(value) or value <= 0:
-                raise ValidationError(name, f"must be finite and > 0, got {value!r}")
-            return value
-
-        self.surface_tension = positive("surface_tension")
-        self.density = positive("density")
-        self.mean_radius = positive("mean_radius")
-        self.alpha = positive("alpha")
-        if not 1.0 <= self.alpha <= MAX_ALPHA:  # 0.5 would make original particles larger; 1e6 a meaningless run
-            raise ValidationError("alpha", f"a CG factor must be in [1, {MAX_ALPHA:g}] (particles α times the "
-                                           f"original's), got {self.alpha!r}")
-        self.drum_omega = number("drum_omega")
-        if not math.isfinite(self.drum_omega):
-            raise ValidationError("drum_omega", f"must be finite, got {self.drum_omega!r}")
-        self.contact_angle = number("contact_angle")
-        if not 0.0 <= self.contact_angle < math.pi / 2:
-            raise ValidationError(
-                "contact_angle", f"must be in [0, π/2) rad, got {self.contact_angle!r}"
-            )
-        self.n_particles = _positive_int("n_particles", self.n_particles)
-        try:
-            gravity = tuple(_real("gravity", g) for g in self.gravity)
-        except (TypeError, ValidationError):
-            raise ValidationError("gravity", f"must be 3 finite numbers, got {self.gravity!r}") from None
-        if len(gravity) != 3 or not all(math.isfinite(g) for g in gravity):
-            raise ValidationError("gravity", f"must be 3 finite numbers, got {self.gravity!r}")
-        self.gravity = gravity
+        for name, allowed in _META_CONSTRAINTS.items():
+            why = complaint(allowed, getattr(self, name))
+            if why:
+                raise ValidationError(name, why)
+        for name in ("surface_tension", "density", "mean_radius", "alpha", "drum_omega", "contact_angle"):
+            setattr(self, name, float(getattr(self, name)))
+        self.n_particles = int(self.n_particles)
+        self.gravity = tuple(float(g) for g in self.gravity)
         if self.n_particles_original is None:
-            self.n_particles_original = int(round(self.n_particles * self.alpha**3))
-        self.n_particles_original = _positive_int("n_particles_original", self.n_particles_original)
+            self.n_particles_original = round(self.n_particles * self.alpha**3)
+        self.n_particles_original = int(self.n_particles_original)
         if self.mean_radius_original is None:
             self.mean_radius_original = self.mean_radius / self.alpha
-        self.mean_radius_original = positive("mean_radius_original")
-        for name in ("sim_config", "provenance"):
-            if not isinstance(getattr(self, name), dict):
-                raise ValidationError(name, f"must be a dict, got {type(getattr(self, name)).__name__}")
+        self.mean_radius_original = float(self.mean_radius_original)
         for name in ("sim_config", "provenance"):
             problem = json_problem(getattr(self, name))
             if problem:
@@ -157,7 +131,7 @@ class RunMeta:
         _check_schema("provenance", self.provenance, _PROVENANCE_SCHEMA)
         if self.capillary_in_contact is None:
             self.capillary_in_contact = self.sim_config.get("params", {}).get("capillary_in_contact", False)
-        self.capillary_in_contact = _boolean("capillary_in_contact", self.capillary_in_contact)
+        self.capillary_in_contact = bool(self.capillary_in_contact)
 
     def validate(self) -> None:
         """Check every field again, e.g. after fields were assigned since construction.
@@ -196,50 +170,43 @@ class RunMeta:
         return cls(**known)
 
 
-def _real(name, value) -> float:
-    """``value`` as a float if it is a real number (an int or a float, not a bool, a string or
-    bytes: metadata that holds the text ``"0.07"`` was changed by hand or by another tool)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValidationError(name, f"must be a number, got {type(value).__name__} {value!r}")
-    return float(value)
-
-
-def _boolean(name, value) -> bool:
-    """``value`` if it is a bool (also numpy's); the text ``"false"`` or a number is refused, not
-    read by its truth value (``bool("false")`` is True)."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValidationError(name, f"must be true or false, got {type(value).__name__} {value!r}")
-    return bool(value)
-
-
-def _integer(name, value) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ValidationError(name, f"must be an integer, got {type(value).__name__} {value!r}")
-    return int(value)
-
-
-# what granalytics reads from the free-form dicts of RunMeta: the type of each entry (when present;
-# None is allowed where the producer may record "not measured"), or a nested schema (a table)
+_FINITE = [Interval(Real)]
+_COUNT = [Interval(Integral, 1, None)]
+#: the constraints of RunMeta's fields (a CG factor below 1 would make the original particles larger;
+#: one of 10⁶ is no meaningful run; numbers stored as text, "0.07" or "false", were changed by hand)
+_META_CONSTRAINTS = {
+    **dict.fromkeys(("surface_tension", "density", "mean_radius"), [POSITIVE]),
+    "alpha": [Interval(Real, 1, MAX_ALPHA)],
+    "drum_omega": _FINITE,
+    "contact_angle": [Interval(Real, 0, math.pi / 2, closed="left")],
+    "n_particles": _COUNT,
+    "gravity": [Array(ndim=1, length=3, finite=True)],
+    "n_particles_original": _COUNT + [None],
+    "mean_radius_original": [POSITIVE, None],
+    "capillary_in_contact": [FLAG, None],
+    **dict.fromkeys(("sim_config", "provenance"), [Instance(dict, "a dict")]),
+}
+# what granalytics reads from the free-form dicts of RunMeta: the constraints of each entry (when
+# present; None allowed where the producer may record "not measured"), or a nested schema (a table)
 _SIM_PARAMS_SCHEMA = {
     **dict.fromkeys(("drum_radius", "drum_length", "d_mean", "baffle_height", "drum_omega", "alpha",
-                     "surface_tension", "density", "contact_angle", "dt"), _real),
-    **dict.fromkeys(("n_baffles", "n_particles", "seed"), _integer),
-    **dict.fromkeys(("capillary_in_contact", "viscous"), _boolean),
+                     "surface_tension", "density", "contact_angle", "dt"), _FINITE),
+    **dict.fromkeys(("n_baffles", "n_particles", "seed"), [Interval(Integral)]),
+    **dict.fromkeys(("capillary_in_contact", "viscous"), [FLAG]),
 }
 _SIM_CONFIG_SCHEMA = {
     "params": _SIM_PARAMS_SCHEMA,
     "original": _SIM_PARAMS_SCHEMA,
-    "confinement": {name: _real for name in ("drum_ratio", "length_ratio", "bed_depth_ratio", "fill_fraction")},
+    "confinement": dict.fromkeys(("drum_ratio", "length_ratio", "bed_depth_ratio", "fill_fraction"), _FINITE),
 }
 _PROVENANCE_SCHEMA = {
-    **dict.fromkeys(("wall_time_s", "wall_time_per_simulated_s", "simulated_time_s"),
-                    lambda name, value: None if value is None else _real(name, value)),
-    "planned_frames": lambda name, value: None if value is None else _integer(name, value),
+    **dict.fromkeys(("wall_time_s", "wall_time_per_simulated_s", "simulated_time_s"), _FINITE + [None]),
+    "planned_frames": [Interval(Integral), None],
 }
 
 
 def _check_schema(name, table, schema) -> None:
-    """Check the entries of ``table`` that ``schema`` knows (their types; nested tables must be
+    """Check the entries of ``table`` that ``schema`` knows (their constraints; nested tables must be
     dicts); other entries are free-form. Raises ValidationError naming the entry's dotted path."""
     for key, rule in schema.items():
         if key not in table:
@@ -247,21 +214,10 @@ def _check_schema(name, table, schema) -> None:
         where, value = f"{name}.{key}", table[key]
         if isinstance(rule, dict):
             if not isinstance(value, dict):
-                raise ValidationError(where, f"must be a table (a dict), got {type(value).__name__} {value!r}")
+                raise ValidationError(where, f"must be a table (a dict), got {shown(value)}")
             _check_schema(where, value, rule)
-        else:
-            rule(where, value)
-
-
-def _positive_int(name, value):
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        if isinstance(value, (float, np.floating)) and float(value).is_integer():
-            value = int(value)
-        else:
-            raise ValidationError(name, f"must be an integer, got {value!r}")
-    if value <= 0:
-        raise ValidationError(name, f"must be > 0, got {value!r}")
-    return int(value)
+        elif complaint(rule, value):
+            raise ValidationError(where, complaint(rule, value))
 
 
 # field name -> (kind, trailing shape, sign constraint)
