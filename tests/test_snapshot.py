@@ -112,6 +112,10 @@ def test_run_meta_defaults_and_validation():
         make_meta(10, contact_angle=2.0)
     with pytest.raises(ValidationError, match="n_particles"):
         make_meta(0)
+    with pytest.raises(ValidationError, match=r"^field 'n_particles': must be a whole number >= 1, got float 5.0$"):
+        make_meta(5.0)  # a count, not a measurement
+    with pytest.raises(ValidationError, match=r"^field 'sim_config.params.dt': must be a finite number, got float nan$"):
+        make_meta(10, sim_config={"params": {"dt": float("nan")}})
     with pytest.raises(ValidationError, match="JSON"):
         make_meta(10, provenance={"x": object()})
     with pytest.warns(UserWarning, match="unknown keys"):
