@@ -84,6 +84,10 @@ def test_duplicate_ids_shapes_and_dtypes_are_rejected(snap):
         rebuilt(snap, time=float("nan"))
     with pytest.raises(ValidationError, match="step"):
         rebuilt(snap, step=-3)
+    with pytest.raises(ValidationError, match=r"^field 'time': must be a finite number, got str '1.5'$"):
+        rebuilt(snap, time="1.5")  # text is not read as a number
+    with pytest.raises(ValidationError, match=r"^field 'step': must be a whole number >= 0, got float 3.0$"):
+        rebuilt(snap, step=3.0)
 
 
 def test_empty_contacts_are_valid():

@@ -313,19 +313,11 @@ class Snapshot:
         ValidationError
             Naming the field and the first offending index.
         """
-        try:
-            self.time = float(self.time)
-        except (TypeError, ValueError):
-            raise ValidationError("time", f"must be a number, got {self.time!r}") from None
-        if not math.isfinite(self.time):
-            raise ValidationError("time", f"must be finite, got {self.time!r}")
-        if isinstance(self.step, (float, np.floating)) and float(self.step).is_integer():
-            self.step = int(self.step)
-        if isinstance(self.step, (bool, np.bool_)) or not isinstance(self.step, (int, np.integer)):
-            raise ValidationError("step", f"must be an integer, got {self.step!r}")
-        self.step = int(self.step)
-        if self.step < 0:
-            raise ValidationError("step", f"must be >= 0, got {self.step}")
+        for name, allowed in (("time", _FINITE), ("step", [Interval(Integral, 0, None)]), ("meta", [META, None])):
+            why = complaint(allowed, getattr(self, name))
+            if why:
+                raise ValidationError(name, why)
+        self.time, self.step = float(self.time), int(self.step)
 
         n = None
         for name, spec in _PARTICLE_FIELDS.items():
@@ -357,8 +349,6 @@ class Snapshot:
                 "contact_i", f"{what}: i={int(ci[k])}, j={int(cj[k])}", index=k
             )
         _check_unique("contact_i", ci * np.int64(n) + cj, "contact pair", ci, cj)
-        if self.meta is not None and not isinstance(self.meta, RunMeta):
-            raise ValidationError("meta", f"must be a RunMeta, got {type(self.meta).__name__}")
 
     # ------------------------------------------------------------------ derived
     @property
