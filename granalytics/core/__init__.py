@@ -1,25 +1,16 @@
 """The core layer: the run-file contract, the part of granalytics the simulator (``sim``) writes
 runs and sweeps through, and nothing that analyses granules.
 
-Modules: :mod:`.snapshot` (:class:`Snapshot`, :class:`RunMeta`), :mod:`.format` (the HDF5 layout,
-``docs/format.md``), :mod:`.writer` (:class:`RunWriter`), :mod:`.reader` (:func:`open_run`,
-:class:`Run`, :class:`RunSlice`), :mod:`.native` (opening a file for reading), :mod:`.windows`
+Modules: :mod:`.snapshot` (:class:`Snapshot`, :class:`RunMeta`), :mod:`.format` (the HDF5 layout),
+:mod:`.writer` (:class:`RunWriter`: single-writer/multiple-reader mode, a frame committed by writing
+its time last), :mod:`.reader` (:func:`open_run`, :class:`Run`, :class:`RunSlice`: the frame index
+checked before any frame is read), :mod:`.native` (opening a file for reading), :mod:`.windows`
 (which frames lie in a window of revolutions), :mod:`.subset` (:func:`subset_run`) and
-:mod:`.manifest` (the sweep folder's ``manifest.csv``: ``sim sweep`` writes it, studies read it;
-imported from its own path, ``import granalytics.core`` does not load it).
+:mod:`.manifest` (the sweep folder's ``manifest.csv``; imported from its own path).
+``docs/format.md`` describes the file and what a reader may rely on.
 
-The writer works in HDF5's single-writer/multiple-reader (SWMR) mode: the library orders its
-metadata flushes so that the file on disk is always a consistent HDF5 file, even when the writer
-is killed. On top of that, every frame is committed by writing the frame's ``/frames/time`` entry
-*last*; a reader counts only the frames that every dataset holds completely, so a frame is either
-entirely in the file or absent. Every dataset carries a Fletcher-32 checksum per chunk, and
-:func:`open_run` checks the frame index (lengths, contact counts, time and step order, particle
-count) before any frame is read.
-
-The core stands on :mod:`granalytics.base` (errors, argument validation, output files and the
-writer lock) and imports numpy and h5py only (no pandas, NetworkX, SciPy or scikit-learn), so that
-``import sim.run`` stays light; ``tests/test_architecture.py`` checks that sim imports granalytics
-through these two packages alone, and what ``import sim.run`` loads.
+The core stands on :mod:`granalytics.base` and imports numpy and h5py only, so that ``import
+sim.run`` stays light (``tests/test_architecture.py``).
 """
 
 from granalytics._version import __version__
