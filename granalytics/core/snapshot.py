@@ -451,8 +451,8 @@ def _check_unique(name, keys, what, ci=None, cj=None):
     dup = np.flatnonzero(sorted_keys[1:] == sorted_keys[:-1])
     if dup.size:
         k = int(order[dup + 1].min())
-        shown = f"({int(ci[k])}, {int(cj[k])})" if ci is not None else f"{int(keys[k])}"
-        raise ValidationError(name, f"duplicate {what} {shown}", index=k)
+        duplicate = f"({int(ci[k])}, {int(cj[k])})" if ci is not None else f"{int(keys[k])}"
+        raise ValidationError(name, f"duplicate {what} {duplicate}", index=k)
 
 
 #: the constraint of an argument that takes one frame of a run (:mod:`granalytics.base.validation`)
