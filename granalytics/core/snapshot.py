@@ -110,9 +110,7 @@ class RunMeta:
 
     def __post_init__(self):
         for name, allowed in _META_CONSTRAINTS.items():
-            why = complaint(allowed, getattr(self, name))
-            if why:
-                raise ValidationError(name, why)
+            _check_field(name, allowed, getattr(self, name))
         for name in ("surface_tension", "density", "mean_radius", "alpha", "drum_omega", "contact_angle"):
             setattr(self, name, float(getattr(self, name)))
         self.n_particles = int(self.n_particles)
@@ -172,6 +170,7 @@ class RunMeta:
 
 _FINITE = [Interval(Real)]
 _COUNT = [Interval(Integral, 1, None)]
+_STEP = [Interval(Integral, 0, None)]
 #: the constraints of RunMeta's fields (a CG factor below 1 would make the original particles larger;
 #: one of 10⁶ is no meaningful run; numbers stored as text, "0.07" or "false", were changed by hand)
 _META_CONSTRAINTS = {
@@ -216,8 +215,15 @@ def _check_schema(name, table, schema) -> None:
             if not isinstance(value, dict):
                 raise ValidationError(where, f"must be a table (a dict), got {shown(value)}")
             _check_schema(where, value, rule)
-        elif complaint(rule, value):
-            raise ValidationError(where, complaint(rule, value))
+        else:
+            _check_field(where, rule, value)
+
+
+def _check_field(name, allowed, value) -> None:
+    """Raise ValidationError naming ``name`` when ``value`` satisfies none of the constraints ``allowed``."""
+    why = complaint(allowed, value)
+    if why:
+        raise ValidationError(name, why)
 
 
 # field name -> (kind, trailing shape, sign constraint)
@@ -313,10 +319,8 @@ class Snapshot:
         ValidationError
             Naming the field and the first offending index.
         """
-        for name, allowed in (("time", _FINITE), ("step", [Interval(Integral, 0, None)]), ("meta", [META, None])):
-            why = complaint(allowed, getattr(self, name))
-            if why:
-                raise ValidationError(name, why)
+        for name, allowed in (("time", _FINITE), ("step", _STEP), ("meta", [META, None])):
+            _check_field(name, allowed, getattr(self, name))
         self.time, self.step = float(self.time), int(self.step)
 
         n = None
