@@ -35,10 +35,10 @@ def child(backend, threads, particles, contacts_per_particle, repeats):
     import numpy as np
 
     import granalytics as ga
-    from granalytics.cli import _prefer_openmp
+    from granalytics.base.threads import prefer_openmp
     from granalytics.datasets.synthetic import synthetic_snapshot
 
-    _prefer_openmp()  # as the granalytics command line does, before numba starts its threads
+    prefer_openmp()  # as the granalytics command line does, before numba starts its threads
     numba.set_num_threads(threads)
     frame = synthetic_snapshot(particles, contacts_per_particle=contacts_per_particle, seed=1)
     ga.identify(synthetic_snapshot(50, seed=0), backend=backend)  # compile / load the kernels

@@ -20,11 +20,10 @@ import os
 import time
 import warnings
 
+from granalytics.base.threads import THREADING_LAYER_PRIORITY, prefer_openmp
+
 __all__ = ["ThreadGovernor", "available_cores", "thread_candidates", "check_threads", "configure_threading"]
 
-#: what :func:`configure_threading` sets (docs/simulator.md, "Threads")
-THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
-GOMP_SPINCOUNT = "3000"
 _warned_late = False
 
 
@@ -56,10 +55,7 @@ def configure_threading() -> None:
 
     global _warned_late
     _keep_freed_memory()
-    try:
-        layer = numba.threading_layer()
-    except ValueError:
-        layer = None  # threads not launched yet
+    layer = prefer_openmp()
     if layer is not None:  # too late to change anything
         chosen_by_us = list(numba.config.THREADING_LAYER_PRIORITY) == THREADING_LAYER_PRIORITY
         if layer != "omp" and not chosen_by_us and not _warned_late:
@@ -69,9 +65,6 @@ def configure_threading() -> None:
                 "layer, whose parallel regions start ~100x slower than OpenMP's: the simulator's small systems "
                 "run many times slower. Call configure_threading() before numba.set_num_threads() or any "
                 "parallel kernel.", RuntimeWarning, stacklevel=2)
-        return
-    numba.config.THREADING_LAYER_PRIORITY = list(THREADING_LAYER_PRIORITY)
-    os.environ.setdefault("GOMP_SPINCOUNT", GOMP_SPINCOUNT)
 
 
 _M_TRIM_THRESHOLD = -1

@@ -6,7 +6,8 @@ contract, each imported from its own module (this package imports none of them).
 - :mod:`.files`: outputs written whole or not at all, the writer lock, output and input checks;
 - :mod:`.interrupts`: Ctrl-C and SIGTERM, never dropped;
 - :mod:`.resources`: memory and disk needs refused up front;
-- :mod:`.cluster`: a dask cluster for sweeps and frame loops.
+- :mod:`.cluster`: a dask cluster for sweeps and frame loops;
+- :mod:`.threads`: numba's kernels on OpenMP threads, for the programs (never the library).
 
 It imports nothing of granalytics above it, and its modules load NumPy at most (h5py, filelock
 and dask inside the functions that need them); :mod:`.interrupts` loads the standard library

@@ -14,13 +14,13 @@ status 2, never as a traceback; warnings as one line each.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 from granalytics._version import __version__
 from granalytics.base.errors import GranalyticsError, RunWriteError, exit_after_write_failure, warnings_as_lines
 from granalytics.base.interrupts import (interrupted, interrupts_not_lost, raise_dropped_interrupt,
                                          terminate_as_interrupt)
+from granalytics.base.threads import prefer_openmp
 from granalytics.cli import analysis, calibrate, data, datasets, pbm, study, tracking
 
 __all__ = ["main", "build_parser", "COMMANDS"]
@@ -112,23 +112,6 @@ def _done(status):
     return status
 
 
-def _prefer_openmp():
-    """This program's numba kernels on OpenMP threads (before numba starts any): TBB, numba's
-    first choice where installed, spends ~0.5 ms starting each parallel region, OpenMP
-    microseconds; idle OpenMP threads spin 3000 times before sleeping (``GOMP_SPINCOUNT``, unless
-    set), not the default that makes two processes sharing the cores slow each other ~100x. The
-    command line tunes its own process; the library never does (docs/simulator.md, "Threads")."""
-    import numba
-
-    try:
-        numba.threading_layer()
-        return  # threads already started: their layer is fixed
-    except ValueError:
-        pass
-    numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
-    os.environ.setdefault("GOMP_SPINCOUNT", "3000")
-
-
 def _main(argv):
     if argv[:1] and argv[0] in _FORWARDED:  # another command line, options and --help included
         return _done(_FORWARDED[argv[0]](argv[1:]))
@@ -140,7 +123,7 @@ def _main(argv):
     import matplotlib
 
     matplotlib.use("Agg")  # the command line only writes figures to files
-    _prefer_openmp()
+    prefer_openmp()  # the command line tunes its own process; the library never does
     with warnings_as_lines("granalytics"):
         try:
             status = args.func(args)
