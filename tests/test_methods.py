@@ -142,3 +142,17 @@ def test_the_command_line_and_the_library_run_every_method_at_the_same_meaningfu
     mean = api.groupby("method")["yield_fraction"].mean()
     assert mean["sieve"] == mean["gna"] and mean["community"] == pytest.approx(mean["gna"], abs=0.02)
     assert 0.5 * mean["gna"] < mean["dbscan"] < 0.9  # not the whole bed
+
+
+def test_a_parameter_assigned_after_a_first_identify_is_checked_at_the_next():
+    """The check of an identifier's parameters is skipped while they stay the same objects (it ran
+    several times per frame); one assigned since is checked again."""
+    frame = synthetic_snapshot(60, seed=3)
+    gna = ga.GraphNetworkAnalysis()
+    gna.identify(frame)
+    gna.c_agg = -1.0
+    with pytest.raises(ParameterError, match=r"^GraphNetworkAnalysis: c_agg must be"):
+        gna.identify(frame)
+    gna.c_agg = 0.5
+    assert gna.identify(frame).params["c_agg"] == 0.5
+

@@ -130,6 +130,27 @@ def test_a_wrong_call_gets_pythons_own_error():
         Method().steady(windows=(1, 2))
 
 
+@validate_params({"c_agg": [POSITIVE], "gamma": [POSITIVE, None], "mode": [Options(("pair", "mean"))]})
+def _plain(snapshot, c_agg, gamma=None, *, mode="pair"):
+    return c_agg, gamma, mode
+
+
+def test_arguments_are_read_alike_by_position_by_keyword_and_from_defaults():
+    """A signature without ``*args``/``**kwargs`` is read without ``inspect.Signature.bind``."""
+    assert _plain(None, 1.0) == (1.0, None, "pair")
+    assert _plain(None, c_agg=2.0, gamma=3.0, mode="mean") == (2.0, 3.0, "mean")
+    for call in (lambda: _plain(None, -1.0), lambda: _plain(None, c_agg=-1.0), lambda: _plain(None, 1.0, -2.0),
+                 lambda: _plain(None, 1.0, gamma=-2.0), lambda: _plain(None, 1.0, mode="x")):
+        with pytest.raises(ParameterError, match=r"^_plain: (c_agg|gamma|mode) must be"):
+            call()
+    # a wrong call is Python's own error, even with a refused value in it
+    for call, words in ((lambda: _plain(None), "missing"), (lambda: _plain(None, -1.0, c_agg=1.0), "multiple values"),
+                        (lambda: _plain(None, -1.0, 1.0, "mean"), "positional"),
+                        (lambda: _plain(None, -1.0, mood="x"), "unexpected")):
+        with pytest.raises(TypeError, match=words):
+            call()
+
+
 def test_a_constraint_on_a_parameter_the_function_lacks_is_a_programming_error():
     def f(c_agg):
         return c_agg

@@ -22,7 +22,7 @@ from numbers import Integral, Real
 
 import numpy as np
 
-from granalytics.base.errors import ParameterError
+from granalytics.base.errors import ParameterError, one_line
 
 __all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Window", "Callable", "Path", "POSITIVE", "FLAG",
            "PATH", "WINDOW", "shown", "complaint", "validate", "validate_params"]
@@ -53,12 +53,15 @@ class Interval(Constraint):
     def __init__(self, type, lo=None, hi=None, *, closed="both"):
         self.type, self.lo, self.hi, self.closed = type, lo, hi, closed
 
-    def contains(self, values) -> bool:
-        """Whether every one of ``values`` (a number or an array of numbers) lies inside."""
-        values = np.asarray(values)
+    def _edges(self):
         left = self.lo is not None and self.closed in ("both", "left")
         right = self.hi is not None and self.closed in ("both", "right")
-        lo, hi = -np.inf if self.lo is None else self.lo, np.inf if self.hi is None else self.hi
+        return -np.inf if self.lo is None else self.lo, np.inf if self.hi is None else self.hi, left, right
+
+    def contains(self, values) -> bool:
+        """Whether every one of ``values`` (a number or an array of numbers) lies inside."""
+        lo, hi, left, right = self._edges()
+        values = np.asarray(values)
         return bool(np.all(((values >= lo) if left else (values > lo)) & ((values <= hi) if right else (values < hi))))
 
     def accepts(self, value) -> bool:
@@ -69,7 +72,8 @@ class Interval(Constraint):
                 value = float(value)
             except OverflowError:
                 return False
-        return self.contains(value)
+        lo, hi, left, right = self._edges()  # one number: compared without NumPy (a check of every frame)
+        return bool((value >= lo if left else value > lo) and (value <= hi if right else value < hi))
 
     def describe(self, plural=False) -> str:
         """``"a number > 0"``; ``"numbers > 0"`` with ``plural``."""
@@ -212,7 +216,7 @@ def complaint(allowed, value) -> str | None:
         return None
     text = [str(c) for c in allowed]
     text = text[0] if len(text) == 1 else f"{', '.join(text[:-1])} or {text[-1]}"
-    return f"must be {text}, got {' '.join(shown(value).split())}"
+    return f"must be {text}, got {one_line(shown(value))}"
 
 
 def validate(where, constraints, values) -> None:
@@ -237,17 +241,48 @@ def validate_params(constraints):
         if unknown:
             raise TypeError(f"validate_params: {func.__qualname__} has no parameter {', '.join(unknown)}")
         where = func.__qualname__.removesuffix(".__init__")
+        arguments = _argument_reader(signature, constraints)
 
         @functools.wraps(func)
         def validated(*args, **kwargs):
-            try:
-                bound = signature.bind(*args, **kwargs)
-            except TypeError:  # a wrong call: Python's own error, from the call itself
-                return func(*args, **kwargs)
-            bound.apply_defaults()
-            validate(where, constraints, bound.arguments)
+            values = arguments(args, kwargs)
+            if values is not None:  # None: a wrong call, left to Python's own error from the call itself
+                validate(where, constraints, values)
             return func(*args, **kwargs)
 
         return validated
 
     return decorate
+
+
+def _argument_reader(signature, names):
+    """A function ``(args, kwargs) -> {name: value}`` of the parameters ``names`` in a call, defaults
+    filled in, or None for a call that does not fit ``signature``. Without ``*args`` or
+    ``**kwargs`` in the signature the values are read by position (the decorated functions run for
+    every frame, and :meth:`inspect.Signature.bind` takes microseconds); otherwise through ``bind``."""
+    params = signature.parameters
+    kinds = {p.kind for p in params.values()}
+
+    def bound(args, kwargs):
+        try:
+            call = signature.bind(*args, **kwargs)
+        except TypeError:
+            return None
+        call.apply_defaults()
+        return call.arguments
+
+    if kinds - {inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY}:
+        return bound
+    positional = [n for n, p in params.items() if p.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD]
+    required = [n for n, p in params.items() if p.default is inspect.Parameter.empty]
+    slots = [(name, positional.index(name) if name in positional else len(params), params[name].default)
+             for name in names]
+
+    def read(args, kwargs):
+        given = positional[:len(args)]
+        if len(args) > len(positional) or any(k not in params or k in given for k in kwargs) or any(
+                n not in kwargs and n not in given for n in required):
+            return None
+        return {name: args[index] if index < len(args) else kwargs.get(name, default) for name, index, default in slots}
+
+    return read

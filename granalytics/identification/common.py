@@ -57,14 +57,20 @@ class Identifier:
             cls.identify = _validated(cls.__dict__["identify"])
 
     def _validate_params(self) -> None:
-        """Refuse a parameter outside its ``_parameter_constraints`` (ParameterError naming the class)."""
-        validate(type(self).__name__, self._parameter_constraints,
-                 {name: getattr(self, name) for name in self._parameter_constraints})
+        """Refuse a parameter outside its ``_parameter_constraints`` (ParameterError naming the class).
+        Checked again only when a parameter was assigned another object since the last check: this
+        runs for every frame (and more than once per frame through the methods' helpers)."""
+        values = {name: getattr(self, name) for name in self._parameter_constraints}
+        checked = self.__dict__.get("_checked_params")
+        if checked is not None and checked.keys() == values.keys() and all(
+                checked[name] is value for name, value in values.items()):
+            return
+        validate(type(self).__name__, self._parameter_constraints, values)
+        self._checked_params = values
 
     def params(self) -> dict:
         """The constructor parameters, by name."""
-        names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
-        return {name: self._param_value(name) for name in names}
+        return {name: self._param_value(name) for name in _constructor_parameters(type(self))}
 
     def _param_value(self, name):
         return getattr(self, name)
@@ -75,6 +81,13 @@ class Identifier:
     def __repr__(self):
         args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
+
+
+@functools.cache
+def _constructor_parameters(cls) -> tuple:
+    """The names of ``cls.__init__``'s parameters (read once per class: :meth:`Identifier.params`
+    runs for every frame)."""
+    return tuple(p for p in inspect.signature(cls.__init__).parameters if p != "self")
 
 
 def _validated(identify):
