@@ -131,7 +131,7 @@ def warnings_as_lines(prog):
     """Inside: every warning that Python's filters let through is printed as one line
     ``PROG: warning: message`` on stderr, instead of Python's file, line and source."""
     def show(message, category, filename, lineno, file=None, line=None):
-        print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+        print(f"{prog}: warning: {one_line(message)}", file=sys.stderr)
 
     with warnings.catch_warnings():
         warnings.showwarning = show

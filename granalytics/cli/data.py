@@ -94,7 +94,6 @@ def cmd_subset(args):
 
 
 def cmd_export_vtk(args):
-    from granalytics.base.files import WriterLock
     from granalytics.export.vtk import export_vtk
 
     pvd_path = os.path.join(args.out, "run.pvd")

@@ -13,7 +13,7 @@ import numpy as np
 
 from granalytics._version import __version__
 from granalytics.base.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError, one_line
-from granalytics.base.files import WriterLock, check_not_open_elsewhere, check_replaceable, _LOCK_SUFFIX
+from granalytics.base.files import WriterLock, check_not_open_elsewhere, check_replaceable
 from granalytics.base.interrupts import raise_dropped_interrupt
 from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS
 from granalytics.core.native import HDF5Handle
@@ -138,7 +138,7 @@ class RunWriter(HDF5Handle):
     @property
     def lock_path(self) -> str:
         """The lock file this writer holds while it is open."""
-        return self.path + _LOCK_SUFFIX
+        return self._lock.path
 
     @classmethod
     @validate_params({"path": [PATH], "n_frames": [Interval(Integral, 0, None)]})
