@@ -1,7 +1,8 @@
 """Outputs of the analyses and commands that are more than one file: an output folder made for
 the work and removed again when it fails (:func:`output_folder`), several files that change
 together or not at all (:func:`staged_outputs`), a finished folder put in the place of an earlier
-one (:func:`swap_folder`). One file alone is written with
+one (:func:`swap_folder`), the files of a folder refused before the work when they exist
+(:func:`new_output_paths`). One file alone is written with
 :func:`granalytics.base.files.replaced_atomically`."""
 
 from __future__ import annotations
@@ -13,7 +14,21 @@ from granalytics.base.errors import ParameterError
 from granalytics.base.files import check_replaceable
 from granalytics.base.interrupts import interrupts_held, raise_dropped_interrupt
 
-__all__ = ["staged_outputs", "swap_folder", "output_folder"]
+__all__ = ["staged_outputs", "swap_folder", "output_folder", "new_output_paths"]
+
+
+def new_output_paths(folder, names, *, overwrite=False) -> list:
+    """The paths of the files ``names`` in ``folder``; refuses (``ParameterError``) a ``folder``
+    that is a file, and files that exist unless ``overwrite`` (before the work that writes them)."""
+    folder = os.fspath(folder)
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise ParameterError(f"{folder}: exists and is not a folder")
+    paths = [os.path.join(folder, name) for name in names]
+    existing = [p for p in paths if os.path.exists(p)]
+    if existing and not overwrite:
+        raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace {len(existing)} "
+                             "existing output file(s))")
+    return paths
 
 
 @contextlib.contextmanager

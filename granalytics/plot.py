@@ -339,10 +339,14 @@ def frame_figure(result, ax=None, max_colours=20):
     return ax.figure
 
 
+#: the key of the pooled size distribution (Fig 5) among :func:`cg_figures`
+_SIZE_FIGURE = "fig5_size_distribution"
+
+
 def cg_figure_names() -> list:
     """The keys of :func:`cg_figures`, sorted: each headline metric's ``figure_key``
     (``fig3_mean_volume``, ``fig4_granule_number``, ``fig6_yield``) and ``fig5_size_distribution``."""
-    return sorted([*(METRICS[m].figure_key for m in BY_FIGURE), "fig5_size_distribution"])
+    return sorted([*(METRICS[m].figure_key for m in BY_FIGURE), _SIZE_FIGURE])
 
 
 def cg_figures(comparison, *, size_unit="particles") -> dict:
@@ -371,7 +375,7 @@ def cg_figures(comparison, *, size_unit="particles") -> dict:
     runs = list(dict.fromkeys(comparison.table["run"]))
     colours = {run: f"C{k % 10}" for k, run in enumerate(runs)}  # one colour per run (CG level) in every figure
     figures = {METRICS[m].figure_key: _cg_timeseries_figure(comparison, m, colours, subtitle) for m in BY_FIGURE}
-    figures["fig5_size_distribution"] = _cg_sizes_figure(comparison, colours, size_unit, subtitle)
+    figures[_SIZE_FIGURE] = _cg_sizes_figure(comparison, colours, size_unit, subtitle)
     return dict(sorted(figures.items()))
 
 

@@ -33,6 +33,7 @@ from granalytics.analysis.size_classes import MeasuredDistribution, SieveGrid, r
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
+from granalytics.outputs import new_output_paths, output_folder, staged_outputs
 from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Array, Instance, Interval, Path, validate_params
 from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import DEFAULT_COHESION
@@ -145,8 +146,6 @@ class Calibration:
         into ``folder`` (made if missing), all or none (:func:`granalytics.outputs.staged_outputs`);
         existing files are refused unless ``overwrite``. The figures are
         :func:`granalytics.plot.calibration_figures`. Returns the paths."""
-        from granalytics.outputs import output_folder, staged_outputs
-
         paths = self.output_paths(folder, overwrite=overwrite)
         with output_folder(folder), staged_outputs(folder) as stage:
             self.grid.to_csv(stage(paths[0]), index=False)
@@ -160,16 +159,8 @@ class Calibration:
     def output_paths(folder, *, overwrite=False, figures=()) -> list:
         """The tables' paths in ``folder`` (and ``figures``' names); refuses existing ones unless
         ``overwrite``, and a ``folder`` that is a file."""
-        folder = os.fspath(folder)
-        if os.path.exists(folder) and not os.path.isdir(folder):
-            raise ParameterError(f"{folder}: exists and is not a folder")
-        names = ["calibration_grid.csv", "calibration_distributions.csv", "calibration.json", *figures]
-        paths = [os.path.join(folder, name) for name in names]
-        existing = [p for p in paths if os.path.exists(p)]
-        if existing and not overwrite:
-            raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace {len(existing)} "
-                                 "existing output file(s))")
-        return paths
+        return new_output_paths(folder, ["calibration_grid.csv", "calibration_distributions.csv", "calibration.json",
+                                         *figures], overwrite=overwrite)
 
 
 def _is_one_run(run) -> bool:

@@ -21,7 +21,7 @@ import pandas as pd
 
 from granalytics.analysis.confinement import confinement_warning, run_confinement
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
-from granalytics.outputs import staged_outputs
+from granalytics.outputs import new_output_paths, staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE
 from granalytics.base.validation import FLAG, WINDOW, Array, validate_params
 from granalytics.core.windows import window_mask
@@ -150,14 +150,7 @@ class CGComparison:
         them by the caller, e.g. the figures of :func:`granalytics.plot.cg_figures`), exist and not
         ``overwrite``, or when ``out_dir`` is a file. For checking before the comparison is
         computed."""
-        if os.path.exists(out_dir) and not os.path.isdir(out_dir):
-            raise ParameterError(f"{out_dir}: exists and is not a folder")
-        paths = [os.path.join(out_dir, name) for name in CG_TABLES]
-        existing = [p for p in (*paths, *(os.path.join(out_dir, name) for name in others)) if os.path.exists(p)]
-        if existing and not overwrite:
-            raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace "
-                                 f"{len(existing)} existing output file(s))")
-        return paths
+        return new_output_paths(out_dir, [*CG_TABLES, *others], overwrite=overwrite)[:len(CG_TABLES)]
 
     def save(self, out_dir, *, overwrite=False, stage=None) -> list:
         """Write ``cg_table.csv``, ``cg_timeseries.csv`` and ``cg_sizes.csv`` (sizes in particles
