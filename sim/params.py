@@ -79,8 +79,11 @@ class SimParams:
         drum_omega Ω [rad/s] about +z, gravity [m/s²], fill_fraction (bed volume / drum volume at
         packing 0.6, used only to document presets), n_particles.
     Numerics
-        dt [s] (at most t_c/20, t_c = :meth:`contact_time` of the smallest particles), skin [m] (Verlet skin beyond the bridge range), settle_time [s] (static drum,
-        dry, before t = 0), seed.
+        dt [s] (at most t_c/20, t_c = :meth:`contact_time` of the smallest particles);
+        dt_factor: the factor by which ``dt`` was multiplied after the CG rule set it
+        (:func:`with_step_factor`, ``--dt-factor``; 1 for the paper's step, recorded so that a run
+        says how its step was chosen); skin [m] (Verlet skin beyond the bridge range),
+        settle_time [s] (static drum, dry, before t = 0), seed.
     CG
         alpha (CG factor of *these* parameters), and the original (α = 1) values are recovered
         by :func:`cg_scale` metadata; cg_rule (a name of ``sim.cg_rules.CG_RULES``, default
@@ -116,6 +119,7 @@ class SimParams:
     drum_omega: float = 2.0
     gravity: tuple = (0.0, -9.81, 0.0)
     dt: float = 3e-6
+    dt_factor: float = 1.0
     skin: float = 0.3e-3
     settle_time: float = 0.3
     seed: int = 0
@@ -125,7 +129,7 @@ class SimParams:
     def __post_init__(self):
         for parameter in law_parameters():
             parameter.check(getattr(self, parameter.name))
-        positive = ("density", "d_mean", "surface_tension", "dt", "drum_radius",
+        positive = ("density", "d_mean", "surface_tension", "dt", "dt_factor", "drum_radius",
                     "drum_length", "spray_interval", "alpha", "v_max_coef")
         for name in positive:
             value = getattr(self, name)
@@ -288,6 +292,32 @@ def cg_scale(params: SimParams, alpha: float, *, scale_dt: bool = True) -> SimPa
         skin=params.skin * alpha,
         bridge_volume=params.bridge_volume * alpha**3,
     )
+
+
+def with_step_factor(params: SimParams, factor: float) -> SimParams:
+    """``params`` with the time step Δt × ``factor`` (and ``dt_factor`` × ``factor``, the record of it).
+
+    Applied last, after the CG rule and the twin, so that ``factor`` multiplies the step the
+    rule gives: ``--dt-factor 2.5`` on CG3 is 2.5 × (3 µs × 3). The paper's step is factor 1;
+    ``docs/simulator.md`` ("Time step") gives the factors measured to leave the statistics
+    unchanged.
+
+    Raises
+    ------
+    ValueError
+        If ``factor`` is not a finite number > 0, or the step it gives exceeds t_c/20 of the
+        smallest particles (or another stability limit of :class:`SimParams`).
+    """
+    if not (isinstance(factor, (int, float)) and not isinstance(factor, bool) and math.isfinite(factor)
+            and factor > 0):
+        raise ValueError(f"the time-step factor must be a finite number > 0, got {factor!r}")
+    return dataclasses.replace(params, dt=params.dt * factor, dt_factor=params.dt_factor * factor)
+
+
+def steps_per_contact(params: SimParams) -> float:
+    """t_c/Δt for a pair of mean particles (t_c = :meth:`SimParams.contact_time`): how finely
+    the step resolves a typical contact (the paper's step: about 127 for the linear law)."""
+    return params.contact_time() / params.dt
 
 
 def similar_system(params: SimParams, length_factor: float) -> SimParams:

@@ -25,7 +25,7 @@ from .capillary import pair_capillary_force
 from .drum import n_walls
 from .neighbours import empty_slots, rebuild
 from .packing import check_settled_bed, insertion_positions, settled_bed_report
-from .params import PHYSICS_VERSION, SimParams
+from .params import PHYSICS_VERSION, SimParams, steps_per_contact
 from .state import State
 from .threads import ThreadGovernor, check_threads
 
@@ -260,6 +260,7 @@ class Simulation:
             contact_angle=p.contact_angle, gravity=tuple(p.gravity), capillary_in_contact=p.capillary_in_contact,
             n_particles_original=o.n_particles, mean_radius_original=o.r_mean,
             sim_config={"params": p.to_dict(), "original": o.to_dict(), "n_walls": self.n_walls,
+                        "steps_per_contact": steps_per_contact(p),
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L",
                         "liquid_model": "fixed_bridge_volume" if p.bridge_volume > 0 else "films_spray_migration"},
             provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION,

@@ -154,6 +154,34 @@ def test_bad_option_values_are_refused_in_one_line_before_anything_is_written(cl
     assert files(tmp_path) == {}
 
 
+def test_dt_factor_multiplies_the_cg_rules_step_is_recorded_and_shown_by_info(cli, tmp_path, capsys):
+    from sim.cli import _params, build_parser
+
+    def step(*flags):
+        args = build_parser().parse_args(["run", "--preset", "lab-cg3", "--revolutions", "1", "--out", "x.h5", *flags])
+        return _params(args)
+
+    original, paper = step()
+    _, coarse = step("--dt-factor", "2.5")
+    assert original.dt == 3e-6 and original.dt_factor == 1 and paper.dt == pytest.approx(9e-6)
+    assert coarse.dt == pytest.approx(2.5 * paper.dt) and coarse.dt_factor == 2.5  # after the rule
+    _, twin = step("--cg-rule", "bond", "--twin", "--dt-factor", "2")
+    _, twin_paper = step("--cg-rule", "bond", "--twin")
+    assert twin.dt == pytest.approx(2 * twin_paper.dt) and twin.dt_factor == 2
+    refused(cli("r.h5", "--dt-factor", "3"), "k_t", "fewer than 20")
+    refused(cli("r.h5", "--dt-factor", "nan"), "--dt-factor", "(0, 100]")
+    assert cli("r.h5", "--dt-factor", "2")[0] == 0
+    with ga.open_run(tmp_path / "r.h5") as run:
+        params, config = run.meta.sim_config["params"], run.meta.sim_config
+        assert params["dt_factor"] == 2 and run.steps[1] * params["dt"] == pytest.approx(run.times[1], rel=1e-12)
+        assert config["steps_per_contact"] == pytest.approx(127.1 / 2, rel=2e-3)
+    capsys.readouterr()
+    from granalytics.cli import main as granalytics_main
+
+    assert granalytics_main(["info", str(tmp_path / "r.h5")]) == 0
+    assert "time step" in (out := capsys.readouterr().out) and "2 × the CG rule's step, t_c/Δt = 63.5" in out
+
+
 def test_a_time_step_too_long_for_the_contacts_is_refused():
     from sim.params import SimParams, preset
 

@@ -9,7 +9,7 @@ import pytest
 
 from sim.capillary import CAPILLARY_MODELS, capillary_force_scalar, rupture_distance_scalar
 from sim.neighbours import _grid, max_rupture_distance, morton_rank, pair_count_reference, rebuild
-from sim.params import PRESETS, SimParams, cg_scale, preset, preset_original
+from sim.params import PRESETS, SimParams, cg_scale, preset, preset_original, steps_per_contact, with_step_factor
 from sim.run import Simulation
 from sim.state import PARTICLE_FIELDS, SLOT_FIELDS
 
@@ -139,6 +139,45 @@ def test_bridge_forms_at_touch_pulls_while_stretched_and_ruptures_at_s_crit():
     assert gaps[-2] < s_crit <= gaps[-1]
     # and gave V_b/2 back to each film
     assert s.film[:2] == pytest.approx([film - v_b / 2 + v_b / 2] * 2, rel=1e-12)
+
+
+@pytest.mark.parametrize("factor", [0.5, 1.0, 1.5, 2.0, 2.5])
+def test_closed_forms_hold_at_every_time_step_factor(factor):
+    """--dt-factor 0.5 to 2.5 (t_c/Δt 254 to 51): restitution and contact time of a head-on impact,
+    Willett's force at contact and the rupture at s_crit hold at every step the study allows."""
+    p = with_step_factor(dataclasses.replace(FREE, friction=0.0), factor)
+    assert p.dt == pytest.approx(FREE.dt * factor) and p.dt_factor == factor
+    t_c, e = closed_form(p, R)
+    assert t_c / p.dt == pytest.approx(127.1 / factor, rel=2e-3)
+    assert steps_per_contact(p) == pytest.approx(t_c / p.dt, rel=1e-12)
+    sim, steps = head_on(p, R, 0.05)
+    vel = sim.state.vel[np.argsort(sim.state.ids)]
+    assert (vel[1, 0] - vel[0, 0]) / 0.1 == pytest.approx(e, rel=3e-3)  # 0.1-0.2 % at every factor
+    assert abs(steps * p.dt - t_c) <= 1.5 * p.dt
+    film = 2e-12
+    sim = Simulation.from_particles(p, [[-R, 0, 0.025], [R + 1e-7, 0, 0.025]], [R, R],
+                                    velocity=[[1e-3, 0, 0], [-1e-3, 0, 0]], film=[film, film])
+    sim.advance(round(200 / factor))
+    s = sim.state
+    k = np.flatnonzero(s.alive[2 * sim.n_walls:])[0] + 2 * sim.n_walls
+    model = CAPILLARY_MODELS["willett_numeric"]
+    assert s.f_cap[k] == pytest.approx(capillary_force_scalar(model, 0.0, s.v_b[k], R, p.surface_tension, 0.0),
+                                       rel=1e-12)  # touching: Willett's force at contact
+    v_b = s.v_b[k]
+    gaps = _pull_apart(sim, v_b, 400)
+    assert gaps[-2] < rupture_distance_scalar(v_b, R, 0.0) <= gaps[-1]
+
+
+def test_the_step_factor_is_refused_beyond_the_stability_limit_and_when_not_a_positive_number():
+    """The limit is 20 steps per tangential oscillation of the smallest particles (R = 0.8 R_mean;
+    k_t = 0.8 k_n): a factor of 2.7 holds, 2.8 is refused."""
+    for name in ("lab-cg3", "paper-cg3", "paper-cg1"):
+        assert with_step_factor(preset(name), 2.7).dt == pytest.approx(2.7 * preset(name).dt)
+    with pytest.raises(ValueError, match="k_t .* fewer than 20"):
+        with_step_factor(FREE, 2.8)
+    for bad in (0, -1.0, math.nan, math.inf, True, "2"):
+        with pytest.raises(ValueError, match="time-step factor"):
+            with_step_factor(FREE, bad)
 
 
 def test_fixed_bridge_volume_forms_at_touch_with_v_b_and_ruptures_at_its_s_crit_without_films():

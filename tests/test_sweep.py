@@ -110,6 +110,16 @@ def test_other_simparams_fields_can_be_swept():
     assert spec.points[0].resolved["alpha"] == 2.0 and spec.points[0].resolved["viscosity"] == 0.001
 
 
+def test_dt_factor_is_swept_after_the_cg_rule():
+    from sim.sweep.spec import build_params
+
+    spec = parse_spec({"revolutions": 1, "grid": {"dt_factor": [1, 2.5], "alpha": [3.0]}})
+    assert [p.name for p in spec.points] == ["alpha=3_dt_factor=1", "alpha=3_dt_factor=2.5"]
+    original, params = build_params("lab-cg3", {"alpha": 3.0, "dt_factor": 2.5})
+    assert original.dt == 3e-6 and original.dt_factor == 1
+    assert params.dt == pytest.approx(2.5 * 3 * 3e-6) and params.dt_factor == 2.5
+
+
 @pytest.mark.parametrize("body, words", [
     ('revolutions = 1\nfoo = 2\n[grid]\ngamma = [0.1]', "unknown key 'foo'"),
     ('revolutions = 1\n[grid]\nsurface = [0.1]', "unknown grid key 'surface'"),

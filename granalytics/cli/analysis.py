@@ -205,6 +205,7 @@ def cmd_info(args):
         law = sim_params.get("contact_law", "linear_coulomb")
         print(f"  {'contact law':<{width}}  {law} (the simulator's; its parameters in sim_config.params)")
         print(f"  {'CG rule':<{width}}  {rule} (α = {meta.get('alpha', 1):g}; {_RULE_SAYS.get(rule, '')})")
+        print(f"  {'time step':<{width}}  {_time_step_line(sim_params, meta['sim_config'].get('steps_per_contact'))}")
     print("run metadata (SI units; contact_angle in rad)")
     for key, value in meta.items():
         if key in ("sim_config", "provenance"):
@@ -213,6 +214,17 @@ def cmd_info(args):
                 value = value[:97] + "..."
         print(f"  {key:<{width}}  {_shown(value)}")
     return 0
+
+
+def _time_step_line(sim_params: dict, steps_per_contact) -> str:
+    """``info``'s line on the simulator's step: Δt, the factor applied after the CG rule and t_c/Δt."""
+    dt, factor = sim_params.get("dt"), sim_params.get("dt_factor", 1.0)
+    if not isinstance(dt, (int, float)):
+        return "not recorded"
+    said = f"Δt = {dt:.4g} s, {factor:g} × the CG rule's step"
+    if isinstance(steps_per_contact, (int, float)):
+        said += f", t_c/Δt = {steps_per_contact:.4g} (mean pair)"
+    return said
 
 
 #: what ``info`` says of a CG rule

@@ -16,7 +16,7 @@ from granalytics.base.files import regular_input
 from granalytics.core.manifest import NAMED_PARAMETERS
 
 from ..params import (PRESETS, SimParams, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,
-                      sized_drum)
+                      sized_drum, with_step_factor)
 
 
 #: grid keys that are the ``python -m sim run`` overrides -> SimParams field of the original system
@@ -33,6 +33,10 @@ _NOT_FIELDS = {"alpha", "surface_tension", "drum_omega", "n_particles", "seed", 
 
 #: grid keys that size the preset's drum (sim.params.sized_drum) -> python type
 _SIZING = {"drum_ratio": float, "drum_particles": int}
+
+
+#: grid keys applied to the simulated system after the CG rule (sim.params.with_step_factor), not to the original
+_AFTER_CG = {"dt_factor"}
 
 
 _TOP_LEVEL = {"preset", "revolutions", "frame_every_rev", "checkpoint_every", "threads", "grid"}
@@ -70,7 +74,7 @@ class SweepSpec:
 def build_params(preset, overrides):
     """(original, params) of a point, refusing the particle counts ``python -m sim run`` refuses."""
     original, alpha = preset_original(preset)
-    changes = {k: v for k, v in overrides.items() if k != "alpha" and k not in _SIZING}
+    changes = {k: v for k, v in overrides.items() if k != "alpha" and k not in _SIZING and k not in _AFTER_CG}
     original = dataclasses.replace(original, **changes)
     alpha = float(overrides.get("alpha", alpha))
     sizing = {k: overrides[k] for k in _SIZING if k in overrides}
@@ -79,7 +83,8 @@ def build_params(preset, overrides):
                          "and set the count: give one of them")
     original = sized_drum(preset, original, alpha, **sizing)
     check_cg_particle_count(original.n_particles, alpha)
-    return original, (original if alpha == 1 else cg_scale(original, alpha))
+    params = original if alpha == 1 else cg_scale(original, alpha)
+    return original, with_step_factor(params, overrides.get("dt_factor", 1.0))
 
 
 def _fmt_value(value) -> str:
