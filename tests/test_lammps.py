@@ -451,3 +451,93 @@ def test_convert_without_dt_names_the_option(tmp_path, frames, capsys):
                  "--out", str(tmp_path / "run.h5"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("granalytics: error: --dt-s:") and "\n" not in err
+
+
+# ----------------------------------------------------------------------------- streaming, --append, interrupts
+def test_frames_are_read_one_at_a_time_from_a_file_of_many_timesteps(tmp_path, frames):
+    from granalytics.convert.lammps import open_liggghts
+
+    pf, cf = write_dumps(tmp_path, frames)  # one file of three timesteps each
+    run = open_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
+    assert run.bytes_read == 0 and run.total_bytes == pf[0].stat().st_size + cf[0].stat().st_size
+    assert run.first().step == 0 and run.meta.n_particles == 300
+    assert 0 < run.bytes_read < run.total_bytes / 2  # the first of three blocks of each file, not more
+    assert run.frame_bytes() > 0
+    assert_same_run(list(run), frames)
+    assert run.bytes_read == run.total_bytes
+
+
+def test_files_are_taken_in_the_order_of_their_timesteps_and_a_step_back_is_refused(tmp_path, frames):
+    pf, cf = write_dumps(tmp_path, frames, per_step=True)
+    snapshots, _ = read_liggghts(pf[::-1], cf[1:] + cf[:1], DumpMapping(**MAPPING), dt=DT)
+    assert_same_run(snapshots, frames)
+    (tmp_path / "back").mkdir()
+    back = write_dumps(tmp_path / "back", [frames[1], frames[0]])  # one file each, the second block earlier
+    with pytest.raises(DumpFormatError, match=r"pairs.dump, line 760: timestep 0 comes after timestep 100"):
+        read_liggghts(*back, DumpMapping(**MAPPING), dt=DT)
+
+
+def _convert(pf, cf, tmp_path, *extra):
+    from granalytics.cli import main
+
+    return main(["convert", *map(str, pf), "--contacts", *map(str, cf), "--mapping", str(_mapping_file(tmp_path)),
+                 "--dt-s", str(DT), "--out", str(tmp_path / "run.h5"), "--quiet", *extra])
+
+
+def test_append_adds_the_later_frames_and_equals_one_conversion(tmp_path, frames, capsys):
+    pf, cf = write_dumps(tmp_path, frames, per_step=True)
+    assert _convert(pf[:2], cf[:2], tmp_path) == 0
+    assert _convert(pf, cf, tmp_path, "--append") == 0
+    assert "appended 1 frames to" in capsys.readouterr().out
+    with ga.open_run(tmp_path / "run.h5") as run:
+        assert_same_run(list(run), frames) and run.unfinished is None
+        assert run.meta.provenance["appended_files"][0] == str(pf[0])
+    assert _convert(pf, cf, tmp_path, "--append") == 2  # nothing after the last timestep
+    assert "no particle timesteps after timestep 200" in capsys.readouterr().err
+    other = tmp_path / "other.toml"
+    other.write_text(_mapping_file(tmp_path).read_text().replace("density = 2500.0", "density = 1000.0"))
+    from granalytics.cli import main
+
+    assert main(["convert", *map(str, pf), "--contacts", *map(str, cf), "--mapping", str(other), "--dt-s", str(DT),
+                 "--out", str(tmp_path / "run.h5"), "--quiet", "--append", "--overwrite"]) == 2
+    assert "give one of them" in capsys.readouterr().err
+    (tmp_path / "run.h5").unlink()
+    assert _convert(pf[:1], cf[:1], tmp_path) == 0
+    assert main(["convert", *map(str, pf), "--contacts", *map(str, cf), "--mapping", str(other), "--dt-s", str(DT),
+                 "--out", str(tmp_path / "run.h5"), "--quiet", "--append"]) == 2
+    err = capsys.readouterr().err
+    assert "has density = 2500.0, the files give 1000.0" in err and "\n" not in err.strip()
+
+
+def test_an_interrupted_conversion_keeps_its_frames_and_append_finishes_it(tmp_path, frames, capsys, monkeypatch):
+    from granalytics.core import RunWriter
+
+    pf, cf = write_dumps(tmp_path, frames, per_step=True)
+    append = RunWriter.append
+
+    def ctrl_c_at_the_third_frame(self, snapshot):
+        if self.n_frames == 2:
+            raise KeyboardInterrupt
+        append(self, snapshot)
+
+    monkeypatch.setattr(RunWriter, "append", ctrl_c_at_the_third_frame)
+    assert _convert(pf, cf, tmp_path) == 130
+    assert "holds the first 2 frames" in capsys.readouterr().err
+    with ga.open_run(tmp_path / "run.h5") as run:
+        assert len(run) == 2 and "stopped after 2 frames" in run.unfinished
+    monkeypatch.setattr(RunWriter, "append", append)
+    assert _convert(pf, cf, tmp_path, "--append") == 0
+    with ga.open_run(tmp_path / "run.h5") as run:
+        assert run.unfinished is None
+        assert_same_run(list(run), frames)
+
+
+def test_convert_shows_the_bytes_read_while_it_reads(tmp_path, frames, capsys):
+    from granalytics.cli import main
+
+    pf, cf = write_dumps(tmp_path, frames, gz=True)
+    assert main(["convert", str(pf[0]), "--contacts", str(cf[0]), "--mapping", str(_mapping_file(tmp_path)),
+                 "--dt-s", str(DT), "--out", str(tmp_path / "run.h5")]) == 0
+    err = capsys.readouterr().err
+    total = pf[0].stat().st_size + cf[0].stat().st_size
+    assert f"convert: 100%" in err and "3 frames" in err and f"{total / 1e3:.0f}k/{total / 1e3:.0f}k" in err

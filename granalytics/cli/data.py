@@ -3,14 +3,16 @@ synthetic (a physics-free test run)."""
 
 from __future__ import annotations
 
+import json
 import os
+import sys
 
 
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock, check_apart, regular_input
 from granalytics.outputs import output_folder, staged_outputs
 from granalytics.convert.registry import READERS
-from granalytics.core import open_run
+from granalytics.core import RunWriter, open_run, replacing_run
 from granalytics.analysis.stats import check_window
 from granalytics.cli._common import (add_continuation_option, add_gna_options, criterion_params, check_new_file,
                                      check_outputs, every, interval, selected_frames, table_format)
@@ -55,7 +57,9 @@ def add_convert_parser(sub):
     """Add the ``convert`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
     p = sub.add_parser("convert", help="convert LIGGGHTS/LAMMPS dumps into a run file",
                        description="Read particle dumps (dump custom) and contact dumps (compute pair/gran/local + dump local), "
-                                   "plain or gzip, one or many timesteps per file, and write a granalytics run file.")
+                                   "plain or gzip, one or many timesteps per file, and write a granalytics run file. "
+                                   "Frames are read and written one at a time (memory of about two frames); "
+                                   "an interrupted conversion keeps the frames written and --append adds the rest.")
     p.add_argument("particles", nargs="+", help="particle dump files (LIGGGHTS) or particle CSVs (YADE export)")
     p.add_argument("--from", dest="source", choices=tuple(READERS), default="liggghts",
                    help="; ".join(f"{r.name}: {r.description}" for r in READERS.values()) + " (default liggghts)")
@@ -66,6 +70,9 @@ def add_convert_parser(sub):
                    "yade files carry their time)")
     p.add_argument("--out", required=True, help="run file to write (.h5)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing run file")
+    p.add_argument("--append", action="store_true",
+                   help="add the frames of the files after --out's last timestep to it (a run converted so far, or "
+                        "an interrupted conversion); the files must describe the same system")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_convert)
     return p
@@ -116,24 +123,116 @@ def cmd_export_vtk(args):
 
 
 def cmd_convert(args):
-    from tqdm.auto import tqdm
-
-    from granalytics.core import RunWriter, replacing_run
-    from granalytics.convert.registry import read_run_files
+    from granalytics.base.resources import check_disk, check_memory
+    from granalytics.convert.registry import open_run_files
 
     if READERS[args.source].needs_dt and args.dt_s is None:
         raise ParameterError(f"--dt-s: {args.source} files do not record the time step; give it in seconds "
                              "(time = timestep × dt)")
+    if args.append and args.overwrite:
+        raise ParameterError("--append adds frames to --out and --overwrite replaces it: give one of them")
     inputs = [*args.particles, *args.contacts, args.mapping]
     check_apart(args.out, inputs, "converted run")  # --overwrite must never replace an input
     for path in inputs:
         regular_input(path)
-    check_new_file(args.out, args.overwrite)  # before reading the dumps
-    snapshots, meta = read_run_files(args.source, args.particles, args.contacts, args.mapping, args.dt_s)
-    with replacing_run(args.out, args.overwrite) as tmp, RunWriter(tmp, meta, overwrite=True) as writer:
-        for snapshot in tqdm(snapshots, disable=args.quiet, unit="frame", desc="convert"):
-            writer.append(snapshot)
-    print(f"wrote {args.out}: {len(snapshots)} frames of {meta.n_particles} particles")
+    if args.append:
+        if not os.path.exists(args.out):
+            raise ParameterError(f"{args.out}: no such run to --append to")
+    else:
+        check_new_file(args.out, args.overwrite)  # before reading the dumps
+    source = open_run_files(args.source, args.particles, args.contacts, args.mapping, args.dt_s)  # headers only
+    check_memory(f"converting {args.particles[0]} (two frames at a time)", 2 * source.frame_bytes())
+    check_disk(f"the converted run {args.out}", _converted_size(inputs), args.out)
+    if args.append:
+        return _convert_append(args, source)
+    existed, kept = os.path.exists(args.out), None
+    with replacing_run(args.out, args.overwrite) as tmp:
+        writer = None
+        try:
+            with _ReadingBar(source, args.quiet) as bar:
+                first = source.first()
+                with RunWriter(tmp, source.meta, overwrite=True) as writer:
+                    _append_frames(writer, source, bar)
+        except KeyboardInterrupt:
+            if existed or writer is None or not writer.n_frames:
+                raise  # an earlier file stays as it was; nothing read is nothing kept
+            kept = writer.n_frames
+            _mark_interrupted(tmp, kept)
+    if kept:
+        print(f"convert: interrupted; {args.out} holds the first {kept} frames (marked unfinished); the same "
+              "command with --append adds the rest", file=sys.stderr)
+        return 130
+    print(f"wrote {args.out}: {writer.n_frames} frames of {first.n_particles} particles")
+    return 0
+
+
+def _converted_size(inputs) -> int:
+    """The disk a converted run needs [bytes], estimated from its inputs: about 0.6 of their
+    text, which gzip keeps in about a third of it."""
+    text = sum(os.path.getsize(p) * (3 if str(p).endswith(".gz") else 1) for p in inputs)
+    return int(0.6 * text)
+
+
+class _ReadingBar:
+    """The progress bar of a conversion: bytes of the input files read (as stored), the rate,
+    the time left and the frames written; on from before the first frame is read."""
+
+    def __init__(self, source, quiet):
+        from tqdm.auto import tqdm
+
+        self.source = source
+        self.bar = tqdm(total=source.total_bytes, unit="B", unit_scale=True, desc="convert", disable=quiet,
+                        mininterval=1.0)
+
+    def frame(self, n_frames):
+        self.bar.update(self.source.bytes_read - self.bar.n)
+        self.bar.set_postfix_str(f"{n_frames} frames", refresh=False)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.bar.close()
+
+
+def _append_frames(writer, source, bar) -> None:
+    for snapshot in source:
+        writer.append(snapshot)
+        bar.frame(writer.n_frames)
+
+
+def _mark_interrupted(path, n_frames) -> None:
+    """Record in ``path``'s provenance that its conversion stopped after ``n_frames`` frames."""
+    import h5py
+
+    with h5py.File(path, "r+") as f:
+        provenance = json.loads(f["meta"].attrs["provenance"])
+        provenance["interrupted"] = f"the conversion stopped after {n_frames} frames; convert --append adds the rest"
+        f["meta"].attrs["provenance"] = json.dumps(provenance, sort_keys=True)
+
+
+#: the run metadata that the frames --append adds must share with the run
+_SAME_SYSTEM = ("n_particles", "surface_tension", "density", "drum_omega", "alpha", "contact_angle",
+                "capillary_in_contact")
+
+
+def _convert_append(args, source) -> int:
+    """``convert --append``: the frames of the files after the run's last timestep, added to it."""
+    with open_run(args.out) as run:
+        n_frames, last_step, meta = len(run), int(run.steps[-1]) if len(run) else -1, run.meta
+    source.start_after(last_step)
+    with _ReadingBar(source, args.quiet) as bar:
+        source.first()
+        for name in _SAME_SYSTEM:
+            ours, theirs = getattr(meta, name), getattr(source.meta, name)
+            if ours != theirs:
+                raise ParameterError(f"--append: {args.out} has {name} = {ours!r}, the files give {theirs!r}: "
+                                     "they are not the same run")
+        with RunWriter.continue_from(args.out, n_frames) as writer:
+            writer.update_provenance(interrupted=None, appended_files=[*args.particles, *args.contacts])
+            _append_frames(writer, source, bar)
+    print(f"appended {writer.n_frames - n_frames} frames to {args.out} (after timestep {last_step}): "
+          f"{writer.n_frames} frames")
     return 0
 
 

@@ -13,16 +13,23 @@ never guessed.
 from __future__ import annotations
 
 import dataclasses
+import gzip
+import io
+import itertools
 import math
+import os
+import zlib
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from granalytics.base.errors import ValidationError
+from granalytics.base.files import regular_input
 from granalytics.core.snapshot import RunMeta, Snapshot
-from granalytics.convert._text import DumpFormatError, load_toml, read_complete_lines, warn_unused_contact_steps
+from granalytics.convert._text import DumpFormatError, load_toml, warn_unused_contact_steps
 
-__all__ = ["DumpMapping", "read_dump_blocks", "integer_column", "read_liggghts"]
+__all__ = ["DumpMapping", "DumpFile", "integer_column", "LiggghtsRun", "open_liggghts", "read_liggghts"]
 
 
 @dataclass
@@ -122,76 +129,223 @@ class DumpMapping:
             raise exc.located(path) from None
 
 
-def read_dump_blocks(path, kind):
-    """Yield ``(timestep, columns, data, first_line, text)`` for every block of a dump file.
+class DumpFile:
+    """One dump file, read block by block (``dump custom`` or ``dump local``; plain or gzip).
 
-    ``data`` holds the values as float64 (rows × columns), ``text`` the same fields as written
-    (an array of str), from which :func:`integer_column` reads ids exactly. Fields may be
-    separated by spaces or tabs, as LAMMPS' ``dump_modify format`` allows.
+    The file is read incrementally: one block (timestep) is in memory at a time, so a file of
+    hundreds of timesteps costs the memory of one. Each block's rows are parsed by pandas' C
+    reader; a block it cannot read cleanly is read again line by line to name the line and
+    field at fault. :attr:`bytes_read` (of the file as stored, compressed or not) follows the
+    reading, for progress bars.
 
     Parameters
     ----------
+    path : str or path-like
     kind : {"ATOMS", "ENTRIES"}
         Particle dump (``dump custom``) or local dump (``dump local``).
     """
-    count_item = "NUMBER OF ATOMS" if kind == "ATOMS" else "NUMBER OF ENTRIES"
-    lines = read_complete_lines(path)
-    k = 0
-    seen = set()
 
+    def __init__(self, path, kind):
+        regular_input(path)  # a FIFO would block for ever
+        self.path, self.kind = path, kind
+        self.size = os.path.getsize(path)
+        self.bytes_read = 0
+
+    def first_step(self):
+        """The timestep of the file's first block (None for an empty file), from its first lines."""
+        with _BlockReader(self, peek=True) as reader:
+            return reader.peek_step()
+
+    def first_counts(self):
+        """``(rows, columns)`` of the file's first block, from its header (``(0, 0)`` if empty)."""
+        with _BlockReader(self, peek=True) as reader:
+            return reader.peek_counts()
+
+    def blocks(self, int_columns=(), after=None):
+        """Yield ``(timestep, table, first_line)`` for every block: ``table`` a DataFrame of the
+        block's columns (float64; the ``int_columns`` present read exactly as int64, see
+        :func:`integer_column`), ``first_line`` the 0-based line of its first row. Blocks of
+        timesteps up to ``after`` are passed over unparsed (``table`` None)."""
+        with _BlockReader(self) as reader:
+            yield from reader.blocks(int_columns, after)
+
+
+class _BlockReader:
+    """The reading of one :class:`DumpFile`: its open file, the line count and the parsing."""
+
+    def __init__(self, dump, peek=False):
+        self.dump, self.path, self.peek = dump, dump.path, peek
+        self.line = 0  # 0-based number of the next line
+
+    def __enter__(self):
+        try:
+            self.raw = open(self.path, "rb")
+            self.file = gzip.GzipFile(fileobj=self.raw) if str(self.path).endswith(".gz") else self.raw
+        except OSError as exc:
+            raise DumpFormatError(f"{self.path}: cannot read ({' '.join(str(exc).split())})") from None
+        return self
+
+    def __exit__(self, *exc):
+        if self.file is not self.raw:
+            self.file.close()
+        self.raw.close()
+
+    def fail(self, line_no, msg):
+        raise DumpFormatError(f"{self.path}, line {line_no + 1}: {msg}")
+
+    def _read(self, call):
+        try:
+            out = call()
+        except (OSError, EOFError, gzip.BadGzipFile, zlib.error) as exc:
+            raise DumpFormatError(f"{self.path}: cannot read ({' '.join(str(exc).split())})") from None
+        if not self.peek:
+            self.dump.bytes_read = self.raw.tell()
+        return out
+
+    def _complete(self, data, n_lines):
+        """Refuse a last line without its newline: the file was cut while being written."""
+        if data and not data.endswith(b"\n"):
+            last = data.rsplit(b"\n", 1)[-1].decode(errors="replace")
+            self.fail(self.line + n_lines - 1, f"the last line does not end with a newline: the file was cut short "
+                                               f"(last line {last[-60:]!r})")
+
+    def readline(self):
+        """The next line as text (None at the end of the file)."""
+        data = self._read(self.file.readline)
+        if not data:
+            return None
+        self._complete(data, 1)
+        self.line += 1
+        try:
+            return data.decode()
+        except UnicodeDecodeError:
+            self.fail(self.line - 1, "not UTF-8 text: not a LAMMPS dump")
+
+    def next_item(self):
+        """The next non-blank line (None at the end of the file)."""
+        while (text := self.readline()) is not None and not text.strip():
+            pass
+        return text
+
+    def expect(self, text, item):
+        if text is None:
+            self.fail(self.line, f"file ends where 'ITEM: {item}' was expected")
+        if not " ".join(text.split()).startswith(f"ITEM: {item}"):  # tabs or runs of spaces
+            self.fail(self.line - 1, f"expected 'ITEM: {item}', found {text[:60]!r}")
+
+    def integer_line(self, what):
+        text = self.readline()
+        try:
+            return int(text)
+        except (TypeError, ValueError):
+            self.fail(self.line - (text is not None), f"{what} is not an integer")
+
+    def header(self):
+        """``(timestep, rows, columns)`` of the next block, or None at the end of the file."""
+        count_item = "NUMBER OF ATOMS" if self.dump.kind == "ATOMS" else "NUMBER OF ENTRIES"
+        text = self.next_item()
+        if text is None:
+            return None
+        self.expect(text, "TIMESTEP")
+        step = self.integer_line("timestep")
+        self.expect(self.readline(), count_item)
+        n = self.integer_line(count_item.lower())
+        if n < 0:
+            self.fail(self.line - 1, f"negative {count_item.lower()} {n}")
+        self.expect(self.readline(), "BOX BOUNDS")
+        for _ in range(3):
+            if self.readline() is None:
+                self.fail(self.line, "file ends inside the box bounds")
+        self.expect(text := self.readline(), self.dump.kind)
+        columns = text.split()[2:]
+        if len(set(columns)) != len(columns):
+            self.fail(self.line - 1, f"repeated column names {columns}")
+        return step, n, columns
+
+    def peek_step(self):
+        text = self.next_item()
+        if text is None:
+            return None
+        self.expect(text, "TIMESTEP")
+        return self.integer_line("timestep")
+
+    def peek_counts(self):
+        head = self.header()
+        return (0, 0) if head is None else (head[1], len(head[2]))
+
+    def blocks(self, int_columns, after):
+        seen = set()
+        while (head := self.header()) is not None:
+            step, n, columns = head
+            if step in seen:
+                self.fail(self.line - 9, f"timestep {step} appears twice")
+            seen.add(step)
+            first = self.line
+            data = self._read(lambda: b"".join(itertools.islice(self.file, n)))
+            self._complete(data, data.count(b"\n") + 1)
+            if after is not None and step <= after:
+                if data.count(b"\n") != n:
+                    self.fail(first + data.count(b"\n"), f"file ends inside the rows of timestep {step}")
+                self.line = first + n
+                yield step, None, first
+                continue
+            table = _parse_rows(data, columns, [c for c in int_columns if c in columns], n)
+            if table is None:  # pandas could not: read it again line by line, naming the fault
+                table = _parse_rows_slowly(data, columns, n, self.path, first, int_columns)
+            self.line = first + n
+            yield step, table, first
+
+
+def _parse_rows(data: bytes, columns, int_columns, n):
+    """The ``n`` rows of a block as a DataFrame (pandas' C reader), or None when they are not
+    exactly ``n`` rows of ``len(columns)`` finite numbers (the slow reader then names the fault)."""
+    if data.count(b"\n") != n:
+        return None
+    if n == 0:
+        return pd.DataFrame({c: np.empty(0, dtype=np.int64 if c in int_columns else np.float64) for c in columns})
+    try:
+        table = pd.read_csv(io.BytesIO(data), sep=r"\s+", header=None, names=columns, index_col=False,
+                            dtype={c: (np.int64 if c in int_columns else np.float64) for c in columns},
+                            engine="c", skip_blank_lines=False, na_filter=False)
+    except (ValueError, pd.errors.ParserError, OverflowError, UnicodeDecodeError):
+        return None
+    if len(table) != n or any(not np.isfinite(table[c].to_numpy()).all()
+                              for c in columns if c not in int_columns):
+        return None
+    if any((np.abs(table[c].to_numpy()) > 2**53).any() for c in int_columns):
+        return None  # pandas reads 1e16 as an integer: only the written text says whether it was one
+    return table
+
+
+def _parse_rows_slowly(data: bytes, columns, n, path, first, int_columns):
+    """The rows of a block read line by line: the first fault raises :class:`DumpFormatError`
+    naming the line (``first`` is the 0-based line of the first row)."""
     def fail(line_no, msg):
         raise DumpFormatError(f"{path}, line {line_no + 1}: {msg}")
 
-    def expect(line_no, item):
-        if line_no >= len(lines):
-            fail(line_no, f"file ends where 'ITEM: {item}' was expected")
-        if not " ".join(lines[line_no].split()).startswith(f"ITEM: {item}"):  # tabs or runs of spaces
-            fail(line_no, f"expected 'ITEM: {item}', found {lines[line_no][:60]!r}")
-
-    while k < len(lines):
-        if not lines[k].strip():
-            k += 1
-            continue
-        expect(k, "TIMESTEP")
+    try:
+        rows = data.decode().splitlines()
+    except UnicodeDecodeError as exc:
+        fail(first + data[:exc.start].count(b"\n"), "not UTF-8 text: not a LAMMPS dump")
+    if len(rows) < n:
+        fail(first + len(rows), f"file ends after {len(rows)} of {n} rows of this timestep")
+    values = np.empty((n, len(columns)))
+    fields = []
+    for r, text in enumerate(rows):
+        fields.append(text.split())
+        if len(fields[-1]) != len(columns):
+            fail(first + r, f"{len(fields[-1])} values for {len(columns)} columns")
         try:
-            step = int(lines[k + 1])
-        except (IndexError, ValueError):
-            fail(k + 1, "timestep is not an integer")
-        if step in seen:
-            fail(k, f"timestep {step} appears twice")
-        seen.add(step)
-        expect(k + 2, count_item)
-        try:
-            n = int(lines[k + 3])
-        except (IndexError, ValueError):
-            fail(k + 3, f"{count_item.lower()} is not an integer")
-        if n < 0:
-            fail(k + 3, f"negative {count_item.lower()} {n}")
-        expect(k + 4, "BOX BOUNDS")
-        expect(k + 8, kind)
-        columns = lines[k + 8].split()[2:]
-        if len(set(columns)) != len(columns):
-            fail(k + 8, f"repeated column names {columns}")
-        first = k + 9
-        rows = lines[first:first + n]
-        if len(rows) < n:
-            fail(first + len(rows), f"file ends after {len(rows)} of {n} rows of timestep {step}")
-        data = np.empty((n, len(columns)))
-        fields = []
-        for r, text in enumerate(rows):
-            fields.append(text.split())
-            if len(fields[-1]) != len(columns):
-                fail(first + r, f"{len(fields[-1])} values for {len(columns)} columns")
-            try:
-                data[r] = [float(x) for x in fields[-1]]
-            except ValueError:
-                fail(first + r, f"not a number in {text[:60]!r}")
-        bad = ~np.isfinite(data)
-        if bad.any():
-            r, c = np.argwhere(bad)[0]
-            fail(first + r, f"non-finite value in column {columns[c]!r}")
-        yield step, columns, data, first, np.array(fields, dtype=str).reshape(n, len(columns))
-        k = first + n
+            values[r] = [float(x) for x in fields[-1]]
+        except ValueError:
+            fail(first + r, f"not a number in {text[:60]!r}")
+    bad = ~np.isfinite(values)
+    if bad.any():
+        r, c = np.argwhere(bad)[0]
+        fail(first + r, f"non-finite value in column {columns[c]!r}")
+    text = np.array(fields, dtype=str).reshape(n, len(columns))
+    return pd.DataFrame({c: (integer_column(text[:, k], path, first, c) if c in int_columns else values[:, k])
+                         for k, c in enumerate(columns)})
 
 
 def integer_column(texts, path, first_line, what) -> np.ndarray:
@@ -217,30 +371,29 @@ def integer_column(texts, path, first_line, what) -> np.ndarray:
     return out
 
 
-def _column(columns, name, path, line, what):
-    if name not in columns:
-        raise DumpFormatError(f"{path}, line {line}: no column {name!r} for {what} (columns: {' '.join(columns)})")
-    return columns.index(name)
+def _column(table, name, path, line, what):
+    if name not in table.columns:
+        raise DumpFormatError(f"{path}, line {line}: no column {name!r} for {what} (columns: {' '.join(table.columns)})")
+    return table[name].to_numpy()
 
 
-def _particles(columns, data, text, path, line, mapping):
+def _particles(table, path, line, mapping):
     def col(name, what):
-        return data[:, _column(columns, name, path, line, what)]
+        return _column(table, name, path, line, what).astype(np.float64, copy=False)
 
-    if "radius" in columns:
+    if "radius" in table.columns:
         radius = col("radius", "radius")
-    elif "diameter" in columns:
+    elif "diameter" in table.columns:
         radius = col("diameter", "diameter") / 2
     else:
         raise DumpFormatError(f"{path}, line {line}: the particle dump needs a 'radius' or 'diameter' column")
-    ids = integer_column(text[:, _column(columns, "id", path, line, "particle ids")], path, line, "particle id")
     out = {
-        "ids": ids,
+        "ids": _column(table, "id", path, line, "particle ids"),
         "radius": radius,
         "position": np.column_stack([col(c, "positions") for c in ("x", "y", "z")]),
         "velocity": np.column_stack([col(c, "velocities") for c in ("vx", "vy", "vz")]),
         "angular_velocity": np.column_stack([col(c, "angular velocities") for c in ("omegax", "omegay", "omegaz")]),
-        "film_volume": np.zeros(len(ids)),
+        "film_volume": np.zeros(len(table)),
     }
     if mapping.film_column:
         film = col(mapping.film_column, "the liquid film")
@@ -250,9 +403,9 @@ def _particles(columns, data, text, path, line, mapping):
     return out
 
 
-def _contacts(columns, data, text, path, line, mapping, id_to_row, position):
+def _contacts(table, path, line, mapping, ids, position):
     def col(name, what):
-        return data[:, _column(columns, name, path, line, what)]
+        return _column(table, name, path, line, what).astype(np.float64, copy=False)
 
     def signed_normal(name, what):
         """Signed normal force [N], positive = repulsive: a column as is, or −F·n̂ of a vector
@@ -265,15 +418,18 @@ def _contacts(columns, data, text, path, line, mapping, id_to_row, position):
         length[length == 0] = np.inf  # coincident centres: no direction, no normal force
         return -(force * branch).sum(axis=1) / length
 
+    order = np.argsort(ids, kind="stable")
+    sorted_ids = ids[order]
     rows = []
     for name in (mapping.contact_id_i, mapping.contact_id_j):
-        ids = integer_column(text[:, _column(columns, name, path, line, name)], path, line, f"contact particle id ({name})")
-        r = np.array([id_to_row.get(int(x), -1) for x in ids], dtype=np.int64)
-        if (r < 0).any():
-            k = int(np.flatnonzero(r < 0)[0])
-            raise DumpFormatError(f"{path}, line {line + k + 1}: contact names particle id {int(ids[k])}, "
+        named = _column(table, name, path, line, name)
+        at = np.minimum(np.searchsorted(sorted_ids, named), len(ids) - 1)
+        missing = sorted_ids[at] != named
+        if missing.any():
+            k = int(np.flatnonzero(missing)[0])
+            raise DumpFormatError(f"{path}, line {line + k + 1}: contact names particle id {int(named[k])}, "
                                   "which is not in the particle dump of this timestep")
-        rows.append(r)
+        rows.append(order[at])
     ci, cj = np.minimum(*rows), np.maximum(*rows)
     if mapping.contact_gap:
         gap = col(mapping.contact_gap, "contact_gap")
@@ -293,69 +449,168 @@ def _contacts(columns, data, text, path, line, mapping, id_to_row, position):
     }
 
 
-def _blocks_by_step(files, kind):
-    """``{timestep: (columns, data, first_line, path)}`` over all blocks of all files."""
-    blocks = {}
-    for path in files:
-        for step, columns, data, line, text in read_dump_blocks(path, kind):
-            if step in blocks:
-                raise DumpFormatError(f"{path}, line {line}: timestep {step} already read from {blocks[step][3]}")
-            blocks[step] = (columns, data, line, path, text)
-    return blocks
+def _in_step_order(files, kind):
+    """The :class:`DumpFile` of each path, ordered by their first timestep (files of one
+    timestep each, named ``atoms.5000``, ``atoms.10000``, … come in any order)."""
+    dumps = [DumpFile(path, kind) for path in files]
+    first = {id(d): d.first_step() for d in dumps}
+    return sorted(dumps, key=lambda d: (first[id(d)] is None, first[id(d)] or 0))
 
 
-def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
-    """Snapshots of a LIGGGHTS / LAMMPS run.
+def _stream(dumps, int_columns, after=None):
+    """``(timestep, table, first_line, path)`` of every block of ``dumps`` in turn, refusing a
+    timestep read before (in this file or another) or one that goes back in time; the blocks up
+    to timestep ``after`` are not parsed (``table`` None)."""
+    seen = {}
+    last = None
+    for dump in dumps:
+        for step, table, line in dump.blocks(int_columns, after):
+            if step in seen:
+                raise DumpFormatError(f"{dump.path}, line {line - 8}: timestep {step} already read from {seen[step]}")
+            if last is not None and step < last:
+                raise DumpFormatError(f"{dump.path}, line {line - 8}: timestep {step} comes after timestep {last}: "
+                                      "the timesteps of a dump (and of its files, taken in the order of their first "
+                                      "timestep) must increase")
+            seen[step], last = dump.path, step
+            yield step, table, line, dump.path
+
+
+class LiggghtsRun:
+    """A LIGGGHTS / LAMMPS run read frame by frame from its dumps (:func:`open_liggghts`).
+
+    Iterating yields the :class:`~granalytics.core.Snapshot` of each particle timestep in
+    order; at most one particle block and one contact block are in memory at a time.
+    :attr:`meta` is known once the first frame has been read (reading it if needed).
+    :attr:`bytes_read` and :attr:`total_bytes` measure the progress over all the files (as
+    stored, compressed or not).
+    """
+
+    def __init__(self, particle_files, contact_files, mapping: DumpMapping, dt):
+        if dt is None or not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+            raise ValidationError("dt", f"the dumps do not record the time step: pass dt in seconds (> 0), got {dt!r}")
+        self.mapping, self.dt = mapping, float(dt)
+        self.particle_files, self.contact_files = list(particle_files), list(contact_files)
+        self._particles = _in_step_order(self.particle_files, "ATOMS")
+        self._contacts = _in_step_order(self.contact_files, "ENTRIES")
+        self.total_bytes = sum(d.size for d in self._particles + self._contacts)
+        self._frames = self._read()
+        self._first = None
+        self._after = None
+        self.meta = None
+
+    def start_after(self, step) -> None:
+        """Leave out the timesteps up to ``step`` (read past, not parsed): for adding the later
+        frames of the dumps to a run that holds the earlier ones. Call before reading."""
+        if self._first is not None:
+            raise RuntimeError("start_after: frames were read already")
+        self._after = int(step)
+
+    @property
+    def bytes_read(self) -> int:
+        return sum(d.bytes_read for d in self._particles + self._contacts)
+
+    def frame_bytes(self) -> int:
+        """Estimated memory of one frame while it is read [bytes], from the first blocks' headers
+        (text, parsed table and snapshot: about 40 bytes per value)."""
+        values = 0
+        for dumps in (self._particles, self._contacts):
+            if dumps:
+                rows, columns = dumps[0].first_counts()
+                values += rows * max(columns, 14)
+        return 40 * values
+
+    def first(self) -> Snapshot:
+        """The first frame (read once; iteration starts with it)."""
+        if self._first is None:
+            self._first = next(self._frames, None)
+            if self._first is None:
+                later = f" after timestep {self._after}" if self._after is not None else ""
+                raise DumpFormatError(f"no particle timesteps{later} in " + ", ".join(map(str, self.particle_files)))
+        return self._first
+
+    def __iter__(self):
+        yield self.first()
+        yield from self._frames
+
+    def _read(self):
+        mapping = self.mapping
+        contacts = _stream(self._contacts, (mapping.contact_id_i, mapping.contact_id_j), self._after)
+        pending = next(contacts, None)
+        unused, particle_steps, n0 = [], [], None
+        for step, table, line, path in _stream(self._particles, ("id",), self._after):
+            while pending is not None and pending[0] < step:
+                unused.append(pending[0])
+                pending = next(contacts, None)
+            if pending is None or pending[0] != step:
+                raise DumpFormatError(f"{path}, line {line - 8}: no contact dump for timestep {step}")
+            if table is None:  # up to start_after: passed over
+                particle_steps.append(step)
+                pending = next(contacts, None)
+                continue
+            part = _particles(table, path, line, mapping)
+            del table
+            ids = part["ids"]
+            if not len(ids):
+                raise DumpFormatError(f"{path}, line {line - 8}: timestep {step} has no particles")
+            if np.unique(ids).size != ids.size:
+                raise DumpFormatError(f"{path}, line {line}: duplicate particle ids in timestep {step}")
+            _, ctable, cline, cpath = pending
+            cont = _contacts(ctable, cpath, cline, mapping, ids, part["position"])
+            pending = ctable = None
+            n0 = n0 or len(ids)
+            if len(ids) != n0:
+                raise DumpFormatError(f"{path}, line {line}: timestep {step} has {len(ids)} particles, the first "
+                                      f"timestep {n0}; a run keeps its particles")
+            if self.meta is None:
+                self.meta = self._run_meta(n0, float(part["radius"].mean()))
+            try:
+                snapshot = Snapshot(time=step * self.dt, step=step, **part, **cont, meta=self.meta)
+            except ValidationError as exc:
+                raise exc.located(f"{path} / {cpath} (timestep {step})") from None
+            particle_steps.append(step)
+            yield snapshot
+            pending = next(contacts, None)
+        unused += ([pending[0]] if pending is not None else []) + [c[0] for c in contacts]
+        if particle_steps:
+            warn_unused_contact_steps(unused, particle_steps, self.contact_files)
+
+    def _run_meta(self, n_particles, mean_radius) -> RunMeta:
+        mapping = self.mapping
+        return RunMeta(
+            surface_tension=mapping.surface_tension, density=mapping.density, drum_omega=mapping.drum_omega,
+            n_particles=n_particles, mean_radius=mean_radius, alpha=mapping.alpha,
+            contact_angle=mapping.contact_angle, capillary_in_contact=mapping.capillary_in_contact,
+            provenance={"source": "LIGGGHTS/LAMMPS dumps", "particle_files": list(map(str, self.particle_files)),
+                        "contact_files": list(map(str, self.contact_files)), "mapping": dataclasses.asdict(mapping),
+                        "not_in_dumps": [k for k, v in (("f_normal", mapping.contact_f_normal),
+                                                        ("bridge_volume", mapping.contact_bridge_volume),
+                                                        ("film_volume", mapping.film_column)) if v is None]},
+        )
+
+
+def open_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None) -> LiggghtsRun:
+    """A LIGGGHTS / LAMMPS run, read lazily frame by frame (:class:`LiggghtsRun`).
 
     Parameters
     ----------
     particle_files, contact_files : sequence of paths
-        Dumps (any number of timesteps each); every particle timestep needs a contact timestep.
+        Dumps (any number of timesteps each, in increasing order; files are taken in the order
+        of their first timestep); every particle timestep needs a contact timestep.
     mapping : DumpMapping
     dt : float
         Time step [s] (time = timestep·dt). Required: dumps do not carry it.
+    """
+    return LiggghtsRun(particle_files, contact_files, mapping, dt)
+
+
+def read_liggghts(particle_files, contact_files, mapping: DumpMapping, dt=None):
+    """Every snapshot of a LIGGGHTS / LAMMPS run, in memory (:func:`open_liggghts` reads them one
+    at a time instead).
 
     Returns
     -------
     (list of Snapshot, RunMeta)
     """
-    if dt is None or not (math.isfinite(dt) and dt > 0):
-        raise ValidationError("dt", f"the dumps do not record the time step: pass dt in seconds (> 0), got {dt!r}")
-    contacts = _blocks_by_step(contact_files, "ENTRIES")
-    particles = _blocks_by_step(particle_files, "ATOMS")
-    if not particles:
-        raise DumpFormatError("no particle timesteps in " + ", ".join(map(str, particle_files)))
-    n0 = None
-    snapshots = []
-    for step in sorted(particles):
-        columns, data, line, path, text = particles[step]
-        if step not in contacts:
-            raise DumpFormatError(f"{path}, line {line}: no contact dump for timestep {step}")
-        part = _particles(columns, data, text, path, line, mapping)
-        id_to_row = {int(pid): r for r, pid in enumerate(part["ids"])}
-        if len(id_to_row) != len(part["ids"]):
-            raise DumpFormatError(f"{path}, line {line}: duplicate particle ids in timestep {step}")
-        ccols, cdata, cline, cpath, ctext = contacts[step]
-        cont = _contacts(ccols, cdata, ctext, cpath, cline, mapping, id_to_row, part["position"])
-        n0 = n0 or len(part["ids"])
-        if len(part["ids"]) != n0:
-            raise DumpFormatError(f"{path}, line {line}: timestep {step} has {len(part['ids'])} particles, the first "
-                                  f"timestep {n0}; a run keeps its particles")
-        try:
-            snapshots.append(Snapshot(time=step * dt, step=step, **part, **cont))
-        except ValidationError as exc:
-            raise exc.located(f"{path} / {cpath} (timestep {step})") from None
-    warn_unused_contact_steps(contacts, particles, contact_files)
-    meta = RunMeta(
-        surface_tension=mapping.surface_tension, density=mapping.density, drum_omega=mapping.drum_omega,
-        n_particles=n0, mean_radius=float(snapshots[0].radius.mean()), alpha=mapping.alpha,
-        contact_angle=mapping.contact_angle, capillary_in_contact=mapping.capillary_in_contact,
-        provenance={"source": "LIGGGHTS/LAMMPS dumps", "particle_files": list(map(str, particle_files)),
-                    "contact_files": list(map(str, contact_files)), "mapping": dataclasses.asdict(mapping),
-                    "not_in_dumps": [k for k, v in (("f_normal", mapping.contact_f_normal),
-                                                    ("bridge_volume", mapping.contact_bridge_volume),
-                                                    ("film_volume", mapping.film_column)) if v is None]},
-    )
-    for s in snapshots:
-        s.meta = meta
-    return snapshots, meta
+    run = open_liggghts(particle_files, contact_files, mapping, dt)
+    snapshots = list(run)
+    return snapshots, run.meta

@@ -1,7 +1,8 @@
-"""Readers of other codes' output behind one interface: ``READERS[name].read(...)``.
+"""Readers of other codes' output behind one interface: ``READERS[name].open(...)``.
 
 Each :class:`Reader` turns particle files, contact files and a mapping file (TOML: what the files
-cannot say, such as units, columns and material data) into snapshots and run metadata;
+cannot say, such as units, columns and material data) into a :class:`FrameSource`: the snapshots,
+read one at a time where the format allows, and the run metadata;
 ``granalytics convert --from NAME`` and the shared reader tests (``tests/test_readers.py``) go
 through this registry. Adding a reader: write ``read_<code>`` in a module of its own under
 ``granalytics/convert/`` (the shared text helpers are in ``convert/_text.py``), register it here, and add
@@ -10,10 +11,73 @@ its example files to the shared tests.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Iterator, Protocol
 
-__all__ = ["Reader", "READERS", "read_run_files"]
+__all__ = ["Reader", "READERS", "FrameSource", "open_run_files", "read_run_files"]
+
+
+class FrameSource(Protocol):
+    """What a reader's ``open`` returns: the frames of a run from other codes' files.
+
+    Iterating yields the snapshots in time order (one at a time for a streaming reader);
+    ``first()`` is the first snapshot (read once, iteration starts with it), after which ``meta``
+    is the run's metadata; ``start_after(step)``, called before reading, leaves out the frames
+    up to timestep ``step``; ``bytes_read`` and ``total_bytes`` measure the reading over all its
+    files (as stored); ``frame_bytes()`` estimates the memory one frame needs while it is read.
+    """
+
+    meta: object
+    total_bytes: int
+
+    @property
+    def bytes_read(self) -> int: ...
+
+    def first(self): ...
+
+    def start_after(self, step) -> None: ...
+
+    def frame_bytes(self) -> int: ...
+
+    def __iter__(self) -> Iterator: ...
+
+
+class InMemorySource:
+    """A :class:`FrameSource` over frames a reader read whole (formats of small files, such as
+    the YADE export's one pair of CSVs per frame)."""
+
+    def __init__(self, read, files):
+        self._read, self._snapshots, self._after = read, None, None
+        self.total_bytes = sum(os.path.getsize(path) for path in files)
+        self.meta = None
+
+    def _frames(self):
+        if self._snapshots is None:
+            self._snapshots, self.meta = self._read()
+            if self._after is not None:
+                self._snapshots = [s for s in self._snapshots if s.step > self._after]
+                if not self._snapshots:
+                    from granalytics.convert._text import DumpFormatError
+
+                    raise DumpFormatError(f"no frames after timestep {self._after} in the files")
+        return self._snapshots
+
+    def start_after(self, step) -> None:
+        self._after = int(step)
+
+    @property
+    def bytes_read(self) -> int:
+        return self.total_bytes if self._snapshots is not None else 0
+
+    def first(self):
+        return self._frames()[0]
+
+    def frame_bytes(self) -> int:
+        return 0  # read whole by the reader, which checks its own sizes
+
+    def __iter__(self):
+        return iter(self._frames())
 
 
 @dataclass(frozen=True)
@@ -26,28 +90,29 @@ class Reader:
         The name of ``convert --from``.
     description : str
         What it reads (one line, for ``--help``).
-    read : callable
-        ``read(particle_files, contact_files, mapping_path, dt_s)`` → ``(snapshots, meta)``.
+    open : callable
+        ``open(particle_files, contact_files, mapping_path, dt_s)`` → :class:`FrameSource`.
     needs_dt : bool
         Whether its files lack the time (``dt_s`` [s] then converts timesteps to seconds).
     """
 
     name: str
     description: str
-    read: Callable
+    open: Callable
     needs_dt: bool = False
 
 
 def _liggghts(particle_files, contact_files, mapping_path, dt_s):
-    from granalytics.convert.lammps import DumpMapping, read_liggghts
+    from granalytics.convert.lammps import DumpMapping, open_liggghts
 
-    return read_liggghts(particle_files, contact_files, DumpMapping.from_toml(mapping_path), dt=dt_s)
+    return open_liggghts(particle_files, contact_files, DumpMapping.from_toml(mapping_path), dt=dt_s)
 
 
 def _yade(particle_files, contact_files, mapping_path, dt_s):
     from granalytics.convert.yade import read_yade_csv
 
-    return read_yade_csv(particle_files, contact_files, mapping_path)
+    return InMemorySource(lambda: read_yade_csv(particle_files, contact_files, mapping_path),
+                          [*particle_files, *contact_files])
 
 
 #: reader name -> :class:`Reader`
@@ -57,12 +122,20 @@ READERS = {r.name: r for r in (
 )}
 
 
-def read_run_files(source, particle_files, contact_files, mapping_path, dt_s=None):
-    """``(snapshots, meta)`` of the files of code ``source`` (a :data:`READERS` key)."""
+def open_run_files(source, particle_files, contact_files, mapping_path, dt_s=None) -> FrameSource:
+    """The frames of the files of code ``source`` (a :data:`READERS` key), as a :class:`FrameSource`."""
     from granalytics.base.errors import ParameterError
 
     try:
         reader = READERS[source]
     except KeyError:
         raise ParameterError(f"unknown reader {source!r}; available: {', '.join(READERS)}") from None
-    return reader.read(list(particle_files), list(contact_files), mapping_path, dt_s)
+    return reader.open(list(particle_files), list(contact_files), mapping_path, dt_s)
+
+
+def read_run_files(source, particle_files, contact_files, mapping_path, dt_s=None):
+    """``(snapshots, meta)`` of the files of code ``source``, every frame in memory
+    (:func:`open_run_files` reads them one at a time)."""
+    frames = open_run_files(source, particle_files, contact_files, mapping_path, dt_s)
+    snapshots = list(frames)
+    return snapshots, frames.meta

@@ -319,7 +319,8 @@ class Run(HDF5Handle, _FrameSequence):
 
         A run is unfinished when its writer did not close the file (a simulation killed, or
         still running), when it holds fewer frames than its producer planned
-        (``provenance["planned_frames"]``), or when it comes from the simulator and records no
+        (``provenance["planned_frames"]``), when its producer recorded that it stopped early
+        (``provenance["interrupted"]``, a phrase), or when it comes from the simulator and records no
         wall time (``sim`` writes it after the last frame; a copy of a stopped run keeps its
         provenance and is unfinished too).
         """
@@ -329,6 +330,8 @@ class Run(HDF5Handle, _FrameSequence):
             reasons.append(f"it holds {len(self)} of the {planned} frames planned")
         if self._writer_open:
             reasons.append("its writer did not close it (killed, or still writing)")
+        if self._meta.provenance.get("interrupted"):
+            reasons.append(str(self._meta.provenance["interrupted"]))
         if self._meta.provenance.get("code") == "sim" and self._meta.provenance.get("wall_time_s") is None:
             reasons.append(f"the simulator recorded no end (no wall time) after its {len(self)} frames")
         return "; ".join(reasons) or None
