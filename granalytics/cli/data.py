@@ -60,14 +60,17 @@ def add_convert_parser(sub):
                                    "plain or gzip, one or many timesteps per file, and write a granalytics run file. "
                                    "Frames are read and written one at a time (memory of about two frames); "
                                    "an interrupted conversion keeps the frames written and --append adds the rest.")
-    p.add_argument("particles", nargs="+", help="particle dump files (LIGGGHTS) or particle CSVs (YADE export)")
+    p.add_argument("particles", nargs="+", help="particle dump files (LIGGGHTS), particle CSVs (YADE export), or a "
+                                                "VTKRecorder folder or its files (yade-vtk)")
     p.add_argument("--from", dest="source", choices=tuple(READERS), default="liggghts",
                    help="; ".join(f"{r.name}: {r.description}" for r in READERS.values()) + " (default liggghts)")
-    p.add_argument("--contacts", nargs="+", required=True, help="contact dump files or contact CSVs")
+    p.add_argument("--contacts", nargs="+", default=[], help="contact dump files or contact CSVs (not for yade-vtk, "
+                                                              "whose folder holds them)")
     p.add_argument("--mapping", required=True, help="TOML file: for liggghts units, contact columns and material metadata "
-                   "(granalytics.convert.lammps.DumpMapping); for yade surface_tension, density, drum_omega, contact_angle, alpha")
-    p.add_argument("--dt-s", type=float, help="simulation time step in seconds (liggghts: time = timestep × dt; "
-                   "yade files carry their time)")
+                   "(granalytics.convert.lammps.DumpMapping); for yade surface_tension, density, drum_omega, contact_angle, alpha; "
+                   "for yade-vtk those and bridge_volume (docs/readers.md)")
+    p.add_argument("--dt-s", type=float, help="simulation time step in seconds (liggghts, yade-vtk: time = timestep "
+                   "× dt; yade CSVs carry their time)")
     p.add_argument("--out", required=True, help="run file to write (.h5)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing run file")
     p.add_argument("--append", action="store_true",
@@ -129,6 +132,8 @@ def cmd_convert(args):
     if READERS[args.source].needs_dt and args.dt_s is None:
         raise ParameterError(f"--dt-s: {args.source} files do not record the time step; give it in seconds "
                              "(time = timestep × dt)")
+    if READERS[args.source].needs_contacts and not args.contacts:
+        raise ParameterError(f"--contacts: {args.source} reads the contacts from their own files; give them")
     if args.append and args.overwrite:
         raise ParameterError("--append adds frames to --out and --overwrite replaces it: give one of them")
     inputs = [*args.particles, *args.contacts, args.mapping]

@@ -94,12 +94,16 @@ class Reader:
         ``open(particle_files, contact_files, mapping_path, dt_s)`` → :class:`FrameSource`.
     needs_dt : bool
         Whether its files lack the time (``dt_s`` [s] then converts timesteps to seconds).
+    needs_contacts : bool
+        Whether contact files are given apart from the particle files (a VTKRecorder folder
+        holds both).
     """
 
     name: str
     description: str
     open: Callable
     needs_dt: bool = False
+    needs_contacts: bool = True
 
 
 def _liggghts(particle_files, contact_files, mapping_path, dt_s):
@@ -115,10 +119,18 @@ def _yade(particle_files, contact_files, mapping_path, dt_s):
                           [*particle_files, *contact_files])
 
 
+def _yade_vtk(particle_files, contact_files, mapping_path, dt_s):
+    from granalytics.convert.yade_vtk import open_yade_vtk
+
+    return open_yade_vtk([*particle_files, *contact_files], mapping_path, dt_s)
+
+
 #: reader name -> :class:`Reader`
 READERS = {r.name: r for r in (
     Reader("liggghts", "LIGGGHTS/LAMMPS dumps (dump custom + compute pair/gran/local)", _liggghts, needs_dt=True),
     Reader("yade", "CSVs of scripts/yade_export.py", _yade),
+    Reader("yade-vtk", "a YADE VTKRecorder folder (recorders spheres, velocity, id, intr)", _yade_vtk, needs_dt=True,
+           needs_contacts=False),
 )}
 
 
