@@ -541,3 +541,32 @@ def test_convert_shows_the_bytes_read_while_it_reads(tmp_path, frames, capsys):
     err = capsys.readouterr().err
     total = pf[0].stat().st_size + cf[0].stat().st_size
     assert f"convert: 100%" in err and "3 frames" in err and f"{total / 1e3:.0f}k/{total / 1e3:.0f}k" in err
+
+
+def test_liggghts_vtk_dumps_give_the_frames_and_granules_of_its_text_dumps():
+    """dump custom/vtk and dump local/gran/vtk of the fixture run (the same frames as its text
+    dumps, LIGGGHTS 3.8) through the same reader: the same particles, contacts and granules."""
+    pytest.importorskip("vtk")
+    from pathlib import Path
+
+    fixture = Path(__file__).parent / "data" / "liggghts_wet_drum"
+    text, _ = read_liggghts(sorted(fixture.glob("atoms.*.dump.gz")), sorted(fixture.glob("pairs.*.dump.gz")),
+                            DumpMapping.from_toml(fixture / "mapping.toml"), dt=2e-6)
+    vtk, meta = read_liggghts(sorted((fixture / "vtk").glob("atoms_*.vtu")), sorted((fixture / "vtk").glob("pairs_*.vtp")),
+                              DumpMapping.from_toml(fixture / "vtk" / "mapping.toml"), dt=2e-6)
+    assert [s.step for s in vtk] == [s.step for s in text] == [5000, 10000, 15000, 20000]
+    assert (vtk[-1].f_cap > 0).sum() > 20
+    for a, b in zip(vtk, text):
+        oa, ob = np.argsort(a.ids), np.argsort(b.ids)
+        np.testing.assert_array_equal(a.ids[oa], b.ids[ob])
+        np.testing.assert_allclose(a.position[oa], b.position[ob], rtol=1e-5, atol=0)  # 6 digits against float32
+        np.testing.assert_allclose(a.velocity[oa], b.velocity[ob], rtol=1e-5, atol=1e-9)
+        np.testing.assert_allclose(a.film_volume[oa], b.film_volume[ob], rtol=1e-5)
+        ka, kb = np.lexsort((a.ids[a.contact_j], a.ids[a.contact_i])), np.lexsort((b.ids[b.contact_j], b.ids[b.contact_i]))
+        np.testing.assert_array_equal(a.ids[a.contact_i][ka], b.ids[b.contact_i][kb])
+        np.testing.assert_allclose(a.gap[ka], b.gap[kb], rtol=1e-5, atol=1e-12)
+        np.testing.assert_allclose(a.f_cap[ka], b.f_cap[kb], rtol=1e-4, atol=1e-9)
+        for cohesion in ("acting", "bridge"):
+            ga_a = {frozenset(a.ids[list(g)]) for g in ga.identify(a, cohesion=cohesion).partition()}
+            ga_b = {frozenset(b.ids[list(g)]) for g in ga.identify(b, cohesion=cohesion).partition()}
+            assert ga_a == ga_b and (ga_a or not a.n_contacts)

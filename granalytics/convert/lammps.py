@@ -450,9 +450,12 @@ def _contacts(table, path, line, mapping, ids, position):
 
 
 def _in_step_order(files, kind):
-    """The :class:`DumpFile` of each path, ordered by their first timestep (files of one
+    """The :class:`DumpFile` (or, for ``.vtu``/``.vtp``/``.vtk`` files, :class:`~granalytics.convert.
+    liggghts_vtk.VtkDumpFile`) of each path, ordered by their first timestep (files of one
     timestep each, named ``atoms.5000``, ``atoms.10000``, … come in any order)."""
-    dumps = [DumpFile(path, kind) for path in files]
+    from granalytics.convert.liggghts_vtk import VtkDumpFile, is_vtk
+
+    dumps = [(VtkDumpFile if is_vtk(path) else DumpFile)(path, kind) for path in files]
     first = {id(d): d.first_step() for d in dumps}
     return sorted(dumps, key=lambda d: (first[id(d)] is None, first[id(d)] or 0))
 

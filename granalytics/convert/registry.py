@@ -127,7 +127,8 @@ def _yade_vtk(particle_files, contact_files, mapping_path, dt_s):
 
 #: reader name -> :class:`Reader`
 READERS = {r.name: r for r in (
-    Reader("liggghts", "LIGGGHTS/LAMMPS dumps (dump custom + compute pair/gran/local)", _liggghts, needs_dt=True),
+    Reader("liggghts", "LIGGGHTS/LAMMPS dumps (dump custom + compute pair/gran/local; text, or the VTK files of "
+                       "dump custom/vtk and dump local/gran/vtk)", _liggghts, needs_dt=True),
     Reader("yade", "CSVs of scripts/yade_export.py", _yade),
     Reader("yade-vtk", "a YADE VTKRecorder folder (recorders spheres, velocity, id, intr)", _yade_vtk, needs_dt=True,
            needs_contacts=False),
