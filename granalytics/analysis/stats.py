@@ -185,7 +185,9 @@ def check_window(axis, window, *, by="revolutions", source=None, warn=True):
     covered = f"the run covers [{first:.3g}, {last:.3g}]"
     n = int(mask.sum())
     if n == 0:
-        raise ParameterError(f"{where}no frame in the window [{lo:g}, {hi:g}] {unit}; {covered}")
+        other = "--window-time T0:T1 in seconds" if by == "revolutions" else "--window R0:R1 in revolutions"
+        raise ParameterError(f"{where}no frame in the window [{lo:g}, {hi:g}] {unit}; {covered} {unit}: give a window "
+                             f"inside it (or {other})")
     if warn and (hi > last + tol or lo < first - tol):
         used = clip_window(axis, lo, hi, tol)
         past = "runs past the run's end" if lo >= first - tol else (
@@ -195,6 +197,10 @@ def check_window(axis, window, *, by="revolutions", source=None, warn=True):
     elif warn and n == 1:
         warnings.warn(f"{where}the window [{lo:g}, {hi:g}] {unit} holds a single frame: its steady state has "
                       "no spread", stacklevel=user_stacklevel())
+    span = float(np.nanmax(axis[mask]) - np.nanmin(axis[mask]))
+    if warn and by == "revolutions" and n > 1 and span < 1 - tol:
+        warnings.warn(f"{where}the window's frames span {span:.3g} revolutions, less than one turn of the drum: the "
+                      "bed's cycle is not averaged over, so their mean is not a steady state", stacklevel=user_stacklevel())
     return mask, tol
 
 

@@ -203,7 +203,9 @@ def criterion_params(args) -> dict:
     return out
 
 
-def add_gna_options(parser):
+def add_gna_options(parser, time_twin=True):
+    """The GNA thresholds and the frame window (``--window-rev``, and ``--window-time`` unless
+    ``time_twin`` is False: a command with a steady-state ``--window`` gives it that one)."""
     group = parser.add_argument_group("granule identification (graph network analysis, paper §2.2)")
     add_cohesion_option(group)
     group.add_argument("--c-agg", type=float, default=PAPER_C_AGG,
@@ -214,8 +216,65 @@ def add_gna_options(parser):
     group.add_argument("--radius", choices=("pair", "mean"), default="pair",
                        help="R in 2πγR: pair effective radius 2RiRj/(Ri+Rj) or the run's mean radius (default pair)")
     group.add_argument("--backend", choices=sorted(BACKENDS), default="fast", help="connected-components backend (default fast)")
-    group.add_argument("--window-rev", type=interval, default=None, metavar="R0:R1",
-                       help="only frames within this revolution window (default: all frames)")
+    add_frame_window_options(group, time_twin)
+
+
+def add_frame_window_options(parser, time_twin=True):
+    """``--window-rev R0:R1``: only the frames of this revolution window; and the same in
+    seconds: ``--window-time T0:T1`` (with ``time_twin``), or ``--frames-time T0:T1`` in a command
+    whose ``--window-time`` is the seconds of its steady-state ``--window``
+    (:func:`add_window_options`)."""
+    parser.add_argument("--window-rev", type=interval, default=None, metavar="R0:R1",
+                        help="only frames within this revolution window (default: all frames)")
+    parser.add_argument("--window-time" if time_twin else "--frames-time", dest="frames_time", type=interval,
+                        default=None, metavar="T0:T1", help="only frames within this time window [s] (instead of "
+                                                            "--window-rev)")
+
+
+def add_window_options(parser, default=None, what="steady-state window"):
+    """``--window R0:R1`` (revolutions) and ``--window-time T0:T1`` (seconds), one of them: the
+    window a command's result is averaged over. The same meaning in every command that has them;
+    read with :func:`revolution_window` (or directly, where the analysis takes seconds)."""
+    from granalytics.analysis.stats import DEFAULT_WINDOW_REV
+
+    default = DEFAULT_WINDOW_REV if default is None else default
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--window", type=interval, default=None, metavar="R0:R1",
+                       help=f"{what} in drum revolutions (default {default[0]:g}:{default[1]:g})")
+    group.add_argument("--window-time", type=interval, default=None, metavar="T0:T1",
+                       help=f"{what} in seconds instead of revolutions (a run shorter than the default window, or "
+                            "runs compared at equal time)")
+    parser.set_defaults(window_default=tuple(default), window_time_steady=True)
+
+
+def revolution_window(args, metas, names=()) -> tuple:
+    """The revolution window of ``--window`` / ``--window-time``: ``--window`` (or the default),
+    or ``--window-time`` converted with the runs' drum speed (t·|Ω|/2π, the revolutions of every
+    frame). ``metas`` are the runs' :class:`~granalytics.core.RunMeta`; a time window needs them to
+    turn at one speed (ParameterError naming the runs otherwise)."""
+    if getattr(args, "window_time", None) is None:
+        return args.window if args.window is not None else args.window_default
+    speeds = {abs(float(m.drum_omega)) for m in metas}
+    if 0.0 in speeds:
+        raise ParameterError("--window-time: a run's drum does not turn (Ω = 0): this command measures in "
+                             "revolutions; `granalytics stats --window-time` averages over seconds")
+    if len(speeds) > 1:
+        raise ParameterError(f"--window-time: the runs turn at different speeds ({', '.join(f'{w:g}' for w in sorted(speeds))} "
+                             f"rad/s{': ' + ', '.join(map(str, names)) if names else ''}): equal times are other "
+                             "revolutions in each; give --window in revolutions")
+    (omega,) = speeds
+    return tuple(t * omega / (2 * math.pi) for t in args.window_time)
+
+
+def run_metas(paths) -> list:
+    """The :class:`~granalytics.core.RunMeta` of each run file (opened for its metadata only)."""
+    from granalytics.core import open_run
+
+    metas = []
+    for path in paths:
+        with open_run(path, validate=False) as run:
+            metas.append(run.meta)
+    return metas
 
 
 def gna_identifier(args):
@@ -254,10 +313,17 @@ def warn_if_c_agg_unreachable(frames, c_agg, cohesion, radius="pair") -> None:
 
 
 def selected_frames(run, args):
-    """The frames of ``run`` in ``--window-rev`` (all without it); warns once for an unfinished
+    """The frames of ``run`` in ``--window-rev`` or its seconds twin (all without them); warns once for an unfinished
     run and for a ``--c-agg`` that no contact can pass."""
     warn_if_unfinished(run)
-    frames = run if args.window_rev is None else run.select(revolutions=args.window_rev)
+    frames = run
+    frame_time = getattr(args, "frames_time", None)
+    if args.window_rev is not None and frame_time is not None:
+        raise ParameterError("--window-rev (revolutions) and a frame window in seconds both given: give one")
+    if args.window_rev is not None:
+        frames = run.select(revolutions=args.window_rev)
+    elif frame_time is not None:
+        frames = run.select(time=frame_time)
     if not len(frames):
         raise ParameterError(f"{run.path}: no frame in the selection (the run has {len(run)} frames)")
     if getattr(args, "c_agg", None) is not None:

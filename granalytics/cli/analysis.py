@@ -25,7 +25,8 @@ from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_sta
 from granalytics.cli._common import (resolve_rigid_options, threshold_options, add_cohesion_option, add_continuation_option,
                                      add_criterion_options, add_frame_loop_options, add_gna_options, add_size_unit_option, criterion_params,
                                      check_outputs, frame_loop, gna_identifier, grid,
-                                     interval, json_safe, plus_minus, progress, save_figure, selected_frames, setting,
+                                     interval, json_safe, plus_minus, progress, revolution_window, run_metas,
+                                     save_figure, selected_frames, setting, add_window_options, add_frame_window_options,
                                      warn_if_c_agg_unreachable, warn_if_unfinished, window_axis, write_table)
 
 
@@ -57,21 +58,18 @@ def add_stats_parser(sub):
     p = sub.add_parser("stats", help="granulation time series and steady-state table",
                        description="Granule number, mean volume and yield per frame; steady-state averages over a revolution window.")
     p.add_argument("run", help="run file (.h5)")
-    p.add_argument("--window", type=interval, default=None, metavar="R0:R1",
-                   help="steady-state window in revolutions (default 3:6; not with --window-time)")
+    add_window_options(p)
     p.add_argument("--out", help="time series table to write (.csv or .parquet)")
     p.add_argument("--steady-out", help="steady-state table (mean, std, block s.e.m. per metric; .csv or .parquet)")
     p.add_argument("--sizes-out", help="granule-size distribution over the window (.csv or .parquet; sizes in "
                                         "--size-unit)")
     p.add_argument("--plot", help="figure of the time series and size distribution (.png, .pdf, .svg)")
-    p.add_argument("--window-time", type=interval, metavar="T0:T1",
-                   help="steady-state window in seconds instead of revolutions (any run, also without a rotating drum)")
     p.add_argument("--replica", action="append", default=[], metavar="RUN",
                    help="a replica of RUN (the same system at another seed; repeatable): the steady state is then "
                         "the mean over the replicas with the replica s.e. beside the block s.e.m. (also in --steady-out)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     add_size_unit_option(p)
-    add_gna_options(p)
+    add_gna_options(p, time_twin=False)
     add_frame_loop_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_stats)
@@ -88,8 +86,7 @@ def add_sensitivity_parser(sub):
                    help="cohesion thresholds: START:STOP:NUM or a list (default 0.1:1.0:19)")
     p.add_argument("--a-agg-deg", type=grid, default=grid("5,10,20,45,90"), metavar="GRID",
                    help="angle thresholds in degrees (default 5,10,20,45,90)")
-    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
-                   help="revolution window (default 3:6)")
+    add_window_options(p, what="window of the frames averaged")
     p.add_argument("--radius", choices=("pair", "mean"), default="pair", help="R in 2πγR (default pair)")
     add_cohesion_option(p)
     add_criterion_options(p, grid_tol=True)
@@ -117,10 +114,8 @@ def add_compare_methods_parser(sub):
                         "and/or/not, e.g. 'custom.criterion=0.5 <= f_norm and (angle_v_deg < 30 or angle_w_deg < 30)' "
                         "(no arithmetic or function calls: docs/identification.md)")
     add_cohesion_option(p)
-    p.add_argument("--window-rev", type=interval, default=None, metavar="R0:R1",
-                   help="only frames within this revolution window (default: all frames)")
-    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
-                   help="steady-state window of the printed means, in revolutions (default 3:6)")
+    add_frame_window_options(p, time_twin=False)
+    add_window_options(p, what="steady-state window of the printed means")
     p.add_argument("--out", help="pairwise comparison per frame (.csv or .parquet)")
     p.add_argument("--stats-out", help="statistics per frame and method (.csv or .parquet)")
     p.add_argument("--plot", help="figure (.png, .pdf, .svg)")
@@ -145,8 +140,7 @@ def add_compare_cg_parser(sub):
     p.add_argument("--replicas", action="store_true",
                    help="runs with equal α and particle count are replicas (other seeds) of one system: compare "
                         "their mean, with the replica standard error beside the block s.e.m. (one label per group)")
-    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
-                   help="steady-state window in revolutions (default 3:6)")
+    add_window_options(p)
     p.add_argument("--mixed-systems", action="store_true",
                    help="compare runs that are not coarse-grained from one original system (their original "
                         "parameters differ in more than seed, α and CG rule) with a warning instead of a refusal")
@@ -425,6 +419,7 @@ def cmd_sensitivity(args):
                       comotion=args.comotion, rigid_scale=args.rigid_scale, min_size=args.min_size)
     with open_run(args.run) as run:
         warn_if_unfinished(run)
+        args.window = revolution_window(args, [run.meta])
         check_window(window_axis(run), args.window, source=args.run)  # refuses an empty window, warns for an uncovered one
         frames = run.select(revolutions=args.window)
         # the per-frame table: one row of about 120 bytes per frame and grid point, built in memory
@@ -467,6 +462,7 @@ def cmd_compare(args):
             raise ParameterError(f"--set {method}.{param}: {method!r} is not among --methods {','.join(methods)}")
         methods[method][1][param] = value
     with open_run(args.run) as run:
+        args.window = revolution_window(args, [run.meta])
         frames = selected_frames(run, args)
         stats, pairs = compare_methods(frames, methods, cohesion=args.cohesion, progress=not args.quiet,
                                        **frame_loop(args))
@@ -534,6 +530,7 @@ def cmd_compare_cg(args):
     figure_files = [f"{name}.{ext}" for name in cg_figure_names() for ext in _CG_FORMATS]
     CGComparison.check_outputs(args.out, overwrite=args.overwrite, others=figure_files)  # before minutes of analysis
     runs = group_replicas(args.runs) if args.replicas else args.runs
+    args.window = revolution_window(args, run_metas(args.runs), args.runs)
     comparison = compare_cg(runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
                             progress=not args.quiet, mixed_systems=args.mixed_systems, **params)
     written = _write_cg(comparison, args.out, args.size_unit)
@@ -592,6 +589,7 @@ def _compare_cg_thresholds(args, labels) -> int:
     existing = [p for p in paths.values() if os.path.exists(p)]
     if existing and not args.overwrite:
         raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
+    args.window = revolution_window(args, run_metas(args.runs), args.runs)
     table = compare_cg_thresholds(args.runs, c_agg, a_agg, labels, window=args.window, cohesion=args.cohesion,
                                   progress=not args.quiet)
     figures = cg_threshold_figures(table)

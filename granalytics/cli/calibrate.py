@@ -5,7 +5,8 @@ from __future__ import annotations
 import os
 
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
-from granalytics.cli._common import (add_cohesion_option, add_criterion_options, grid, interval, resolve_rigid_options)
+from granalytics.cli._common import (add_cohesion_option, add_criterion_options, add_window_options, grid, interval,
+                                     resolve_rigid_options, revolution_window, run_metas)
 from granalytics.base.errors import ParameterError
 from granalytics.outputs import output_folder, staged_outputs
 
@@ -33,8 +34,7 @@ def add_calibrate_parser(sub):
                    help="cohesion thresholds: START:STOP:NUM or a list (default 0.2:0.9:15)")
     p.add_argument("--a-agg-deg", type=grid, default=None, metavar="GRID",
                    help="angle thresholds in degrees (default 5:60:12)")
-    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
-                   help="steady-state window in revolutions (default 3:6)")
+    add_window_options(p)
     p.add_argument("--measure", choices=tuple(SIEVE_MEASURES), default="volume",
                    help="a granule's sieve size: 'volume' = diameter of the sphere of its solid volume (default), "
                         "'width' = its second-largest principal extent")
@@ -76,6 +76,7 @@ def cmd_calibrate(args):
             raise ParameterError(f"{args.out}: the output folder is an input run")
     measured = read_sieve_csv(args.measured)  # a malformed file is refused before any run is read
     paths = Calibration.output_paths(args.out, overwrite=args.overwrite, figures=FIGURES)  # before the work
+    args.window = revolution_window(args, run_metas(args.runs), args.runs)
     cal = calibrate_thresholds(args.runs, measured, args.c_agg, a_agg, window=args.window, comotion=args.comotion,
                                rigid_tol=args.rigid_tol if rigid else None, rigid_scale=args.rigid_scale,
                                measure=args.measure, measured_error=args.measured_error, n_boot=args.bootstrap,

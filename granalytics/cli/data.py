@@ -27,8 +27,9 @@ def add_subset_parser(sub):
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--out", required=True, help="run file to write (.h5)")
     p.add_argument("--every", type=every, default=1, help="keep every N-th frame (default 1: all)")
-    p.add_argument("--full-window", type=interval, metavar="R0:R1",
-                   help="keep every frame within this revolution window")
+    full = p.add_mutually_exclusive_group()
+    full.add_argument("--full-window", type=interval, metavar="R0:R1", help="keep every frame within this revolution window")
+    full.add_argument("--full-window-time", type=interval, metavar="T0:T1", help="the same in seconds")
     p.add_argument("--window-every", type=every, default=1, metavar="K",
                    help="inside --full-window keep only the frames whose index is a multiple of K (default 1: all)")
     p.add_argument("--float32", action="store_true", help="store floats as float32 (read back as float64)")
@@ -86,16 +87,20 @@ def cmd_subset(args):
 
     if args.every < 1:
         raise ParameterError(f"--every must be >= 1, got {args.every}")
-    if args.window_every != 1 and args.full_window is None:
+    if args.window_every != 1 and args.full_window is None and args.full_window_time is None:
         raise ParameterError(f"--window-every {args.window_every} thins --full-window; give one")
     check_outputs(args, others=(args.out,))  # not the input (links resolved), no device, --overwrite
     with open_run(args.run) as run:
         n_frames = len(run)
         # revolutions only where a window of them is asked for (a static run has none)
-        if args.full_window is not None:
-            check_window(run.revolutions, args.full_window, source=args.run)  # warns when the run does not cover it
-        frames = thinned_frames(run.times if args.full_window is None else run.revolutions, args.every,
-                                args.full_window, args.window_every)
+        if args.full_window_time is not None:
+            check_window(run.times, args.full_window_time, by="time_s", source=args.run)
+            frames = thinned_frames(run.times, args.every, args.full_window_time, args.window_every)
+        else:
+            if args.full_window is not None:
+                check_window(run.revolutions, args.full_window, source=args.run)  # warns when the run does not cover it
+            frames = thinned_frames(run.times if args.full_window is None else run.revolutions, args.every,
+                                    args.full_window, args.window_every)
     subset_run(args.run, args.out, frames, float_dtype="float32" if args.float32 else "float64",
                overwrite=args.overwrite, progress=not args.quiet)
     print(f"wrote {args.out}: {len(frames)} of {n_frames} frames"

@@ -3,10 +3,12 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 
-from granalytics.cli._common import add_cohesion_option, interval, json_safe, save_figure, threshold_options, write_table
+from granalytics.cli._common import (add_cohesion_option, interval, json_safe, revolution_window, save_figure,
+                                     threshold_options, write_table)
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock
 
@@ -33,10 +35,13 @@ def add_pbm_parser(sub):
                     "(mean size, yield, KS distance per frame), settings.json and pbm.png (DEM as points, PBM as "
                     "lines). See docs/population_balance.md.")
     p.add_argument("run", help="run file (.h5)")
-    p.add_argument("--fit-window", required=True, type=interval, metavar="R0:R1",
-                   help="revolutions whose tracked granules give the rates")
-    p.add_argument("--predict", required=True, type=interval, metavar="R0:R1",
-                   help="revolutions to predict, from the DEM's distribution at the first frame in it")
+    fit = p.add_mutually_exclusive_group(required=True)
+    fit.add_argument("--fit-window", type=interval, metavar="R0:R1", help="revolutions whose tracked granules give the rates")
+    fit.add_argument("--fit-window-time", type=interval, metavar="T0:T1", help="the same in seconds")
+    predict = p.add_mutually_exclusive_group(required=True)
+    predict.add_argument("--predict", type=interval, metavar="R0:R1",
+                         help="revolutions to predict, from the DEM's distribution at the first frame in it")
+    predict.add_argument("--predict-time", type=interval, metavar="T0:T1", help="the same in seconds")
     p.add_argument("--out", required=True, help="output folder: " + ", ".join(_OUTPUTS))
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna", help="identification method (default gna)")
     p.add_argument("--c-agg", type=float, default=None,
@@ -68,6 +73,12 @@ def cmd_pbm(args):
         raise ParameterError(f"--bins-per-decade must be positive, got {args.bins_per_decade:g}")
     if not 1 < args.ratio <= 10:
         raise ParameterError(f"--ratio must be in (1, 10], got {args.ratio:g}")
+    with ga.open_run(args.run) as run:
+        meta = run.meta
+    for name in ("fit_window", "predict"):  # seconds to revolutions at the run's Ω
+        seconds = getattr(args, f"{name}_time")
+        if seconds is not None:
+            setattr(args, name, revolution_window(argparse.Namespace(window_time=seconds), [meta]))
     if args.predict[0] < args.fit_window[0]:
         raise ParameterError(f"--predict {args.predict[0]:g}:{args.predict[1]:g} starts before --fit-window "
                              f"{args.fit_window[0]:g}:{args.fit_window[1]:g} (a prediction goes forward)")

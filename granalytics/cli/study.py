@@ -15,7 +15,8 @@ from granalytics.core.manifest import read_manifest
 from granalytics.plot import growth_figure
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.analysis.study import fit_growth_of_table, fit_surrogate, study_table
-from granalytics.cli._common import check_outputs, interval, plus_minus, save_figure, threshold_options, write_table
+from granalytics.cli._common import (add_window_options, check_outputs, interval, plus_minus, revolution_window, run_metas,
+                                     save_figure, threshold_options, write_table)
 
 def parse_predict(text, inputs=("gamma", "omega")) -> dict:
     """Parse ``"gamma=0.2,omega=3"`` into ``{"gamma": 0.2, "omega": 3.0}``.
@@ -62,8 +63,7 @@ def add_study_parser(sub):
                     "β ≈ 70, γ₁ ≈ 0.027 N/m, and a Gaussian-process surrogate on (gamma, omega) with its "
                     "leave-one-out error. See docs/parameter_studies.md.")
     p.add_argument("sweep", help="sweep folder (manifest.csv and points/)")
-    p.add_argument("--window", type=interval, default=DEFAULT_WINDOW_REV, metavar="R0:R1",
-                   help="steady-state window in revolutions (default 3:6)")
+    add_window_options(p)
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna",
                    help="identification method (default gna; a custom criterion needs the Python API, "
                         "study_table(..., method='custom', criterion=...))")
@@ -104,6 +104,8 @@ def cmd_study(args) -> int:
     conventions = ["acting", "bridge"] if args.cohesion == "both" else [args.cohesion]
     params = threshold_options(args, args.method)
     manifest = read_manifest(args.sweep)
+    done = manifest[manifest["status"] == "done"]
+    args.window = revolution_window(args, run_metas(os.path.join(args.sweep, f) for f in done["file"]), done["point"])
     table = study_table(args.sweep, window=args.window, method=args.method, cohesion=conventions,
                         replicas=args.replicas, progress=not args.quiet, **params)
     shown_params = ", ".join(f"{k}={v:g}" for k, v in params.items())

@@ -12,8 +12,9 @@ from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.core import open_run
 from granalytics.plot import tracking_figure
 from granalytics.analysis.tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
-from granalytics.cli._common import (add_cohesion_option, add_frame_loop_options, add_size_unit_option, frame_loop, interval, save_figure,
-                                     threshold_options, warn_if_unfinished, write_table)
+from granalytics.cli._common import (add_cohesion_option, add_frame_loop_options, add_frame_window_options,
+                                     add_size_unit_option, frame_loop, interval, save_figure, selected_frames,
+                                     threshold_options, write_table)
 
 _OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
 
@@ -42,8 +43,7 @@ def add_track_parser(sub):
     p.add_argument("--a-agg-deg", type=float, default=None,
                    help="angle threshold A_agg in degrees (default: the method's, 20; only for methods that take it)")
     add_cohesion_option(p)
-    p.add_argument("--window-rev", dest="window", type=interval, default=None, metavar="R0:R1",
-                   help="only frames within this revolution window (default: all frames)")
+    add_frame_window_options(p)
     p.add_argument("--min-fragment", type=int, default=2,
                    help="fewest particles that count as a fragment in a coalescence or breakage (default 2)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
@@ -72,9 +72,8 @@ def cmd_track(args):
             raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
         params = {**threshold_options(args, args.method), **accepted_params(args.method, cohesion=args.cohesion)}
         with open_run(args.run) as run:
-            warn_if_unfinished(run)
             omega, meta = run.meta.drum_omega, run.meta
-            frames = run if args.window is None else run.select(revolutions=args.window)
+            frames = selected_frames(run, args)
             if len(frames) < 2:
                 raise ParameterError(f"{args.run}: tracking needs at least two frames, the selection has {len(frames)} "
                                      f"(the run has {len(run)})")
