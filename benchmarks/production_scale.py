@@ -77,8 +77,11 @@ def write_tiled_dumps(n_tiles, n_frames, folder):
             int_cols = ["id", "type"] if kind == "ATOMS" else ["c_cpl[7]", "c_cpl[8]", "c_cpl[9]"]
             for c in int_cols:
                 frame_table[c] = frame_table[c].astype(np.int64)
+            lo = np.array([float(line.split()[0]) for line in head[5:8]])
+            hi = np.array([float(line.split()[1]) for line in head[5:8]]) + shift.max(axis=0)
+            bounds = "\n".join(f"{a:.6g} {b:.6g}" for a, b in zip(lo, hi))  # the box holds every tile
             header = (f"ITEM: TIMESTEP\n{out_step}\nITEM: NUMBER OF {'ATOMS' if kind == 'ATOMS' else 'ENTRIES'}\n"
-                      f"{len(big)}\n" + "\n".join(head[4:8]) + f"\nITEM: {kind} " + " ".join(columns) + "\n")
+                      f"{len(big)}\n{head[4]}\n{bounds}\nITEM: {kind} " + " ".join(columns) + "\n")
             tmp = path + ".tmp"
             with gzip.open(tmp, "wt", compresslevel=1) as f:
                 f.write(header)

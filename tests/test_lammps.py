@@ -454,8 +454,10 @@ def test_convert_without_dt_names_the_option(tmp_path, frames, capsys):
 
 
 # ----------------------------------------------------------------------------- streaming, --append, interrupts
-def test_frames_are_read_one_at_a_time_from_a_file_of_many_timesteps(tmp_path, frames):
-    from granalytics.convert.lammps import open_liggghts
+def test_frames_are_read_one_at_a_time_from_a_file_of_many_timesteps(tmp_path, frames, monkeypatch):
+    from granalytics.convert.lammps import _BlockReader, open_liggghts
+
+    monkeypatch.setattr(_BlockReader, "CHUNK", 4096)  # chunks smaller than a block, as for a production run
 
     pf, cf = write_dumps(tmp_path, frames)  # one file of three timesteps each
     run = open_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)

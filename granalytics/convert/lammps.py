@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import gzip
 import io
-import itertools
 import math
 import os
 import zlib
@@ -173,9 +172,13 @@ class DumpFile:
 class _BlockReader:
     """The reading of one :class:`DumpFile`: its open file, the line count and the parsing."""
 
+    #: bytes read from the (decompressed) file at a time
+    CHUNK = 1 << 22
+
     def __init__(self, dump, peek=False):
         self.dump, self.path, self.peek = dump, dump.path, peek
         self.line = 0  # 0-based number of the next line
+        self.buffer, self.at, self.eof = b"", 0, False  # read ahead in chunks; self.at: the next unread byte
 
     def __enter__(self):
         try:
@@ -209,9 +212,37 @@ class _BlockReader:
             self.fail(self.line + n_lines - 1, f"the last line does not end with a newline: the file was cut short "
                                                f"(last line {last[-60:]!r})")
 
+    def _more(self) -> bool:
+        """Read the next chunk into the buffer (dropping what was read); False at the end of the file."""
+        if self.eof:
+            return False
+        chunk = self._read(lambda: self.file.read(self.CHUNK if not self.peek else 4096))
+        self.buffer, self.at = self.buffer[self.at:] + chunk, 0
+        self.eof = not chunk
+        return bool(chunk)
+
+    def read_lines(self, n) -> bytes:
+        """The next ``n`` lines as bytes (fewer at the end of the file), without a Python loop over
+        lines: whole chunks are read until the buffer holds ``n`` newlines."""
+        if n <= 0:
+            return b""
+        while self.buffer.count(b"\n", self.at) < n and self._more():
+            pass
+        newlines = np.flatnonzero(np.frombuffer(self.buffer, dtype=np.uint8, offset=self.at) == 10)
+        end = self.at + int(newlines[n - 1]) + 1 if len(newlines) >= n else len(self.buffer)
+        data, self.at = self.buffer[self.at:end], end
+        return data
+
+    def _readline(self) -> bytes:
+        while (end := self.buffer.find(b"\n", self.at)) < 0 and self._more():
+            pass
+        end = len(self.buffer) if end < 0 else end + 1
+        data, self.at = self.buffer[self.at:end], end
+        return data
+
     def readline(self):
         """The next line as text (None at the end of the file)."""
-        data = self._read(self.file.readline)
+        data = self._readline()
         if not data:
             return None
         self._complete(data, 1)
@@ -281,7 +312,7 @@ class _BlockReader:
                 self.fail(self.line - 9, f"timestep {step} appears twice")
             seen.add(step)
             first = self.line
-            data = self._read(lambda: b"".join(itertools.islice(self.file, n)))
+            data = self.read_lines(n)
             self._complete(data, data.count(b"\n") + 1)
             if after is not None and step <= after:
                 if data.count(b"\n") != n:
@@ -403,7 +434,7 @@ def _particles(table, path, line, mapping):
     return out
 
 
-def _contacts(table, path, line, mapping, ids, position):
+def _contacts(table, path, line, mapping, ids, order, position):
     def col(name, what):
         return _column(table, name, path, line, what).astype(np.float64, copy=False)
 
@@ -418,8 +449,7 @@ def _contacts(table, path, line, mapping, ids, position):
         length[length == 0] = np.inf  # coincident centres: no direction, no normal force
         return -(force * branch).sum(axis=1) / length
 
-    order = np.argsort(ids, kind="stable")
-    sorted_ids = ids[order]
+    sorted_ids = ids[order]  # order: argsort of ids
     rows = []
     for name in (mapping.contact_id_i, mapping.contact_id_j):
         named = _column(table, name, path, line, name)
@@ -555,10 +585,11 @@ class LiggghtsRun:
             ids = part["ids"]
             if not len(ids):
                 raise DumpFormatError(f"{path}, line {line - 8}: timestep {step} has no particles")
-            if np.unique(ids).size != ids.size:
+            order = np.argsort(ids, kind="stable")
+            if (ids[order[1:]] == ids[order[:-1]]).any():
                 raise DumpFormatError(f"{path}, line {line}: duplicate particle ids in timestep {step}")
             _, ctable, cline, cpath = pending
-            cont = _contacts(ctable, cpath, cline, mapping, ids, part["position"])
+            cont = _contacts(ctable, cpath, cline, mapping, ids, order, part["position"])
             pending = ctable = None
             n0 = n0 or len(ids)
             if len(ids) != n0:
