@@ -26,8 +26,12 @@ from granalytics.core.manifest import manifest_path
 from .cg_rules import CG_RULES, DEFAULT_CG_RULE
 from .laws import CONTACT_LAWS
 from .threads import check_threads
-from .params import (MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,
+from .params import (MAX_CYLINDER_FACETS, MIN_PARTICLES, PRESETS, cg_scale, check_cg_particle_count, frame_interval_steps, preset_original,
                      similar_system, sized_drum, with_step_factor)
+
+
+#: the most particles a run may ask for (10⁸: beyond any run this simulator can finish)
+MAX_PARTICLES = 100_000_000
 
 
 class _Parser(argparse.ArgumentParser):
@@ -44,15 +48,20 @@ def _check_options(args) -> None:
         ("--revolutions", args.revolutions, finite(args.revolutions) and args.revolutions > 0, "a finite number > 0"),
         ("--frame-every-rev", args.frame_every_rev, finite(args.frame_every_rev) and args.frame_every_rev > 0,
          "a finite number > 0"),
-        ("--checkpoint-every", args.checkpoint_every, args.checkpoint_every >= 1, "a whole number of frames >= 1"),
+        ("--checkpoint-every", args.checkpoint_every, 1 <= args.checkpoint_every <= 10**9,
+         "a whole number of frames in [1, 10⁹]"),
         ("--omega", args.omega, args.omega is None or (finite(args.omega) and args.omega != 0),
          "a finite non-zero number (a run is measured in drum revolutions)"),
         ("--gamma", args.gamma, args.gamma is None or (finite(args.gamma) and args.gamma > 0), "a finite number > 0"),
         ("--alpha", args.alpha, args.alpha is None or (finite(args.alpha) and args.alpha >= 1), "a finite number >= 1"),
         ("--particles", args.particles, args.particles is None or args.particles >= 1, "a whole number >= 1"),
-        ("--seed", args.seed, args.seed is None or args.seed >= 0, "a whole number >= 0"),
+        ("--seed", args.seed, args.seed is None or 0 <= args.seed < 2**63, "a whole number in [0, 2⁶³)"),
         ("--cylinder-facets", args.cylinder_facets, args.cylinder_facets is None or args.cylinder_facets == 0 or
-         args.cylinder_facets >= 3, "0 (smooth) or a whole number >= 3"),
+         3 <= args.cylinder_facets <= MAX_CYLINDER_FACETS, f"0 (smooth) or a whole number in [3, {MAX_CYLINDER_FACETS}]"),
+        ("--particles", args.particles, args.particles is None or args.particles <= MAX_PARTICLES,
+         f"at most {MAX_PARTICLES} (a whole number)"),
+        ("--drum-particles", args.drum_particles, args.drum_particles is None or 1 <= args.drum_particles <= MAX_PARTICLES,
+         f"a whole number in [1, {MAX_PARTICLES}]"),
         ("--dt-factor", args.dt_factor, finite(args.dt_factor) and 0 < args.dt_factor <= 100,
          "a finite number in (0, 100]"),
         ("--bridge-volume", args.bridge_volume, args.bridge_volume is None or (finite(args.bridge_volume) and

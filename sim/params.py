@@ -32,6 +32,9 @@ CAPILLARY_MODEL_NAMES = tuple(CAPILLARY_MODELS)
 #: Δt must resolve the contact of the smallest particles with at least this many steps
 MIN_STEPS_PER_CONTACT = 20
 
+#: the most flat facets of a polygonal cylinder (YADE's facetCylinder uses tens; each is a wall)
+MAX_CYLINDER_FACETS = 10_000
+
 
 def _with_law_parameters(cls):
     """Give ``cls`` every registered contact law's parameters (:func:`sim.laws.law_parameters`)
@@ -158,8 +161,10 @@ class SimParams:
             raise ValueError(f"parameter n_particles must be a positive integer, got {self.n_particles!r}")
         if not (isinstance(self.n_baffles, int) and self.n_baffles >= 0):
             raise ValueError(f"parameter n_baffles must be a non-negative integer, got {self.n_baffles!r}")
-        if not (isinstance(self.cylinder_facets, int) and (self.cylinder_facets == 0 or self.cylinder_facets >= 3)):
-            raise ValueError(f"parameter cylinder_facets must be 0 (smooth) or an integer >= 3, got {self.cylinder_facets!r}")
+        if not (isinstance(self.cylinder_facets, int) and (self.cylinder_facets == 0 or
+                                                           3 <= self.cylinder_facets <= MAX_CYLINDER_FACETS)):
+            raise ValueError(f"parameter cylinder_facets must be 0 (smooth) or an integer in [3, {MAX_CYLINDER_FACETS}], "
+                             f"got {self.cylinder_facets!r}")
         if not self.wall_bridges and not self.bridge_volume > 0:
             raise ValueError("parameter wall_bridges=False needs the fixed-bridge-volume model (bridge_volume > 0)")
         if not self.baffle_height < 1:

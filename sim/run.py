@@ -352,6 +352,9 @@ class Simulation:
                                f"{path}.json") else "")
                 raise ValueError(f"{path}: not a checkpoint of this simulator (no '{_INFO_KEY}' inside){earlier}")
             info = json.loads(str(arrays.pop(_INFO_KEY)))
+            if info.get("format") != CHECKPOINT_FORMAT:
+                raise ValueError(f"{path}: checkpoint format {info.get('format')!r}, this simulator reads format "
+                                 f"{CHECKPOINT_FORMAT}: not a checkpoint it wrote")
             state = State.from_arrays(arrays)
             params = SimParams.from_dict(info.pop("params"))
             original = SimParams.from_dict(info.pop("original"))
@@ -553,6 +556,9 @@ class Simulation:
             raise ValueError(f"{out}: not a run of this simulator (no simulation parameters in its metadata)") from None
         ckpt_version = getattr(self, "_resume_physics_version", PHYSICS_VERSION)
         for where, version in ((ckpt, ckpt_version), (out, meta.provenance.get("physics_version"))):
+            if version is not None and (isinstance(version, bool) or not isinstance(version, int)):
+                raise ValueError(f"{where}: records its physics version as {type(version).__name__} {version!r}, not a "
+                                 "whole number: not written by this simulator")
             if version is not None and version != PHYSICS_VERSION:
                 raise ValueError(
                     f"{where}: made by the simulator's physics version {version}, this simulator has version "

@@ -162,6 +162,11 @@ def test_both_file_forms_and_the_example_file(tmp_path):
     ("aperture_m,passing_fraction\n0.001,0.5\n0.002,0.4\n", "row 2, field passing_fraction: decreases"),
     ("aperture_m,passing_fraction\n0.001,0.5\n0.002,1.2\n", "row 2, field passing_fraction: above 1"),
     ("aperture_m,passing_fraction,sigma\n0.001,0.5,-0.01\n0.002,1,0.01\n", "row 1, field sigma: must not be negative"),
+    ("aperture_m,passing_fraction,sigma\n0.001,0.5,0\n0.002,1,0.01\n", "row 1, field sigma: a standard error of a "
+                                                                          "fraction must be >= 1e-06"),
+    ("aperture_m,passing_fraction,sigma\n0.001,0.5,0.01\n0.002,1,1e-300\n", "row 2, field sigma: a standard error"),
+    ("aperture_m,passing_fraction,sigma,sigma\n0.001,0.5,0.01,0.01\n0.002,1,0.01,0.01\n", "names a column twice"),
+    ("aperture_m,passing_fraction\n" + "0.001,0.5\n" * 100_000, "is not a sieve analysis"),
 ])
 def test_every_malformed_measured_file_is_refused_in_one_line(tmp_path, text, words):
     path = _write(tmp_path, text)
@@ -195,3 +200,12 @@ def test_the_command_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "sum to 0.9" in err[0]
     assert not (tmp_path / "x").exists()
+
+
+def test_a_measured_file_that_is_a_fifo_is_refused_not_waited_on(tmp_path):
+    import os
+
+    fifo = tmp_path / "sieve.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(ParameterError, match="sieve.csv"):
+        ga.read_sieve_csv(fifo)

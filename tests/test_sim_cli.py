@@ -476,3 +476,31 @@ def test_a_ctrl_c_while_the_simulator_loads_is_one_line_and_exit_130(monkeypatch
     assert entry.main(["--help"]) == 130
     assert capsys.readouterr().err.strip() == "sim: interrupted before any work; nothing was written"
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--cylinder-facets", str(10**20)], ["--cylinder-facets", "[3, 10000]"]),
+    (["--particles", str(10**12)], ["--particles", "at most"]),
+    (["--drum-particles", str(10**12)], ["--drum-particles"]),
+    (["--checkpoint-every", str(10**12)], ["--checkpoint-every"]),
+    (["--seed", str(2**64)], ["--seed", "2⁶³"]),
+])
+def test_every_integer_switch_has_an_upper_bound(cli, tmp_path, args, words):
+    refused(cli("r.h5", *args), *words)
+    assert files(tmp_path) == {}
+
+
+def test_a_checkpoint_of_an_unknown_format_or_a_text_physics_version_is_refused(cli, tmp_path):
+    import json
+    import zipfile
+
+    assert cli("a.h5")[0] == 0
+    ckpt = tmp_path / "a.h5.ckpt.npz"
+    with np.load(ckpt) as data:
+        arrays = {name: data[name] for name in data.files}
+    info = json.loads(str(arrays["checkpoint_info"]))
+    for change, words in (({"format": 99}, ["checkpoint format 99"]),
+                          ({"physics_version": "4"}, ["physics version as str '4'", "not a whole number"])):
+        np.savez(ckpt, **{**arrays, "checkpoint_info": np.array(json.dumps({**info, **change}))})
+        refused(cli("a.h5", "--resume"), *words)
+    assert zipfile.is_zipfile(ckpt)

@@ -33,6 +33,7 @@ import pandas as pd
 
 from granalytics.analysis.frames import map_frames
 from granalytics.base.errors import ParameterError
+from granalytics.base.files import regular_input
 from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.analysis.sensitivity import SWEEP_CONSTRAINTS, threshold_grid
@@ -161,6 +162,10 @@ def read_sieve_csv(path, tolerance=SUM_TOLERANCE) -> MeasuredDistribution:
         decreasing cumulative fraction; fewer than two classes.
     """
     path = os.fspath(path)
+    regular_input(path)  # a FIFO would block for ever
+    if os.path.getsize(path) > MAX_SIEVE_BYTES:
+        raise ParameterError(f"{path}: {os.path.getsize(path) / 1e6:.3g} MB is not a sieve analysis (a few dozen "
+                             f"classes; at most {MAX_SIEVE_BYTES / 1e6:g} MB are read)")
     try:
         with open(path, newline="") as handle:
             lines = [line for line in handle if line.strip() and not line.lstrip().startswith("#")]
@@ -173,6 +178,8 @@ def read_sieve_csv(path, tolerance=SUM_TOLERANCE) -> MeasuredDistribution:
                              "aperture_m,passing_fraction)")
     reader = csv.reader(lines)
     header = [h.strip() for h in next(reader)]
+    if len(set(header)) != len(header):
+        raise ParameterError(f"{path}: header {','.join(header)!r} names a column twice")
     base = [h for h in header if h != "sigma"]
     if tuple(base) not in (_CLASS_FIELDS, _PASSING_FIELDS) or header[: len(base)] != base:
         raise ParameterError(f"{path}: header {','.join(header)!r}: expected lower_m,upper_m,mass_fraction[,sigma] "
@@ -185,9 +192,22 @@ def read_sieve_csv(path, tolerance=SUM_TOLERANCE) -> MeasuredDistribution:
     sigma = None
     if "sigma" in header:
         sigma = np.array([_number(path, k, "sigma", row["sigma"]) for k, row in rows])
+        small = np.flatnonzero(~(sigma >= MIN_SIGMA))
+        if small.size:
+            k = rows[small[0]][0]
+            raise _bad(path, k, "sigma", rows[small[0]][1]["sigma"],
+                       f"a standard error of a fraction must be >= {MIN_SIGMA:g} (typically 0.005-0.05); 0 would "
+                       "weigh that class infinitely")
     if tuple(base) == _CLASS_FIELDS:
         return _from_class_rows(path, rows, tolerance, sigma)
     return _from_passing_rows(path, rows, tolerance, sigma)
+
+
+#: the largest sieve file read [bytes] (a sieve analysis has a few dozen classes)
+MAX_SIEVE_BYTES = 1_000_000
+
+#: the smallest standard error of a measured fraction accepted (0 weighs a class infinitely)
+MIN_SIGMA = 1e-6
 
 
 def _check_count(path, rows):
