@@ -282,7 +282,7 @@ def test_the_public_api_names_the_argument(call, words):
 
 # 10, 11 -------------------------------------------------------------------------------------
 @pytest.mark.parametrize("argv, words", [
-    (["stats", "RUN", "--window", "3:6", "--window-time", "1:5"], "give one steady-state window"),
+    (["stats", "RUN", "--window", "3:6", "--window-time", "1:5"], "--window-time: not allowed with argument --window"),
     (["track", "RUN", "--out", "OUT", "--method", "dbscan", "--c-agg", "0.9"], "--c-agg 0.9: method 'dbscan'"),
     (["compare-cg", "RUN", "RUN", "--out", "OUT", "--method", "dbscan", "--a-agg-deg", "30"],
      "--a-agg-deg 30: method 'dbscan'"),

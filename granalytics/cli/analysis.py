@@ -309,8 +309,6 @@ def _stats(args):
     import pandas as pd
 
     check_outputs(args, tables=(args.out, args.steady_out, args.sizes_out), plots=(args.plot,))
-    if args.window is not None and args.window_time is not None:
-        raise ParameterError("--window (revolutions) and --window-time (seconds) both given: give one steady-state window")
     by, window = (("time_s", args.window_time) if args.window_time is not None
                   else ("revolutions", args.window if args.window is not None else DEFAULT_WINDOW_REV))
     params = dict(c_agg=args.c_agg, a_agg_deg=args.a_agg_deg, radius=args.radius, backend=args.backend,

@@ -3,6 +3,7 @@ synthetic (a physics-free test run)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -11,6 +12,7 @@ import sys
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock, check_apart, regular_input
 from granalytics.outputs import output_folder, staged_outputs
+from granalytics.convert.prefetch import prefetched
 from granalytics.convert.registry import READERS
 from granalytics.core import RunWriter, open_run, replacing_run
 from granalytics.analysis.stats import check_window
@@ -151,12 +153,13 @@ def cmd_convert(args):
     else:
         check_new_file(args.out, args.overwrite)  # before reading the dumps
     source = open_run_files(args.source, args.particles, args.contacts, args.mapping, args.dt_s)  # headers only
-    check_memory(f"converting {args.particles[0]} (two frames at a time)", 2 * source.frame_bytes())
+    check_memory(f"converting {args.particles[0]} (three frames at a time)", 3 * source.frame_bytes())
     check_disk(f"the converted run {args.out}", _converted_size(inputs), args.out)
     if args.append:
         return _convert_append(args, source)
     existed, kept = os.path.exists(args.out), None
-    with replacing_run(args.out, args.overwrite) as tmp:
+    source = prefetched(source)  # the next frame is read while this one is written
+    with contextlib.closing(source), replacing_run(args.out, args.overwrite) as tmp:
         writer = None
         try:
             with _ReadingBar(source, args.quiet) as bar:
@@ -231,7 +234,8 @@ def _convert_append(args, source) -> int:
     with open_run(args.out) as run:
         n_frames, last_step, meta = len(run), int(run.steps[-1]) if len(run) else -1, run.meta
     source.start_after(last_step)
-    with _ReadingBar(source, args.quiet) as bar:
+    source = prefetched(source)
+    with contextlib.closing(source), _ReadingBar(source, args.quiet) as bar:
         source.first()
         for name in _SAME_SYSTEM:
             ours, theirs = getattr(meta, name), getattr(source.meta, name)

@@ -223,15 +223,25 @@ class _BlockReader:
 
     def read_lines(self, n) -> bytes:
         """The next ``n`` lines as bytes (fewer at the end of the file), without a Python loop over
-        lines: whole chunks are read until the buffer holds ``n`` newlines."""
+        lines: whole chunks are read, each counted once, until they hold ``n`` newlines."""
         if n <= 0:
             return b""
-        while self.buffer.count(b"\n", self.at) < n and self._more():
-            pass
-        newlines = np.flatnonzero(np.frombuffer(self.buffer, dtype=np.uint8, offset=self.at) == 10)
-        end = self.at + int(newlines[n - 1]) + 1 if len(newlines) >= n else len(self.buffer)
-        data, self.at = self.buffer[self.at:end], end
-        return data
+        pieces, found = [self.buffer[self.at:]], self.buffer.count(b"\n", self.at)
+        while found < n and not self.eof:
+            chunk = self._read(lambda: self.file.read(self.CHUNK))
+            self.eof = not chunk
+            pieces.append(chunk)
+            found += chunk.count(b"\n")
+        last = pieces[-1]
+        if found >= n:  # the n-th newline is in the last piece
+            before = found - last.count(b"\n")
+            newlines = np.flatnonzero(np.frombuffer(last, dtype=np.uint8) == 10)
+            end = int(newlines[n - before - 1]) + 1
+            pieces[-1], rest = last[:end], last[end:]
+        else:
+            rest = b""
+        self.buffer, self.at = rest, 0
+        return b"".join(pieces)
 
     def _readline(self) -> bytes:
         while (end := self.buffer.find(b"\n", self.at)) < 0 and self._more():
@@ -564,6 +574,10 @@ class LiggghtsRun:
     def __iter__(self):
         yield self.first()
         yield from self._frames
+
+    def close(self) -> None:
+        """Stop reading (the file being read is closed)."""
+        self._frames.close()
 
     def _read(self):
         mapping = self.mapping

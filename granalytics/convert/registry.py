@@ -42,6 +42,8 @@ class FrameSource(Protocol):
 
     def __iter__(self) -> Iterator: ...
 
+    def close(self) -> None: ...
+
 
 class InMemorySource:
     """A :class:`FrameSource` over frames a reader read whole (formats of small files, such as
@@ -78,6 +80,9 @@ class InMemorySource:
 
     def __iter__(self):
         return iter(self._frames())
+
+    def close(self) -> None:
+        """Nothing to release (the frames were read whole)."""
 
 
 @dataclass(frozen=True)

@@ -177,6 +177,11 @@ class YadeVtkRun:
         yield self.first()
         yield from self._iter
 
+    def close(self) -> None:
+        """Stop reading."""
+        if self._iter is not None:
+            self._iter.close()
+
     def _read(self):
         n0 = None
         for iteration, entry in self.frames:
