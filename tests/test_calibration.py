@@ -107,7 +107,8 @@ def test_an_axis_the_data_cannot_constrain_is_said_to_be_unconstrained(cg1_grid)
         frames = list(run.select(revolutions=(3, 3.5)))
     g = ga.sieve_grid(frames, EDGES, [0.86, 0.9], [10.0, 30.0, 60.0])
     measured = grid_measurement(g, 0.9, 30.0, noise=0.01, seed=0)
-    cal = ga.calibrate_thresholds(g, measured, [0.86, 0.9], [10.0, 30.0, 60.0], window=(3, 3.5), n_boot=50)
+    cal = ga.calibrate_thresholds(g, measured, [0.86, 0.9], [10.0, 30.0, 60.0], window=(3, 3.5), n_boot=50,
+                                  block_rev=0.1)
     assert cal.constraint["a_agg_deg"] == "unconstrained"
     assert cal.constraint["c_agg"] == "unconstrained"
 
@@ -209,3 +210,18 @@ def test_a_measured_file_that_is_a_fifo_is_refused_not_waited_on(tmp_path):
     os.mkfifo(fifo)
     with pytest.raises(ParameterError, match="sieve.csv"):
         ga.read_sieve_csv(fifo)
+
+
+def test_statistics_that_would_mean_nothing_and_grids_that_cannot_fit_are_refused_before_the_work(cg1_grid, cg1_frames):
+    measured = grid_measurement(cg1_grid, 0.6, 20.0, noise=0.01, seed=0)
+    with pytest.raises(ParameterError, match="block_rev = 1e\\+300 revolutions: the bootstrap needs blocks shorter"):
+        ga.calibrate_thresholds(cg1_grid, measured, C_GRID, A_GRID, block_rev=1e300, n_boot=20)
+    with pytest.raises(ParameterError, match="would need .* of memory"):
+        ga.calibrate_thresholds(cg1_grid, measured, np.linspace(0.1, 0.9, 10_000), np.linspace(5, 60, 10_000), n_boot=20)
+    with pytest.raises(ParameterError, match="would need .* of memory"):
+        ga.calibrate_thresholds(cg1_grid, measured, C_GRID, A_GRID, n_boot=10**12)
+    edges = np.array([0, 2e-3, 4e-3])
+    two = ga.MeasuredDistribution(edges_m=edges, fractions=np.array([0.5, 0.5]), source="two edges")
+    grid = ga.sieve_grid(cg1_frames[::8], edges, C_GRID, A_GRID)
+    with pytest.raises(ParameterError, match="gives 2 class edge\\(s\\) to compare at and the fit has 2 free"):
+        ga.calibrate_thresholds(grid, two, C_GRID, A_GRID, n_boot=20)

@@ -196,6 +196,28 @@ def _grid_of(run, measured, window, kwargs) -> SieveGrid:
     return sieve_grid(frames, measured, **kwargs)
 
 
+def _check_sizes(c_agg, comotion_values, measured, n_boot) -> None:
+    """Refuse, before any frame is read, a grid or bootstrap whose arrays cannot fit in memory
+    (the bootstrap's passing fractions: n_boot × grid points × class edges, float64, a few copies)."""
+    from granalytics.base.resources import check_memory
+
+    points = max(1, np.size(c_agg)) * max(1, np.size(comotion_values) if comotion_values is not None else 1)
+    edges = max(1, np.size(measured.edges_m))
+    check_memory(f"calibrating over a grid of {points} threshold pairs with {n_boot} bootstrap replicas",
+                 8 * points * (edges + 2) * (n_boot + 8) * 3)
+
+
+def _check_block(revolutions, block_rev) -> None:
+    """Refuse a bootstrap block that spans the whole window (or a window of one frame): its
+    replicas would all be the window itself, and the region a single point."""
+    n = np.size(revolutions)
+    span = float(revolutions[-1] - revolutions[0]) if n > 1 else 0.0
+    if n < 3 or not block_rev < span:
+        raise ParameterError(f"block_rev = {block_rev:g} revolutions: the bootstrap needs blocks shorter than the "
+                             f"window ({n} frames over {span:.3g} revolutions), or its replicas are the window itself "
+                             "and the confidence region one point; give a shorter --block-rev or a longer window")
+
+
 def _bootstrap_weights(rng, revolutions, n_boot, block_rev) -> np.ndarray:
     """(n_boot, F) frame counts of moving-block bootstrap replicas of F time-ordered frames."""
     n = revolutions.size
@@ -282,6 +304,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     runs = [run] if _is_one_run(run) else list(run)
     if not runs:
         raise ParameterError("calibrate_thresholds: no run given")
+    _check_sizes(c_agg, a_agg_deg if comotion != "rigid" else rigid_tol, measured, int(n_boot))
     kwargs = dict(c_agg=c_agg, a_agg_deg=a_agg_deg, measure=measure, radius=radius, cohesion=cohesion,
                   comotion=comotion, rigid_tol=rigid_tol, rigid_scale=rigid_scale, min_size=min_size, jobs=jobs,
                   progress=progress)
@@ -297,6 +320,13 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     p_meas = measured.passing[used]
     s_meas = (measured.sigma if measured.sigma is not None else np.full(measured.edges_m.size, measured_error))[used]
 
+    n_fit_axes = int(np.size(first.comotion_values) > 1) + int(np.size(first.c_agg) > 1)
+    if int(used.sum()) <= n_fit_axes:
+        raise ParameterError(f"the measured distribution gives {int(used.sum())} class edge(s) to compare at and the fit "
+                             f"has {n_fit_axes} free threshold(s): no degree of freedom is left to test it (p undefined); "
+                             "measure more classes, or fix a threshold (a grid of one value)")
+    for g in grids:
+        _check_block(g.revolutions, block_rev)
     rng = np.random.default_rng(seed)
     sim = _simulated(grids, used, rng, int(n_boot), block_rev)
     var = sim.err_p**2 + s_meas**2

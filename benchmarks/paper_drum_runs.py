@@ -1,0 +1,184 @@
+"""The long runs of the paper's drum: the α = 1 confinement series of its family and the paper's
+CG1 itself (120 000 particles), kept outside the work tree and resumed across working periods.
+
+Usage::
+
+    python benchmarks/paper_drum_runs.py series [--dt-factor F] [--dir ~/granalytics-runs/paper-family]
+    python benchmarks/paper_drum_runs.py cg1 [--dt-factor F] [--dir ~/granalytics-runs/paper-cg1]
+    python benchmarks/paper_drum_runs.py progress [--dir ~/granalytics-runs/paper-cg1]
+    python benchmarks/paper_drum_runs.py table [--dir ~/granalytics-runs/paper-family] [--window 2:4]
+
+``series`` makes, one after the other on one thread, the α = 1 runs of the paper drum's family
+(``python -m sim run --preset paper-cg1 --drum-ratio D``: its aspect, fill, baffles and spray
+zone, sized for D/d of the particles) at D/d 22, 33 and 44 (539, 1 819 and 4 312 particles; seeds
+0-2) and 66 (14 554 particles; seed 0, then seed 1), 4 revolutions each, the smallest first; a run
+already finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` starts
+the paper's CG1 (``--preset paper-cg1``, its own settling, 4 revolutions, a frame every 0.05
+revolution, a checkpoint every frame) or resumes it. ``progress`` prints one line for
+``benchmarks/paper_cg1_progress.md`` (revolutions done, CPU hours, machine). ``table`` prints the
+series' steady state per D/d (mean ± replica s.e.) and the confinement law y = y∞·(1 − b/(D/d))
+fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, and the law's value at the
+paper CG1's D/d = 133 with that band.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+
+SERIES = [(22, 0), (22, 1), (22, 2), (33, 0), (33, 1), (33, 2), (44, 0), (44, 1), (44, 2), (66, 0), (66, 1)]
+REVOLUTIONS = 4
+DEFAULT_FACTOR = 2.0
+HOME_RUNS = os.path.expanduser("~/granalytics-runs")
+
+
+def _finished(path):
+    import granalytics as ga
+
+    if not os.path.exists(path):
+        return False
+    try:
+        with ga.open_run(path) as run:
+            return not run.unfinished
+    except ga.GranalyticsError:
+        return False
+
+
+def _command(out, options, factor, checkpoint_every):
+    resume = ["--resume"] if os.path.exists(f"{out}.ckpt.npz") else ["--overwrite"] if os.path.exists(out) else []
+    return [sys.executable, "-m", "sim", "run", *options, "--revolutions", str(REVOLUTIONS), "--dt-factor", f"{factor:g}",
+            "--threads", "1", "--checkpoint-every", str(checkpoint_every), "--out", out, *resume]
+
+
+def series(args):
+    os.makedirs(args.dir, exist_ok=True)
+    for ratio, seed in SERIES:
+        out = os.path.join(args.dir, f"dd{ratio}-seed{seed}.h5")
+        if _finished(out):
+            continue
+        cmd = _command(out, ["--preset", "paper-cg1", "--drum-ratio", str(ratio), "--seed", str(seed), "--quiet"],
+                       args.dt_factor, 4)
+        print(" ".join(cmd[2:]), flush=True)
+        subprocess.run(cmd, check=True)
+
+
+def cg1(args):
+    os.makedirs(args.dir, exist_ok=True)
+    out = os.path.join(args.dir, "paper-cg1.h5")
+    cmd = _command(out, ["--preset", "paper-cg1"], args.dt_factor, 1)
+    print(" ".join(cmd[2:]), flush=True)
+    import resource
+
+    try:
+        subprocess.run(cmd, check=True)
+    finally:  # this working period's CPU time, for the progress log
+        used = resource.getrusage(resource.RUSAGE_CHILDREN)
+        with open(os.path.join(args.dir, "cpu_seconds.txt"), "a") as f:
+            f.write(f"{used.ru_utime + used.ru_stime:.0f} {datetime.datetime.now().isoformat(timespec='seconds')}\n")
+
+
+def progress(args):
+    import granalytics as ga
+
+    out = os.path.join(args.dir, "paper-cg1.h5")
+    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    machine = f"{platform.node()}, {os.cpu_count()} cores"
+    if not os.path.exists(out):
+        print(f"| {stamp} | no run at {out} (not started here, or this machine lost it) | | {machine} |")
+        return
+    with ga.open_run(out, validate=False) as run:
+        revolutions = float(run.revolutions[-1]) if len(run) else 0.0
+        frames, params = len(run), run.meta.sim_config["params"]
+    ckpt = f"{out}.ckpt.npz"
+    cpu = _cpu_hours(args.dir)
+    print(f"| {stamp} | {revolutions:.2f} revolutions, {frames} frames (Δt factor {params.get('dt_factor', 1):g}; "
+          f"checkpoint {'at ' + datetime.datetime.fromtimestamp(os.path.getmtime(ckpt)).strftime('%H:%M') if os.path.exists(ckpt) else 'none'}) "
+          f"| {cpu} | {machine} |")
+
+
+def _cpu_hours(folder):
+    """CPU hours of the CG1 run: the working periods recorded in ``cpu_seconds.txt`` (one line of
+    seconds each, written by :func:`cg1` when its process ends) plus the running process's so far."""
+    path = os.path.join(folder, "cpu_seconds.txt")
+    total = 0.0
+    if os.path.exists(path):
+        with open(path) as f:
+            total = sum(float(line.split()[0]) for line in f if line.strip())
+    running = _running_cpu_seconds(os.path.join(folder, "paper-cg1.h5"))
+    return f"{(total + running) / 3600:.2f} CPU h" + (" (running)" if running else "")
+
+
+def _running_cpu_seconds(out):
+    """CPU seconds of the running simulation of ``out`` (0 if none), from /proc."""
+    ticks = os.sysconf("SC_CLK_TCK")
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                cmdline = f.read().split(b"\0")
+            if b"sim" in cmdline and out.encode() in cmdline:
+                with open(f"/proc/{pid}/stat") as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+                return (int(fields[11]) + int(fields[12])) / ticks
+        except OSError:
+            continue
+    return 0.0
+
+
+def table(args):
+    import granalytics as ga
+
+    window = tuple(float(x) for x in args.window.split(":"))
+    groups = {}
+    for ratio, seed in SERIES:
+        path = os.path.join(args.dir, f"dd{ratio}-seed{seed}.h5")
+        if _finished(path):
+            groups.setdefault(ratio, []).append(path)
+    if not groups:
+        print(f"no finished run in {args.dir}")
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = ga.confinement_table(list(groups.values()), window, labels=[f"D/d {r}" for r in groups])
+    print(f"\n### α = 1, paper drum family, window [{window[0]:g}, {window[1]:g}] (mean ± replica s.e.; one seed: "
+          "block s.e.m.)\n")
+    print("| D/d | N | seeds | yield | ⟨V_g⟩/V_p | N_g/N | coordination | bed angle [°] |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for r in t.itertuples(index=False):
+        print(f"| {r.drum_ratio:.1f} | {r.n_particles} | {r.n_replicas} | {r.yield_fraction:.3f} ± "
+              f"{r.yield_fraction_err:.3f} | {r.mean_volume_norm:.2f} ± {r.mean_volume_norm_err:.2f} | "
+              f"{r.n_granules_norm:.4f} ± {r.n_granules_norm_err:.4f} | {r.coordination:.2f} | {r.bed_angle_deg:.1f} |")
+    if len(t) < 3:
+        print("\n(the law needs three D/d or more)")
+        return
+    print("\n| metric | y∞ | b [d] | χ²/dof | scale √(χ²/dof) | at D/d 133 (band: scaled 1σ) |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for metric, label in (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩/V_p"), ("n_granules_norm", "N_g/N")):
+        fit = ga.fit_confinement_curve(t["drum_ratio"], t[metric], np.maximum(t[f"{metric}_err"], 1e-4))
+        scale = max(1.0, float(np.sqrt(fit.chi2 / fit.dof))) if fit.dof else float("nan")
+        print(f"| {label} | {fit.y_inf:.3f} ± {scale * np.sqrt(fit.covariance[0, 0]):.3f} | "
+              f"{fit.b:.2f} ± {scale * np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {scale:.2f} | "
+              f"{float(fit(133.3)):.3f} ± {scale * float(fit.error(133.3)):.3f} |")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="what", required=True)
+    for name, folder in (("series", "paper-family"), ("cg1", "paper-cg1"), ("progress", "paper-cg1"),
+                         ("table", "paper-family")):
+        p = sub.add_parser(name)
+        p.add_argument("--dir", default=os.path.join(HOME_RUNS, folder))
+        p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
+        p.add_argument("--window", default="2:4")
+    args = parser.parse_args(argv)
+    {"series": series, "cg1": cg1, "progress": progress, "table": table}[args.what](args)
+
+
+if __name__ == "__main__":
+    main()
