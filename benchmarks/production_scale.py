@@ -99,7 +99,8 @@ def _mapping(folder):
 
 def timed(cmd, watch_progress=False):
     """(wall time [s], peak memory [MiB], longest silence on stderr [s]) of ``cmd``, run in a fresh
-    process under GNU time's -f %M (its peak resident memory)."""
+    process: the peak is the larger of GNU time's -f %M (the largest process's peak resident
+    memory) and the sum over the process and its children sampled every 50 ms."""
     start = time.perf_counter()
     proc = subprocess.Popen(["/usr/bin/time", "-f", "PEAK_KB %M", *cmd], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE)
@@ -112,14 +113,36 @@ def timed(cmd, watch_progress=False):
 
     reader = threading.Thread(target=read_stderr)
     reader.start()
+    tree_peak = [0]
+
+    def watch_memory():  # the sum over the process and its children (convert's reading worker)
+        import psutil
+
+        try:
+            root = psutil.Process(proc.pid)
+            while proc.poll() is None:
+                rss = 0
+                for p in [root, *root.children(recursive=True)]:
+                    try:
+                        rss += p.memory_info().rss
+                    except psutil.Error:
+                        pass
+                tree_peak[0] = max(tree_peak[0], rss)
+                time.sleep(0.05)
+        except psutil.Error:
+            pass
+
+    watcher = threading.Thread(target=watch_memory)
+    watcher.start()
     out = proc.stdout.read()
     proc.wait()
     reader.join()
+    watcher.join()
     wall = time.perf_counter() - start
     err = b"".join(chunks).decode(errors="replace")
     if proc.returncode:
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{err[-2000:]}\n{out.decode()[-2000:]}")
-    peak = int(err.rsplit("PEAK_KB", 1)[1].split()[0]) / 1024
+    peak = max(int(err.rsplit("PEAK_KB", 1)[1].split()[0]) * 1024, tree_peak[0]) / 2**20  # MiB, all processes
     stamps.append(start + wall)
     silence = float(np.max(np.diff(stamps))) if watch_progress else float("nan")
     return wall, peak, silence

@@ -168,6 +168,12 @@ def test_both_file_forms_and_the_example_file(tmp_path):
     ("aperture_m,passing_fraction,sigma\n0.001,0.5,0.01\n0.002,1,1e-300\n", "row 2, field sigma: a standard error"),
     ("aperture_m,passing_fraction,sigma,sigma\n0.001,0.5,0.01,0.01\n0.002,1,0.01,0.01\n", "names a column twice"),
     ("aperture_m,passing_fraction\n" + "0.001,0.5\n" * 100_000, "is not a sieve analysis"),
+    ("aperture_m,passing_fraction\n1.0,0.5\n2.0,1\n", "column aperture_m: an aperture of 2 m is larger than any "
+                                                     "granulator's granule (at most 0.1 m is read as metres): the file "
+                                                     "is likely in millimetres"),
+    ("lower_m,upper_m,mass_fraction\n0,500,0.5\n500,1000,0.5\n", "column upper_m: an aperture of 1000 m is larger "
+                                                                 "than any granulator's granule (at most 0.1 m is read "
+                                                                 "as metres): the file is likely in micrometres"),
 ])
 def test_every_malformed_measured_file_is_refused_in_one_line(tmp_path, text, words):
     path = _write(tmp_path, text)

@@ -572,3 +572,13 @@ def test_liggghts_vtk_dumps_give_the_frames_and_granules_of_its_text_dumps():
             ga_a = {frozenset(a.ids[list(g)]) for g in ga.identify(a, cohesion=cohesion).partition()}
             ga_b = {frozenset(b.ids[list(g)]) for g in ga.identify(b, cohesion=cohesion).partition()}
             assert ga_a == ga_b and (ga_a or not a.n_contacts)
+
+
+def test_a_dump_whose_radii_are_not_in_metres_is_refused_naming_the_likely_unit(tmp_path, frames):
+    import dataclasses
+
+    in_mm = [dataclasses.replace(s, radius=s.radius * 1000, meta=s.meta) for s in frames[:1]]
+    pf, cf = write_dumps(tmp_path, in_mm)
+    with pytest.raises(DumpFormatError, match=r"atoms.dump, line 9: a particle radius of .* m is not a DEM particle's "
+                                              r"in SI units .* likely in millimetres or micrometres"):
+        read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)

@@ -707,3 +707,25 @@ def test_a_particle_set_that_changes_between_frames_is_refused(tmp_path):
         with RunWriter(tmp_path / "bad.h5", meta) as writer:
             writer.append(first)
             writer.append(renumbered)
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"alpha": 1.0}, "attribute alpha is 1.0, but the simulator's parameters (sim_config.params) record 3.0"),
+    ({"mean_radius": 0.75e-3}, "attribute mean_radius is 0.00075 m, but the particles of frame 0 have a mean radius"),
+])
+def test_a_run_whose_records_contradict_each_other_is_refused_when_opened(tmp_path, change, words):
+    import shutil
+
+    import h5py
+
+    import granalytics as ga
+    from granalytics.datasets import dataset_path
+
+    path = tmp_path / "relabelled.h5"
+    shutil.copyfile(dataset_path("lab-cg3"), path)
+    with h5py.File(path, "r+") as f:
+        for key, value in change.items():
+            f["meta"].attrs[key] = value
+    with pytest.raises(ga.ValidationError) as err:
+        ga.open_run(path)
+    assert words in str(err.value) and str(path) in str(err.value)

@@ -198,13 +198,23 @@ def read_sieve_csv(path, tolerance=SUM_TOLERANCE) -> MeasuredDistribution:
             raise _bad(path, k, "sigma", rows[small[0]][1]["sigma"],
                        f"a standard error of a fraction must be >= {MIN_SIGMA:g} (typically 0.005-0.05); 0 would "
                        "weigh that class infinitely")
-    if tuple(base) == _CLASS_FIELDS:
-        return _from_class_rows(path, rows, tolerance, sigma)
-    return _from_passing_rows(path, rows, tolerance, sigma)
+    measured = (_from_class_rows if tuple(base) == _CLASS_FIELDS else _from_passing_rows)(path, rows, tolerance, sigma)
+    edges = measured.edges_m[np.isfinite(measured.edges_m)]
+    if edges.size and edges.max() > MAX_APERTURE_M:
+        column = "upper_m" if tuple(base) == _CLASS_FIELDS else "aperture_m"
+        largest = float(edges.max())
+        unit = "micrometres" if largest > 100 else "millimetres"
+        raise ParameterError(f"{path}: column {column}: an aperture of {largest:g} m is larger than any granulator's "
+                             f"granule (at most {MAX_APERTURE_M:g} m is read as metres): the file is likely in {unit}; "
+                             "give apertures in metres")
+    return measured
 
 
 #: the largest sieve file read [bytes] (a sieve analysis has a few dozen classes)
 MAX_SIEVE_BYTES = 1_000_000
+
+#: the largest sieve aperture read as metres [m]: a larger one is in another unit
+MAX_APERTURE_M = 0.1
 
 #: the smallest standard error of a measured fraction accepted (0 weighs a class infinitely)
 MIN_SIGMA = 1e-6

@@ -31,6 +31,10 @@ from granalytics.convert._text import DumpFormatError, load_toml, warn_unused_co
 __all__ = ["DumpMapping", "DumpFile", "integer_column", "LiggghtsRun", "open_liggghts", "read_liggghts"]
 
 
+#: the radii a dump in SI units may hold [m]: outside them it is in another unit
+MIN_RADIUS_M, MAX_RADIUS_M = 1e-7, 0.5
+
+
 @dataclass
 class DumpMapping:
     """What the dump files cannot say. All quantities SI.
@@ -428,6 +432,12 @@ def _particles(table, path, line, mapping):
         radius = col("diameter", "diameter") / 2
     else:
         raise DumpFormatError(f"{path}, line {line}: the particle dump needs a 'radius' or 'diameter' column")
+    if len(radius) and not (MIN_RADIUS_M <= radius.min() and radius.max() <= MAX_RADIUS_M):
+        bad = radius.min() if radius.min() < MIN_RADIUS_M else radius.max()
+        raise DumpFormatError(f"{path}, line {line}: a particle radius of {bad:g} m is not a DEM particle's in SI units "
+                              f"([{MIN_RADIUS_M:g}, {MAX_RADIUS_M:g}] m are read): the dump is likely in "
+                              f"{'millimetres or micrometres' if bad > MAX_RADIUS_M else 'another unit'}; the mapping "
+                              "reads 'units si' dumps only")
     out = {
         "ids": _column(table, "id", path, line, "particle ids"),
         "radius": radius,

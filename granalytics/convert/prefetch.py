@@ -31,6 +31,7 @@ def prefetched(source):
 
 def _work(source, queue):
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the caller decides what a Ctrl-C does
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and stops the worker with SIGTERM (not the caller's handler)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -101,4 +102,7 @@ class _Prefetched:
         if self._process is not None and self._process.is_alive():
             self._process.terminate()
         if self._process is not None:
-            self._process.join()
+            self._process.join(timeout=10)
+            if self._process.is_alive():  # stuck in a system call: no more patience
+                self._process.kill()
+                self._process.join()

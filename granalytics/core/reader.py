@@ -278,6 +278,8 @@ class Run(HDF5Handle, _FrameSequence):
         self._indices = np.arange(n_frames, dtype=np.int64)
         if self._writer_open:
             _check_inside_file(f, path, n_frames, int(self._offset[-1]))
+        if n_frames:
+            _check_records_agree(self._meta, f["particles/radius"][0], path)
 
     def _read(self, name, selection, frame):
         try:
@@ -411,6 +413,29 @@ def _read_index(f, name, n, path) -> np.ndarray:
             raise RunFileError(f"{path}: dataset /{name}, frames {start}-{stop - 1}: cannot be read ({reason}); "
                                "the file is damaged or was cut short") from None
     raise RunFileError(f"{path}: dataset /{name} cannot be read ({reason}); the file is damaged or was cut short")
+
+
+#: the fields of the run metadata that the simulator's own record (sim_config["params"]) repeats
+_RECORDED_TWICE = ("alpha", "n_particles", "surface_tension", "drum_omega", "density")
+
+
+def _check_records_agree(meta, radius_0, path) -> None:
+    """Refuse a run whose records contradict each other: the metadata against the simulator's
+    parameters it repeats, and its mean radius against the particles of the first frame (a run
+    relabelled α = 1 while its particles are CG3's would be analysed at the wrong scale)."""
+    params = (meta.sim_config or {}).get("params")
+    if isinstance(params, dict):
+        for name in _RECORDED_TWICE:
+            value, recorded = getattr(meta, name), params.get(name)
+            if isinstance(recorded, (int, float)) and not isinstance(recorded, bool) and not math.isclose(
+                    float(value), float(recorded), rel_tol=1e-9):
+                raise ValidationError("/meta", f"attribute {name} is {value!r}, but the simulator's parameters "
+                                      f"(sim_config.params) record {recorded!r}: the run's records disagree",
+                                      path=path)
+    mean = float(np.mean(radius_0))
+    if not math.isclose(mean, float(meta.mean_radius), rel_tol=1e-3):
+        raise ValidationError("/meta", f"attribute mean_radius is {meta.mean_radius:.6g} m, but the particles of "
+                              f"frame 0 have a mean radius of {mean:.6g} m: the run's records disagree", path=path)
 
 
 def _check_index(time, step, path) -> None:
