@@ -168,7 +168,7 @@ def test_stats_with_a_window_outside_the_run_writes_nothing(run_file, tmp_path, 
 def test_a_window_past_the_end_of_the_run_is_one_warning_line(run_file, capsys):
     with open_run(run_file) as run:
         last = run.revolutions[-1]
-    assert main(["stats", run_file, "--window", f"{last - 1.5:g}:{last + 5:g}", "--quiet"]) == 0
+    assert main(["stats", run_file, "--window", f"{last - 1:g}:{last + 5:g}", "--quiet"]) == 0
     warning = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
     assert len(warning) == 1 and warning[0].startswith(f"granalytics: warning: {run_file}: the window")
 
