@@ -39,16 +39,8 @@ DEFAULT_FACTOR = 2.0
 HOME_RUNS = os.path.expanduser("~/granalytics-runs")
 
 
-def _finished(path):
-    import granalytics as ga
-
-    if not os.path.exists(path):
-        return False
-    try:
-        with ga.open_run(path) as run:
-            return not run.unfinished
-    except ga.GranalyticsError:
-        return False
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cg_rules_study import finished as _finished  # noqa: E402  (a sibling script)
 
 
 def _command(out, options, factor, checkpoint_every):

@@ -73,12 +73,15 @@ def _read(path, columns):
                               f"time_s={info['time_s']!r} step={info['step']!r}") from None
 
 
-def read_yade_csv(particle_files, contact_files, meta_toml):
-    """Snapshots (sorted by step) and metadata of a YADE run exported by ``scripts/yade_export.py``."""
+def read_yade_mapping(meta_toml, extra_keys=()):
+    """``(capillary_type, metadata)`` of a YADE mapping file: the keys of :data:`_META_KEYS` (and
+    ``extra_keys``), a capillary type the readers can fill in, γ and θ numbers (the bridge force at
+    contact needs them). Shared by the CSV reader and the VTKRecorder reader."""
     meta_data = load_toml(meta_toml)
-    unknown = sorted(set(meta_data) - _META_KEYS)
+    allowed = _META_KEYS | set(extra_keys)
+    unknown = sorted(set(meta_data) - allowed)
     if unknown:
-        raise ValidationError("mapping", f"unknown keys {unknown} in {meta_toml} (allowed: {sorted(_META_KEYS)})")
+        raise ValidationError("mapping", f"unknown keys {unknown} in {meta_toml} (allowed: {sorted(allowed)})")
     capillary_type = meta_data.pop("capillary_type", "Willett_numeric")
     if capillary_type not in _CAPILLARY_TYPES:
         raise ValidationError("mapping", f"{meta_toml}: capillary_type {capillary_type!r} is not read (known: "
@@ -88,6 +91,13 @@ def read_yade_csv(particle_files, contact_files, meta_toml):
         if not isinstance(value, (int, float)) or isinstance(value, bool):
             raise ValidationError("mapping", f"{meta_toml}: {key} must be a number (the bridge force at contact "
                                   f"needs it), got {value!r}")
+    return capillary_type, meta_data
+
+
+def read_yade_csv(particle_files, contact_files, meta_toml):
+    """Snapshots (sorted by step) and metadata of a YADE run exported by ``scripts/yade_export.py``."""
+    capillary_type, meta_data = read_yade_mapping(meta_toml)
+    gamma, theta = meta_data.get("surface_tension"), meta_data.get("contact_angle", 0.0)
     contacts = {}
     for path in contact_files:
         time, step, table = _read(path, CONTACT_COLUMNS)

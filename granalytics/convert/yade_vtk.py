@@ -47,14 +47,12 @@ import numpy as np
 from granalytics.base.errors import GranalyticsError, ValidationError, user_stacklevel
 from granalytics.base.files import regular_input
 from granalytics.core.snapshot import RunMeta, Snapshot
-from granalytics.convert._capillary import effective_radius, willett_numeric_contact_force
-from granalytics.convert._text import DumpFormatError, load_toml
+from granalytics.convert._capillary import effective_radius
+from granalytics.convert._text import DumpFormatError
+from granalytics.convert.yade import _CAPILLARY_TYPES, read_yade_mapping
 
 __all__ = ["YadeVtkRun", "open_yade_vtk", "find_vtk_frames"]
 
-_MAPPING_KEYS = {"surface_tension", "density", "drum_omega", "contact_angle", "alpha", "capillary_type",
-                 "bridge_volume"}
-_CAPILLARY_TYPES = {"Willett_numeric": willett_numeric_contact_force}
 _MULTIBLOCK = re.compile(r"^(?P<prefix>.*?)-?(?P<iter>\d+)\.vtm$")
 _SPHERES = re.compile(r"^(?P<prefix>.*)-spheres\.(?P<iter>\d+)\.vtu$")
 _INTRS = re.compile(r"^(?P<prefix>.*)-intrs\.(?P<iter>\d+)\.vtp$")
@@ -117,21 +115,12 @@ def find_vtk_frames(paths):
 
 
 def _read_mapping(path):
-    data = load_toml(path)
-    unknown = sorted(set(data) - _MAPPING_KEYS)
-    if unknown:
-        raise ValidationError("mapping", f"unknown keys {unknown} in {path} (allowed: {sorted(_MAPPING_KEYS)})")
-    capillary_type = data.pop("capillary_type", "Willett_numeric")
-    if capillary_type not in _CAPILLARY_TYPES:
-        raise ValidationError("mapping", f"{path}: capillary_type {capillary_type!r} is not read (known: "
-                              f"{', '.join(_CAPILLARY_TYPES)})")
-    for key in ("surface_tension", "contact_angle", "bridge_volume"):
-        value = data.get(key, 0.0)
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) or value < 0:
-            raise ValidationError("mapping", f"{path}: {key} must be a finite number >= 0, got {value!r}")
-    if "surface_tension" not in data:
-        raise ValidationError("mapping", f"{path}: surface_tension is required (γ [N/m] of the ViscElCapMat)")
-    return capillary_type, float(data.pop("bridge_volume", 0.0)), data
+    """``(capillary_type, bridge volume [m³], metadata)``: the CSV reader's mapping and ``bridge_volume``."""
+    capillary_type, data = read_yade_mapping(path, extra_keys=("bridge_volume",))
+    volume = data.pop("bridge_volume", 0.0)
+    if not isinstance(volume, (int, float)) or isinstance(volume, bool) or not math.isfinite(volume) or volume < 0:
+        raise ValidationError("mapping", f"{path}: bridge_volume must be a finite number >= 0 [m³], got {volume!r}")
+    return capillary_type, float(volume), data
 
 
 class YadeVtkRun:
