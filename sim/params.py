@@ -316,6 +316,8 @@ def with_step_factor(params: SimParams, factor: float) -> SimParams:
     if not (isinstance(factor, (int, float)) and not isinstance(factor, bool) and math.isfinite(factor)
             and factor > 0):
         raise ValueError(f"the time-step factor must be a finite number > 0, got {factor!r}")
+    if factor == 1:
+        return params
     return dataclasses.replace(params, dt=params.dt * factor, dt_factor=params.dt_factor * factor)
 
 

@@ -153,7 +153,7 @@ def test_simulator_warns_on_a_bed_that_has_not_settled():
 def test_info_reports_the_bed_and_warns_on_a_planar_drum_run(tmp_path, capsys, maker, omega, warned):
     path = tmp_path / "run.h5"
     snap = maker(None)
-    meta = synthetic_meta(snap.n_particles, drum_omega=omega)
+    meta = dataclasses.replace(synthetic_meta(snap.n_particles, drum_omega=omega), mean_radius=float(snap.radius.mean()))
     with RunWriter(path, meta) as writer:
         writer.append(dataclasses.replace(snap, meta=meta))
     assert cli_main(["info", str(path)]) == 0

@@ -31,7 +31,8 @@ POWERS = {
 UNCHANGED = {"density", "d_spread", "friction", "poisson_ratio", "restitution", "impact_speed", "contact_angle",
              "capillary_model", "contact_law", "viscous", "capillary_in_contact", "v_max_coef", "v_min",
              "spray_interval", "spray_dose", "spray_radius", "initial_film", "drum_radius", "drum_length",
-             "n_baffles", "baffle_height", "cylinder_facets", "wall_bridges", "drum_omega", "gravity", "settle_time", "seed", "cg_rule"}
+             "n_baffles", "baffle_height", "cylinder_facets", "wall_bridges", "drum_omega", "gravity", "settle_time", "seed", "cg_rule",
+             "dt_factor"}
 
 
 @pytest.mark.parametrize("rule", list(CG_RULES))

@@ -21,7 +21,8 @@ def simulator_run(path, alpha=1.0, seed=0, **changes):
     n = round(original["n_particles"] / alpha**3)
     meta = RunMeta(surface_tension=original["surface_tension"] * alpha, density=2500.0,
                    drum_omega=original["drum_omega"], n_particles=n, mean_radius=0.75e-3 * alpha, alpha=alpha,
-                   sim_config={"original": original, "params": {**original, "alpha": alpha, "n_particles": n}},
+                   sim_config={"original": original, "params": {**original, "alpha": alpha, "n_particles": n,
+                                                                "surface_tension": original["surface_tension"] * alpha}},
                    provenance={"code": "sim"})
     period = 2 * math.pi / meta.drum_omega
     with RunWriter(path, meta) as writer:

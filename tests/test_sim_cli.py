@@ -350,7 +350,7 @@ def test_a_run_file_another_process_has_open_is_neither_truncated_nor_replaced(c
 
 @pytest.mark.parametrize("args, words", [
     (["--revolutions", "1e12", "--frame-every-rev", "0.05"], ["frames of", "of disk", "refused before starting"]),
-    (["--particles", "1000000000000000"], ["a simulation of", "of memory", "refused before starting"]),
+    (["--particles", "100000000"], ["a simulation of", "of memory", "refused before starting"]),
 ])
 def test_a_run_that_cannot_fit_is_refused_before_the_settling(cli, tmp_path, monkeypatch, args, words):
     import sim.run
