@@ -342,3 +342,14 @@ def test_inputs_no_analysis_can_use_are_refused_in_one_line(tmp_path, capsys):
             RunMeta(surface_tension=0.1, density=2500.0, drum_omega=2.0, n_particles=10, mean_radius=1e-3, alpha=alpha)
     with pytest.raises(ga.ParameterError, match="gamma is a surface tension"):
         parse_predict("gamma=-1,omega=2")
+
+
+@pytest.mark.parametrize("argv, hint", [(["stat", "run.h5"], "did you mean 'stats'?"),
+                                        (["stats", "run.h5", "--cohesion", "actin"], "did you mean 'acting'?")])
+def test_a_mistyped_command_or_choice_gets_the_closest_one(argv, hint, capsys):
+    from granalytics.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and hint in err and len(err.strip().splitlines()) == 1

@@ -58,6 +58,15 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message):
+        import difflib
+        import re
+
+        invalid = re.match(r"argument (\S+): invalid choice: '([^']*)' \(choose from (.*)\)$", message)
+        if invalid:  # a mistyped command or choice: the closest one it has
+            choices = re.findall(r"'([^']*)'", invalid[3])
+            close = difflib.get_close_matches(invalid[2], choices, n=1, cutoff=0.6)
+            if close:
+                message += f"; did you mean {close[0]!r}?"
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
