@@ -348,9 +348,11 @@ def _stats(args):
             from granalytics.plot import stats_figure
 
             test = (f"rigid_tol={args.rigid_tol:g}" if args.comotion == "rigid" else f"A_agg={args.a_agg_deg:g}°")
-            fig = stats_figure(ts, dist, window=window, x=by,
+            fig = stats_figure(ts, dist, window=used, x=by,  # the window the mean is over, clipped to the run
                                title=f"{os.path.basename(args.run)}: GNA C_agg={args.c_agg:g}, {test}, "
-                                     f"min_size={args.min_size}, cohesion={args.cohesion}")
+                                     f"min_size={args.min_size}, cohesion={args.cohesion}"
+                                     + (f" (window {window[0]:g}:{window[1]:g} clipped to the run)"
+                                        if used != tuple(window) else ""))
             try:
                 save_figure(fig, args.plot, stage)
             finally:
