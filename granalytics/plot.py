@@ -371,7 +371,9 @@ def cg_figures(comparison, *, size_unit="particles") -> dict:
     -------
     dict of str -> Figure, keyed by :func:`cg_figure_names`.
     """
-    subtitle = comparison.description
+    import textwrap
+
+    subtitle = "\n".join(textwrap.wrap(comparison.description, 80))  # the figure is ~80 characters wide at 9 pt
     runs = list(dict.fromkeys(comparison.table["run"]))
     colours = {run: f"C{k % 10}" for k, run in enumerate(runs)}  # one colour per run (CG level) in every figure
     figures = {METRICS[m].figure_key: _cg_timeseries_figure(comparison, m, colours, subtitle) for m in BY_FIGURE}
