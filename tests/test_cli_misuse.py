@@ -353,3 +353,9 @@ def test_a_mistyped_command_or_choice_gets_the_closest_one(argv, hint, capsys):
         main(argv)
     err = capsys.readouterr().err
     assert exit_.value.code == 2 and hint in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_grid_holds_the_values_a_user_would_write():
+    from granalytics.cli._common import grid
+
+    assert list(grid("0.1:1.0:19"))[1] == 0.15 and repr(float(grid("0.1:1.0:19")[1])) == "0.15"

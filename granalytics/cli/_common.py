@@ -76,7 +76,8 @@ def grid(text):
             num = int(num)
             if not 1 <= num <= MAX_GRID:
                 raise argparse.ArgumentTypeError(f"NUM must be in [1, {MAX_GRID}], got {num} in {text!r}")
-            values = np.linspace(float(start), float(stop), num)
+            # the values a user would write: 0.15, not linspace's 0.15000000000000002
+            values = np.array([float(f"{v:.12g}") for v in np.linspace(float(start), float(stop), num)])
         else:
             values = np.array([float(x) for x in text.split(",") if x.strip()])
     except ValueError:
