@@ -14,6 +14,9 @@ import signal
 import sys
 
 from granalytics.base.interrupts import interrupts_held
+from granalytics.base.progress import throttle_bars_off_terminal
+
+throttle_bars_off_terminal()  # before anything imports tqdm
 
 
 def main(argv=None) -> int:

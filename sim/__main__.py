@@ -8,6 +8,9 @@ ends the program in one line with exit status 130 (never a traceback or a death 
 import sys
 
 from granalytics.base.interrupts import interrupts_held
+from granalytics.base.progress import throttle_bars_off_terminal
+
+throttle_bars_off_terminal()  # before anything imports tqdm
 
 
 def main(argv=None) -> int:

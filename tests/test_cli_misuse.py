@@ -359,3 +359,24 @@ def test_a_grid_holds_the_values_a_user_would_write():
     from granalytics.cli._common import grid
 
     assert list(grid("0.1:1.0:19"))[1] == 0.15 and repr(float(grid("0.1:1.0:19")[1])) == "0.15"
+
+
+def test_progress_bars_written_to_a_log_update_at_most_every_few_seconds(monkeypatch):
+    import os
+    import subprocess
+    import sys
+
+    from granalytics.base.progress import throttle_bars_off_terminal
+    from granalytics.datasets import dataset_path
+
+    monkeypatch.delenv("TQDM_MININTERVAL", raising=False)
+    throttle_bars_off_terminal(7)  # pytest's stderr is captured: not a terminal
+    assert os.environ["TQDM_MININTERVAL"] == "7"
+    monkeypatch.setenv("TQDM_MININTERVAL", "0.5")
+    throttle_bars_off_terminal(7)  # the user's own setting is kept
+    assert os.environ["TQDM_MININTERVAL"] == "0.5"
+    monkeypatch.delenv("TQDM_MININTERVAL")
+    done = subprocess.run([sys.executable, "-m", "granalytics", "stats", str(dataset_path("lab-cg3"))],
+                          capture_output=True, text=True, timeout=300)
+    updates = [line for line in done.stderr.replace("\r", "\n").splitlines() if "frame" in line]
+    assert done.returncode == 0 and 1 <= len(updates) <= 6, updates
