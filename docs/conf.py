@@ -170,6 +170,36 @@ def escape_absolute_values(app, what, name, obj, options, lines):
         lines[i] = "".join(p if k % 2 else _BARS.sub(r"\\|\1\\|", p) for k, p in enumerate(parts))
 
 
+_COMMENTED = re.compile(r"((?:^#:.*\n)+)^([A-Z][A-Z0-9_]*)\s*(?::[^=\n]*)?=", re.M)
+
+
+def _constant_comments():
+    """NAME -> the ``#:`` comment above its definition, over the packages' sources (a constant
+    re-exported from the package has no comment where autodoc looks for it)."""
+    found = {}
+    for path in sorted([*ROOT.glob("granalytics/**/*.py"), *ROOT.glob("sim/**/*.py")]):
+        for comment, name in _COMMENTED.findall(path.read_text()):
+            found.setdefault(name, [line[2:].strip() for line in comment.splitlines()])
+    return found
+
+
+_CONSTANTS = _constant_comments()
+
+
+def document_constants(app, what, name, obj, options, lines):
+    """A public constant's page gets its ``#:`` comment, not the docstring of its type (a float's,
+    a tuple's "Built-in immutable sequence.", or nothing)."""
+    short = name.rsplit(".", 1)[-1]
+    if what not in ("data", "attribute") or short not in _CONSTANTS:
+        return
+    own = "\n".join(lines).strip()
+    if own and own != (type(obj).__doc__ or "").strip():
+        return  # a docstring of its own
+    lines[:] = [" ".join(_CONSTANTS[short])]
+    if len(repr(obj)) < 200:
+        lines += ["", f"Value: ``{obj!r}``"]
+
+
 def write_pages(app, config):
     write_api(DOCS / "api")
     write_results(DOCS / "results", DOCS / "results.md")
@@ -178,3 +208,4 @@ def write_pages(app, config):
 def setup(app):
     app.connect("config-inited", write_pages)  # before Sphinx looks for the source files
     app.connect("autodoc-process-docstring", escape_absolute_values, priority=400)
+    app.connect("autodoc-process-docstring", document_constants, priority=300)

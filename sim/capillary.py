@@ -33,6 +33,8 @@ __all__ = [
     "bridge_force_from_constants",
 ]
 
+#: the capillary force laws by name, with the index the kernels use (Willett numeric and analytic,
+#: Rabinovich, Lambert; docs/physics.md)
 CAPILLARY_MODELS = {"willett_numeric": 0, "willett_analytic": 1, "rabinovich": 2, "lambert": 3}
 
 

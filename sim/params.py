@@ -532,6 +532,7 @@ def sized_drum(preset_name: str, original: SimParams, alpha: float, *, drum_rati
     return rule.drum(original, radius, n_original)
 
 
+#: the presets' names: the lab and paper drums at CG levels 1, 2 and 3 (`python -m sim presets`)
 PRESETS = tuple(f"{base}-cg{a}" for base in _ORIGINALS for a in (1, 2, 3))
 
 

@@ -12,7 +12,7 @@ from granalytics.base.errors import ParameterError
 from granalytics.identification.common import Identifier
 from granalytics.identification.community import CommunityDetection
 from granalytics.identification.custom import CustomEdges
-from granalytics.identification.dbscan import DBSCANClustering, DBSCANIdentifier
+from granalytics.identification.dbscan import DBSCANClustering
 from granalytics.identification.gna import BACKENDS, GraphNetworkAnalysis
 from granalytics.identification.result import IdentificationResult
 from granalytics.identification.sieve import VirtualSieve, sieve_analysis
@@ -21,7 +21,7 @@ from granalytics.core.snapshot import SNAPSHOT
 
 __all__ = [
     "identify", "make_identifier", "METHODS", "DEFAULT_METHODS", "BACKENDS", "method_parameters", "accepted_params", "IdentificationResult", "Identifier",
-    "GraphNetworkAnalysis", "DBSCANClustering", "DBSCANIdentifier", "VirtualSieve", "CommunityDetection", "CustomEdges", "sieve_analysis",
+    "GraphNetworkAnalysis", "DBSCANClustering", "VirtualSieve", "CommunityDetection", "CustomEdges", "sieve_analysis",
 ]
 
 #: method name -> identifier class

@@ -29,6 +29,8 @@ from granalytics.base.validation import Options, validate, validate_params
 __all__ = ["COHESION_CONVENTIONS", "DEFAULT_COHESION", "COHESION", "check_cohesion", "cohesion_counts",
            "cohesion_counts_all", "cohesive_force"]
 
+#: the cohesion conventions: "acting" (the force the simulator applied) and "bridge" (every bridge
+#: counts, touching ones at Willett's force at contact); docs/identification.md
 COHESION_CONVENTIONS = ("acting", "bridge")
 DEFAULT_COHESION = "acting"
 #: the constraint of a ``cohesion`` argument (:mod:`granalytics.base.validation`)

@@ -26,7 +26,7 @@ from granalytics.identification.common import Identifier, labels_from_clusters, 
 from granalytics.identification.result import IdentificationResult
 from granalytics.base.validation import FLAG, POSITIVE, Interval
 
-__all__ = ["DBSCANClustering", "DBSCANIdentifier"]
+__all__ = ["DBSCANClustering"]
 
 
 class DBSCANClustering(Identifier):
@@ -103,6 +103,3 @@ class DBSCANClustering(Identifier):
         return IdentificationResult(labels=labels, sizes=sizes, method=self.method, params=self.params(),
                                     snapshot=snapshot)
 
-
-#: the earlier name of :class:`DBSCANClustering` (kept for one release)
-DBSCANIdentifier = DBSCANClustering
