@@ -35,7 +35,7 @@ import numpy as np
 
 SERIES = [(22, 0), (22, 1), (22, 2), (33, 0), (33, 1), (33, 2), (44, 0), (44, 1), (44, 2), (66, 0), (66, 1)]
 REVOLUTIONS = 4
-DEFAULT_FACTOR = 2.0
+DEFAULT_FACTOR = 1.5
 HOME_RUNS = os.path.expanduser("~/granalytics-runs")
 
 
