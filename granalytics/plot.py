@@ -809,10 +809,12 @@ def _calibration_objective_figure(cal, caption):
         i, j = np.searchsorted(c_vals, row.c_agg), np.searchsorted(a_vals, row[col])
         ax.add_patch(Rectangle((c_edges[i], a_edges[j]), cw[i], aw[j], fill=False, ec="white", lw=1.5))
     chi = grid[grid.in_chi2_region]
-    ax.plot(chi.c_agg, chi[col], ".", color="orange", ms=4, label=f"Δχ² region ({100 * s['level']:g} %)")
+    ax.plot(chi.c_agg, chi[col], ".", color="orange", ms=4,
+            label=f"Δχ² region ({100 * s['level']:g} %, Gaussian approximation; for comparison only)")
     ax.plot([cal.best["c_agg"]], [cal.best[col]], "*", color="red", ms=14, mec="white",
             label=f"best: C_agg = {cal.best['c_agg']:g}, {short} = {cal.best[col]:g}")
-    ax.plot([], [], "s", mfc="none", mec="grey", label=f"bootstrap region ({100 * s['level']:g} %)")
+    ax.plot([], [], "s", mfc="none", mec="grey",
+            label=f"confidence region ({100 * s['level']:g} %, bootstrap): the one the summary reports")
     ax.set_xlabel("C_agg")
     ax.set_ylabel(name)
     ax.legend(loc="lower right", fontsize=7, framealpha=0.8)
@@ -841,6 +843,9 @@ def _calibration_distributions_figure(cal, caption):
     ax1.errorbar(upper_mm[finite], d.simulated_passing[finite], yerr=d.simulated_passing_error[finite].fillna(0),
                  fmt="s-", color="tab:blue", ms=4, capsize=3, label="simulated, best pair (bootstrap s.e.)")
     ax1.set_xscale("log")
+    ax1.set_xticks(upper_mm[finite])  # the apertures themselves: a decade's ticks would be 10⁰ and 10¹ only
+    ax1.set_xticklabels([f"{a:.3g}" for a in upper_mm[finite]], rotation=45, ha="right", fontsize=7)
+    ax1.minorticks_off()
     ax1.set_xlabel("aperture [mm] (original-system sizes)")
     ax1.set_ylabel("cumulative mass fraction passing")
     ax1.set_ylim(-0.02, 1.02)
