@@ -122,3 +122,24 @@ def test_the_first_frames_compilation_is_not_counted_in_the_progress_rate(frames
     map_frames(frames, work, progress=True)
     assert seen["n"] == seen["total"] == len(frames) and seen["initial"] == 1
     assert seen["elapsed"] < 0.4  # the 0.6 s of the first frame are not in the rate's clock
+
+
+def test_the_bar_shows_no_time_left_from_the_compilation_and_never_goes_back_to_zero():
+    import io
+    import re
+    import time
+
+    from tqdm import tqdm
+
+    from granalytics.analysis.frames import _advance
+
+    out = io.StringIO()
+    bar = tqdm(total=5, file=out, mininterval=0)
+    time.sleep(0.3)  # the first frame: compiling
+    for _ in range(5):
+        _advance(bar)
+    bar.close()
+    shown = [int(m) for m in re.findall(r"\| (\d+)/5", out.getvalue())]
+    assert shown == sorted(shown) and shown[0] == 0 and shown[1] == 1 and shown[-1] == 5
+    first = out.getvalue().split("\r")[2]
+    assert " 1/5 [00:00<?" in first  # no time left estimated from the compilation

@@ -38,11 +38,18 @@ def _advance(bar) -> None:
     the end of the first frame). A Ctrl-C that Python dropped during the frame (in a ``__del__`` or
     GC callback, :func:`~granalytics.base.interrupts.interrupts_not_lost`) is raised here."""
     raise_dropped_interrupt()
-    bar.update(1)
-    if bar.n == 1 and not bar.disable and bar.total and bar.total > 1:
-        bar.reset()  # n = 0, the clock restarted, the rate estimates emptied
+    if bar.n == 0 and not bar.disable and bar.total and bar.total > 1:
+        # the clock restarted and the rate estimates emptied without an update that would print
+        # the compilation's rate and time left, and without reset()'s print of 0 frames
+        bar.refresh = lambda *args, **kwargs: None  # on the instance: the class's is back after del
+        try:
+            bar.reset()
+        finally:
+            del bar.refresh
         bar.initial = bar.n = bar.last_print_n = 1
         bar.refresh()
+    else:
+        bar.update(1)
 
 
 def _label(frames, desc):
