@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import inspect
+import math
 import os
 from numbers import Integral, Real
 
@@ -168,8 +169,8 @@ class Window(Array):
     def accepts(self, value) -> bool:
         if not super().accepts(value):
             return False
-        lo, hi = np.asarray(value, dtype=float)  # a pandas Series by position, not by its index
-        return bool(np.isfinite(hi - lo) and lo <= hi)
+        lo, hi = (float(v) for v in np.asarray(value, dtype=float))  # a Series by position, not by its index
+        return lo <= hi and math.isfinite(hi - lo)  # Python floats: a span beyond 1.8e308 is inf, not a warning
 
     def __str__(self):
         return "a pair of finite numbers (lo, hi) with lo <= hi"
