@@ -24,7 +24,8 @@ __all__ = ["prefetched"]
 def prefetched(source):
     """``source`` read one frame ahead in a forked worker process, or ``source`` itself where
     processes cannot be forked (not Linux or macOS) or only one core may be used."""
-    if "fork" not in multiprocessing.get_all_start_methods() or len(os.sched_getaffinity(0)) < 2:
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if "fork" not in multiprocessing.get_all_start_methods() or cores < 2:
         return source
     return _Prefetched(source)
 
