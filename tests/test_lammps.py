@@ -582,3 +582,14 @@ def test_a_dump_whose_radii_are_not_in_metres_is_refused_naming_the_likely_unit(
     with pytest.raises(DumpFormatError, match=r"atoms.dump, line 9: a particle radius of .* m is not a DEM particle's "
                                               r"in SI units .* likely in millimetres or micrometres"):
         read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
+
+
+def test_an_error_in_the_reading_worker_reaches_the_command_line_as_one_line(tmp_path, frames, capsys):
+    """convert reads in a forked worker; a ValidationError there (whose class does not unpickle)
+    still ends the command in one line naming the dump, exit 2, with no file written."""
+    pf, cf = write_dumps(tmp_path, frames)
+    corrupt(cf[0], lambda ls: ls[:9] + [ls[9], ls[9]] + ls[11:])  # a contact pair twice
+    assert _convert(pf, cf, tmp_path) == 2
+    err = capsys.readouterr().err.strip()
+    assert "duplicate contact pair" in err and "pairs.dump" in err and "\n" not in err
+    assert not (tmp_path / "run.h5").exists()

@@ -42,9 +42,10 @@ def _work(source, queue):
             queue.put(("end", None, source.meta, source.bytes_read, [str(w.message) for w in caught]))
     except BaseException as exc:  # noqa: BLE001 (every failure goes to the caller)
         try:
-            queue.put(("error", pickle.dumps(exc), None, 0, []))
-        except Exception:  # an exception that does not pickle: its class and message
-            queue.put(("error", (type(exc).__name__, str(exc)), None, 0, []))
+            pickled = pickle.dumps(exc)
+        except Exception:  # an exception that does not pickle: its class and message only
+            pickled = None
+        queue.put(("error", (pickled, type(exc).__name__, str(exc)), None, 0, []))
 
 
 class _Prefetched:
@@ -75,9 +76,14 @@ class _Prefetched:
             self.meta = meta
         if kind == "error":
             self.close()
-            if isinstance(payload, bytes):
-                raise pickle.loads(payload)
-            raise GranalyticsError(f"{payload[0]}: {payload[1]}")
+            pickled, name, text = payload
+            try:
+                exc = pickle.loads(pickled) if pickled is not None else None
+            except Exception:  # an exception class whose constructor unpickling cannot call
+                exc = None
+            if isinstance(exc, BaseException):
+                raise exc
+            raise GranalyticsError(text if isinstance(text, str) and text else name)
         if kind == "end":
             self.close()
             return None
