@@ -68,6 +68,8 @@ numpydoc_xref_param_type = False
 
 # --- HTML ---------------------------------------------------------------------------------------
 html_theme = "pydata_sphinx_theme"
+html_static_path = ["_static"]
+html_css_files = ["granalytics.css"]  # code lines wrap, wide tables scroll in place
 html_title = f"granalytics {version}"
 html_theme_options = {
     "navigation_with_keys": False,
