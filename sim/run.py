@@ -458,6 +458,8 @@ class Simulation:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(stale)
             writer.append(self.snapshot(meta))
+            if checkpoint_every is not None:  # the settled bed: hours at 10⁵ particles, not to be settled twice
+                self.save_checkpoint(ckpt, {"frames": 1, "frame_every": frame_every, "wall_s": 0.0})
         wall0 = _time.perf_counter()
         steps0 = self.state.step
         wall_before = getattr(self, "_resume_wall_s", 0.0)  # wall time of earlier sittings

@@ -504,3 +504,23 @@ def test_a_checkpoint_of_an_unknown_format_or_a_text_physics_version_is_refused(
         np.savez(ckpt, **{**arrays, "checkpoint_info": np.array(json.dumps({**info, **change}))})
         refused(cli("a.h5", "--resume"), *words)
     assert zipfile.is_zipfile(ckpt)
+
+
+def test_the_settled_bed_is_checkpointed_before_the_first_frame_is_simulated(cli, tmp_path, monkeypatch):
+    """Settling 10⁵ particles takes hours: a run stopped before its first frame resumes from the
+    settled bed instead of settling again."""
+    from sim.run import Simulation
+
+    advance = Simulation.advance
+
+    def stopped(self, n_steps):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Simulation, "advance", stopped)
+    code, _ = cli("r.h5", "--checkpoint-every", "5")
+    assert code == 130 and (tmp_path / "r.h5.ckpt.npz").exists()
+    monkeypatch.setattr(Simulation, "advance", advance)
+    monkeypatch.setattr(Simulation, "_fill", lambda *a, **k: pytest.fail("settled again"))
+    assert cli("r.h5", "--checkpoint-every", "5", "--resume")[0] == 0
+    with ga.open_run(tmp_path / "r.h5") as run:
+        assert len(run) == 5 and run.unfinished is None
