@@ -131,6 +131,25 @@ def write_api(folder):
         path.write_text(text)
 
 
+_FIGURE_LINK = re.compile(r"(?<!!)\[([^\]]+)\]\((\.\./figures/[^)]+\.png)\)")
+
+
+def _figures_inline(body):
+    """A paragraph that links to figures is followed by the figures themselves (a link in running
+    text stays a link; the reader should not have to download a figure to see it)."""
+    shown = set(re.findall(r"!\[[^\]]*\]\(([^)]+)\)", body))
+    out = []
+    for block in re.split(r"(\n\s*\n)", body):
+        out.append(block)
+        if block.lstrip().startswith(("|", "```", "    ")):
+            continue  # tables and code keep their links
+        figures = [(label, path) for label, path in _FIGURE_LINK.findall(block) if path not in shown]
+        if figures:
+            shown.update(path for _, path in figures)
+            out.append("\n\n" + "\n".join(f"![{label}]({path})" for label, path in figures))
+    return "".join(out)
+
+
 def write_results(folder, source):
     """``results/``: the summary of ``results.md``, then one page per ``## `` section."""
     folder.mkdir(exist_ok=True)
@@ -148,7 +167,7 @@ def write_results(folder, source):
         slug = "-".join(words[:5])
         name = f"{number:02d}-{slug}"
         body = re.sub(r"^#(#+ )", r"\1", section, flags=re.M)  # one level up: "## 2. ..." is the title
-        pages[name] = body
+        pages[name] = _figures_inline(body)
     index = head + summary + "\n## The studies\n\nOne page per study, each with the commands that remake its numbers.\n\n"
     index += "```{toctree}\n:maxdepth: 1\n\n" + "\n".join(pages) + "\n```\n"
     pages["index"] = index
