@@ -27,6 +27,7 @@ from granalytics.base.errors import ValidationError
 from granalytics.base.files import regular_input
 from granalytics.core.snapshot import RunMeta, Snapshot
 from granalytics.convert._text import DumpFormatError, load_toml, warn_unused_contact_steps
+from granalytics.convert.registry import StreamedSource
 
 __all__ = ["DumpMapping", "DumpFile", "integer_column", "LiggghtsRun", "open_liggghts", "read_liggghts"]
 
@@ -528,7 +529,7 @@ def _stream(dumps, int_columns, after=None):
             yield step, table, line, dump.path
 
 
-class LiggghtsRun:
+class LiggghtsRun(StreamedSource):
     """A LIGGGHTS / LAMMPS run read frame by frame from its dumps (:func:`open_liggghts`).
 
     Iterating yields the :class:`~granalytics.core.Snapshot` of each particle timestep in
@@ -546,17 +547,7 @@ class LiggghtsRun:
         self._particles = _in_step_order(self.particle_files, "ATOMS")
         self._contacts = _in_step_order(self.contact_files, "ENTRIES")
         self.total_bytes = sum(d.size for d in self._particles + self._contacts)
-        self._frames = self._read()
-        self._first = None
-        self._after = None
         self.meta = None
-
-    def start_after(self, step) -> None:
-        """Leave out the timesteps up to ``step`` (read past, not parsed): for adding the later
-        frames of the dumps to a run that holds the earlier ones. Call before reading."""
-        if self._first is not None:
-            raise RuntimeError("start_after: frames were read already")
-        self._after = int(step)
 
     @property
     def bytes_read(self) -> int:
@@ -572,22 +563,9 @@ class LiggghtsRun:
                 values += rows * max(columns, 14)
         return 40 * values
 
-    def first(self) -> Snapshot:
-        """The first frame (read once; iteration starts with it)."""
-        if self._first is None:
-            self._first = next(self._frames, None)
-            if self._first is None:
-                later = f" after timestep {self._after}" if self._after is not None else ""
-                raise DumpFormatError(f"no particle timesteps{later} in " + ", ".join(map(str, self.particle_files)))
-        return self._first
-
-    def __iter__(self):
-        yield self.first()
-        yield from self._frames
-
-    def close(self) -> None:
-        """Stop reading (the file being read is closed)."""
-        self._frames.close()
+    def _nothing_read(self):
+        later = f" after timestep {self._after}" if self._after is not None else ""
+        return DumpFormatError(f"no particle timesteps{later} in " + ", ".join(map(str, self.particle_files)))
 
     def _read(self):
         mapping = self.mapping

@@ -15,7 +15,7 @@ import os
 from dataclasses import dataclass
 from typing import Callable, Iterator, Protocol
 
-__all__ = ["Reader", "READERS", "FrameSource", "open_run_files", "read_run_files"]
+__all__ = ["Reader", "READERS", "FrameSource", "StreamedSource", "InMemorySource", "open_run_files", "read_run_files"]
 
 
 class FrameSource(Protocol):
@@ -43,6 +43,42 @@ class FrameSource(Protocol):
     def __iter__(self) -> Iterator: ...
 
     def close(self) -> None: ...
+
+
+class StreamedSource:
+    """What the streaming readers share: ``first()`` reads the first frame of the generator
+    ``_read()`` (a subclass's, which honours ``self._after``), iteration goes on from it, and
+    ``close()`` stops the reading. A subclass gives ``_read()`` and ``_nothing_read()`` (the error
+    when there is no frame to read)."""
+
+    _after = None
+    _first = None
+    _frames = None
+
+    def start_after(self, step) -> None:
+        """Leave out the timesteps up to ``step`` (read past, not parsed where the format allows).
+        Call before reading."""
+        if self._first is not None:
+            raise RuntimeError("start_after: frames were read already")
+        self._after = int(step)
+
+    def first(self):
+        """The first frame (read once; iteration starts with it)."""
+        if self._first is None:
+            self._frames = self._read()
+            self._first = next(self._frames, None)
+            if self._first is None:
+                raise self._nothing_read()
+        return self._first
+
+    def __iter__(self):
+        yield self.first()
+        yield from self._frames
+
+    def close(self) -> None:
+        """Stop reading (the file being read is closed)."""
+        if self._frames is not None:
+            self._frames.close()
 
 
 class InMemorySource:

@@ -49,6 +49,7 @@ from granalytics.base.files import regular_input
 from granalytics.core.snapshot import RunMeta, Snapshot
 from granalytics.convert._capillary import effective_radius
 from granalytics.convert._text import DumpFormatError
+from granalytics.convert.registry import StreamedSource
 from granalytics.convert.yade import _CAPILLARY_TYPES, read_yade_mapping
 
 __all__ = ["YadeVtkRun", "open_yade_vtk", "find_vtk_frames"]
@@ -123,7 +124,7 @@ def _read_mapping(path):
     return capillary_type, float(volume), data
 
 
-class YadeVtkRun:
+class YadeVtkRun(StreamedSource):
     """A YADE run read frame by frame from its VTKRecorder files (:func:`open_yade_vtk`); the
     same interface as the other streaming readers (:class:`granalytics.convert.registry.FrameSource`)."""
 
@@ -140,36 +141,14 @@ class YadeVtkRun:
         self.total_bytes = sum(os.path.getsize(f) for f in files)
         self.bytes_read = 0
         self.meta = None
-        self._after = None
-        self._first = None
-        self._iter = None
         self._warned_ids = False
-
-    def start_after(self, step) -> None:
-        """Leave out the iterations up to ``step``. Call before reading."""
-        self._after = int(step)
 
     def frame_bytes(self) -> int:
         """Estimated memory of one frame while it is read [bytes]: eight times its files."""
         return 8 * max(sum(os.path.getsize(f) for f in _frame_files(entry)) for _, entry in self.frames)
 
-    def first(self) -> Snapshot:
-        if self._first is None:
-            self._iter = self._read()
-            self._first = next(self._iter, None)
-            if self._first is None:
-                raise DumpFormatError(f"no VTKRecorder frames after iteration {self._after} in "
-                                      f"{', '.join(self.paths)}")
-        return self._first
-
-    def __iter__(self):
-        yield self.first()
-        yield from self._iter
-
-    def close(self) -> None:
-        """Stop reading."""
-        if self._iter is not None:
-            self._iter.close()
+    def _nothing_read(self):
+        return DumpFormatError(f"no VTKRecorder frames after iteration {self._after} in {', '.join(self.paths)}")
 
     def _read(self):
         n0 = None
