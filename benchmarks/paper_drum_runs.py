@@ -11,7 +11,9 @@ Usage::
 ``series`` makes, one after the other on one thread, the α = 1 runs of the paper drum's family
 (``python -m sim run --preset paper-cg1 --drum-ratio D``: its aspect, fill, baffles and spray
 zone, sized for D/d of the particles) at D/d 22, 33 and 44 (539, 1 819 and 4 312 particles; seeds
-0-2) and 66 (14 554 particles; seed 0, then seed 1), 4 revolutions each, the smallest first; a run
+0-2) and 66 (14 554 particles; seed 0, then seed 1), and, interleaved with them, the paper drum's
+CG runs under both rules (paper-cg3 ``weber`` and ``bond`` seeds 0-1, paper-cg2 ``weber`` seed 1
+beside the bundled seed 0, paper-cg2 ``bond`` seed 0), 4 revolutions each, the largest last; a run
 already finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` starts
 the paper's CG1 (``--preset paper-cg1``, its own settling, 4 revolutions, a frame every 0.05
 revolution, a checkpoint every frame) or resumes it. ``progress`` prints one line for
@@ -34,6 +36,9 @@ import warnings
 import numpy as np
 
 SERIES = [(22, 0), (22, 1), (22, 2), (33, 0), (33, 1), (33, 2), (44, 0), (44, 1), (44, 2), (66, 0), (66, 1)]
+#: the paper drum's CG runs under both rules: (preset, rule, seed)
+PAPER_CG = [("paper-cg3", "weber", 0), ("paper-cg3", "bond", 0), ("paper-cg3", "weber", 1), ("paper-cg3", "bond", 1),
+            ("paper-cg2", "weber", 1), ("paper-cg2", "bond", 0)]
 REVOLUTIONS = 4
 DEFAULT_FACTOR = 1.5
 HOME_RUNS = os.path.expanduser("~/granalytics-runs")
@@ -49,14 +54,27 @@ def _command(out, options, factor, checkpoint_every):
             "--threads", "1", "--checkpoint-every", str(checkpoint_every), "--out", out, *resume]
 
 
+def _queue():
+    """The runs of ``series`` in the order they are made: (file name, options of ``sim run``,
+    frames between checkpoints). The α = 1 series and the paper drum's CG runs are interleaved, so
+    that a queue stopped part-way has a little of each; the largest runs come last."""
+    alpha1 = {(ratio, seed): (f"dd{ratio}-seed{seed}.h5", ["--preset", "paper-cg1", "--drum-ratio", str(ratio),
+                                                          "--seed", str(seed)]) for ratio, seed in SERIES}
+    cg = {key: (f"{key[0]}-{key[1]}-seed{key[2]}.h5", ["--preset", key[0], "--cg-rule", key[1], "--seed", str(key[2])])
+          for key in PAPER_CG}
+    order = [alpha1[r] for r in SERIES if r[0] <= 33]
+    order += [alpha1[(44, 0)], cg[PAPER_CG[0]], cg[PAPER_CG[1]], alpha1[(44, 1)], cg[PAPER_CG[2]], cg[PAPER_CG[3]],
+              alpha1[(44, 2)], alpha1[(66, 0)], cg[PAPER_CG[4]], cg[PAPER_CG[5]], alpha1[(66, 1)]]
+    return [(name, [*options, "--quiet"], 2 if "66" in name or "paper-cg2" in name else 4) for name, options in order]
+
+
 def series(args):
     os.makedirs(args.dir, exist_ok=True)
-    for ratio, seed in SERIES:
-        out = os.path.join(args.dir, f"dd{ratio}-seed{seed}.h5")
+    for name, options, checkpoint_every in _queue():
+        out = os.path.join(args.dir, name)
         if _finished(out):
             continue
-        cmd = _command(out, ["--preset", "paper-cg1", "--drum-ratio", str(ratio), "--seed", str(seed), "--quiet"],
-                       args.dt_factor, 4)
+        cmd = _command(out, options, args.dt_factor, checkpoint_every)
         print(" ".join(cmd[2:]), flush=True)
         subprocess.run(cmd, check=True)
 
