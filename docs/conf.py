@@ -55,6 +55,14 @@ nb_execution_timeout = 900
 nb_execution_raise_on_error = True
 nb_execution_in_temp = True  # the notebooks' own output files go to a temporary folder
 nb_merge_streams = True
+# The notebooks' kernels talk to the build over CurveZMQ-encrypted sockets when the kernel says it
+# can (ipykernel warns once per notebook about unencrypted TCP; jupyter-cache gives no way to pass
+# the kernel manager's configuration, so the default of its encryption policy is set here).
+import zmq  # noqa: E402
+from jupyter_client.manager import KernelManager  # noqa: E402
+
+if zmq.has("curve"):
+    KernelManager.transport_encryption.default_value = "auto"
 
 # --- API reference ------------------------------------------------------------------------------
 templates_path = ["_templates"]  # autosummary/class.rst: a class's methods and attributes on its page

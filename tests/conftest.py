@@ -1,12 +1,12 @@
 """Shared test helpers: small hand-built snapshots."""
 
+import contextlib
 import math
+import os
+import warnings
 
 import numpy as np
 import pytest
-
-import os
-
 from hypothesis import settings
 
 from granalytics import RunMeta, Snapshot
@@ -25,6 +25,30 @@ settings.load_profile("ci" if os.environ.get("CI") == "true" else "dev")
 # yade package), whose parallel regions cost ~0.5 ms each: the single-particle physics tests, with
 # four regions per step, then took minutes instead of seconds.
 configure_threading()
+
+#: The analyses' warnings about what a small test run cannot support (a run stopped early, a window
+#: shorter than a turn or wider than the run or with a trend, a drum that confines its bed, a CG
+#: rule's measured bias). Tests whose subject is something else silence them with :func:`small_run_warnings` or
+#: :func:`expects_small_run_warnings`; the tests of the warnings themselves check them.
+SMALL_RUN_WARNINGS = ("unfinished run", "less than one turn of the drum", r"revolutions is wider than the run",
+                      "where the drum's confinement lowers", r"revolutions is not a steady state", r"CG rule \w+ at α = [\d.]+ moved the steady")
+
+
+@contextlib.contextmanager
+def small_run_warnings():
+    """Silence :data:`SMALL_RUN_WARNINGS` inside the block (any other warning still shows)."""
+    with warnings.catch_warnings():
+        for text in SMALL_RUN_WARNINGS:
+            warnings.filterwarnings("ignore", message=f".*{text}", category=UserWarning)
+        yield
+
+
+def expects_small_run_warnings(test):
+    """Decorator: silence :data:`SMALL_RUN_WARNINGS` for the whole test."""
+    for text in SMALL_RUN_WARNINGS:
+        test = pytest.mark.filterwarnings(f"ignore:.*{text}:UserWarning")(test)
+    return test
+
 
 GAMMA = 0.1095  # N/m
 R0 = 0.75e-3  # m

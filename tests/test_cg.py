@@ -13,6 +13,7 @@ from granalytics.cli import main
 from granalytics.base.errors import ParameterError
 from granalytics.core import RunWriter, subset_run
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
+from conftest import expects_small_run_warnings
 
 
 def write_run(path, n_particles, alpha, final_fraction=0.55, wall_per_sim_s=None, revolutions=4.0, seed=0):
@@ -198,6 +199,7 @@ def test_cg_deviation_at_every_threshold_pair(tmp_path, cg_runs, capsys):
     assert "largest |deviation|" in capsys.readouterr().out
 
 
+@expects_small_run_warnings
 def test_size_bins_start_at_the_smallest_size_that_can_occur():
     """Round four, C1: with --min-size 3, CG1 and CG2 kept a first bin [2, 3] of density count/2
     and CG3 an empty [2, 2] bin: the small-size end differed by 2x for no physical reason."""

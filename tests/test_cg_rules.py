@@ -15,6 +15,7 @@ from sim.params import SimParams, cg_scale, similar_system, preset_original, siz
 from sim.run import Simulation
 
 from test_sim_physics import _restitution  # noqa: E402  (the head-on impact of the closed-form tests)
+from conftest import expects_small_run_warnings, small_run_warnings
 
 R = 0.75e-3
 FREE = SimParams(n_particles=2, n_baffles=0, gravity=(0.0, 0.0, 0.0), drum_omega=0.0,
@@ -176,6 +177,7 @@ def test_the_command_line_sets_the_rule_and_the_twin():
         _cli_params("--alpha", "1", "--twin")
 
 
+@expects_small_run_warnings
 def test_the_rule_is_recorded_printed_by_info_and_compare_cg_warns_when_rules_differ(tmp_path, capsys):
     import granalytics as ga
     from granalytics.cli import main as ga_main
@@ -225,5 +227,5 @@ def test_info_and_compare_cg_warn_where_a_rule_is_measured_outside_the_tolerance
     assert ga_main(["info", str(dataset_path("lab-cg3"))]) == 0
     err = capsys.readouterr().err
     assert err.count("CG rule weber at α = 3 moved the steady yield") == 1
-    with pytest.warns(UserWarning, match="lab-cg3.h5 \\(and its 2 replica\\(s\\)\\): CG rule weber at α = 3"):
+    with small_run_warnings(), pytest.warns(UserWarning, match="lab-cg3.h5 \\(and its 2 replica\\(s\\)\\): CG rule weber at α = 3"):
         ga.compare_cg([dataset_path("lab-cg1"), ga.datasets.replica_paths("lab-cg3")], window=(3.0, 3.5))

@@ -15,7 +15,7 @@ from granalytics.identification.contacts import co_moving, co_moving_rigid, cont
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 from sim.params import DrumRule, preset, preset_original, sized_drum
 
-from conftest import make_meta, make_snapshot
+from conftest import expects_small_run_warnings, make_meta, make_snapshot
 
 
 # ----------------------------------------------------------------------------- the drum family
@@ -297,6 +297,7 @@ def test_info_prints_the_confinement_and_warns_below_the_rule(monkeypatch, capsy
     assert len(warned) == 1 and path in warned[0]
 
 
+@expects_small_run_warnings
 def test_compare_cg_warns_once_for_each_system_below_the_rule(monkeypatch):
     import granalytics.analysis.confinement as confinement
     from granalytics.datasets import dataset_path, replica_paths

@@ -10,6 +10,7 @@ from granalytics.analysis import metrics
 from granalytics.analysis.metrics import HEADLINE, METRICS, GranuleCounts, Metric, registered
 from test_cg import write_run
 from test_study import sweep_dir  # noqa: F401  (fixture)
+from conftest import expects_small_run_warnings
 
 #: the share of free particles, 1 − yield: a headline metric the code has never heard of
 FREE = Metric("free_fraction", "free share", "", ".3f", headline=True, order=3, title="free particles",
@@ -35,6 +36,7 @@ def test_the_registered_metrics_compute_from_the_granule_counts():
     assert values["mean_granule_size"][1] == pytest.approx(2.5)
 
 
+@expects_small_run_warnings
 def test_a_scratch_metric_is_carried_by_every_consumer_and_removed_after(frames, tmp_path, sweep_dir, capsys):  # noqa: F811
     import matplotlib
 

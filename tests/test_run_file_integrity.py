@@ -22,6 +22,7 @@ from granalytics.core.snapshot import CONTACT_FIELDS, PARTICLE_FIELDS
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 
 from test_io import WRITER  # a writer appending frames until it is killed
+from conftest import expects_small_run_warnings
 
 N = 300
 # child processes import the granalytics under test
@@ -614,6 +615,7 @@ def test_mutated_metadata_is_refused_naming_the_attribute(tmp_path, run_path, ca
     assert not (tmp_path / "s.h5").exists()
 
 
+@expects_small_run_warnings
 def test_a_null_wall_time_is_not_measured_in_compare_cg(tmp_path):
     """compare-cg raised TypeError: float() argument must be ... 'NoneType' on a run whose
     provenance records "wall_time_s": null."""

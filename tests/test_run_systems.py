@@ -10,6 +10,7 @@ import granalytics as ga
 from granalytics.core import RunMeta, RunWriter
 from granalytics.datasets.synthetic import synthetic_snapshot
 from granalytics.analysis.system import check_replicas, system_of
+from conftest import expects_small_run_warnings
 
 ORIGINAL = {"n_particles": 8100, "d_mean": 1.5e-3, "surface_tension": 0.1095, "drum_omega": 2.0, "seed": 0,
             "alpha": 1.0, "cg_rule": "weber", "bridge_volume": 0.0}
@@ -40,6 +41,7 @@ def test_the_system_leaves_out_seed_alpha_and_rule():
                              mean_radius=1e-3)) is None
 
 
+@expects_small_run_warnings
 def test_replicas_of_another_system_or_copies_are_refused(tmp_path):
     cg1 = simulator_run(tmp_path / "cg1.h5")
     a = simulator_run(tmp_path / "a.h5", 3.0, seed=0)
@@ -55,6 +57,7 @@ def test_replicas_of_another_system_or_copies_are_refused(tmp_path):
         ga.compare_cg([cg1, [a, b, str(copy)]], ["cg1", "cg3"], window=(0, 2))
 
 
+@expects_small_run_warnings
 def test_cg_levels_of_another_original_system_are_refused_unless_mixed_systems(tmp_path):
     cg1 = simulator_run(tmp_path / "cg1.h5")
     drum = simulator_run(tmp_path / "drum.h5", 3.0, drum_omega=3.0)

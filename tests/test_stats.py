@@ -7,7 +7,7 @@ import pytest
 import granalytics as ga
 from granalytics import ParameterError, RunWriter, open_run
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
-from conftest import R0, make_meta, make_snapshot
+from conftest import R0, expects_small_run_warnings, make_meta, make_snapshot
 
 
 @pytest.fixture
@@ -212,6 +212,7 @@ def test_size_distribution_log_bins():
         ga.size_distribution([np.array([1, 2])])
 
 
+@expects_small_run_warnings
 def test_a_window_tolerance_never_takes_in_a_neighbouring_frame():
     # a run thinned to one frame in 20 outside a dense window: the tolerance follows the dense
     # spacing, so the window [6.0, 6.05] takes its two frames and not 5.95 or 6.1
