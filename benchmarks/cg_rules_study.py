@@ -166,7 +166,7 @@ def size_table(groups, window, figures=None, reference="cg1"):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from granalytics.plot import cg_figures
+        from granalytics.report.figures import cg_figures
 
         written = cg.save(figures, overwrite=True)
         for name, fig in cg_figures(cg, size_unit="original").items():

@@ -32,6 +32,9 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 - parameter studies (paper §3.2, Fig 7): :func:`study_table`, :func:`growth_points`, :func:`fit_granule_growth`,
   :class:`GrowthFit`, :func:`fit_surrogate`, :class:`Surrogate` (sweeps run with
   ``python -m sim sweep``)
+- results out: :func:`save` writes any result (a table, :class:`CGComparison`, :class:`Calibration`,
+  ...) as the command line does, :func:`draw` draws it (:mod:`granalytics.report`; the figures
+  one by one: :mod:`granalytics.report.figures`)
 - errors: :class:`GranalyticsError`, :class:`ValidationError`, :class:`RunFileError`,
   :class:`RunLockedError`, :class:`ParameterError`
 """
@@ -52,6 +55,7 @@ _EXPORTS = {
                      "IdentificationResult", "VirtualSieve", "identify", "CustomEdges"), ".identification"),
     **dict.fromkeys(("Run", "RunSlice", "RunWriter", "open_run", "subset_run"), ".core"),
     "WriterLock": ".base.files",
+    **dict.fromkeys(("save", "draw"), ".report"),
     **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".analysis.sensitivity"),
     **dict.fromkeys(("Calibration", "calibrate_thresholds"), ".analysis.calibration"),
     **dict.fromkeys(("MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid"),
@@ -73,11 +77,11 @@ _EXPORTS = {
                      "size_counts"), ".analysis.population_balance"),
 }
 #: public submodules (``granalytics.datasets.open_dataset(...)``, ``granalytics.edges.edge_table(...)``):
-#: attribute name -> module. The layers themselves (base, core, identification, analysis, convert, export) are
+#: attribute name -> module. The layers themselves (base, core, identification, analysis, convert, export, report) are
 #: ordinary subpackages.
 _SUBMODULES = {
     "datasets": ".datasets", "base": ".base", "core": ".core", "convert": ".convert", "export": ".export",
-    "analysis": ".analysis", "edges": ".identification.edges", "table": ".analysis.table",
+    "analysis": ".analysis", "report": ".report", "edges": ".identification.edges", "table": ".analysis.table",
 }
 
 
@@ -105,7 +109,7 @@ __all__ = [
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "VirtualSieve", "CommunityDetection", "CustomEdges",
-    "edges", "datasets", "base", "core", "convert", "export", "analysis",
+    "edges", "datasets", "base", "core", "convert", "export", "analysis", "report", "save", "draw",
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods", "identical_methods",
     "calibrate_thresholds", "Calibration", "MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid",

@@ -92,7 +92,7 @@ def main():
         import matplotlib
 
         matplotlib.use("Agg")
-        from granalytics.plot import calibration_figures
+        from granalytics.report.figures import calibration_figures
 
         cal = ga.calibrate_thresholds(DATA / "lab-cg1.h5", DATA / "sieve" / "example-sieve.csv", C_GRID, A_GRID)
         for name, fig in calibration_figures(cal).items():

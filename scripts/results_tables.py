@@ -88,7 +88,7 @@ def cg_threshold_table(figures=None):
     """The lab CG comparison at every (C_agg, A_agg) of a grid (acting cohesion): the median and
     largest |deviation| from lab-cg1 of each headline statistic over the grid."""
     from granalytics.analysis.metrics import BY_FIGURE, METRICS
-    from granalytics.plot import cg_threshold_figures
+    from granalytics.report.figures import cg_threshold_figures
 
     names = CG_SETS["lab drum"]
     c_agg, a_agg = [round(0.2 + 0.1 * k, 2) for k in range(8)], [10.0, 20.0, 45.0]
@@ -182,7 +182,7 @@ def cg_tables(figures=None):
             if figures and cohesion == "acting":
                 import matplotlib.pyplot as plt
 
-                from granalytics.plot import cg_figures
+                from granalytics.report.figures import cg_figures
 
                 folder = os.path.join(figures, title.replace(" ", "-"))
                 os.makedirs(folder, exist_ok=True)
@@ -233,7 +233,7 @@ def sweep_tables(figures=None):
     from scipy.stats import linregress
     from scipy.stats import t as student_t
 
-    from granalytics.plot import growth_figure
+    from granalytics.report.figures import growth_figure
 
     for name in SWEEPS:
         table = ga.study_table(sweep_path(name), window=SWEEP_WINDOW, c_agg=C_AGG, a_agg_deg=A_AGG,
@@ -300,7 +300,7 @@ def replica_sweep_table(folder, figures=None):
         if figures:
             import matplotlib.pyplot as plt
 
-            from granalytics.plot import growth_figure
+            from granalytics.report.figures import growth_figure
 
             fig = growth_figure(part, fit=fit, cohesion=cohesion)
             fig.savefig(os.path.join(figures, f"fig7-lab-cg3-replicas-{cohesion}.png"), dpi=120)

@@ -105,7 +105,7 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
     import sys
 
     heavy = ("pandas", "networkx", "scipy.sparse", "sklearn", "igraph", "matplotlib", "dask")
-    above = tuple(f"granalytics.{layer}" for layer in ("identification", "analysis", "convert", "export", "plot", "cli"))
+    above = tuple(f"granalytics.{layer}" for layer in ("identification", "analysis", "convert", "export", "report", "cli"))
     code = (f"import sys, sim.run; print(','.join(m for m in sys.modules if m in {heavy!r} "
             f"or m.startswith({above!r})))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
@@ -115,8 +115,8 @@ def test_the_contract_and_the_simulator_load_no_analysis_library():
 
 #: the layers of granalytics, lowest first: a module imports only modules of its own layer or of a
 #: lower one (docs/architecture.md).
-LAYERS = {"_version": 0, "base": 0, "core": 1, "identification": 2, "convert": 2, "outputs": 2, "analysis": 3,
-          "export": 4, "plot": 4, "datasets": 4, "cli": 5, "__main__": 5}
+LAYERS = {"_version": 0, "base": 0, "core": 1, "identification": 2, "convert": 2, "analysis": 3,
+          "export": 4, "report": 4, "datasets": 4, "cli": 5, "__main__": 5}
 
 
 def _layer(module):
@@ -136,17 +136,24 @@ def test_every_module_lives_in_a_layer_and_imports_only_downwards():
 
 
 def _draws(module):
-    return module in ("granalytics.plot", "matplotlib") or module.startswith(("granalytics.plot.", "matplotlib."))
+    return module in ("granalytics.report", "matplotlib") or module.startswith(("granalytics.report.", "matplotlib."))
 
 
 @pytest.mark.parametrize("package", ["granalytics/analysis", "granalytics/identification", "granalytics/core",
                                      "granalytics/base"])
-def test_only_plot_and_the_command_line_draw(package):
+def test_only_the_report_layer_and_the_command_line_draw(package):
     """The analysis, identification, core and base layers compute; no module of theirs imports
-    granalytics.plot or matplotlib, not even inside a function (figures are drawn by plot.py from
-    their results, and written by the command line)."""
+    the report layer or matplotlib, not even inside a function (figures are drawn and files
+    written by granalytics.report from their results)."""
     offenders = [f"{name}:{line} imports {module}" for name, path in _modules(package)
                  for module, line in _imports(name, path) if _draws(module)]
+    assert offenders == []
+
+
+def test_matplotlib_is_imported_by_the_report_layer_and_the_command_line_only():
+    offenders = [f"{name}:{line} imports {module}" for name, path in _modules("granalytics")
+                 if _layer(name) not in ("report", "cli")
+                 for module, line in _imports(name, path) if module == "matplotlib" or module.startswith("matplotlib.")]
     assert offenders == []
 
 

@@ -204,7 +204,7 @@ def test_size_bins_start_at_the_smallest_size_that_can_occur():
     """Round four, C1: with --min-size 3, CG1 and CG2 kept a first bin [2, 3] of density count/2
     and CG3 an empty [2, 2] bin: the small-size end differed by 2x for no physical reason."""
     from granalytics.datasets import dataset_path
-    from granalytics.plot import cg_figures
+    from granalytics.report.figures import cg_figures
 
     cg = compare_cg([dataset_path("lab-cg2"), dataset_path("lab-cg3")], window=(3.0, 4.0), min_size=3,
                     comotion="rigid")

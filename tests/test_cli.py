@@ -368,7 +368,7 @@ def test_info_prints_floats_to_six_significant_digits(capsys):
 ])
 def test_a_mean_and_its_error_are_printed_to_the_errors_figures(value, error, shown):
     """compare-cg and study printed '3 ± 0.0907': the mean is now given to the error's last figure."""
-    from granalytics.cli._common import plus_minus
+    from granalytics.cli.options import plus_minus
 
     assert plus_minus(value, error) == shown
 

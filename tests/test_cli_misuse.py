@@ -356,7 +356,7 @@ def test_a_mistyped_command_or_choice_gets_the_closest_one(argv, hint, capsys):
 
 
 def test_a_grid_holds_the_values_a_user_would_write():
-    from granalytics.cli._common import grid
+    from granalytics.cli.options import grid
 
     assert list(grid("0.1:1.0:19"))[1] == 0.15 and repr(float(grid("0.1:1.0:19")[1])) == "0.15"
 

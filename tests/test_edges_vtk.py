@@ -72,7 +72,7 @@ def test_export_vtk_cli(tmp_path, capsys):
 
 
 def test_frame_figure_renders_granules(snapshot, tmp_path):
-    from granalytics.plot import frame_figure
+    from granalytics.report.figures import frame_figure
 
     fig = frame_figure(ga.identify(snapshot))
     fig.savefig(tmp_path / "f.png")

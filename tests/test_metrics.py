@@ -42,7 +42,7 @@ def test_a_scratch_metric_is_carried_by_every_consumer_and_removed_after(frames,
 
     matplotlib.use("Agg")
     from granalytics.cli import main
-    from granalytics.plot import cg_figures, comparison_figure, sensitivity_figure, stats_figure
+    from granalytics.report.figures import cg_figures, comparison_figure, sensitivity_figure, stats_figure
 
     with registered(FREE):
         assert list(HEADLINE) == ["yield_fraction", "mean_volume_norm", "n_granules_norm", "free_fraction"]

@@ -443,7 +443,7 @@ def test_ctrl_c_inside_a_numba_kernel_is_an_interrupt_too(run_file, tmp_path, mo
 
 def _interrupt_the_swap_at(monkeypatch, call):
     """Ctrl-C at the ``call``-th rename of the swap that puts staged outputs in place."""
-    import granalytics.outputs as files
+    import granalytics.report.files as files
 
     real, seen = os.replace, []
 
@@ -486,7 +486,7 @@ def test_ctrl_c_inside_the_final_renames_changes_no_output(run_file, tmp_path, m
 def test_a_real_sigint_during_the_swap_is_held_and_undoes_it(tmp_path, monkeypatch):
     import signal
 
-    import granalytics.outputs as files
+    import granalytics.report.files as files
 
     targets = [tmp_path / f"t{k}.csv" for k in range(4)]
     for target in targets:
@@ -524,7 +524,7 @@ def test_ctrl_c_while_bundle_sweep_replaces_a_bundle_keeps_the_old_one(sweep, tm
         return real(path, *args, **kwargs)
 
     monkeypatch.setattr(shutil_module, "rmtree", interrupted_rmtree)
-    import granalytics.outputs as files
+    import granalytics.report.files as files
 
     real_replace, interrupts = os.replace, []
 
@@ -768,7 +768,7 @@ def test_sigterm_is_cleaned_up_as_a_ctrl_c(tmp_path, capsys):
     import signal
 
     from granalytics.base.interrupts import terminate_as_interrupt
-    from granalytics.outputs import staged_outputs
+    from granalytics.report.files import staged_outputs
 
     target = tmp_path / "out.csv"
     with pytest.raises(KeyboardInterrupt):

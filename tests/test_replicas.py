@@ -11,10 +11,10 @@ import pytest
 import granalytics as ga
 from granalytics.analysis.cg import compare_cg, group_replicas
 from granalytics.cli import main
-from granalytics.cli._common import plus_minus
+from granalytics.cli.options import plus_minus
 from granalytics.base.errors import ParameterError
 from granalytics.core.manifest import file_sha256
-from granalytics.plot import cg_figures, growth_figure
+from granalytics.report.figures import cg_figures, growth_figure
 from granalytics.analysis.stats import combine_replicas
 from granalytics.analysis.study import study_table
 from test_cg import write_run

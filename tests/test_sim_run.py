@@ -384,7 +384,7 @@ def test_importing_granalytics_and_sim_and_their_force_laws_changes_no_global_st
         "import os, numba\n"
         "os.environ.pop('GOMP_SPINCOUNT', None)\n"
         "numba.config.THREADING_LAYER_PRIORITY = default = ['tbb', 'omp', 'workqueue']\n"
-        "import granalytics, granalytics.identification.kernels, granalytics.plot, granalytics.cli\n"
+        "import granalytics, granalytics.identification.kernels, granalytics.report.figures, granalytics.cli\n"
         "import sim, sim.run, sim.cli, sim._kernels, sim.neighbours\n"
         "sim.capillary_force(1e-5, 1e-3, 1e-3, 1e-12, 0.1)\n"
         "print(os.environ.get('GOMP_SPINCOUNT'), numba.config.THREADING_LAYER_PRIORITY == default)\n")

@@ -24,7 +24,7 @@ from granalytics.analysis.study import (
 )
 from granalytics.cli.study import add_study_parser, parse_predict
 from granalytics.core.manifest import file_sha256
-from granalytics.plot import growth_figure
+from granalytics.report.figures import growth_figure
 from granalytics.datasets.synthetic import synthetic_snapshot
 
 ALPHA = 2.0

@@ -23,7 +23,7 @@ from granalytics.analysis.tracking import (
     track_run,
 )
 from granalytics.cli.tracking import add_track_parser
-from granalytics.plot import tracking_figure
+from granalytics.report.figures import tracking_figure
 
 
 def frame(granules, ids, rng=None):

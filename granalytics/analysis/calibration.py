@@ -19,7 +19,6 @@ unconstrained by the data.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -33,8 +32,7 @@ from granalytics.analysis.size_classes import MeasuredDistribution, SieveGrid, r
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import Snapshot
-from granalytics.outputs import new_output_paths, output_folder, staged_outputs
-from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Array, Instance, Interval, Path, validate_params
+from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Instance, Interval, Path, validate_params
 from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE
@@ -139,28 +137,6 @@ class Calibration:
                       "region": {"c_agg": sorted(set(region.c_agg)), col: sorted(set(region[col])),
                                  "points": len(region)},
                       "settings": self.settings})
-
-    @validate_params({"folder": [Path("a folder")], "overwrite": [FLAG]})
-    def save(self, folder, *, overwrite=False) -> list:
-        """Write ``calibration_grid.csv``, ``calibration_distributions.csv`` and ``calibration.json``
-        into ``folder`` (made if missing), all or none (:func:`granalytics.outputs.staged_outputs`);
-        existing files are refused unless ``overwrite``. The figures are
-        :func:`granalytics.plot.calibration_figures`. Returns the paths."""
-        paths = self.output_paths(folder, overwrite=overwrite)
-        with output_folder(folder), staged_outputs(folder) as stage:
-            self.grid.to_csv(stage(paths[0]), index=False)
-            self.distributions.to_csv(stage(paths[1]), index=False)
-            with open(stage(paths[2]), "w") as handle:
-                json.dump(self.to_json(), handle, indent=2)
-        return paths
-
-    @staticmethod
-    @validate_params({"folder": [Path("a folder")], "overwrite": [FLAG], "figures": [Array(ndim=1, dtype=str)]})
-    def output_paths(folder, *, overwrite=False, figures=()) -> list:
-        """The tables' paths in ``folder`` (and ``figures``' names); refuses existing ones unless
-        ``overwrite``, and a ``folder`` that is a file."""
-        return new_output_paths(folder, ["calibration_grid.csv", "calibration_distributions.csv", "calibration.json",
-                                         *figures], overwrite=overwrite)
 
 
 def _is_one_run(run) -> bool:

@@ -10,7 +10,6 @@ are (§3.1 of the paper: F_agg,CG = α²·F_agg,o, A_agg unchanged).
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import warnings
@@ -21,7 +20,6 @@ import pandas as pd
 
 from granalytics.analysis.confinement import confinement_warning, run_confinement
 from granalytics.analysis.system import check_one_system, check_replicas, run_identity
-from granalytics.outputs import new_output_paths, staged_outputs
 from granalytics.analysis.metrics import BY_FIGURE
 from granalytics.base.validation import FLAG, WINDOW, Array, validate_params
 from granalytics.core.windows import window_mask
@@ -30,11 +28,7 @@ from granalytics.base.errors import ParameterError, user_stacklevel
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 
-__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "cg_rule_warning", "CG_RULE_DEVIATION", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS",
-           "CG_TABLES"]
-
-#: the tables :meth:`CGComparison.save` writes (the figures, :func:`granalytics.plot.cg_figures`, are drawn apart)
-CG_TABLES = ("cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv")
+__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "cg_rule_warning", "CG_RULE_DEVIATION", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
 
 #: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
@@ -142,36 +136,6 @@ class CGComparison:
         alpha = dict(zip(self.runs["run"], self.runs["alpha"]))
         return {label: size_distribution(sizes, ci=ci, size_unit=size_unit, alpha=alpha[label], min_size=floor)
                 for label, sizes in self.sizes.items() if len(sizes)}
-
-    @staticmethod
-    def check_outputs(out_dir, *, overwrite=False, others=()) -> list:
-        """The paths of the tables :meth:`save` writes into ``out_dir``; refuses
-        (``ParameterError``) when some of them, or of the files named ``others`` (written beside
-        them by the caller, e.g. the figures of :func:`granalytics.plot.cg_figures`), exist and not
-        ``overwrite``, or when ``out_dir`` is a file. For checking before the comparison is
-        computed."""
-        return new_output_paths(out_dir, [*CG_TABLES, *others], overwrite=overwrite)[:len(CG_TABLES)]
-
-    def save(self, out_dir, *, overwrite=False, stage=None) -> list:
-        """Write ``cg_table.csv``, ``cg_timeseries.csv`` and ``cg_sizes.csv`` (sizes in particles
-        of each run, with its α) into ``out_dir``; existing files are refused unless ``overwrite``.
-        Written as one (:func:`granalytics.outputs.staged_outputs`): a failure or Ctrl-C leaves
-        every earlier output in ``out_dir`` as it was. With ``stage`` (the function of an enclosing
-        ``staged_outputs``) the tables go into it, to change together with the caller's other
-        outputs (the figures, :func:`granalytics.plot.cg_figures`); the caller has checked them
-        (:meth:`check_outputs`). Returns the written paths."""
-        paths = [os.path.join(out_dir, name) for name in CG_TABLES]
-        if stage is None:
-            self.check_outputs(out_dir, overwrite=overwrite)
-        try:
-            if stage is None:
-                os.makedirs(out_dir, exist_ok=True)
-            with contextlib.nullcontext(stage) if stage is not None else staged_outputs(out_dir) as into:
-                for table, path in zip((self.table, self.timeseries, self.distributions), paths):
-                    table.to_csv(into(path), index=False)
-        except OSError as exc:
-            raise ParameterError(f"{out_dir}: cannot write the comparison ({exc})") from None
-        return paths
 
 
 def _paper_speedup(alpha) -> float:

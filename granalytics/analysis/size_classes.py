@@ -94,10 +94,6 @@ class MeasuredDistribution:
         return pd.DataFrame({"lower_m": self.edges_m[:-1], "upper_m": self.edges_m[1:], "mass_fraction": self.fractions,
                              "passing_upper": self.passing[1:]})
 
-    def to_csv(self, path) -> None:
-        """Write the classes form (``lower_m,upper_m,mass_fraction``) that :func:`read_sieve_csv` reads."""
-        self.table()[list(_CLASS_FIELDS)].to_csv(path, index=False, float_format="%.6g")
-
     @classmethod
     @validate_params({"lower_m": [Array(ndim=1)], "upper_m": [Array(ndim=1)], "mass_fraction": [Array(ndim=1)],
                       "sigma": [Array(ndim=1), None], "tolerance": [_TOLERANCE]})

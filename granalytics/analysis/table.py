@@ -14,10 +14,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from granalytics.base.errors import ParameterError
 from granalytics.analysis.frames import frame_indices as _frame_indices
 
-__all__ = ["PARTICLE_COLUMNS", "particle_frames", "write_frames", "particle_table", "granule_tracks",
+__all__ = ["PARTICLE_COLUMNS", "particle_frames", "particle_table", "granule_tracks",
            "granule_track_table"]
 
 #: columns of :func:`particle_table`, with units
@@ -61,7 +60,8 @@ def granule_tracks(frames, method="gna", *, min_fragment=2, continuation="main",
 
 def particle_frames(frames, method="gna", *, min_fragment=2, continuation="main", progress=False, **params):
     """Yield the :func:`particle_table` of one frame at a time (the run is read twice, one frame in
-    memory at a time besides the labels): for tables larger than memory, written piece by piece.
+    memory at a time besides the labels): for tables larger than memory, written piece by piece
+    (:func:`granalytics.report.files.stream_table`).
     The arguments are :func:`particle_table`'s."""
     labels, tracks = granule_tracks(frames, method, min_fragment=min_fragment, continuation=continuation,
                                     progress=progress, **params)
@@ -82,42 +82,6 @@ def particle_frames(frames, method="gna", *, min_fragment=2, continuation="main"
             "wx": w[:, 0], "wy": w[:, 1], "wz": w[:, 2], "radius": snapshot.radius,
             "film_volume": snapshot.film_volume, "granule": lab.astype(np.int64), "granule_track": track.astype(np.int64),
         })
-
-
-def write_frames(pieces, path, fmt="parquet") -> int:
-    """Write the tables ``pieces`` (e.g. :func:`particle_frames`) one after another into one file,
-    holding one piece in memory at a time; returns the number of rows written.
-
-    Parameters
-    ----------
-    pieces : iterable of DataFrame
-        Tables with the same columns.
-    path : path
-        File to write (replaced; the caller stages it, as ``granalytics table`` does).
-    fmt : {"parquet", "csv"}
-    """
-    rows = 0
-    if fmt == "csv":
-        for k, piece in enumerate(pieces):
-            piece.to_csv(path, mode="w" if k == 0 else "a", header=k == 0, index=False)
-            rows += len(piece)
-        return rows
-    if fmt != "parquet":
-        raise ParameterError(f"write_frames: fmt must be 'parquet' or 'csv', got {fmt!r}")
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    writer = None
-    try:
-        for piece in pieces:
-            batch = pa.Table.from_pandas(piece, preserve_index=False)
-            writer = writer or pq.ParquetWriter(path, batch.schema)
-            writer.write_table(batch)
-            rows += len(piece)
-    finally:
-        if writer is not None:
-            writer.close()
-    return rows
 
 
 def particle_table(frames, method="gna", *, min_fragment=2, continuation="main", progress=False,

@@ -1,11 +1,12 @@
 """Command line of granalytics: ``granalytics COMMAND …`` (``granalytics --help`` lists the commands).
 
-One module per command group, each adding its commands to the parser and running them:
-:mod:`.analysis` (info, identify, stats, sensitivity, compare-methods, compare-cg), :mod:`.calibrate`
-(calibrate), :mod:`.data`
-(subset, export-vtk, convert, synthetic, table), :mod:`.tracking` (track), :mod:`.study` (study) and
-:mod:`.datasets` (datasets); shared option and output helpers in :mod:`._common`. Library modules
-never import this package.
+One module per command or command group, each adding its commands to the parser and running
+them: :mod:`.info`, :mod:`.identify`, :mod:`.stats`, :mod:`.sensitivity`, :mod:`.compare_methods`,
+:mod:`.compare_cg`, :mod:`.calibrate`, :mod:`.data` (subset, export-vtk, convert, synthetic,
+table), :mod:`.tracking` (track), :mod:`.pbm` (pbm), :mod:`.study` (study) and :mod:`.datasets`
+(datasets); the options they share in :mod:`.options`. A command parses its arguments, runs the
+analysis and hands the result to the report layer (:mod:`granalytics.report`), which writes it.
+Library modules never import this package.
 
 Errors about the input (files, frames, parameters) are printed as one line on stderr with exit
 status 2, never as a traceback; warnings as one line each.
@@ -21,19 +22,20 @@ from granalytics.base.errors import GranalyticsError, RunWriteError, exit_after_
 from granalytics.base.interrupts import (interrupted, interrupts_not_lost, raise_dropped_interrupt,
                                          terminate_as_interrupt)
 from granalytics.base.threads import prefer_openmp
-from granalytics.cli import analysis, calibrate, data, datasets, pbm, study, tracking
+from granalytics.cli import (calibrate, compare_cg, compare_methods, data, datasets, identify, info, pbm, sensitivity,
+                             stats, study, tracking)
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: the commands in the order of ``granalytics --help``, each with the function that adds its parser
 COMMANDS = {
-    "info": analysis.add_info_parser,
-    "identify": analysis.add_identify_parser,
-    "stats": analysis.add_stats_parser,
-    "sensitivity": analysis.add_sensitivity_parser,
+    "info": info.add_info_parser,
+    "identify": identify.add_identify_parser,
+    "stats": stats.add_stats_parser,
+    "sensitivity": sensitivity.add_sensitivity_parser,
     "calibrate": calibrate.add_calibrate_parser,
-    "compare-methods": analysis.add_compare_methods_parser,
-    "compare-cg": analysis.add_compare_cg_parser,
+    "compare-methods": compare_methods.add_compare_methods_parser,
+    "compare-cg": compare_cg.add_compare_cg_parser,
     "subset": data.add_subset_parser,
     "track": tracking.add_track_parser,
     "pbm": pbm.add_pbm_parser,

@@ -4,20 +4,17 @@ from __future__ import annotations
 
 import os
 
-from granalytics.analysis.stats import DEFAULT_WINDOW_REV
-from granalytics.cli._common import (add_cohesion_option, add_criterion_options, add_window_options, grid, interval,
+from granalytics.cli.options import (add_cohesion_option, add_criterion_options, add_window_options, grid,
                                      resolve_rigid_options, revolution_window, run_metas)
 from granalytics.base.errors import ParameterError
-from granalytics.outputs import output_folder, staged_outputs
 
 __all__ = ["add_calibrate_parser", "cmd_calibrate"]
-
-FIGURES = ("calibration_objective.png", "calibration_distributions.png")
 
 
 def add_calibrate_parser(sub):
     """Add the ``calibrate`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
-    from granalytics.analysis.calibration import DEFAULT_MEASURED_ERROR
+    from granalytics.analysis.calibration import DEFAULT_MEASURED_ERROR, Calibration
+    from granalytics.report import output_names
     from granalytics.analysis.size_classes import SIEVE_MEASURES
 
     p = sub.add_parser("calibrate", help="fit C_agg and A_agg to a measured sieve analysis",
@@ -51,8 +48,7 @@ def add_calibrate_parser(sub):
     add_criterion_options(p, grid_tol=True)
     p.add_argument("--jobs", type=int, default=1, help="worker threads over frames (default 1)")
     p.add_argument("--out", required=True, metavar="FOLDER",
-                   help="output folder: calibration_grid.csv, calibration_distributions.csv, calibration.json, "
-                        + ", ".join(FIGURES))
+                   help="output folder: " + ", ".join(output_names(Calibration)))
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_calibrate)
@@ -60,11 +56,9 @@ def add_calibrate_parser(sub):
 
 
 def cmd_calibrate(args):
-    import matplotlib.pyplot as plt
-
     from granalytics.analysis.calibration import Calibration, calibrate_thresholds
     from granalytics.analysis.size_classes import read_sieve_csv
-    from granalytics.plot import calibration_figures
+    from granalytics.report import output_paths, save
 
     if args.comotion == "rigid" and args.a_agg_deg is not None:
         raise ParameterError("--a-agg-deg: --comotion rigid sweeps --rigid-tol instead; leave --a-agg-deg out")
@@ -75,7 +69,7 @@ def cmd_calibrate(args):
         if os.path.realpath(path) == os.path.realpath(args.out):
             raise ParameterError(f"{args.out}: the output folder is an input run")
     measured = read_sieve_csv(args.measured)  # a malformed file is refused before any run is read
-    paths = Calibration.output_paths(args.out, overwrite=args.overwrite, figures=FIGURES)  # before the work
+    output_paths(Calibration, args.out, overwrite=args.overwrite)  # before the work
     args.window = revolution_window(args, run_metas(args.runs), args.runs)
     cal = calibrate_thresholds(args.runs, measured, args.c_agg, a_agg, window=args.window, comotion=args.comotion,
                                rigid_tol=args.rigid_tol if rigid else None, rigid_scale=args.rigid_scale,
@@ -83,20 +77,7 @@ def cmd_calibrate(args):
                                block_rev=args.block_rev, level=args.level, seed=args.seed, radius=args.radius,
                                cohesion=args.cohesion, min_size=args.min_size, jobs=args.jobs,
                                progress=not args.quiet)
-    figures = calibration_figures(cal)
-    try:
-        import json
-
-        with output_folder(args.out), staged_outputs(args.out) as stage:
-            cal.grid.to_csv(stage(paths[0]), index=False)
-            cal.distributions.to_csv(stage(paths[1]), index=False)
-            with open(stage(paths[2]), "w") as handle:
-                json.dump(cal.to_json(), handle, indent=2)
-            for name, path in zip(figures, paths[3:]):
-                figures[name].savefig(stage(path), dpi=120, bbox_inches="tight")
-    finally:
-        for fig in figures.values():
-            plt.close(fig)
+    paths = save(cal, args.out, overwrite=args.overwrite)
     print(f"wrote {len(paths)} files to {args.out}: " + ", ".join(os.path.basename(p) for p in paths))
     print(cal.summary())
     return 0

@@ -11,13 +11,14 @@ import sys
 
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock, check_apart, regular_input
-from granalytics.outputs import output_folder, staged_outputs
+from granalytics.report.files import output_folder, staged_outputs
 from granalytics.convert.prefetch import prefetched
 from granalytics.convert.registry import READERS
 from granalytics.core import RunWriter, open_run, replacing_run
 from granalytics.analysis.stats import check_window
-from granalytics.cli._common import (add_continuation_option, add_gna_options, criterion_params, check_new_file,
-                                     check_outputs, every, interval, selected_frames, table_format)
+from granalytics.cli.options import (add_continuation_option, add_gna_options, criterion_params, every, interval,
+                                     selected_frames)
+from granalytics.report.files import check_new_file, check_outputs, stream_table
 
 
 def add_subset_parser(sub):
@@ -91,7 +92,7 @@ def cmd_subset(args):
         raise ParameterError(f"--every must be >= 1, got {args.every}")
     if args.window_every != 1 and args.full_window is None and args.full_window_time is None:
         raise ParameterError(f"--window-every {args.window_every} thins --full-window; give one")
-    check_outputs(args, others=(args.out,))  # not the input (links resolved), no device, --overwrite
+    check_outputs(others=(args.out,), overwrite=args.overwrite, run=args.run)  # not the input (links resolved), no device, --overwrite
     with open_run(args.run) as run:
         n_frames = len(run)
         # revolutions only where a window of them is asked for (a static run has none)
@@ -293,17 +294,17 @@ def add_table_parser(sub):
 
 
 def cmd_table(args) -> int:
-    from granalytics.analysis.table import particle_frames, write_frames
+    from granalytics.analysis.table import particle_frames
 
-    check_outputs(args, tables=(args.out,))
+    check_outputs(tables=(args.out,), overwrite=args.overwrite, run=args.run)
     with WriterLock(args.out), open_run(args.run) as run, staged_outputs() as stage:
-        check_outputs(args, tables=(args.out,))
+        check_outputs(tables=(args.out,), overwrite=args.overwrite, run=args.run)
         frames = selected_frames(run, args)
         pieces = particle_frames(frames, "gna", continuation=args.continuation, progress=not args.quiet,
                                  c_agg=args.c_agg, a_agg_deg=args.a_agg_deg,
                                  radius=args.radius, backend=args.backend, cohesion=args.cohesion,
                                  **criterion_params(args))
-        rows = write_frames(pieces, stage(args.out), table_format(args.out))
+        rows = stream_table(pieces, args.out, stage)
     print(f"wrote {args.out}: {rows} rows ({len(frames)} frames of {run.n_particles} particles)")
     return 0
 

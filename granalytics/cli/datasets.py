@@ -10,7 +10,7 @@ import argparse
 from granalytics import datasets
 from granalytics.base.errors import GranalyticsError
 from granalytics.base.interrupts import interrupted
-from granalytics.cli._common import every, interval
+from granalytics.cli.options import every, interval
 
 
 def main(argv=None, prog="python -m granalytics.datasets") -> int:

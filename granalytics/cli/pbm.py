@@ -7,8 +7,8 @@ import argparse
 import json
 import os
 
-from granalytics.cli._common import (add_cohesion_option, interval, json_safe, revolution_window, save_figure,
-                                     threshold_options, write_table)
+from granalytics.cli.options import add_cohesion_option, interval, revolution_window, threshold_options
+from granalytics.report.files import json_safe, save_figure, write_table
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock
 
@@ -63,9 +63,9 @@ def add_pbm_parser(sub):
 def cmd_pbm(args):
     """Run the ``pbm`` subcommand (see :func:`add_pbm_parser`); returns the exit status 0."""
     import granalytics as ga
-    from granalytics.outputs import output_folder, staged_outputs
+    from granalytics.report.files import output_folder, staged_outputs
     from granalytics.identification import accepted_params
-    from granalytics.plot import pbm_figure
+    from granalytics.report.figures import pbm_figure
 
     if args.min_fragment < 1:
         raise ParameterError(f"--min-fragment must be >= 1, got {args.min_fragment}")

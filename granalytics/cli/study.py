@@ -12,11 +12,11 @@ from granalytics.analysis.metrics import HEADLINE
 from granalytics.identification import DEFAULT_METHODS
 from granalytics.base.errors import ParameterError
 from granalytics.core.manifest import read_manifest
-from granalytics.plot import growth_figure
-from granalytics.analysis.stats import DEFAULT_WINDOW_REV
+from granalytics.report.figures import growth_figure
 from granalytics.analysis.study import fit_growth_of_table, fit_surrogate, study_table
-from granalytics.cli._common import (add_window_options, check_outputs, interval, plus_minus, revolution_window, run_metas,
-                                     save_figure, threshold_options, write_table)
+from granalytics.cli.options import add_window_options, revolution_window, run_metas, threshold_options
+from granalytics.report.files import check_outputs, save_figure, write_table
+from granalytics.report.tables import plus_minus
 
 def parse_predict(text, inputs=("gamma", "omega")) -> dict:
     """Parse ``"gamma=0.2,omega=3"`` into ``{"gamma": 0.2, "omega": 3.0}``.
@@ -100,7 +100,7 @@ def cmd_study(args) -> int:
     for path in (args.out, args.plot):
         if path and os.path.commonpath([sweep, os.path.realpath(path)]) == sweep:
             raise ParameterError(f"{path}: inside the sweep folder {args.sweep} (its manifest and points are the input)")
-    check_outputs(args, tables=(args.out,), plots=(args.plot,))
+    check_outputs(tables=(args.out,), plots=(args.plot,), overwrite=args.overwrite)
     conventions = ["acting", "bridge"] if args.cohesion == "both" else [args.cohesion]
     params = threshold_options(args, args.method)
     manifest = read_manifest(args.sweep)

@@ -7,14 +7,14 @@ import os
 
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock
-from granalytics.outputs import output_folder, staged_outputs
+from granalytics.report.files import output_folder, staged_outputs
 from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.core import open_run
-from granalytics.plot import tracking_figure
+from granalytics.report.figures import tracking_figure
 from granalytics.analysis.tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
-from granalytics.cli._common import (add_cohesion_option, add_frame_loop_options, add_frame_window_options,
-                                     add_size_unit_option, frame_loop, interval, save_figure, selected_frames,
-                                     threshold_options, write_table)
+from granalytics.cli.options import (add_cohesion_option, add_frame_loop_options, add_frame_window_options,
+                                     add_size_unit_option, frame_loop, selected_frames, threshold_options)
+from granalytics.report.files import save_figure, write_table
 
 _OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
 

@@ -115,7 +115,7 @@ def bundle_sweep(src, dst, *, overwrite=False, progress=True, every=1, full_wind
     from granalytics.core.manifest import read_manifest
 
     from granalytics.base.files import check_apart
-    from granalytics.outputs import swap_folder
+    from granalytics.report.files import swap_folder
 
     src, dst = Path(src), Path(dst)
     thinned_frames([], every, full_window, window_every)  # refuses bad thinning options before any work

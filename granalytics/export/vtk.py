@@ -25,7 +25,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 from tqdm.auto import tqdm
 
-from granalytics.outputs import staged_outputs
+from granalytics.report.files import staged_outputs
 from granalytics.base.errors import GranalyticsError
 from granalytics.analysis.frames import map_frames
 from granalytics.identification import make_identifier
@@ -120,7 +120,7 @@ def export_vtk(frames, out_dir, method="gna", *, continuation="main", progress=F
         Path of the ``.pvd`` file.
 
     The export is written whole or not at all: every file goes into a staging folder inside
-    ``out_dir`` first (:func:`granalytics.outputs.staged_outputs`) and is renamed into place only
+    ``out_dir`` first (:func:`granalytics.report.files.staged_outputs`) and is renamed into place only
     when all frames are written; a failure or Ctrl-C leaves ``out_dir`` as it was.
     """
     import meshio

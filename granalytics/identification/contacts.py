@@ -5,6 +5,7 @@ cohesion convention, and the co-motion test of every contact."""
 from __future__ import annotations
 
 import math
+import warnings
 from numbers import Real
 
 import numpy as np
@@ -16,7 +17,7 @@ from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import SNAPSHOT, Snapshot
 from granalytics.base.validation import POSITIVE, Interval, Options, validate_params
 
-__all__ = ["surface_tension", "mean_radius", "RADIUS_MODE", "A_AGG_DEG", "contact_strength", "largest_strength", "co_moving",
+__all__ = ["surface_tension", "mean_radius", "RADIUS_MODE", "A_AGG_DEG", "contact_strength", "largest_strength", "warn_if_c_agg_unreachable", "C_AGG_SAMPLE", "co_moving",
            "contact_table", "COMOTION_TESTS", "COMOTION", "DEFAULT_COMOTION", "DEFAULT_RIGID_TOL", "rigid_residual",
            "rigid_speed_scale", "co_moving_rigid", "comotion_mask", "RIGID_SCALES", "RIGID_SCALE", "DEFAULT_RIGID_SCALE"]
 
@@ -68,6 +69,25 @@ def largest_strength(snapshots, radius="pair", cohesion=DEFAULT_COHESION) -> flo
     """
     return max((float(contact_strength(s, radius=radius, cohesion=cohesion).max(initial=0.0)) for s in snapshots),
                default=0.0)
+
+
+#: frames (evenly spaced over a selection) in which :func:`warn_if_c_agg_unreachable` looks
+C_AGG_SAMPLE = 5
+
+
+def warn_if_c_agg_unreachable(frames, c_agg, cohesion, radius="pair") -> None:
+    """One warning line when the cohesion threshold ``c_agg`` (every value of a grid: a grid
+    that crosses the cliff is what a sensitivity sweep is for) lies above every contact's
+    F_coh/(2πγR) in up to :data:`C_AGG_SAMPLE` frames of ``frames``: no contact can pass it, every
+    statistic is that of a bed without granules (``docs/identification.md``, "The C_agg cliff")."""
+    values = np.atleast_1d(np.asarray(c_agg, dtype=float))
+    picks = np.unique(np.linspace(0, len(frames) - 1, min(C_AGG_SAMPLE, len(frames))).round().astype(int))
+    largest = largest_strength((frames[int(k)] for k in picks), radius=radius, cohesion=cohesion)
+    if values.min() > largest:
+        what = f"C_agg {values[0]:g} is" if values.size == 1 else f"every C_agg of the grid (from {values.min():g}) is"
+        warnings.warn(f"{frames.path}: {what} above the largest F_coh/(2πγR) of the run, {largest:.3f} "
+                      f"(cohesion={cohesion}, {len(picks)} frames looked at): no contact passes, so no granule is "
+                      "found (a touching bridge at its largest volume gives about 0.85)")
 
 
 @validate_params({"snapshot": [SNAPSHOT], "radius": [RADIUS_MODE], "gamma": [POSITIVE, None], "cohesion": [COHESION]})

@@ -9,7 +9,7 @@ and a Gaussian-process surrogate.
 - :mod:`.surrogate`: :func:`fit_surrogate`, a Gaussian-process regression of the steady-state
   metrics on the swept inputs, with leave-one-out errors.
 
-Fig 7 is drawn by :func:`granalytics.plot.growth_figure`.
+Fig 7 is drawn by :func:`granalytics.report.figures.growth_figure`.
 """
 
 from granalytics.analysis.study.fit import (PAPER_BETA, PAPER_GAMMA_1, GrowthFit, fit_granule_growth,

@@ -60,7 +60,7 @@ class GrowthFit:
     One rule decides whether the data show growth (:attr:`shows_growth`): the slope's interval
     lies above zero and, for the hinge, the onset γ₁ lies within the γ given. A fit that fails it
     is reported as "no growth law" (:meth:`summary`, the ``study`` command) and never drawn as a law
-    (:func:`granalytics.plot.growth_figure`); its numbers stay available for inspection.
+    (:func:`granalytics.report.figures.growth_figure`); its numbers stay available for inspection.
     """
 
     beta: float

@@ -1,20 +1,19 @@
-"""What every command shares: option parsers and adders, the frame selection, and the output
-checks and writers (every output checked before the work that makes it, written atomically)."""
+"""What every command shares: option parsers and adders, and the frame selection they give. The
+outputs are checked and written by the report layer (:mod:`granalytics.report`)."""
 
 from __future__ import annotations
 
 import argparse
 import math
-import os
 import warnings
 
 import numpy as np
 
 from granalytics.identification.cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
-from granalytics.base.errors import GranalyticsError, ParameterError, ValidationError
-from granalytics.base.files import check_output_folder, check_replaceable, write_atomically
+from granalytics.base.errors import ParameterError, ValidationError
 from granalytics.identification import BACKENDS, make_identifier
 from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
+from granalytics.identification.contacts import warn_if_c_agg_unreachable
 
 def interval(text):
     """Parse ``A:B`` into a pair of floats."""
@@ -292,27 +291,6 @@ def warn_if_unfinished(run) -> None:
         warnings.warn(f"{run.path}: unfinished run: {run.unfinished}; the results are those of the frames it holds")
 
 
-#: frames (evenly spaced over a selection) in which :func:`warn_if_c_agg_unreachable` looks
-C_AGG_SAMPLE = 5
-
-
-def warn_if_c_agg_unreachable(frames, c_agg, cohesion, radius="pair") -> None:
-    """One warning line when the cohesion threshold ``c_agg`` (every value of a grid: a grid
-    that crosses the cliff is what a sensitivity sweep is for) lies above every contact's
-    F_coh/(2πγR) in up to :data:`C_AGG_SAMPLE` frames of ``frames``: no contact can pass it, every
-    statistic is that of a bed without granules (``docs/identification.md``, "The C_agg cliff")."""
-    from granalytics.identification.contacts import largest_strength
-
-    values = np.atleast_1d(np.asarray(c_agg, dtype=float))
-    picks = np.unique(np.linspace(0, len(frames) - 1, min(C_AGG_SAMPLE, len(frames))).round().astype(int))
-    largest = largest_strength((frames[int(k)] for k in picks), radius=radius, cohesion=cohesion)
-    if values.min() > largest:
-        what = f"C_agg {values[0]:g} is" if values.size == 1 else f"every C_agg of the grid (from {values.min():g}) is"
-        warnings.warn(f"{frames.path}: {what} above the largest F_coh/(2πγR) of the run, {largest:.3f} "
-                      f"(cohesion={cohesion}, {len(picks)} frames looked at): no contact passes, so no granule is "
-                      "found (a touching bridge at its largest volume gives about 0.85)")
-
-
 def selected_frames(run, args):
     """The frames of ``run`` in ``--window-rev`` or its seconds twin (all without them); warns once for an unfinished
     run and for a ``--c-agg`` that no contact can pass."""
@@ -343,117 +321,3 @@ def window_axis(frames, by="revolutions"):
 
 def progress(args):
     return not args.quiet
-
-
-def plus_minus(value, error, digits=2) -> str:
-    """``value ± error`` with ``error`` to ``digits`` significant figures and ``value`` to the
-    same decimal place (``3.000 ± 0.091``, not ``3 ± 0.0907``); an error that is NaN (too few
-    blocks or replicas to estimate one) or 0 leaves ``value`` to 4 significant figures."""
-    if not (math.isfinite(error) and error > 0 and math.isfinite(value)):
-        shown = "n/a" if not math.isfinite(error) else f"{error:g}"
-        return f"{value:.4g} ± {shown}"
-    decimals = digits - 1 - math.floor(math.log10(error))
-    if decimals >= 0:
-        return f"{value:.{decimals}f} ± {error:.{decimals}f}"
-    step = 10.0 ** -decimals
-    return f"{round(value / step) * step:.0f} ± {round(error / step) * step:.0f}"
-
-
-def json_safe(value):
-    """``value`` with NaN and infinities as None: JSON has no such numbers (``json.dumps``
-    would write the invalid tokens NaN and Infinity)."""
-    if isinstance(value, dict):
-        return {k: json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-_TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
-
-
-def table_format(path):
-    ext = os.path.splitext(path)[1].lower()
-    if ext not in _TABLE_FORMATS:
-        raise ParameterError(f"{path}: unknown table format {ext!r} (use .csv or .parquet)")
-    return _TABLE_FORMATS[ext]
-
-
-def save_figure(fig, path, stage=None):
-    """Write ``fig`` to ``path`` (its format from the extension), atomically, or into
-    ``stage(path)`` when the command writes its outputs as one (:func:`granalytics.outputs.staged_outputs`)."""
-    ext = os.path.splitext(path)[1].lstrip(".").lower() or "png"
-    try:
-        if stage is not None:
-            fig.savefig(stage(path), dpi=120, format=ext, bbox_inches="tight")  # notes below the axes included
-        else:
-            write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=ext, bbox_inches="tight"))
-    except (OSError, ValueError) as exc:
-        raise GranalyticsError(f"{path}: cannot write plot ({exc})") from None
-    print(f"wrote plot to {path}")
-
-
-def check_new_file(path, overwrite):
-    """Before any work: refuse to replace an existing file unless ``--overwrite``, a folder
-    always, and a file whose folder does not exist or is not writable."""
-    check_replaceable(path)  # a folder or a device (/dev/null) always, --overwrite or not
-    if os.path.exists(path) and not overwrite:
-        raise ParameterError(f"{path}: file exists (pass --overwrite to replace it)")
-    check_output_folder(path)
-
-
-def check_plot_path(path):
-    """Refuse a figure file whose extension matplotlib's Agg canvas cannot write."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    formats = sorted(FigureCanvasAgg.get_supported_filetypes())
-    ext = os.path.splitext(path)[1].lstrip(".").lower()
-    if ext not in formats:
-        raise ParameterError(f"{path}: unknown figure format {ext!r} (use one of {', '.join(formats)})")
-
-
-def check_table_paths(*paths):
-    """Fail before any work if an output table has an unknown format."""
-    for path in paths:
-        if path:
-            table_format(path)
-
-
-def check_outputs(args, tables=(), others=(), plots=()):
-    """Before any work: output tables and figures have a known format, no two outputs are the
-    same file, none is the input run, none exists unless ``--overwrite``, and each one's folder
-    exists and is writable."""
-    paths = [p for p in (*tables, *others, *plots) if p]
-    # real paths (links resolved): an output that is a link to the input is the input
-    seen = {os.path.realpath(args.run): "the input run"} if getattr(args, "run", None) else {}
-    for path in paths:
-        key = os.path.realpath(path)
-        if key in seen:
-            raise ParameterError(f"{path}: the same file is given twice ({seen[key]} and an output)")
-        seen[key] = path
-    check_table_paths(*tables)
-    for path in plots:
-        if path:
-            check_plot_path(path)
-    for path in paths:
-        check_new_file(path, args.overwrite)
-
-
-def write_table(table, path, stage=None):
-    """Write ``table`` to ``path`` (.csv or .parquet), atomically, or into ``stage(path)`` when the
-    command writes its outputs as one (:func:`granalytics.outputs.staged_outputs`)."""
-    def write(tmp):
-        if table_format(path) == "csv":
-            table.to_csv(tmp, index=False)
-        else:
-            table.to_parquet(tmp, index=False)
-
-    try:
-        if stage is not None:
-            write(stage(path))
-        else:
-            write_atomically(path, write)
-    except OSError as exc:
-        raise GranalyticsError(f"{path}: cannot write ({exc})") from None

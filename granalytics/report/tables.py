@@ -1,0 +1,112 @@
+"""Results as text: numbers with their errors (:func:`plus_minus`), the CG table
+(:func:`format_cg_table`) and the notes that say why an error of a printed table is n/a
+(:func:`steady_error_notes`)."""
+
+from __future__ import annotations
+
+import math
+
+from granalytics.analysis.metrics import HEADLINE, METRICS
+
+__all__ = ["plus_minus", "format_cg_table", "steady_error_notes"]
+
+
+def plus_minus(value, error, digits=2) -> str:
+    """``value ± error`` with ``error`` to ``digits`` significant figures and ``value`` to the
+    same decimal place (``3.000 ± 0.091``, not ``3 ± 0.0907``); an error that is NaN (too few
+    blocks or replicas to estimate one) or 0 leaves ``value`` to 4 significant figures."""
+    if not (math.isfinite(error) and error > 0 and math.isfinite(value)):
+        shown = "n/a" if not math.isfinite(error) else f"{error:g}"
+        return f"{value:.4g} ± {shown}"
+    decimals = digits - 1 - math.floor(math.log10(error))
+    if decimals >= 0:
+        return f"{value:.{decimals}f} ± {error:.{decimals}f}"
+    step = 10.0 ** -decimals
+    return f"{round(value / step) * step:.0f} ± {round(error / step) * step:.0f}"
+
+
+def format_cg_table(comparison) -> str:
+    """The CG table as text: the runs' size-distribution distance and speed-ups, then one block
+    per headline metric with each run's steady-state mean ± its error, the block s.e.m. (in its
+    own column where the ± is the replica s.e.) and the deviation from the reference run ± its
+    standard error. Every error column names its error; an error that cannot be estimated is
+    ``n/a`` with a note saying why."""
+    table = comparison.table
+    replicas = bool((table["n_replicas"] > 1).any())
+    width = max(26, table["run"].str.len().max())
+    lines = [f"CG comparison, {comparison.description}; deviations from {comparison.reference}",
+             f"{'run':<{width}} {'replicas':>8} {'KS D':>6} {'speed-up*':>9} {'paper':>6}"]
+    for row in table.itertuples():
+        lines.append(f"{row.run:<{width}} {row.n_replicas:>8d} {row.ks_distance:>6.3f} {row.speedup:>8.1f}× "
+                     f"{row.paper_speedup:>5.1f}×")
+    error = "replica s.e." if replicas else "block s.e.m."
+    notes = {}  # why an error is n/a -> the runs it is n/a for
+    for metric in HEADLINE:
+        label = METRICS[metric].label
+        header = f"{label:<{width}} {'mean ± ' + error:>21}"
+        if replicas:
+            header += f" {'block s.e.m.':>12}"
+        lines.append(header + f" {'deviation ± s.e.':>17}")
+        for row in table.itertuples():
+            mean, sem, rsem, dev, dev_se = (getattr(row, f"{metric}_{x}")
+                                            for x in ("mean", "sem", "replica_sem", "rel_dev", "rel_dev_se"))
+            shown_error = rsem if replicas else sem
+            if not math.isfinite(shown_error):
+                notes.setdefault(_cg_error_note(row, metric, mean, replicas), []).append(row.run)
+            shown = plus_minus(mean, shown_error)
+            if replicas and row.n_replicas == 1:  # the mean to its block s.e.m.'s figures
+                shown = plus_minus(mean, sem).split(" ± ")[0] + " ± n/a"
+            cells = f"{row.run:<{width}} {shown:>21}"
+            if replicas:
+                if not math.isfinite(sem):
+                    notes.setdefault(_cg_error_note(row, metric, mean, False), []).append(row.run)
+                cells += f" {format(sem, '#.2g') if math.isfinite(sem) else 'n/a':>12}"
+            if row.run == comparison.reference:
+                deviation = "reference"
+            else:
+                deviation = f"{dev:+.0%} ± " + (f"{dev_se:.0%}" if math.isfinite(dev_se) else "n/a")
+            lines.append(f"{cells} {deviation:>17}")
+    lines.append("* speed-up: the reference's wall time per simulated second over this run's, as the simulator "
+                 "recorded them (a group: the mean over its replicas). Each run's wall time depends on what else ran "
+                 "on the machine then, so a single run, a replica group and another machine give other ratios; the "
+                 "load-free ratio is measured side by side by benchmarks/cg_speedup.py (docs/results.md, 'Speed-up')")
+    if replicas:
+        lines.append("± replica s.e.: standard deviation of a group's replica means / √n (the run-to-run error); "
+                     "block s.e.m.: standard error of the mean from the means of blocks of the window, combined "
+                     "over the replicas as √(Σ sem²)/n; deviation ± s.e.: from each side's replica s.e., or its "
+                     "block s.e.m. for a single run")
+    else:
+        lines.append("± block s.e.m.: standard error of the mean from the means of blocks of the window; "
+                     "deviation ± s.e.: from the two runs' block s.e.m.")
+    for note, runs in notes.items():
+        lines.append(f"n/a: {', '.join(dict.fromkeys(runs))}: {note}")
+    return "\n".join(lines)
+
+
+def _cg_error_note(row, metric, mean, replica) -> str:
+    """Why an error of the CG table is n/a (the note's text, without the run)."""
+    if replica and row.n_replicas == 1:
+        return "a single run has no replica s.e. (its block s.e.m. is beside it, and its deviations use it)"
+    if not math.isfinite(mean):
+        return f"no granules in the window, no {METRICS[metric].label} to average"
+    return ("no block s.e.m.: the window holds fewer than two blocks (quarter revolutions) of frames, too short "
+            "to estimate it; widen --window")
+
+
+def steady_error_notes(steady, by, *, replicas=False) -> list:
+    """Why an error of a printed steady-state table is n/a, one line per reason (none when every
+    error is there)."""
+    error = "block_sem" if replicas else "sem"
+    missing = steady[steady[error].isna()]
+    if not len(missing):
+        return []
+    empty = missing["mean"].isna()
+    notes = []
+    if empty.any():
+        notes.append(f"n/a: {', '.join(missing.index[empty])}: no frame of the window has a value (no granules)")
+    if (~empty).any():
+        blocks = "quarter revolutions" if by == "revolutions" else "blocks"
+        what = "a replica's window holds" if replicas else "the window holds"
+        notes.append(f"n/a: {', '.join(missing.index[~empty])}: no block s.e.m.: {what} a single block "
+                     f"(fewer than two {blocks} of frames), too short to estimate it; widen the window")
+    return notes
