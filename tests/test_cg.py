@@ -82,21 +82,26 @@ def test_bad_requests_are_refused(cg_runs):
         compare_cg(cg_runs[:2], window=(7, 8))
 
 
-def test_save_writes_the_three_tables_and_never_overwrites(tmp_path, cg_runs):
+def test_save_writes_the_three_tables_and_the_figures_and_never_overwrites(tmp_path, cg_runs):
+    from granalytics.report import output_paths
+
     comparison = compare_cg(cg_runs[:2], window=(2, 4))
-    written = comparison.save(tmp_path / "out")
-    assert sorted(p.rsplit("/", 1)[-1] for p in map(str, written)) == ["cg_sizes.csv", "cg_table.csv",
-                                                                       "cg_timeseries.csv"]
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["cg_sizes.csv", "cg_table.csv", "cg_timeseries.csv"]
+    written = ga.save(comparison, tmp_path / "out")
+    figures = [f"{name}.{ext}" for name in ("fig3_mean_volume", "fig4_granule_number", "fig5_size_distribution",
+                                            "fig6_yield") for ext in ("pdf", "png")]
+    assert sorted(p.rsplit("/", 1)[-1] for p in map(str, written)) == sorted(["cg_sizes.csv", "cg_table.csv",
+                                                                              "cg_timeseries.csv", *figures])
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(["cg_sizes.csv", "cg_table.csv",
+                                                                           "cg_timeseries.csv", *figures])
     table = pd.read_csv(tmp_path / "out" / "cg_table.csv")
     np.testing.assert_allclose(table["yield_fraction_mean"], comparison.table["yield_fraction_mean"])
     with pytest.raises(ParameterError, match="exists"):
-        comparison.save(tmp_path / "out")
-    comparison.save(tmp_path / "out", overwrite=True)
+        ga.save(comparison, tmp_path / "out")
+    ga.save(comparison, tmp_path / "out", overwrite=True)
     (tmp_path / "other").mkdir()
     (tmp_path / "other" / "fig3_mean_volume.png").write_text("")
-    with pytest.raises(ParameterError, match="fig3_mean_volume.png: exists"):  # a file the caller writes beside them
-        comparison.check_outputs(tmp_path / "other", others=["fig3_mean_volume.png"])
+    with pytest.raises(ParameterError, match="fig3_mean_volume.png: exists"):  # checked before the analysis
+        output_paths(ga.CGComparison, tmp_path / "other")
 
 
 def test_compare_cg_cli(tmp_path, cg_runs, capsys):

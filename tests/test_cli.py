@@ -272,12 +272,12 @@ def test_the_edges_module_and_the_custom_method_come_with_the_package():
 
 
 def test_stats_refuses_a_window_before_the_analysis(run_file, tmp_path, monkeypatch, capsys):
-    import granalytics.cli.analysis
+    import granalytics.cli.stats
 
     def no_analysis(*args, **kwargs):
         raise AssertionError("analysed before checking the window")
 
-    monkeypatch.setattr(granalytics.cli.analysis, "run_stats", no_analysis)
+    monkeypatch.setattr(granalytics.cli.stats, "run_stats", no_analysis)
     assert main(["stats", run_file, "--window", "70:90", "--out", str(tmp_path / "w.csv"), "--quiet"]) == 2
     assert "no frame in the window [70, 90]" in capsys.readouterr().err
 
@@ -368,7 +368,7 @@ def test_info_prints_floats_to_six_significant_digits(capsys):
 ])
 def test_a_mean_and_its_error_are_printed_to_the_errors_figures(value, error, shown):
     """compare-cg and study printed '3 ± 0.0907': the mean is now given to the error's last figure."""
-    from granalytics.cli.options import plus_minus
+    from granalytics.report.tables import plus_minus
 
     assert plus_minus(value, error) == shown
 

@@ -14,7 +14,7 @@ import pytest  # noqa: E402
 from matplotlib.colors import to_hex  # noqa: E402
 
 import granalytics as ga  # noqa: E402
-from granalytics import plot  # noqa: E402
+from granalytics.report import figures as plot  # noqa: E402
 from granalytics.analysis.metrics import BY_FIGURE, HEADLINE  # noqa: E402
 from granalytics.core import RunWriter  # noqa: E402
 from granalytics.base.errors import ParameterError  # noqa: E402

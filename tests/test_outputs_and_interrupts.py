@@ -676,15 +676,15 @@ def test_a_dropped_ctrl_c_replaces_no_output_and_is_not_lost_at_the_end(run_file
         raise_dropped_interrupt()  # raised once, then gone
     assert target.read_text() == "precious" and os.listdir(tmp_path) == ["t.txt"]
     # dropped while the table is printed, after the outputs were written: exit 130 all the same
-    import granalytics.cli.analysis as analysis
+    import granalytics.cli.stats as stats
 
-    real = analysis._steady_error_notes
+    real = stats.steady_error_notes
 
     def notes(*args, **kwargs):
         _DroppedInterrupt()
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(analysis, "_steady_error_notes", notes)
+    monkeypatch.setattr(stats, "steady_error_notes", notes)
     assert main(["stats", run_file, "--window", "0:2", "--out", str(tmp_path / "ts.csv"), "--quiet"]) == 130
     assert pd.read_csv(tmp_path / "ts.csv").shape[0] > 0
     err = capsys.readouterr().err.strip().splitlines()  # (the growing synthetic run also gets the drift warning)

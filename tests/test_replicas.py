@@ -11,7 +11,7 @@ import pytest
 import granalytics as ga
 from granalytics.analysis.cg import compare_cg, group_replicas
 from granalytics.cli import main
-from granalytics.cli.options import plus_minus
+from granalytics.report.tables import plus_minus
 from granalytics.base.errors import ParameterError
 from granalytics.core.manifest import file_sha256
 from granalytics.report.figures import cg_figures, growth_figure
