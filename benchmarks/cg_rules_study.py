@@ -164,16 +164,7 @@ def size_table(groups, window, figures=None, reference="cg1"):
         import matplotlib
 
         matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        from granalytics.report.figures import cg_figures
-
-        written = cg.save(figures, overwrite=True)
-        for name, fig in cg_figures(cg, size_unit="original").items():
-            for ext in ("png", "pdf"):
-                written.append(os.path.join(figures, f"{name}.{ext}"))
-                fig.savefig(written[-1], dpi=150, format=ext)
-            plt.close(fig)
+        written = ga.save(cg, figures, overwrite=True, size_unit="original")
         print("\n" + "\n".join(map(str, written)))
 
 

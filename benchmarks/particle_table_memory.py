@@ -8,7 +8,7 @@ frames of ``--window``: the rows, the DataFrame's own size (``memory_usage(deep=
 of Python-traced memory while :func:`particle_table` builds it (numpy and pandas allocations
 included; ``tracemalloc``), the same peak for the streamed path of ``granalytics table``
 (:func:`granalytics.analysis.table.particle_frames`, one frame's table at a time, written to Parquet by
-:func:`granalytics.analysis.table.write_frames`), and
+:func:`granalytics.report.files.stream_table`), and
 the wall time of each. Prints a table.
 """
 
@@ -26,7 +26,8 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 import granalytics as ga  # noqa: E402
 from granalytics.datasets.synthetic import write_synthetic_run  # noqa: E402
-from granalytics.analysis.table import particle_frames, write_frames  # noqa: E402
+from granalytics.analysis.table import particle_frames  # noqa: E402
+from granalytics.report.files import stream_table  # noqa: E402
 
 
 def measure(build):
@@ -49,7 +50,7 @@ def row(label, path, window, tmp):
         rows = len(table)
         del table
         out = os.path.join(tmp, "particles.parquet")
-        _, peak_stream, wall_stream = measure(lambda: write_frames(particle_frames(frames), out))
+        _, peak_stream, wall_stream = measure(lambda: stream_table(particle_frames(frames), out))
         disk = os.path.getsize(out)
     mb = 1e-6
     print(f"| {label} | {n} | {len(frames)} | {rows} | {size * mb:.1f} | {size / rows:.0f} | {peak * mb:.1f} | "

@@ -14,7 +14,7 @@ import pytest  # noqa: E402
 from matplotlib.colors import to_hex  # noqa: E402
 
 import granalytics as ga  # noqa: E402
-from granalytics.report import figures as plot  # noqa: E402
+from granalytics.report import figures as report_figures  # noqa: E402
 from granalytics.analysis.metrics import BY_FIGURE, HEADLINE  # noqa: E402
 from granalytics.core import RunWriter  # noqa: E402
 from granalytics.base.errors import ParameterError  # noqa: E402
@@ -86,7 +86,7 @@ def test_the_kernel_and_breakage_rate_of_a_cg_run_in_original_equivalents(lab_cg
     with pytest.raises(ParameterError, match="coalescence_kernel: size_unit='original' needs"):
         ga.coalescence_kernel(tracks, size_unit="original")
     # the figure says the unit on its axes, the histories in the kernel's unit
-    fig = plot.tracking_figure(tracks, ga.event_rates(tracks, revolution_period_s=2 * math.pi / meta.drum_omega),
+    fig = report_figures.tracking_figure(tracks, ga.event_rates(tracks, revolution_period_s=2 * math.pi / meta.drum_omega),
                                original)
     rates_ax, histories, kernel_ax = fig.axes[:3]
     assert histories.get_ylabel() == "original-particle equivalents per granule (α³·n)"
@@ -103,7 +103,7 @@ def test_a_one_revolution_kinetics_figure_draws_bars_with_poisson_errors_and_leg
     meta, _, tracks = lab_cg3
     rates = ga.event_rates(tracks, revolution_period_s=2 * math.pi / meta.drum_omega)
     assert rates["bin"].nunique() == 1
-    fig = plot.tracking_figure(tracks, rates)
+    fig = report_figures.tracking_figure(tracks, rates)
     rates_ax, histories = fig.axes
     bars = [p for p in rates_ax.patches if isinstance(p, matplotlib.patches.Rectangle)]
     assert len(bars) == 4
@@ -121,7 +121,7 @@ def test_a_one_revolution_kinetics_figure_draws_bars_with_poisson_errors_and_leg
 def test_kinetics_over_several_bins_are_markers_and_lines_with_error_bars(lab_cg3):
     meta, _, tracks = lab_cg3
     rates = ga.event_rates(tracks, revolution_period_s=2 * math.pi / meta.drum_omega, bin_width=0.25)
-    fig = plot.tracking_figure(tracks, rates)
+    fig = report_figures.tracking_figure(tracks, rates)
     ax = fig.axes[0]
     assert len(ax.containers) == 4 and not [p for p in ax.patches]  # one errorbar per kind, no bars
     births = rates[rates["kind"] == "birth"]
@@ -180,7 +180,7 @@ def test_a_replica_group_has_a_spread_at_its_common_frames_and_one_pooled_size_d
 
 
 def test_the_time_series_figures_name_the_window_the_mean_lines_and_their_errors(comparison):
-    figures = plot.cg_figures(comparison)
+    figures = report_figures.cg_figures(comparison)
     assert set(figures) == {"fig3_mean_volume", "fig4_granule_number", "fig5_size_distribution", "fig6_yield"}
     for key in ("fig3_mean_volume", "fig4_granule_number", "fig6_yield"):
         texts = legend_texts(figures[key].axes[0].get_legend())
@@ -191,7 +191,7 @@ def test_the_time_series_figures_name_the_window_the_mean_lines_and_their_errors
 
 
 def test_each_run_keeps_its_colour_in_every_cg_figure(comparison):
-    figures = plot.cg_figures(comparison)
+    figures = report_figures.cg_figures(comparison)
     seen = {}
     for key, fig in figures.items():
         ax = fig.axes[0]
@@ -205,7 +205,7 @@ def test_each_run_keeps_its_colour_in_every_cg_figure(comparison):
 
 
 def test_fig5_draws_a_bootstrap_band_says_so_and_its_unit(comparison):
-    figures = plot.cg_figures(comparison)
+    figures = report_figures.cg_figures(comparison)
     ax = figures["fig5_size_distribution"].axes[0]
     assert ax.get_xlabel() == "particles per granule"
     texts = legend_texts(ax.get_legend())
@@ -214,7 +214,7 @@ def test_fig5_draws_a_bootstrap_band_says_so_and_its_unit(comparison):
     bands = [c for c in ax.collections if len(c.get_paths()) and len(c.get_paths()[0].vertices)]
     assert len(bands) == 2  # one per run
     own = {t.split(":")[0]: h for h, t in zip(*ax.get_legend_handles_labels())}
-    original = plot.cg_figures(comparison, size_unit="original")["fig5_size_distribution"].axes[0]
+    original = report_figures.cg_figures(comparison, size_unit="original")["fig5_size_distribution"].axes[0]
     assert original.get_xlabel() == "original-particle equivalents per granule (α³·n)"
     moved = {t.split(":")[0]: h for h, t in zip(*original.get_legend_handles_labels())}
     np.testing.assert_allclose(moved["cg3"].get_xdata(), 27 * own["cg3"].get_xdata())
@@ -224,13 +224,13 @@ def test_fig5_draws_a_bootstrap_band_says_so_and_its_unit(comparison):
 def test_bins_of_fewer_than_three_granules_get_open_markers_and_a_legend_entry():
     sizes = np.r_[np.full(200, 2), np.full(50, 5), [40, 41]]  # the last bin rests on 2 granules
     dist = ga.size_distribution(sizes, ci=0.95)
-    ax = plot.plot_size_distribution(dist, label="run")
+    ax = report_figures.plot_size_distribution(dist, label="run")
     open_markers = [line for line in ax.lines if line.get_markerfacecolor() == "white" and len(line.get_xdata())]
     assert len(open_markers) == 1
     assert open_markers[0].get_xdata().tolist() == [dist.loc[dist["count"] == 2, "size_center"].iloc[0]]
     texts = [t for t in ax.get_legend_handles_labels()[1]]
     assert "open marker: < 3 granules in the bin" in texts and "band: bootstrap 95% CI over the granules" in texts
-    plot.plot_size_distribution(dist, ax=ax, label="again")  # keys once per axes
+    report_figures.plot_size_distribution(dist, ax=ax, label="again")  # keys once per axes
     assert ax.get_legend_handles_labels()[1].count("open marker: < 3 granules in the bin") == 1
 
 
@@ -255,7 +255,7 @@ def test_the_stats_figure_names_the_window_and_the_mean_with_its_error():
     revs = np.arange(0, 121) * 0.05
     ts = pd.DataFrame({"revolutions": revs, "time_s": revs * 2.0,
                        **{m: 0.3 + 0.05 * rng.standard_normal(revs.size) for m in BY_FIGURE}})
-    fig = plot.stats_figure(ts, ga.size_distribution(np.r_[np.full(30, 2), [3, 9]]), window=(3, 6))
+    fig = report_figures.stats_figure(ts, ga.size_distribution(np.r_[np.full(30, 2), [3, 9]]), window=(3, 6))
     texts = legend_texts(fig.legends[0])
     assert texts == ["per frame", "steady-state window [3, 6] rev", "steady-state mean ± block s.e.m."]
     steady = ga.steady_state(ts, window=(3, 6), columns=list(BY_FIGURE))
@@ -273,7 +273,7 @@ def test_compare_methods_figure_keeps_one_colour_per_method_and_gives_pairs_othe
                        for k, m in enumerate(methods)])
     pairs = pd.concat([pd.DataFrame({"method_a": a, "method_b": b, "revolutions": revs, "ari": 0.5})
                        for a, b in (("gna", "dbscan"), ("gna", "sieve"), ("dbscan", "sieve"))])
-    fig = plot.comparison_figure(stats, pairs)
+    fig = report_figures.comparison_figure(stats, pairs)
     *metric_axes, ari = fig.axes
     per_panel = [[colour(line) for line in ax.lines] for ax in metric_axes]
     assert all(c == per_panel[0] for c in per_panel) and len(set(per_panel[0])) == len(methods)
@@ -293,7 +293,7 @@ def test_a_method_with_the_statistics_of_an_earlier_one_is_named_and_drawn_dotte
     different = stats.assign(yield_fraction=np.where(stats["method"] == "sieve", 9.0, stats["yield_fraction"]))
     assert ga.identical_methods(different) == {"community": "gna"}
     pairs = pd.DataFrame({"method_a": "gna", "method_b": "sieve", "revolutions": revs, "ari": 1.0})
-    fig = plot.comparison_figure(stats, pairs)
+    fig = report_figures.comparison_figure(stats, pairs)
     assert legend_texts(fig.legends[0]) == ["gna", "dbscan", "sieve (identical to gna)", "community (identical to gna)"]
     assert [line.get_linestyle() for line in fig.axes[0].lines] == ["-", "-", ":", ":"]
     assert legend_texts(fig.axes[-1].get_legend()) == ["gna vs sieve (identical: ARI 1)"]
@@ -311,7 +311,7 @@ def _sensitivity_summary():
 
 
 def test_the_sensitivity_figure_says_its_bars_are_std_and_labels_log_ticks_plainly():
-    fig = plot.sensitivity_figure(_sensitivity_summary())
+    fig = report_figures.sensitivity_figure(_sensitivity_summary())
     fig.canvas.draw()
     bottom = [ax for ax in fig.axes if ax.get_legend() is not None]
     assert bottom and bottom[0].get_legend().get_title().get_text() == "bars: ± std over the frames"
@@ -331,7 +331,7 @@ def test_the_cg_threshold_heatmaps_colour_bar_is_in_percent_like_its_cells():
                 rows.append({"run": run, "alpha": alpha, "a_agg_deg": a, "c_agg": c,
                              **{f"{m}_rel_dev": dev * (1 + c) for m in BY_FIGURE}})
     table = pd.DataFrame(rows)
-    fig = plot.cg_threshold_figures(table)["cg_thresholds_yield_fraction"]
+    fig = report_figures.cg_threshold_figures(table)["cg_thresholds_yield_fraction"]
     panel, bar = fig.axes
     assert bar.get_ylabel() == "relative deviation from cg1 [%]"
     mesh = panel.collections[0]

@@ -92,7 +92,8 @@ def cmd_subset(args):
         raise ParameterError(f"--every must be >= 1, got {args.every}")
     if args.window_every != 1 and args.full_window is None and args.full_window_time is None:
         raise ParameterError(f"--window-every {args.window_every} thins --full-window; give one")
-    check_outputs(others=(args.out,), overwrite=args.overwrite, run=args.run)  # not the input (links resolved), no device, --overwrite
+    # not the input (links resolved), no device, --overwrite
+    check_outputs(others=(args.out,), overwrite=args.overwrite, run=args.run)
     with open_run(args.run) as run:
         n_frames = len(run)
         # revolutions only where a window of them is asked for (a static run has none)
