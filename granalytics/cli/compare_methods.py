@@ -8,7 +8,8 @@ import warnings
 from granalytics.core.windows import window_mask
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.base.errors import ParameterError
-from granalytics.report.files import check_outputs, save_figure, write_table
+from granalytics.report import save
+from granalytics.report.files import check_outputs, save_figure
 from granalytics.identification import DEFAULT_METHODS
 from granalytics.core import open_run
 from granalytics.cli.options import (add_cohesion_option, add_frame_loop_options, frame_loop, revolution_window,
@@ -56,10 +57,10 @@ def cmd_compare(args):
         stats, pairs = compare_methods(frames, methods, cohesion=args.cohesion, progress=not args.quiet,
                                        **frame_loop(args))
     if args.out:
-        write_table(pairs, args.out)
+        save(pairs, args.out, overwrite=args.overwrite)
         print(f"wrote pairwise comparison to {args.out}")
     if args.stats_out:
-        write_table(stats, args.stats_out)
+        save(stats, args.stats_out, overwrite=args.overwrite)
         print(f"wrote per-method statistics to {args.stats_out}")
     if args.plot:
         from granalytics.report.figures import comparison_figure

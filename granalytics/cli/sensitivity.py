@@ -7,7 +7,8 @@ import os
 from granalytics.base.resources import check_memory
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.base.errors import ParameterError
-from granalytics.report.files import check_outputs, save_figure, write_table
+from granalytics.report import save
+from granalytics.report.files import check_outputs, save_figure
 from granalytics.identification.contacts import warn_if_c_agg_unreachable
 from granalytics.core import open_run
 from granalytics.analysis.stats import check_window
@@ -69,10 +70,10 @@ def cmd_sensitivity(args):
                             **frame_loop(args), **thresholds)
     summary = sensitivity_summary(table)
     if args.frames_out:
-        write_table(table, args.frames_out)
+        save(table, args.frames_out, overwrite=args.overwrite)
         print(f"wrote per-frame table ({len(table)} rows) to {args.frames_out}")
     if args.out:
-        write_table(summary, args.out)
+        save(summary, args.out, overwrite=args.overwrite)
         print(f"wrote summary over {len(frames)} frames ({len(summary)} grid points) to {args.out}")
     if args.plot:
         from granalytics.report.figures import sensitivity_figure

@@ -8,7 +8,8 @@ import os
 from granalytics.core.windows import clip_window
 from granalytics.analysis.system import check_replicas, run_identity
 from granalytics.base.files import WriterLock
-from granalytics.report.files import check_outputs, save_figure, staged_outputs, write_table
+from granalytics.report import save
+from granalytics.report.files import check_outputs, save_figure, staged_outputs
 from granalytics.report.tables import steady_error_notes
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
@@ -82,11 +83,11 @@ def _stats(args):
                              min_size=args.min_size or 2)  # the bins start at the smallest size that can occur
     with staged_outputs() as stage:  # every output, or none (a failing figure replaces no table)
         if args.out:
-            write_table(ts, args.out, stage)
+            save(ts, args.out, stage=stage)
         if args.steady_out:
-            write_table(steady.reset_index(), args.steady_out, stage)
+            save(steady, args.steady_out, stage=stage)  # its index, the metric, as the first column
         if args.sizes_out:
-            write_table(dist, args.sizes_out, stage)
+            save(dist, args.sizes_out, stage=stage)
         if args.plot:
             import matplotlib.pyplot as plt
 

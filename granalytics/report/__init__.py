@@ -8,6 +8,7 @@
 - :mod:`.files`: the output checks made before the work, the writers of tables, figures and JSON,
   and outputs of several files written as one.
 - :mod:`.tables`: results as text (numbers with their errors, the CG table).
+- :mod:`.labels`: the labels file of ``granalytics identify``.
 - :mod:`.figures`: the figures, one module per subject.
 
 The analyses return result objects and never touch the disk; this layer stands above them
