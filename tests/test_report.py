@@ -114,6 +114,25 @@ def test_an_identified_frame_is_drawn_in_3d():
     plt.close(fig)
 
 
+def test_a_population_balance_prediction_is_drawn_beside_its_dem():
+    with ga.open_run(DATASET_DIR / "lab-cg3.h5") as run:
+        prediction = ga.pbm_from_run(run, (3, 4), (4, 5))
+    fig = ga.draw(prediction, title="lab-cg3")
+    assert isinstance(fig, matplotlib.figure.Figure) and fig.axes
+    plt.close(fig)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_table_in_pieces_is_streamed_into_one_file(tmp_path, suffix):
+    from granalytics.report.files import stream_table
+
+    pieces = [pd.DataFrame({"frame": [k, k], "x": [0.5 * k, 1.0]}) for k in range(3)]
+    path = tmp_path / f"t{suffix}"
+    assert stream_table(iter(pieces), path) == 6
+    back = pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+    pd.testing.assert_frame_equal(back, pd.concat(pieces, ignore_index=True))
+
+
 def test_a_result_of_no_known_type_is_refused_with_the_types_there_are(tmp_path):
     with pytest.raises(ParameterError, match="no writer for a list .*CGComparison.*DataFrame"):
         ga.save([1, 2], tmp_path / "x.csv")

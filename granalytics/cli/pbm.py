@@ -4,11 +4,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import os
 
 from granalytics.cli.options import add_cohesion_option, interval, revolution_window, threshold_options
-from granalytics.report.files import json_safe, save_figure, write_table
+from granalytics.report.files import save_figure, write_json, write_table
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock
 
@@ -104,8 +103,7 @@ def cmd_pbm(args):
             for table, name in ((pred.rates.kernel, "kernel.csv"), (pred.rates.classes, "rates.csv"),
                                 (pred.distributions(), "distributions.csv"), (summary, "summary.csv")):
                 write_table(table, paths[name], stage)
-            with open(stage(paths["settings.json"]), "w") as fh:
-                json.dump(json_safe(settings), fh, indent=1)
+            write_json(settings, paths["settings.json"], stage, indent=1)
             save_figure(fig, paths["pbm.png"], stage)
         last = summary.iloc[-1]
         print(f"wrote {len(_OUTPUTS)} files to {args.out}: at revolution {last['revolution']:.2f} the PBM has mean size "
