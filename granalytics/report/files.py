@@ -163,6 +163,7 @@ _TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
 
 
 def table_format(path):
+    """``"csv"`` or ``"parquet"``, by ``path``'s suffix (.csv, .parquet, .pq); ``ParameterError`` otherwise."""
     ext = os.path.splitext(path)[1].lower()
     if ext not in _TABLE_FORMATS:
         raise ParameterError(f"{path}: unknown table format {ext!r} (use .csv or .parquet)")
