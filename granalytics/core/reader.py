@@ -22,8 +22,6 @@ from granalytics.base.validation import FLAG, PATH, WINDOW, Array, Instance, Int
 from granalytics.core.windows import window_mask
 from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
 
-
-
 # bytes of one particle and one contact in memory (float64 and int64 fields; Snapshot and its checks
 # hold about twice that while a frame is read and validated)
 _PARTICLE_BYTES = 2 * 8 * sum(int(np.prod(trailing, dtype=np.int64)) for trailing, _, _ in PARTICLE_LAYOUT.values())
@@ -79,10 +77,7 @@ class _FrameSequence(Sequence):
     def __getitem__(self, key):
         if isinstance(key, slice):
             return RunSlice(self._run, self._indices[key])
-        if isinstance(key, (int, np.integer)):
-            n = len(self._indices)
-            if not -n <= key < n:
-                raise IndexError(f"frame {key} out of range for {n} frames")
+        if isinstance(key, (int, np.integer)):  # NumPy raises the IndexError of a key out of range
             return self._run.frame(int(self._indices[key]))
         raise FrameKeyError(f"frames are indexed by int or slice, not {type(key).__name__}")
 
@@ -486,8 +481,6 @@ def _check_inside_file(f, path, n_frames, n_rows) -> None:
                                f"({size} bytes); the file was cut short")
 
 
-
-
 @validate_params({"path": [PATH], "validate": [FLAG]})
 def open_run(path, *, validate=True) -> Run:
     """Open a run file for lazy, frame-by-frame reading.
@@ -521,5 +514,3 @@ def open_run(path, *, validate=True) -> Run:
         contact rows, time or step not increasing, ``n_particles`` not matching the arrays).
     """
     return Run(path, validate=validate)
-
-
