@@ -46,9 +46,8 @@ __all__ = ["run_confinement", "wall_touching", "CONFINEMENT_RULE", "confinement_
 
 # ----------------------------------------------------------------------------- a run's drum
 def _drum_params(meta):
-    """The simulated system's parameters in a run's ``sim_config`` (a dict), or None."""
-    params = meta.sim_config.get("params") if isinstance(meta.sim_config, dict) else None
-    return params if isinstance(params, dict) else None
+    """The simulated system's parameters in a run's ``sim_config`` (a dict: RunMeta's schema), or None."""
+    return meta.sim_config.get("params")
 
 
 @validate_params({"meta": [META]})
@@ -61,13 +60,14 @@ def run_confinement(meta) -> DrumConfinement | None:
     Raises
     ------
     ValidationError
-        The recorded values are not numbers.
+        The recorded values lack one of :class:`DrumConfinement`'s fields (RunMeta's schema makes
+        those it holds numbers), or the parameters are no drum.
     """
-    recorded = meta.sim_config.get("confinement") if isinstance(meta.sim_config, dict) else None
+    recorded = meta.sim_config.get("confinement")
     if recorded is not None:
         try:
             return DrumConfinement(**{f.name: float(recorded[f.name]) for f in dataclasses.fields(DrumConfinement)})
-        except (KeyError, TypeError, ValueError):
+        except KeyError:
             raise ValidationError("sim_config.confinement", f"must hold the numbers of DrumConfinement, got {recorded!r}") from None
     params = _drum_params(meta)
     if params is None or not all(k in params for k in ("drum_radius", "drum_length", "d_mean")):
@@ -149,7 +149,7 @@ def bed_flow(snapshot, meta) -> tuple[float, float]:
         The translational kinetic energy per unit mass, Σ½m v² / Σm [J/kg], over (Ω·R_d)², the
         square of the drum's rim speed: 0 at rest, independent of the units of a similar system.
     """
-    params = (meta.sim_config or {}).get("params") or {}
+    params = meta.sim_config.get("params", {})
     mass = snapshot.radius**3  # one density: masses ∝ r³
     x, y = (mass @ snapshot.position[:, :2]) / mass.sum()
     angle = math.degrees(math.atan2(x, -y))

@@ -419,15 +419,12 @@ def _check_records_agree(meta, radius_0, path) -> None:
     parameters it repeats, and its mean radius against the particles of the first frame (more than
     10 % apart: a nominal mean may differ from a sample's by a little, another scale by far; a run
     relabelled α = 1 while its particles are CG3's would be analysed at the wrong scale)."""
-    params = (meta.sim_config or {}).get("params")
-    if isinstance(params, dict):
-        for name in _RECORDED_TWICE:
-            value, recorded = getattr(meta, name), params.get(name)
-            if isinstance(recorded, (int, float)) and not isinstance(recorded, bool) and not math.isclose(
-                    float(value), float(recorded), rel_tol=1e-9):
-                raise ValidationError("/meta", f"attribute {name} is {value!r}, but the simulator's parameters "
-                                      f"(sim_config.params) record {recorded!r}: the run's records disagree",
-                                      path=path)
+    params = meta.sim_config.get("params", {})  # RunMeta's schema: a table of finite numbers where present
+    for name in _RECORDED_TWICE:
+        value, recorded = getattr(meta, name), params.get(name)
+        if recorded is not None and not math.isclose(float(value), float(recorded), rel_tol=1e-9):
+            raise ValidationError("/meta", f"attribute {name} is {value!r}, but the simulator's parameters "
+                                  f"(sim_config.params) record {recorded!r}: the run's records disagree", path=path)
     mean = float(np.mean(radius_0))
     if not math.isclose(mean, float(meta.mean_radius), rel_tol=0.1):  # a nominal mean may differ from a sample's
         raise ValidationError("/meta", f"attribute mean_radius is {meta.mean_radius:.6g} m, but the particles of "

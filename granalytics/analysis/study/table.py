@@ -37,7 +37,7 @@ _BOOKKEEPING = ("status", *MANIFEST_COLUMNS, "source_sha256")
 def _original_values(meta):
     """(γ, Ω) of the original system: ``meta.sim_config["original"]`` when the run came from
     ``sim``, else γ/α (Weber scaling γ_CG = α·γ) and the run's Ω."""
-    original = (meta.sim_config or {}).get("original") or {}
+    original = meta.sim_config.get("original", {})
     gamma = original.get("surface_tension", meta.surface_tension / meta.alpha)
     omega = original.get("drum_omega", meta.drum_omega)
     return float(gamma), float(omega)
@@ -62,7 +62,7 @@ def _checked_point_file(sweep_dir, record) -> str:
 def _check_point_parameters(path, record, meta) -> None:
     """Refuse a point file whose own parameters (γ and Ω of its original system, α, seed) are not
     the manifest row's: another point's file under this point's name."""
-    params = (meta.sim_config or {}).get("params") or {}
+    params = meta.sim_config.get("params", {})
     gamma, omega = _original_values(meta)
     own = {"gamma": gamma, "omega": omega, "alpha": float(meta.alpha), "seed": params.get("seed")}
     for key, value in own.items():
