@@ -84,8 +84,8 @@ def replacing_run(dst, overwrite=False):
             yield tmp
 
 
-@validate_params({"src": [PATH], "dst": [PATH], "frames": [Array(ndim=1)], "float_dtype": [Options(("float64", "float32"))],
-                  "overwrite": [FLAG], "progress": [FLAG]})
+@validate_params({"src": [PATH], "dst": [PATH], "frames": [Array(ndim=1)],
+                  "float_dtype": [Options(("float64", "float32"))], "overwrite": [FLAG], "progress": [FLAG]})
 def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, progress=False) -> str:
     """Copy some frames of a run into a new run file, optionally stored as float32.
 
@@ -129,7 +129,8 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
         meta.provenance.pop("planned_frames", None)
         if run.unfinished is None:
             meta.provenance["planned_frames"] = int(frames.size)
-        with replacing_run(dst, overwrite) as tmp, RunWriter(tmp, meta, overwrite=True, float_dtype=float_dtype) as writer:
+        with replacing_run(dst, overwrite) as tmp, \
+                RunWriter(tmp, meta, overwrite=True, float_dtype=float_dtype) as writer:
             for k in tqdm(frames, disable=not progress, unit="frame", desc=f"subset {os.path.basename(src)}"):
                 writer.append(run[int(k)])
     return dst

@@ -15,7 +15,8 @@ from granalytics._version import __version__
 from granalytics.base.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError, one_line
 from granalytics.base.files import WriterLock, check_not_open_elsewhere, check_replaceable
 from granalytics.base.interrupts import raise_dropped_interrupt
-from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS
+from granalytics.core.format import (CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, FORMAT_NAME, FORMAT_VERSION,
+                                     INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS)
 from granalytics.core.native import HDF5Handle
 from granalytics.core.reader import open_run
 from granalytics.core.snapshot import META, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
@@ -171,8 +172,8 @@ class RunWriter(HDF5Handle):
         try:
             with open_run(path) as run:
                 if len(run) < n_frames:
-                    raise RunFileError(
-                        f"{path}: holds {len(run)} complete frames, cannot continue after frame {n_frames}")
+                    raise RunFileError(f"{path}: holds {len(run)} complete frames, cannot continue after frame "
+                                       f"{n_frames}")
                 settings = {**_storage_settings(run._file), **kwargs}
                 writer = cls(tmp, run.meta, overwrite=True, _lock=lock, **settings)
                 # keep the metadata and file attributes exactly as stored
@@ -224,26 +225,19 @@ class RunWriter(HDF5Handle):
         ids = np.sort(snapshot.ids)
         if self._ids is not None and not np.array_equal(ids, self._ids):
             new = np.setdiff1d(ids, self._ids)
-            raise ValidationError(
-                "ids", f"the particle set changed: id {int(new[0])} is not in frame 0 ({new.size} new ids); a run "
-                       "holds a fixed particle set (the same ids in every frame)",
-                frame=frame, path=self.path,
-            )
+            raise ValidationError("ids", f"the particle set changed: id {int(new[0])} is not in frame 0 ({new.size} "
+                                  "new ids); a run holds a fixed particle set (the same ids in every frame)",
+                                  frame=frame, path=self.path)
         if not snapshot.time > self._last_time:
-            raise ValidationError(
-                "time", f"must increase from frame to frame: {snapshot.time!r} after {self._last_time!r}",
-                frame=frame, path=self.path,
-            )
+            raise ValidationError("time", f"must increase from frame to frame: {snapshot.time!r} after "
+                                  f"{self._last_time!r}", frame=frame, path=self.path)
         if self._last_step is not None and not (
             snapshot.step > self._last_step and not self._constant_steps
             or snapshot.step == self._last_step and (self._constant_steps or frame == 1)
         ):
-            raise ValidationError(
-                "step", f"must increase from frame to frame: {snapshot.step} after {self._last_step}"
-                + (" (or stay the same in every frame when steps are not recorded)"
-                   if frame == 1 or self._constant_steps else ""),
-                frame=frame, path=self.path,
-            )
+            raise ValidationError("step", f"must increase from frame to frame: {snapshot.step} after {self._last_step}"
+                                  + (" (or stay the same in every frame when steps are not recorded)"
+                                     if frame == 1 or self._constant_steps else ""), frame=frame, path=self.path)
         if self._n_particles is None:
             self._create_datasets(n)
             self._ids = ids
