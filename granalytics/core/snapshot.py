@@ -141,11 +141,6 @@ class RunMeta:
         """
         self.__post_init__()
 
-    @property
-    def mean_particle_volume(self) -> float:
-        """Volume of a sphere of the run's mean radius, 4/3·π·R̄³ [m³]."""
-        return 4.0 / 3.0 * math.pi * self.mean_radius**3
-
     def to_dict(self) -> dict:
         """Plain-dict form (JSON-serialisable)."""
         out = dataclasses.asdict(self)

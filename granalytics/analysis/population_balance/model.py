@@ -236,11 +236,6 @@ class PopulationBalance:
         them), ``free`` (free particles) and ``mass`` (Σ x N(x))."""
         return distribution_summary(self.numbers, self.grid, self.t_s, min_size=min_size)
 
-    def to_frame(self) -> pd.DataFrame:
-        """Long table: one row per time and pivot, ``t_s``, ``size``, ``number``."""
-        t, g = np.meshgrid(self.t_s, self.grid, indexing="ij")
-        return pd.DataFrame({"t_s": t.ravel(), "size": g.ravel(), "number": self.numbers.ravel()})
-
 
 def _initial_counts(initial):
     """``initial`` as numbers of granules by size (``counts[s - 1]``: granules of s particles) and
