@@ -15,7 +15,7 @@ from granalytics.analysis.frames import map_frames
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.identification import make_identifier
 from granalytics.analysis.stats import frame_stats
-from granalytics.base.validation import FLAG, Instance, validate_params
+from granalytics.base.validation import FLAG, Array, Instance, validate_params
 
 __all__ = ["compare_methods", "partition_labels", "identical_methods"]
 
@@ -92,6 +92,8 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
     return pd.concat(stats, ignore_index=True), pd.DataFrame(pairs)
 
 
+@validate_params({"stats": [Instance(pd.DataFrame, "compare_methods' statistics table (a DataFrame)")],
+                  "columns": [Array(ndim=1, dtype=str)]})
 def identical_methods(stats, columns=HEADLINE) -> dict:
     """The methods of a :func:`compare_methods` statistics table that give the same statistics as
     an earlier one: every column of ``columns`` equal frame by frame (``numpy.allclose``, NaN

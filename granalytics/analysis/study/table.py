@@ -228,6 +228,8 @@ def growth_rows(table, cohesion, columns=("gamma", "mean_volume_norm_mean")) -> 
     return part
 
 
+@validate_params({"table": [Instance(pd.DataFrame, "a study table (a DataFrame, study_table's result)")],
+                  "cohesion": [COHESION, None]})
 def growth_points(table, cohesion="acting") -> pd.DataFrame:
     """The points of the paper's Fig 7: the steady-state ⟨V_g⟩/V_p of a :func:`study_table` at
     every (Ω, γ) of one cohesion convention, its rows of one point (several seeds) combined.
