@@ -62,7 +62,8 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
     if len(methods) < 2 or not all(isinstance(v, (tuple, list)) and len(v) == 2 and isinstance(v[1], dict)
                                    for v in methods.values()):
         raise ParameterError("compare_methods: methods must map two or more display names to (method, params), e.g. "
-                             f"{{'gna': ('gna', {{}}), 'dbscan': ('dbscan', {{'eps_diameters': 1.1}})}}; got {str(methods)[:80]}")
+                             "{'gna': ('gna', {}), 'dbscan': ('dbscan', {'eps_diameters': 1.1})}; got "
+                             f"{str(methods)[:80]}")
     identifiers = {name: make_identifier(method, **{"cohesion": cohesion, **params})
                    for name, (method, params) in methods.items()}
 
