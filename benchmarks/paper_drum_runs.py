@@ -85,14 +85,33 @@ def cg1(args):
     out = os.path.join(args.dir, "paper-cg1.h5")
     cmd = _command(out, ["--preset", "paper-cg1"], args.dt_factor, 1)
     print(" ".join(cmd[2:]), flush=True)
-    import resource
+    started = datetime.datetime.now().isoformat(timespec="seconds")
+    child = subprocess.Popen(cmd)
+    while True:  # this working period's CPU time, for the progress log, kept up to date every minute
+        try:  # (a machine that stops kills this process too: a line written only at the end was lost)
+            code = child.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            code = None
+        _record_cpu_seconds(args.dir, started, _running_cpu_seconds(out))
+        if code is not None:
+            if code:
+                raise subprocess.CalledProcessError(code, cmd)
+            return
 
-    try:
-        subprocess.run(cmd, check=True)
-    finally:  # this working period's CPU time, for the progress log
-        used = resource.getrusage(resource.RUSAGE_CHILDREN)
-        with open(os.path.join(args.dir, "cpu_seconds.txt"), "a") as f:
-            f.write(f"{used.ru_utime + used.ru_stime:.0f} {datetime.datetime.now().isoformat(timespec='seconds')}\n")
+
+def _record_cpu_seconds(folder, started, seconds):
+    """Set this working period's line (``SECONDS STARTED``) of ``cpu_seconds.txt``."""
+    if not seconds:
+        return
+    path = os.path.join(folder, "cpu_seconds.txt")
+    lines = []
+    if os.path.exists(path):
+        with open(path) as f:
+            lines = [line for line in f if line.strip() and not line.rstrip().endswith(started)]
+    lines.append(f"{seconds:.0f} {started}\n")
+    with open(path + ".tmp", "w") as f:
+        f.writelines(lines)
+    os.replace(path + ".tmp", path)
 
 
 def progress(args):
@@ -116,14 +135,14 @@ def progress(args):
 
 def _cpu_hours(folder):
     """CPU hours of the CG1 run: the working periods recorded in ``cpu_seconds.txt`` (one line of
-    seconds each, written by :func:`cg1` when its process ends) plus the running process's so far."""
+    seconds each, kept up to date every minute by :func:`cg1`; the running period's line included)."""
     path = os.path.join(folder, "cpu_seconds.txt")
     total = 0.0
     if os.path.exists(path):
         with open(path) as f:
             total = sum(float(line.split()[0]) for line in f if line.strip())
     running = _running_cpu_seconds(os.path.join(folder, "paper-cg1.h5"))
-    return f"{(total + running) / 3600:.2f} CPU h" + (" (running)" if running else "")
+    return f"{total / 3600:.2f} CPU h" + (" (running)" if running else "")
 
 
 def _running_cpu_seconds(out):

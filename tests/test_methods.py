@@ -156,3 +156,14 @@ def test_a_parameter_assigned_after_a_first_identify_is_checked_at_the_next():
     gna.c_agg = 0.5
     assert gna.identify(frame).params["c_agg"] == 0.5
 
+
+
+def test_compare_methods_and_identical_methods_refuse_their_arguments_at_the_door():
+    frames = [synthetic_snapshot(30, seed=1)]
+    for methods in ({"gna": ("gna", {})}, {"a": "gna", "b": "dbscan"}):
+        with pytest.raises(ParameterError, match=r"^compare_methods: methods must map two or more display names"):
+            ga.compare_methods(frames, methods)
+    with pytest.raises(ParameterError, match=r"^compare_methods: methods must be a dict .*, got list"):
+        ga.compare_methods(frames, ["gna", "dbscan"])
+    with pytest.raises(ParameterError, match=r"^identical_methods: stats must be compare_methods' statistics table"):
+        ga.identical_methods({"method": ["gna"]})

@@ -305,3 +305,18 @@ def test_pbm_command_writes_its_outputs_and_refuses_to_replace_them(tmp_path, ca
     assert "starts before --fit-window" in capsys.readouterr().err
     assert main(["pbm", run, "--fit-window", "1:1.01", "--predict", "2:4", "--out", str(out), "--overwrite"]) == 2
     assert "at least two are needed" in capsys.readouterr().err
+
+
+def test_the_dem_side_refuses_its_arguments_at_the_door(tmp_path):
+    """fit_pbm_rates and pbm_from_run name the argument before any frame is identified."""
+    from granalytics.datasets.synthetic import write_synthetic_run
+
+    tracks = ga.track_granules([[0, 0, -1], [0, 0, 0]], [[1, 2, 3], [1, 2, 3]], [0.0, 1.0])
+    with pytest.raises(ga.ParameterError, match=r"^fit_pbm_rates: n_particles must be a whole number >= 1, got int 0$"):
+        ga.fit_pbm_rates(tracks, 0)
+    with pytest.raises(ga.ParameterError, match="^pbm_from_run: run must be an open run"):
+        ga.pbm_from_run("run.h5", (1, 2), (2, 6))
+    with ga.open_run(write_synthetic_run(tmp_path / "r.h5", 50, revolutions=1.0, frames_per_revolution=4)) as run:
+        with pytest.raises(ga.ParameterError, match=r"^pbm_from_run: predict_window must be a pair of finite numbers "
+                                                    r"\(lo, hi\) with lo <= hi, got tuple \(6, 2\)$"):
+            ga.pbm_from_run(run, (0, 1), (6, 2))

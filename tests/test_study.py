@@ -281,6 +281,10 @@ def test_growth_points_combine_the_rows_of_one_point_and_count_no_granules_as_ze
     assert growth_points(combined)["replica_sem"].tolist() == [0.2]
     with pytest.raises(ParameterError, match="no column 'omega'"):
         growth_points(table.drop(columns="omega"))
+    with pytest.raises(ParameterError, match=r"^growth_points: cohesion must be one of 'acting', 'bridge' or None"):
+        growth_points(table, "wet")
+    with pytest.raises(ParameterError, match=r"^growth_points: table must be a study table"):
+        growth_points(table.to_dict("list"))
 
 
 # ----------------------------------------------------------------------------- command line

@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from numbers import Integral
 
 import numpy as np
 
-from granalytics.base.errors import ParameterError
-from granalytics.core.snapshot import Snapshot
+from granalytics.base.validation import POSITIVE, Interval, validate_params
+from granalytics.core.snapshot import SNAPSHOT, Snapshot
 
 __all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "drum_confinement",
            "FILL_PACKING"]
@@ -81,6 +82,7 @@ class BedStructure:
                 f"{self.axial_layers} axial positions")
 
 
+@validate_params({"snapshot": [SNAPSHOT], "axis": [Interval(Integral, 0, 2)]})
 def bed_structure(snapshot: Snapshot, axis: int = 2) -> BedStructure:
     """Measure whether the bed of ``snapshot`` is three-dimensional (see the module docstring).
 
@@ -95,10 +97,6 @@ def bed_structure(snapshot: Snapshot, axis: int = 2) -> BedStructure:
     -------
     BedStructure
     """
-    if not isinstance(snapshot, Snapshot):
-        raise ParameterError(f"bed_structure: snapshot must be a granalytics Snapshot, got {type(snapshot).__name__}")
-    if axis not in (0, 1, 2) or isinstance(axis, bool):
-        raise ParameterError(f"bed_structure: axis must be 0, 1 or 2 (x, y, z), got {axis!r}")
     n = snapshot.n_particles
     touching = snapshot.gap < 0
     i, j = snapshot.contact_i[touching], snapshot.contact_j[touching]
@@ -110,13 +108,13 @@ def bed_structure(snapshot: Snapshot, axis: int = 2) -> BedStructure:
     fabric = float(np.mean(n_axis**2)) if n_axis.size else math.nan
     across = [k for k in range(3) if k != axis]
     v = snapshot.velocity
-    v_across = float(np.mean(np.hypot(v[:, across[0]], v[:, across[1]]))) if n else 0.0
+    v_across = float(np.mean(np.hypot(v[:, across[0]], v[:, across[1]])))
     ratio = float(np.mean(np.abs(v[:, axis]))) / v_across if v_across > 0 else math.nan
     z = snapshot.position[:, axis]
-    extent = float(z.max() - z.min()) if n else 0.0
-    layers = int(np.unique(np.round(z / max(extent * 1e-9, 1e-300))).size) if n else 0
+    extent = float(z.max() - z.min())  # a Snapshot holds at least one particle
+    layers = int(np.unique(np.round(z / max(extent * 1e-9, 1e-300))).size)
     return BedStructure(n_particles=n, n_touching=int(touching.sum()), crossing_fraction=crossing,
-                        axial_fabric=fabric, coordination=2 * int(touching.sum()) / n if n else math.nan,
+                        axial_fabric=fabric, coordination=2 * int(touching.sum()) / n,
                         axial_speed_ratio=ratio, axial_layers=layers)
 
 
@@ -161,22 +159,17 @@ def _segment_depth(fraction: float) -> float:
     solves (θ − sin θ)/(2π) = fraction for the central angle θ, depth = 1 − cos(θ/2)."""
     from scipy.optimize import brentq
 
-    if fraction <= 0:
-        return 0.0
     if fraction >= 1:
         return 2.0
     theta = brentq(lambda t: (t - math.sin(t)) / (2 * math.pi) - fraction, 0.0, 2 * math.pi, xtol=1e-14)
     return 1.0 - math.cos(theta / 2)
 
 
+@validate_params({**dict.fromkeys(("drum_radius", "drum_length", "d_mean"), [POSITIVE]),
+                  "n_particles": [Interval(Integral, 1, None)]})
 def drum_confinement(drum_radius: float, drum_length: float, d_mean: float, n_particles: int) -> DrumConfinement:
     """The confinement of ``n_particles`` spheres of mean diameter ``d_mean`` [m] in a drum of
     radius ``drum_radius`` [m] and length ``drum_length`` [m] (:class:`DrumConfinement`)."""
-    for name, value in (("drum_radius", drum_radius), ("drum_length", drum_length), ("d_mean", d_mean)):
-        if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0):
-            raise ParameterError(f"drum_confinement: {name} must be a finite number > 0 [m], got {value!r}")
-    if not (isinstance(n_particles, (int, np.integer)) and not isinstance(n_particles, bool) and n_particles > 0):
-        raise ParameterError(f"drum_confinement: n_particles must be a positive integer, got {n_particles!r}")
     bed_area = n_particles * math.pi * d_mean**3 / 6 / FILL_PACKING / drum_length
     fill = bed_area / (math.pi * drum_radius**2)
     return DrumConfinement(drum_ratio=2 * drum_radius / d_mean, length_ratio=drum_length / d_mean,

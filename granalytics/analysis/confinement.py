@@ -33,7 +33,7 @@ import pandas as pd
 
 from granalytics.analysis.bed import DrumConfinement, bed_structure, drum_confinement
 from granalytics.base.errors import ParameterError, ValidationError
-from granalytics.base.validation import FLAG, Array, Instance, Interval, validate_params
+from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Array, Instance, Interval, validate_params
 from granalytics.core.snapshot import META, SNAPSHOT, Snapshot
 from granalytics.analysis.frames import map_frames
 from granalytics.identification import make_identifier
@@ -46,9 +46,8 @@ __all__ = ["run_confinement", "wall_touching", "CONFINEMENT_RULE", "confinement_
 
 # ----------------------------------------------------------------------------- a run's drum
 def _drum_params(meta):
-    """The simulated system's parameters in a run's ``sim_config`` (a dict), or None."""
-    params = meta.sim_config.get("params") if isinstance(meta.sim_config, dict) else None
-    return params if isinstance(params, dict) else None
+    """The simulated system's parameters in a run's ``sim_config`` (a dict: RunMeta's schema), or None."""
+    return meta.sim_config.get("params")
 
 
 @validate_params({"meta": [META]})
@@ -61,13 +60,14 @@ def run_confinement(meta) -> DrumConfinement | None:
     Raises
     ------
     ValidationError
-        The recorded values are not numbers.
+        The recorded values lack one of :class:`DrumConfinement`'s fields (RunMeta's schema makes
+        those it holds numbers), or the parameters are no drum.
     """
-    recorded = meta.sim_config.get("confinement") if isinstance(meta.sim_config, dict) else None
+    recorded = meta.sim_config.get("confinement")
     if recorded is not None:
         try:
             return DrumConfinement(**{f.name: float(recorded[f.name]) for f in dataclasses.fields(DrumConfinement)})
-        except (KeyError, TypeError, ValueError):
+        except KeyError:
             raise ValidationError("sim_config.confinement", f"must hold the numbers of DrumConfinement, got {recorded!r}") from None
     params = _drum_params(meta)
     if params is None or not all(k in params for k in ("drum_radius", "drum_length", "d_mean")):
@@ -149,7 +149,7 @@ def bed_flow(snapshot, meta) -> tuple[float, float]:
         The translational kinetic energy per unit mass, Σ½m v² / Σm [J/kg], over (Ω·R_d)², the
         square of the drum's rim speed: 0 at rest, independent of the units of a similar system.
     """
-    params = (meta.sim_config or {}).get("params") or {}
+    params = meta.sim_config.get("params", {})
     mass = snapshot.radius**3  # one density: masses ∝ r³
     x, y = (mass @ snapshot.position[:, :2]) / mass.sum()
     angle = math.degrees(math.atan2(x, -y))
@@ -218,7 +218,7 @@ def _group_paths(group):
 
 
 @validate_params({"groups": [Instance((list, tuple), "a list of runs or of groups of replicas")],
-                  "window": [Array(ndim=1, length=2, finite=True)], "labels": [Array(ndim=1, dtype=str), None],
+                  "window": [WINDOW], "labels": [Array(ndim=1, dtype=str), None],
                   "progress": [FLAG]})
 def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gna", *, progress=False,
                       **params) -> pd.DataFrame:
@@ -313,7 +313,8 @@ class ConfinementFit:
         return self.b / fraction, math.sqrt(self.covariance[1, 1]) / fraction
 
 
-@validate_params({"drum_ratio": [Array()], "values": [Array()], "errors": [Array()]})
+@validate_params({"drum_ratio": [Array(ndim=1, within=POSITIVE)], "values": [Array(ndim=1, finite=True)],
+                  "errors": [Array(ndim=1, within=POSITIVE)]})
 def fit_confinement_curve(drum_ratio, values, errors) -> ConfinementFit:
     """Weighted least-squares fit of y = y∞·(1 − b/x) to points (x = D/d, y ± error).
 
@@ -323,13 +324,12 @@ def fit_confinement_curve(drum_ratio, values, errors) -> ConfinementFit:
     Raises
     ------
     ParameterError
-        Fewer than three points, or a non-positive error or D/d.
+        Fewer than three points, points of unequal lengths, or a D/d or an error not a finite
+        number > 0.
     """
     x, y, s = (np.asarray(a, dtype=float) for a in (drum_ratio, values, errors))
     if not (x.shape == y.shape == s.shape) or x.size < 3:
         raise ParameterError(f"fit_confinement_curve: needs three or more points of equal length, got {x.size}")
-    if not (np.all(np.isfinite(s)) and np.all(s > 0) and np.all(x > 0)):
-        raise ParameterError("fit_confinement_curve: every D/d and every error must be finite and > 0")
     design = np.column_stack([np.ones_like(x), -1 / x])
     weight = 1 / s**2
     normal = design.T @ (design * weight[:, None])

@@ -15,6 +15,7 @@ import functools
 import os
 import uuid
 from concurrent.futures import ThreadPoolExecutor
+from numbers import Integral
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -22,6 +23,7 @@ from tqdm.auto import tqdm
 from granalytics.base.cluster import dask_client
 from granalytics.base.errors import ParameterError
 from granalytics.base.interrupts import raise_dropped_interrupt
+from granalytics.base.validation import Interval, validate
 
 __all__ = ["frame_indices", "map_frames"]
 
@@ -133,8 +135,7 @@ def map_frames(frames, work, *, progress=False, desc="frames", jobs=1, what="ana
     indices = frame_indices(frames)
     if len(indices) == 0:
         raise ParameterError(f"no frames to {what} (empty run or selection)")
-    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
-        raise ParameterError(f"jobs must be an integer >= 1, got {jobs!r}")
+    validate(None, {"jobs": [Interval(Integral, 1, None)]}, {"jobs": jobs})
     if scheduler is not None and jobs != 1:
         raise ParameterError("jobs (threads on this machine) and scheduler (a dask cluster) exclude each other")
     results = []

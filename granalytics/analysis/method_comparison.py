@@ -15,6 +15,7 @@ from granalytics.analysis.frames import map_frames
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.identification import make_identifier
 from granalytics.analysis.stats import frame_stats
+from granalytics.base.validation import FLAG, Array, Instance, validate_params
 
 __all__ = ["compare_methods", "partition_labels", "identical_methods"]
 
@@ -27,6 +28,7 @@ def partition_labels(labels) -> np.ndarray:
     return out
 
 
+@validate_params({"methods": [Instance(dict, "a dict of display name -> (method, params)")], "progress": [FLAG]})
 def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=False, jobs=1, scheduler=None):
     """Run several identification methods on every frame and compare them pairwise.
 
@@ -57,13 +59,11 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
     """
     from sklearn.metrics import adjusted_rand_score
 
-    if not isinstance(methods, dict) or not all(
-            isinstance(v, (tuple, list)) and len(v) == 2 and isinstance(v[1], dict) for v in methods.values()):
-        raise ParameterError("compare_methods: methods must be a dict of display name -> (method, params), e.g. "
+    if len(methods) < 2 or not all(isinstance(v, (tuple, list)) and len(v) == 2 and isinstance(v[1], dict)
+                                   for v in methods.values()):
+        raise ParameterError("compare_methods: methods must map two or more display names to (method, params), e.g. "
                              "{'gna': ('gna', {}), 'dbscan': ('dbscan', {'eps_diameters': 1.1})}; got "
-                             f"{type(methods).__name__} {str(methods)[:80]}")
-    if len(methods) < 2:
-        raise ParameterError("compare_methods needs at least two methods")
+                             f"{str(methods)[:80]}")
     identifiers = {name: make_identifier(method, **{"cohesion": cohesion, **params})
                    for name, (method, params) in methods.items()}
 
@@ -93,6 +93,8 @@ def compare_methods(frames, methods, *, cohesion=DEFAULT_COHESION, progress=Fals
     return pd.concat(stats, ignore_index=True), pd.DataFrame(pairs)
 
 
+@validate_params({"stats": [Instance(pd.DataFrame, "compare_methods' statistics table (a DataFrame)")],
+                  "columns": [Array(ndim=1, dtype=str)]})
 def identical_methods(stats, columns=HEADLINE) -> dict:
     """The methods of a :func:`compare_methods` statistics table that give the same statistics as
     an earlier one: every column of ``columns`` equal frame by frame (``numpy.allclose``, NaN

@@ -23,6 +23,8 @@ from typing import Callable
 
 import numpy as np
 
+from granalytics.base.validation import Instance, validate_params
+
 __all__ = ["Metric", "GranuleCounts", "METRICS", "HEADLINE", "STEADY", "BY_FIGURE", "register", "unregister",
            "registered", "metric_values"]
 
@@ -106,7 +108,7 @@ class Metric:
     log_scale: bool = False
 
     def __post_init__(self):
-        if self.value is None or not callable(self.value):
+        if not callable(self.value):
             raise TypeError(f"metric {self.name!r}: value must be a function of GranuleCounts")
         if not self.figure_key:
             object.__setattr__(self, "figure_key", self.name)
@@ -182,10 +184,9 @@ def metric_values(counts: GranuleCounts, names=STEADY) -> dict:
     return {name: METRICS[name].value(counts) for name in names}
 
 
+@validate_params({"metric": [Instance(Metric)]})
 def register(metric: Metric) -> None:
     """Add ``metric`` to the registry (its name must be new)."""
-    if not isinstance(metric, Metric):
-        raise TypeError(f"register: a Metric is needed, got {type(metric).__name__}")
     if metric.name in METRICS:
         raise ValueError(f"register: a metric named {metric.name!r} exists")
     METRICS[metric.name] = metric

@@ -24,7 +24,7 @@ from granalytics.analysis.frames import map_frames
 from granalytics.identification.contacts import (COMOTION, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, RIGID_SCALE, comotion_mask,
                                                  contact_strength)
 from granalytics.identification.common import A_AGG_DEG, C_AGG, MIN_SIZE, RADIUS_MODE
-from granalytics.base.validation import POSITIVE, Array, Instance, validate_params
+from granalytics.base.validation import POSITIVE, WINDOW, Array, Instance, validate_params
 
 __all__ = ["sensitivity", "sensitivity_summary", "COMOTION_COLUMNS", "comotion_column", "SWEEP_CONSTRAINTS"]
 
@@ -141,7 +141,7 @@ def sensitivity(frames, c_agg, a_agg_deg=None, *, radius="pair", surface_tension
 
 
 @validate_params({"table": [Instance(pd.DataFrame, "the DataFrame of sensitivity()")],
-                  "window": [Array(ndim=1, length=2, finite=True), None]})
+                  "window": [WINDOW, None]})
 def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
     """Mean and standard deviation over frames of each metric at each (C_agg, co-motion threshold).
 
@@ -161,8 +161,6 @@ def sensitivity_summary(table: pd.DataFrame, window=None) -> pd.DataFrame:
         raise ParameterError("sensitivity_summary: the table has no rows (no frame was analysed)")
     if window is not None:
         lo, hi = (float(w) for w in window)
-        if lo > hi:
-            raise ParameterError(f"sensitivity_summary: window [{lo:g}, {hi:g}] is empty")
         table = table[window_mask(table["revolutions"], lo, hi)]
         if table.empty:
             raise ParameterError(f"no frame in the window [{lo:g}, {hi:g}] revolutions")

@@ -159,7 +159,7 @@ def check_window(axis, window, *, by="revolutions", source=None, warn=True):
     Raises
     ------
     ParameterError
-        An empty window, no frames or no finite values on the axis (a revolution axis of a run
+        No frames or no finite values on the axis (a revolution axis of a run
         without drum rotation), or no frame in the window; errors name ``source``.
 
     Warns
@@ -171,8 +171,6 @@ def check_window(axis, window, *, by="revolutions", source=None, warn=True):
     lo, hi = (float(w) for w in window)
     unit = "revolutions" if by == "revolutions" else "s"
     where = f"{source}: " if source else ""
-    if not lo <= hi:
-        raise ParameterError(f"{where}window [{lo:g}, {hi:g}] {unit} is empty")
     axis = np.asarray(axis, dtype=float)
     if not np.isfinite(axis).any():
         if axis.size and by == "revolutions":
@@ -466,10 +464,8 @@ SIZE_UNITS = ("particles", "original")
 
 def size_unit_factor(size_unit, alpha=None, *, caller="size_distribution") -> float:
     """The factor from the run's particles to ``size_unit``: 1 for ``"particles"``, α³ for
-    ``"original"``. ``alpha`` is the CG factor: a number, or a run or its metadata (their
-    ``alpha``); needed for ``"original"`` only."""
-    if size_unit not in SIZE_UNITS:
-        raise ParameterError(f"{caller}: size_unit must be one of {', '.join(SIZE_UNITS)}, got {size_unit!r}")
+    ``"original"`` (``size_unit`` checked by the caller). ``alpha`` is the CG factor: a number, or
+    a run or its metadata (their ``alpha``); needed for ``"original"`` only."""
     if size_unit == "particles":
         return 1.0
     if alpha is None:

@@ -26,8 +26,8 @@ _FREE = {"seed", "alpha", "cg_rule"}
 def system_of(meta) -> dict | None:
     """The original parameters of a simulator run without seed, α and CG rule (None for a run of
     another code, whose metadata has no parameters)."""
-    original = (meta.sim_config or {}).get("original")
-    if not isinstance(original, dict) or not original:
+    original = meta.sim_config.get("original")  # a dict where present (RunMeta's schema)
+    if not original:
         return None
     return {k: v for k, v in original.items() if k not in _FREE}
 
@@ -45,7 +45,7 @@ def run_identity(run) -> dict:
     for k in (0, len(run) - 1):
         digest.update(np.ascontiguousarray(run[k].position).tobytes())
     return {"path": str(run.path), "alpha": meta.alpha, "n_particles": meta.n_particles,
-            "seed": ((meta.sim_config or {}).get("params") or {}).get("seed"), "system": system_of(meta),
+            "seed": meta.sim_config.get("params", {}).get("seed"), "system": system_of(meta),
             "content": digest.hexdigest()}
 
 

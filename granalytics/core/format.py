@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from granalytics.core.snapshot import CONTACT_FIELDS, PARTICLE_FIELDS
@@ -40,5 +39,3 @@ CONTACT_DATASETS = tuple(f"contacts/{name}" for name, _unit in CONTACT_LAYOUT.va
 # updating it), doubling the wait each time from 1 ns: its default of 100 attempts sleeps for
 # hours on a file that was cut short. 30 attempts wait about 1 s in all.
 SWMR_READ_ATTEMPTS = 30
-
-

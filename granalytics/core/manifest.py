@@ -33,6 +33,8 @@ def file_sha256(path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
 #: canonical order of the named parameters in point names and manifest columns (others follow, sorted)
 NAMED_PARAMETERS = ("gamma", "omega", "alpha", "seed", "particles")
 #: manifest columns after ``point``, ``status`` and the parameters
@@ -44,9 +46,6 @@ _REQUIRED = ("point", "status", "file")
 
 def manifest_path(sweep_dir) -> str:
     """``sweep_dir/manifest.csv``."""
-    if not isinstance(sweep_dir, (str, os.PathLike)):
-        raise ParameterError(f"the sweep folder must be a path (str or path-like), got {type(sweep_dir).__name__} "
-                             f"{sweep_dir!r}")
     return os.path.join(os.fspath(sweep_dir), MANIFEST_NAME)
 
 

@@ -39,8 +39,6 @@ class HDF5Handle:
         self.close()
 
 
-
-
 _HDF5_LIB = []
 
 

@@ -15,14 +15,13 @@ import numpy as np
 
 from granalytics.base.errors import (FrameKeyError, GranalyticsError, ParameterError, RunFileError, ValidationError,
                                      one_line, user_stacklevel)
-from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_DATASETS, CONTACT_LAYOUT, PARTICLE_LAYOUT, PER_FRAME_DATASETS
+from granalytics.core.format import (CONTACT_DATASETS, CONTACT_LAYOUT, FORMAT_NAME, FORMAT_VERSION, PARTICLE_LAYOUT,
+                                     PER_FRAME_DATASETS)
 from granalytics.core.native import CONVERT_HINT, HDF5Handle, open_h5
 from granalytics.base.resources import check_memory
 from granalytics.base.validation import FLAG, PATH, WINDOW, Array, Instance, Interval, validate, validate_params
 from granalytics.core.windows import window_mask
-from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot
-
-
+from granalytics.core.snapshot import PARTICLE_FIELDS, RunMeta, Snapshot, refuse_first
 
 # bytes of one particle and one contact in memory (float64 and int64 fields; Snapshot and its checks
 # hold about twice that while a frame is read and validated)
@@ -79,10 +78,7 @@ class _FrameSequence(Sequence):
     def __getitem__(self, key):
         if isinstance(key, slice):
             return RunSlice(self._run, self._indices[key])
-        if isinstance(key, (int, np.integer)):
-            n = len(self._indices)
-            if not -n <= key < n:
-                raise IndexError(f"frame {key} out of range for {n} frames")
+        if isinstance(key, (int, np.integer)):  # NumPy raises the IndexError of a key out of range
             return self._run.frame(int(self._indices[key]))
         raise FrameKeyError(f"frames are indexed by int or slice, not {type(key).__name__}")
 
@@ -115,9 +111,7 @@ class _FrameSequence(Sequence):
         """Drum revolutions t·Ω/2π of each frame (raises if the run has Ω = 0)."""
         omega = self.meta.drum_omega
         if omega == 0:
-            raise ValidationError(
-                "drum_omega", "is 0 in this run: revolutions are undefined", path=self._run.path
-            )
+            raise ValidationError("drum_omega", "is 0 in this run: revolutions are undefined", path=self._run.path)
         return self.times * abs(omega) / (2 * math.pi)
 
     @property
@@ -200,10 +194,10 @@ class Run(HDF5Handle, _FrameSequence):
 
     def _load_index(self):
         f, path = self._file, self.path
-        _check_format(f, path)
+        _check_format(f, path=path)
         if "meta" not in f:
             raise RunFileError(f"{path}: missing group /meta")
-        self._meta = _read_meta(f["meta"], path)
+        self._meta = _read_meta(f["meta"], path=path)
         self._run = self
         if "frames" not in f:  # created, but no frame was ever committed
             self.n_particles = self._meta.n_particles
@@ -220,15 +214,11 @@ class Run(HDF5Handle, _FrameSequence):
         for name, (trailing, _dtype, _unit) in PARTICLE_LAYOUT.items():
             shape = f["particles"][name].shape
             if shape[1:] != (n_particles,) + trailing:
-                raise RunFileError(
-                    f"{path}: dataset /particles/{name} has shape {shape}, expected (frames, {n_particles}"
-                    + "".join(f", {t}" for t in trailing) + ")"
-                )
+                raise RunFileError(f"{path}: dataset /particles/{name} has shape {shape}, expected (frames, "
+                                   f"{', '.join(map(str, (n_particles,) + trailing))})")
         if n_particles != self._meta.n_particles:
-            raise ValidationError(
-                "/meta", f"attribute n_particles is {self._meta.n_particles}, but /particles/radius holds "
-                f"{n_particles} particles per frame", path=path,
-            )
+            raise ValidationError("/meta", f"attribute n_particles is {self._meta.n_particles}, but /particles/radius "
+                                  f"holds {n_particles} particles per frame", path=path)
         lengths = {name: f[name].shape[0] for name in PER_FRAME_DATASETS}
         rows = {name: f[name].shape[0] for name in CONTACT_DATASETS}
         if self._writer_open:
@@ -251,25 +241,21 @@ class Run(HDF5Handle, _FrameSequence):
         # the frame index (time, step, count, offset: 32 bytes a frame) is read whole
         check_memory(f"{path}: reading the index of {n_frames} frames", 32 * n_frames)
         count = _read_index(f, "contacts/count", n_frames, path).astype(np.int64)
-        if (count < 0).any():
-            k = int(np.flatnonzero(count < 0)[0])
-            raise ValidationError("/contacts/count", f"negative count {count[k]}", index=k, path=path)
+        refuse_first("/contacts/count", count < 0, lambda k: f"negative count {count[k]}", path=path)
         offset = np.zeros(n_frames + 1, dtype=np.int64)
         np.cumsum(count, out=offset[1:])
         if self._writer_open:
             n_frames = int(np.searchsorted(offset, min(rows.values()), side="right")) - 1
         elif offset[-1] != n_rows:
-            raise ValidationError(
-                "/contacts/count", f"the counts of the {n_frames} frames add up to {offset[-1]} contact rows, "
-                f"but the contact datasets hold {n_rows}: an entry was changed or contact rows are missing",
-                path=path,
-            )
+            raise ValidationError("/contacts/count", f"the counts of the {n_frames} frames add up to {offset[-1]} "
+                                  f"contact rows, but the contact datasets hold {n_rows}: an entry was changed or "
+                                  "contact rows are missing", path=path)
         largest = int(count[:n_frames].max()) if n_frames else 0
         check_memory(f"{path}: reading one frame ({n_particles} particles, up to {largest} contacts)",
                      _PARTICLE_BYTES * n_particles + _CONTACT_BYTES * largest)
         time = _read_index(f, "frames/time", n_frames, path).astype(np.float64)
         step = _read_index(f, "frames/step", n_frames, path).astype(np.int64)
-        _check_index(time, step, path)
+        _check_index(time, step, path=path)
         self.n_particles = int(n_particles)
         self._time = time
         self._step = step
@@ -279,7 +265,7 @@ class Run(HDF5Handle, _FrameSequence):
         if self._writer_open:
             _check_inside_file(f, path, n_frames, int(self._offset[-1]))
         if n_frames:
-            _check_records_agree(self._meta, f["particles/radius"][0], path)
+            _check_records_agree(self._meta, f["particles/radius"][0], path=path)
 
     def _read(self, name, selection, frame):
         try:
@@ -309,9 +295,8 @@ class Run(HDF5Handle, _FrameSequence):
             if value.dtype == np.float32:
                 data[name] = value.astype(np.float64)
         try:
-            return _make_snapshot(
-                self.validate, time=self._time[index], step=self._step[index], meta=self._meta, **data
-            )
+            return _make_snapshot(self.validate, time=self._time[index], step=self._step[index], meta=self._meta,
+                                  **data)
         except ValidationError as exc:
             raise exc.located(self.path, index) from None
 
@@ -424,15 +409,12 @@ def _check_records_agree(meta, radius_0, path) -> None:
     parameters it repeats, and its mean radius against the particles of the first frame (more than
     10 % apart: a nominal mean may differ from a sample's by a little, another scale by far; a run
     relabelled α = 1 while its particles are CG3's would be analysed at the wrong scale)."""
-    params = (meta.sim_config or {}).get("params")
-    if isinstance(params, dict):
-        for name in _RECORDED_TWICE:
-            value, recorded = getattr(meta, name), params.get(name)
-            if isinstance(recorded, (int, float)) and not isinstance(recorded, bool) and not math.isclose(
-                    float(value), float(recorded), rel_tol=1e-9):
-                raise ValidationError("/meta", f"attribute {name} is {value!r}, but the simulator's parameters "
-                                      f"(sim_config.params) record {recorded!r}: the run's records disagree",
-                                      path=path)
+    params = meta.sim_config.get("params", {})  # RunMeta's schema: a table of finite numbers where present
+    for name in _RECORDED_TWICE:
+        value, recorded = getattr(meta, name), params.get(name)
+        if recorded is not None and not math.isclose(float(value), float(recorded), rel_tol=1e-9):
+            raise ValidationError("/meta", f"attribute {name} is {value!r}, but the simulator's parameters "
+                                  f"(sim_config.params) record {recorded!r}: the run's records disagree", path=path)
     mean = float(np.mean(radius_0))
     if not math.isclose(mean, float(meta.mean_radius), rel_tol=0.1):  # a nominal mean may differ from a sample's
         raise ValidationError("/meta", f"attribute mean_radius is {meta.mean_radius:.6g} m, but the particles of "
@@ -441,26 +423,14 @@ def _check_records_agree(meta, radius_0, path) -> None:
 
 def _check_index(time, step, path) -> None:
     """Times finite and strictly increasing; steps >= 0 and strictly increasing (or all equal:
-    the producer did not record steps)."""
-    bad = np.flatnonzero(~np.isfinite(time))
-    if bad.size:
-        k = int(bad[0])
-        raise ValidationError("/frames/time", f"non-finite value {time[k]}", index=k, path=path)
-    bad = np.flatnonzero(np.diff(time) <= 0)
-    if bad.size:
-        k = int(bad[0]) + 1
-        raise ValidationError("/frames/time", f"must increase from frame to frame: {time[k]!r} after "
-                              f"{time[k - 1]!r}", index=k, path=path)
-    bad = np.flatnonzero(step < 0)
-    if bad.size:
-        k = int(bad[0])
-        raise ValidationError("/frames/step", f"must be >= 0, got {step[k]}", index=k, path=path)
-    if step.size > 1 and not (step == step[0]).all():
-        bad = np.flatnonzero(np.diff(step) <= 0)
-        if bad.size:
-            k = int(bad[0]) + 1
-            raise ValidationError("/frames/step", f"must increase from frame to frame: {step[k]} after "
-                                  f"{step[k - 1]}", index=k, path=path)
+    the producer did not record steps). Each test runs only after the one before it passed."""
+    refuse_first("/frames/time", ~np.isfinite(time), lambda k: f"non-finite value {time[k]}", path=path)
+    refuse_first("/frames/time", np.diff(time) <= 0,
+                  lambda k: f"must increase from frame to frame: {time[k]!r} after {time[k - 1]!r}", path=path, shift=1)
+    refuse_first("/frames/step", step < 0, lambda k: f"must be >= 0, got {step[k]}", path=path)
+    if step.size and not (step == step[0]).all():
+        refuse_first("/frames/step", np.diff(step) <= 0,
+                      lambda k: f"must increase from frame to frame: {step[k]} after {step[k - 1]}", path=path, shift=1)
 
 
 def _check_inside_file(f, path, n_frames, n_rows) -> None:
@@ -484,8 +454,6 @@ def _check_inside_file(f, path, n_frames, n_rows) -> None:
             where = f"frame {first}" if name in PER_FRAME_DATASETS else f"contact row {first}"
             raise RunFileError(f"{path}: dataset /{name}, {where}: stored beyond the end of the file "
                                f"({size} bytes); the file was cut short")
-
-
 
 
 @validate_params({"path": [PATH], "validate": [FLAG]})
@@ -521,5 +489,3 @@ def open_run(path, *, validate=True) -> Run:
         contact rows, time or step not increasing, ``n_particles`` not matching the arrays).
     """
     return Run(path, validate=validate)
-
-

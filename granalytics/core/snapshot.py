@@ -141,11 +141,6 @@ class RunMeta:
         """
         self.__post_init__()
 
-    @property
-    def mean_particle_volume(self) -> float:
-        """Volume of a sphere of the run's mean radius, 4/3·π·R̄³ [m³]."""
-        return 4.0 / 3.0 * math.pi * self.mean_radius**3
-
     def to_dict(self) -> dict:
         """Plain-dict form (JSON-serialisable)."""
         out = dataclasses.asdict(self)
@@ -159,10 +154,8 @@ class RunMeta:
         known = {k: v for k, v in data.items() if k in names}
         unknown = {k: v for k, v in data.items() if k not in names}
         if unknown:
-            warnings.warn(
-                f"run metadata has unknown keys {sorted(unknown)}; kept under provenance['unknown_meta']",
-                stacklevel=user_stacklevel(),
-            )
+            warnings.warn(f"run metadata has unknown keys {sorted(unknown)}; kept under provenance['unknown_meta']",
+                          stacklevel=user_stacklevel())
             known.setdefault("provenance", {})
             known["provenance"] = dict(known["provenance"], unknown_meta=unknown)
         return cls(**known)
@@ -339,19 +332,9 @@ class Snapshot:
         _check_unique("ids", self.ids, "particle id")
         ci, cj = self.contact_i, self.contact_j
         for name, arr in (("contact_i", ci), ("contact_j", cj)):
-            bad = np.flatnonzero((arr < 0) | (arr >= n))
-            if bad.size:
-                k = int(bad[0])
-                raise ValidationError(
-                    name, f"particle index {int(arr[k])} out of range [0, {n})", index=k
-                )
-        bad = np.flatnonzero(ci >= cj)
-        if bad.size:
-            k = int(bad[0])
-            what = "a particle paired with itself" if ci[k] == cj[k] else "pair not ordered i < j"
-            raise ValidationError(
-                "contact_i", f"{what}: i={int(ci[k])}, j={int(cj[k])}", index=k
-            )
+            refuse_first(name, (arr < 0) | (arr >= n), lambda k: f"particle index {int(arr[k])} out of range [0, {n})")
+        refuse_first("contact_i", ci >= cj, lambda k: ("a particle paired with itself" if ci[k] == cj[k] else
+                                                        "pair not ordered i < j") + f": i={int(ci[k])}, j={int(cj[k])}")
         _check_unique("contact_i", ci * np.int64(n) + cj, "contact pair", ci, cj)
 
     # ------------------------------------------------------------------ derived
@@ -386,9 +369,7 @@ class Snapshot:
             A permutation of ``range(N)``: row ``k`` of the result is row ``order[k]`` here.
         """
         order = np.asarray(order, dtype=np.int64)
-        if order.shape != (self.n_particles,) or not np.array_equal(
-            np.sort(order), np.arange(self.n_particles)
-        ):
+        if order.shape != (self.n_particles,) or not np.array_equal(np.sort(order), np.arange(self.n_particles)):
             raise ValidationError("order", "must be a permutation of range(n_particles)")
         new_index = np.empty_like(order)
         new_index[order] = np.arange(order.size)
@@ -426,25 +407,24 @@ def _coerce(name, value, spec, expected_len):
         want = "(n," + ",".join(str(t) for t in trailing) + ")" if trailing else "(n,)"
         raise ValidationError(name, f"must have shape {want}, got {arr.shape}")
     if expected_len is not None and arr.shape[0] != expected_len:
-        raise ValidationError(
-            name, f"has length {arr.shape[0]}, expected {expected_len} like the other fields"
-        )
+        raise ValidationError(name, f"has length {arr.shape[0]}, expected {expected_len} like the other fields")
     if kind == "float":
         finite = np.isfinite(arr)
-        if not finite.all():
-            k = int(np.flatnonzero(~finite.reshape(arr.shape[0], -1).all(axis=1))[0])
-            raise ValidationError(name, f"non-finite value {arr[k].tolist()}", index=k)
-        if sign == "positive":
-            bad = np.flatnonzero(arr <= 0)
-            if bad.size:
-                k = int(bad[0])
-                raise ValidationError(name, f"must be > 0, got {arr[k]!r}", index=k)
-        elif sign == "nonnegative":
-            bad = np.flatnonzero(arr < 0)
-            if bad.size:
-                k = int(bad[0])
-                raise ValidationError(name, f"must be >= 0, got {arr[k]!r}", index=k)
+        if not finite.all():  # the row of the first non-finite value
+            refuse_first(name, ~finite.reshape(arr.shape[0], -1).all(axis=1),
+                         lambda k: f"non-finite value {arr[k].tolist()}")
+        if sign is not None:
+            refuse_first(name, arr <= 0 if sign == "positive" else arr < 0,
+                         lambda k: f"must be {'>' if sign == 'positive' else '>='} 0, got {arr[k]!r}")
     return arr
+
+
+def refuse_first(field, bad, message, *, shift=0, path=None) -> None:
+    """Raise ValidationError naming ``field`` at the first True of the mask ``bad`` (index ``k`` +
+    ``shift``), with ``message(k)``."""
+    if bad.any():
+        k = int(np.argmax(bad)) + shift
+        raise ValidationError(field, message(k), index=k, path=path)
 
 
 def _check_unique(name, keys, what, ci=None, cj=None):

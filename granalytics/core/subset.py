@@ -17,7 +17,6 @@ from granalytics.core.snapshot import RunMeta
 from granalytics.base.validation import FLAG, PATH, WINDOW, Array, Interval, Options, validate_params
 
 
-
 @validate_params({"revolutions": [Array(ndim=1)], "every": [Interval(Integral, 1, None)],
                   "full_window": [WINDOW, None], "window_every": [Interval(Integral, 1, None)]})
 def thinned_frames(revolutions, every=1, full_window=None, window_every=1) -> np.ndarray:
@@ -85,8 +84,8 @@ def replacing_run(dst, overwrite=False):
             yield tmp
 
 
-@validate_params({"src": [PATH], "dst": [PATH], "frames": [Array(ndim=1)], "float_dtype": [Options(("float64", "float32"))],
-                  "overwrite": [FLAG], "progress": [FLAG]})
+@validate_params({"src": [PATH], "dst": [PATH], "frames": [Array(ndim=1)],
+                  "float_dtype": [Options(("float64", "float32"))], "overwrite": [FLAG], "progress": [FLAG]})
 def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, progress=False) -> str:
     """Copy some frames of a run into a new run file, optionally stored as float32.
 
@@ -123,15 +122,15 @@ def subset_run(src, dst, frames, *, float_dtype="float64", overwrite=False, prog
             raise ValidationError("frames", f"must be increasing indices in [0, {len(run)}) of {src}")
         meta = RunMeta.from_dict(run.meta.to_dict())
         meta.provenance = {**meta.provenance, "subset_of": {
-            "file": os.path.basename(os.fspath(src)), "frames_in_source": len(run),
+            "file": os.path.basename(src), "frames_in_source": len(run),
             "frames_kept": frames.tolist(), "float_dtype": float_dtype}}
         # the subset plans the frames it keeps; a subset of an unfinished run stays unfinished
         # through the source's missing wall time, not through a frame count that no longer applies
         meta.provenance.pop("planned_frames", None)
         if run.unfinished is None:
             meta.provenance["planned_frames"] = int(frames.size)
-        with replacing_run(dst, overwrite) as tmp, RunWriter(tmp, meta, overwrite=True, float_dtype=float_dtype) as writer:
-            for k in tqdm(frames, disable=not progress, unit="frame", desc=f"subset {os.path.basename(os.fspath(src))}"):
+        with replacing_run(dst, overwrite) as tmp, \
+                RunWriter(tmp, meta, overwrite=True, float_dtype=float_dtype) as writer:
+            for k in tqdm(frames, disable=not progress, unit="frame", desc=f"subset {os.path.basename(src)}"):
                 writer.append(run[int(k)])
-    return os.fspath(dst)
-
+    return dst

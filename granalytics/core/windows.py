@@ -16,9 +16,7 @@ not at the times the window asks for.
 
 from __future__ import annotations
 
-
 import numpy as np
-
 
 __all__ = ["WINDOW_TOLERANCE", "window_tolerance", "window_mask", "clip_window"]
 

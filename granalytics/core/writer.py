@@ -15,12 +15,12 @@ from granalytics._version import __version__
 from granalytics.base.errors import GranalyticsError, RunFileError, RunWriteError, ValidationError, one_line
 from granalytics.base.files import WriterLock, check_not_open_elsewhere, check_replaceable
 from granalytics.base.interrupts import raise_dropped_interrupt
-from granalytics.core.format import FORMAT_NAME, FORMAT_VERSION, CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS
+from granalytics.core.format import (CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, FORMAT_NAME, FORMAT_VERSION,
+                                     INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS)
 from granalytics.core.native import HDF5Handle
 from granalytics.core.reader import open_run
 from granalytics.core.snapshot import META, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
 from granalytics.base.validation import FLAG, PATH, Instance, Interval, Options, validate_params
-
 
 
 def _write_failure(exc) -> str:
@@ -147,10 +147,9 @@ class RunWriter(HDF5Handle):
 
         Used to resume a killed writer (e.g. a simulation restarted from a checkpoint): under
         the run's lock, the first ``n_frames`` frames and the metadata are copied into a new file,
-        checked against the original, and the new file then atomically replaces ``path``; later
-        frames of the old file are dropped. The storage (compression, float type) and the
-        metadata attributes are kept as they were unless ``kwargs`` (as for :class:`RunWriter`)
-        say otherwise. On any error ``path`` is left untouched.
+        which then atomically replaces ``path``; later frames of the old file are dropped. The
+        storage (compression, float type) and the metadata attributes are kept as they were unless
+        ``kwargs`` (as for :class:`RunWriter`) say otherwise. On any error ``path`` is left untouched.
 
         Raises
         ------
@@ -173,8 +172,8 @@ class RunWriter(HDF5Handle):
         try:
             with open_run(path) as run:
                 if len(run) < n_frames:
-                    raise RunFileError(
-                        f"{path}: holds {len(run)} complete frames, cannot continue after frame {n_frames}")
+                    raise RunFileError(f"{path}: holds {len(run)} complete frames, cannot continue after frame "
+                                       f"{n_frames}")
                 settings = {**_storage_settings(run._file), **kwargs}
                 writer = cls(tmp, run.meta, overwrite=True, _lock=lock, **settings)
                 # keep the metadata and file attributes exactly as stored
@@ -188,7 +187,6 @@ class RunWriter(HDF5Handle):
                 for k in range(n_frames):
                     writer.append(run[k])
                 writer._file.flush()
-                _check_continued(run, writer, n_frames, path)
             raise_dropped_interrupt()  # a Ctrl-C that Python dropped meanwhile replaces nothing
             os.replace(tmp, path)  # the open handle follows the file to its new name
         except BaseException:
@@ -221,40 +219,25 @@ class RunWriter(HDF5Handle):
         except ValidationError as exc:
             raise exc.located(self.path, frame) from None
         n = snapshot.n_particles
-        if self._n_particles is None:
-            if n != self.meta.n_particles:
-                raise ValidationError(
-                    "radius", f"frame has {n} particles but meta.n_particles is {self.meta.n_particles}",
-                    frame=frame, path=self.path,
-                )
-        elif n != self._n_particles:
-            raise ValidationError(
-                "radius", f"particle count changed from {self._n_particles} to {n}; a run holds a fixed particle set",
-                frame=frame, path=self.path,
-            )
-        ids = np.sort(np.asarray(snapshot.ids))
+        if n != self.meta.n_particles:  # frame 0 holds meta.n_particles, and so does every later one
+            raise ValidationError("radius", f"particle count changed from meta.n_particles = {self.meta.n_particles} "
+                                  f"to {n}; a run holds a fixed particle set", frame=frame, path=self.path)
+        ids = np.sort(snapshot.ids)
         if self._ids is not None and not np.array_equal(ids, self._ids):
             new = np.setdiff1d(ids, self._ids)
-            raise ValidationError(
-                "ids", f"the particle set changed: id {int(new[0])} is not in frame 0 ({new.size} new ids); a run "
-                       "holds a fixed particle set (the same ids in every frame)",
-                frame=frame, path=self.path,
-            )
+            raise ValidationError("ids", f"the particle set changed: id {int(new[0])} is not in frame 0 ({new.size} "
+                                  "new ids); a run holds a fixed particle set (the same ids in every frame)",
+                                  frame=frame, path=self.path)
         if not snapshot.time > self._last_time:
-            raise ValidationError(
-                "time", f"must increase from frame to frame: {snapshot.time!r} after {self._last_time!r}",
-                frame=frame, path=self.path,
-            )
+            raise ValidationError("time", f"must increase from frame to frame: {snapshot.time!r} after "
+                                  f"{self._last_time!r}", frame=frame, path=self.path)
         if self._last_step is not None and not (
             snapshot.step > self._last_step and not self._constant_steps
             or snapshot.step == self._last_step and (self._constant_steps or frame == 1)
         ):
-            raise ValidationError(
-                "step", f"must increase from frame to frame: {snapshot.step} after {self._last_step}"
-                + (" (or stay the same in every frame when steps are not recorded)"
-                   if frame == 1 or self._constant_steps else ""),
-                frame=frame, path=self.path,
-            )
+            raise ValidationError("step", f"must increase from frame to frame: {snapshot.step} after {self._last_step}"
+                                  + (" (or stay the same in every frame when steps are not recorded)"
+                                     if frame == 1 or self._constant_steps else ""), frame=frame, path=self.path)
         if self._n_particles is None:
             self._create_datasets(n)
             self._ids = ids
@@ -332,18 +315,16 @@ class RunWriter(HDF5Handle):
         """After a failed write: close the HDF5 file whatever it says (an HDF5 file left open in
         that state crashes the interpreter when it exits), release the lock; the file is not
         compacted or trimmed (writing is what failed)."""
-        import contextlib as _contextlib
-
         if self._file is not None:
             fid = self._file.id
-            with _contextlib.suppress(Exception):
+            with contextlib.suppress(Exception):
                 objects = fid.get_obj_ids()
             for oid in locals().get("objects", ()):  # every dataset and group, then the file itself
-                with _contextlib.suppress(Exception):
+                with contextlib.suppress(Exception):
                     while oid.valid:
                         oid._close()
         self._file = None
-        with _contextlib.suppress(Exception):
+        with contextlib.suppress(Exception):
             self._lock.release()
 
     def _discard(self) -> None:
@@ -355,27 +336,20 @@ class RunWriter(HDF5Handle):
                 pass
             self._file = None
 
-    def close(self, compact=True) -> None:
+    def close(self) -> None:
         """Close the file (idempotent) and release the lock file.
 
-        With ``compact`` (default), the datasets are then copied into a fresh file that replaces
-        the original: appending in SWMR mode leaves the space of every rewritten partial chunk
-        unused, and the copy drops it (and HDF5's "open for write" flag). A killed writer skips
-        this step; its file stays valid, only larger. The lock is held until the copy is done.
+        The datasets are then copied into a fresh file that replaces the original: appending in
+        SWMR mode leaves the space of every rewritten partial chunk unused, and the copy drops it
+        (and HDF5's "open for write" flag). A killed writer skips this step; its file stays valid,
+        only larger. The lock is held until the copy is done.
         """
         if self._file is None:
             return
         try:
             self._trim()
             super().close()
-            if compact:
-                self._compact()
-            elif self._provenance_update:
-                try:
-                    with h5py.File(self.path, "r+") as f:
-                        self._write_provenance_update(f)
-                except OSError as exc:
-                    raise RunFileError(f"{self.path}: cannot record the provenance ({one_line(exc)})") from None
+            self._compact()
         finally:
             if self._lock is not None:
                 self._lock.release()
@@ -460,30 +434,9 @@ def _storage_settings(f) -> dict:
     return out
 
 
-def _check_continued(run, writer, n_frames, path) -> None:
-    """The continued file holds exactly the first ``n_frames`` frames' index and the metadata."""
-    f = writer._file
-    same_meta = dict(f["meta"].attrs.items()).keys() == dict(run._file["meta"].attrs.items()).keys() and all(
-        np.array_equal(np.asarray(value), np.asarray(run._file["meta"].attrs[key]))
-        for key, value in f["meta"].attrs.items()
-    )
-    if n_frames:
-        index_same = (np.array_equal(f["frames/time"][:], run.times[:n_frames])
-                      and np.array_equal(f["frames/step"][:], run.steps[:n_frames])
-                      and np.array_equal(f["contacts/count"][:], run.n_contacts[:n_frames])
-                      and f["contacts/i"].shape[0] == int(run.n_contacts[:n_frames].sum()))
-    else:
-        index_same = "frames" not in f
-    if not (same_meta and index_same):
-        raise RunFileError(f"{path}: the copy of its first {n_frames} frames differs from the original; "
-                           "the file was left unchanged")
-
-
 def _write_meta(group, meta: RunMeta):
     for key, value in meta.to_dict().items():
         if key in ("sim_config", "provenance"):
             group.attrs[key] = json.dumps(value, sort_keys=True)
         else:
             group.attrs[key] = np.asarray(value)
-
-

@@ -8,17 +8,20 @@ Units: time in seconds; granule sizes in primary particles (of the run: CG parti
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.population_balance.grid import (distribution_summary, ks_distance, pbm_grid, project_counts,
-                                                          size_counts)
+from granalytics.analysis.population_balance.grid import (RATIO, distribution_summary, ks_distance, pbm_grid,
+                                                          project_counts, size_counts)
 from granalytics.analysis.population_balance.model import PopulationBalance, population_balance
 from granalytics.analysis.tracking import breakage_rate, coalescence_kernel, track_run
+from granalytics.analysis.tracking.tracks import TRACKS
 from granalytics.base.errors import ParameterError
+from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Array, Instance, Interval, validate_params
+from granalytics.core.reader import Run, RunSlice
 
 
 @dataclass(eq=False)
@@ -65,6 +68,8 @@ class PBMRates:
                                   erosion=self.classes, **kwargs)
 
 
+@validate_params({"tracks": [TRACKS], "n_particles": [Interval(Integral, 1, None)],
+                  "size_bins": [Array(ndim=1, within=Interval(Real, 1, None)), None], "bins_per_decade": [POSITIVE]})
 def fit_pbm_rates(tracks, n_particles, size_bins=None, *, bins_per_decade=4) -> PBMRates:
     """Measure every rate of :func:`population_balance` on tracked granules.
 
@@ -258,6 +263,9 @@ class PBMPrediction:
         return pd.concat(frames, ignore_index=True)
 
 
+@validate_params({"run": [Instance((Run, RunSlice), "an open run (granalytics.open_run)")], "fit_window": [WINDOW],
+                  "predict_window": [WINDOW], "min_fragment": [Interval(Integral, 1, None)], "ratio": [RATIO],
+                  "progress": [FLAG]})
 def pbm_from_run(run, fit_window, predict_window, *, method="gna", min_fragment=2, size_bins=None,
                  bins_per_decade=4, ratio=2 ** 0.25, progress=False, **params) -> PBMPrediction:
     """Measure the rates on ``fit_window`` of a run and predict its size distribution over
@@ -292,9 +300,6 @@ def pbm_from_run(run, fit_window, predict_window, *, method="gna", min_fragment=
 
     fit_window = tuple(float(v) for v in fit_window)
     predict_window = tuple(float(v) for v in predict_window)
-    for name, w in (("fit_window", fit_window), ("predict_window", predict_window)):
-        if len(w) != 2 or not (math.isfinite(w[0]) and math.isfinite(w[1]) and w[0] < w[1]):
-            raise ParameterError(f"{name} must be two increasing revolutions, got {w!r}")
     n = int(run.meta.n_particles)
     sets = {}
     for name, w in (("fit_window", fit_window), ("predict_window", predict_window)):

@@ -92,10 +92,9 @@ def _values(spec, name, column, grid, extrapolate):
         c = classify(grid)
         out = np.where(c >= 0, values[np.clip(c, 0, None)], 0.0)
         return np.nan_to_num(out, nan=0.0)
-    if callable(spec):
-        out = np.broadcast_to(np.asarray(spec(grid.astype(float)), dtype=float), grid.shape).copy()
-    else:
-        out = np.full(grid.size, float(spec))
+    if not callable(spec):
+        return np.full(grid.size, float(spec))  # a number >= 0 (population_balance's constraints)
+    out = np.broadcast_to(np.asarray(spec(grid.astype(float)), dtype=float), grid.shape).copy()
     if not np.isfinite(out).all() or (out < 0).any():
         bad = int(np.nonzero(~np.isfinite(out) | (out < 0))[0][0])
         raise ParameterError(f"{name} must be finite and >= 0, got {out[bad]!r} at size {grid[bad]}")
@@ -130,11 +129,10 @@ def _kernel_matrix(kernel, grid, extrapolate):
         out = np.zeros((g, g))
         out[np.ix_(ok, ok)] = table[np.ix_(c[ok], c[ok])]
         return out
+    if not callable(kernel):
+        return np.full((g, g), float(kernel))  # a number >= 0 (population_balance's constraints)
     x = grid.astype(float)
-    if callable(kernel):
-        out = np.broadcast_to(np.asarray(kernel(x[:, None], x[None, :]), dtype=float), (g, g)).copy()
-    else:
-        out = np.full((g, g), float(kernel))
+    out = np.broadcast_to(np.asarray(kernel(x[:, None], x[None, :]), dtype=float), (g, g)).copy()
     if not np.isfinite(out).all() or (out < 0).any():
         i, j = (int(v[0]) for v in np.nonzero(~np.isfinite(out) | (out < 0)))
         raise ParameterError(f"kernel must be finite and >= 0, got {out[i, j]!r} at sizes ({grid[i]}, {grid[j]})")
@@ -237,11 +235,6 @@ class PopulationBalance:
         (their mean size [particles]), ``yield_fraction`` (fraction of the primary particles in
         them), ``free`` (free particles) and ``mass`` (Σ x N(x))."""
         return distribution_summary(self.numbers, self.grid, self.t_s, min_size=min_size)
-
-    def to_frame(self) -> pd.DataFrame:
-        """Long table: one row per time and pivot, ``t_s``, ``size``, ``number``."""
-        t, g = np.meshgrid(self.t_s, self.grid, indexing="ij")
-        return pd.DataFrame({"t_s": t.ravel(), "size": g.ravel(), "number": self.numbers.ravel()})
 
 
 def _initial_counts(initial):

@@ -62,20 +62,15 @@ class Surrogate:
             The inputs, then ``<output>`` (mean) and ``<output>_std`` (predictive standard
             deviation, including the fitted white-noise level: the scatter expected of a new run).
         """
-        if isinstance(points, dict):
-            unknown = sorted(set(points) - set(self.inputs))
-            if unknown:
-                raise ParameterError(f"unknown input {unknown[0]!r}; the surrogate's inputs are {self.inputs}")
-            try:
-                frame = pd.DataFrame({k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in points.items()})
-            except (TypeError, ValueError) as exc:
-                raise ParameterError(f"prediction inputs must be numbers ({exc})") from None
-        else:
-            frame = points
-        missing = [k for k in self.inputs if k not in frame]
+        unknown = sorted(set(points) - set(self.inputs)) if isinstance(points, dict) else []
+        if unknown:
+            raise ParameterError(f"unknown input {unknown[0]!r}; the surrogate's inputs are {self.inputs}")
+        missing = [k for k in self.inputs if k not in points]
         if missing:
             raise ParameterError(f"missing input {missing[0]!r}; the surrogate's inputs are {self.inputs}")
         try:
+            frame = pd.DataFrame({k: np.atleast_1d(points[k]) for k in self.inputs}) if isinstance(points, dict) \
+                else points
             values = frame[self.inputs].to_numpy(dtype=float)
         except (TypeError, ValueError) as exc:
             raise ParameterError(f"prediction inputs must be numbers ({exc})") from None

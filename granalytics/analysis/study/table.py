@@ -19,7 +19,8 @@ from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, combine_replicas
 from granalytics.base.errors import ParameterError
 from granalytics.core.manifest import MANIFEST_COLUMNS, file_sha256, read_manifest
-from granalytics.base.validation import FLAG, Array, Instance, Path, validate_params
+from granalytics.base.validation import FLAG, WINDOW, Array, Instance, Options, Path, validate_params
+from granalytics.identification import METHODS
 from granalytics.identification.cohesion import COHESION, check_cohesion
 
 
@@ -36,7 +37,7 @@ _BOOKKEEPING = ("status", *MANIFEST_COLUMNS, "source_sha256")
 def _original_values(meta):
     """(γ, Ω) of the original system: ``meta.sim_config["original"]`` when the run came from
     ``sim``, else γ/α (Weber scaling γ_CG = α·γ) and the run's Ω."""
-    original = (meta.sim_config or {}).get("original") or {}
+    original = meta.sim_config.get("original", {})
     gamma = original.get("surface_tension", meta.surface_tension / meta.alpha)
     omega = original.get("drum_omega", meta.drum_omega)
     return float(gamma), float(omega)
@@ -61,7 +62,7 @@ def _checked_point_file(sweep_dir, record) -> str:
 def _check_point_parameters(path, record, meta) -> None:
     """Refuse a point file whose own parameters (γ and Ω of its original system, α, seed) are not
     the manifest row's: another point's file under this point's name."""
-    params = (meta.sim_config or {}).get("params") or {}
+    params = meta.sim_config.get("params", {})
     gamma, omega = _original_values(meta)
     own = {"gamma": gamma, "omega": omega, "alpha": float(meta.alpha), "seed": params.get("seed")}
     for key, value in own.items():
@@ -74,7 +75,7 @@ def _check_point_parameters(path, record, meta) -> None:
 
 
 @validate_params({"sweep_dir": [Path("a folder"), Instance((list, tuple), "a list of them")],
-                  "window": [Array(ndim=1, length=2, finite=True)], "cohesion": [COHESION, Array(ndim=1, dtype=str)],
+                  "window": [WINDOW], "method": [Options(METHODS)], "cohesion": [COHESION, Array(ndim=1, dtype=str)],
                   "replicas": [Instance(str), None], "progress": [FLAG]})
 def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("acting", "bridge"), *,
                 replicas=None, progress=False, **params) -> pd.DataFrame:
@@ -116,7 +117,7 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     """
     from tqdm.auto import tqdm
 
-    from granalytics.identification import METHODS, method_parameters
+    from granalytics.identification import method_parameters
     from granalytics.core import open_run
     from granalytics.analysis.stats import run_stats, steady_state
 
@@ -127,8 +128,6 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
                           ignore_index=True)
         return table if replicas is None else _combine_replica_rows(table, replicas, sweep_dir[0])
 
-    if method not in METHODS:
-        raise ParameterError(f"unknown method {method!r}; available: {sorted(METHODS)}")
     conventions = [cohesion] if isinstance(cohesion, str) else list(cohesion)
     if not conventions:
         raise ParameterError("cohesion: give at least one convention")
@@ -145,7 +144,7 @@ def study_table(sweep_dir, window=DEFAULT_WINDOW_REV, method="gna", cohesion=("a
     param_cols = [c for c in manifest.columns if c not in ("point", *_BOOKKEEPING)]
     rows = []
     for record in tqdm(done.to_dict("records"), disable=not progress, unit="point", desc="study"):
-        if not isinstance(record.get("file"), str) or not record["file"]:
+        if not record["file"]:  # read_manifest reads the column as text, "" where it is empty
             raise ParameterError(f"{os.path.join(os.fspath(sweep_dir), 'manifest.csv')}: point {record['point']} is "
                                  f"done but its file field is empty ({record.get('file')!r})")
         path = _checked_point_file(sweep_dir, record)
@@ -219,7 +218,6 @@ def select_cohesion(table, cohesion):
     return part
 
 
-
 def growth_rows(table, cohesion, columns=("gamma", "mean_volume_norm_mean")) -> pd.DataFrame:
     """The rows of ``table`` under ``cohesion`` (:func:`select_cohesion`), once it has ``columns``
     (a ParameterError naming the first missing one otherwise)."""
@@ -230,6 +228,8 @@ def growth_rows(table, cohesion, columns=("gamma", "mean_volume_norm_mean")) -> 
     return part
 
 
+@validate_params({"table": [Instance(pd.DataFrame, "a study table (a DataFrame, study_table's result)")],
+                  "cohesion": [COHESION, None]})
 def growth_points(table, cohesion="acting") -> pd.DataFrame:
     """The points of the paper's Fig 7: the steady-state ⟨V_g⟩/V_p of a :func:`study_table` at
     every (Ω, γ) of one cohesion convention, its rows of one point (several seeds) combined.

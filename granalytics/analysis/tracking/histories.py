@@ -12,12 +12,12 @@ from numbers import Integral
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.stats import size_unit_factor
+from granalytics.analysis.stats import SIZE_UNITS, size_unit_factor
 from granalytics.analysis.tracking.tracks import TRACKS, GranuleTracks
-from granalytics.base.validation import Interval, validate_params
+from granalytics.base.validation import Interval, Options, validate_params
 
 
-@validate_params({"tracks": [TRACKS], "n": [Interval(Integral, 0, None)]})
+@validate_params({"tracks": [TRACKS], "n": [Interval(Integral, 0, None)], "size_unit": [Options(SIZE_UNITS)]})
 def size_histories(tracks: GranuleTracks, n=8, *, size_unit="particles", alpha=None) -> pd.DataFrame:
     """The size histories of the ``n`` longest-lived tracks (ties: the largest granule first).
 

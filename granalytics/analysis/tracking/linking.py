@@ -18,7 +18,7 @@ from granalytics.analysis.tracking.steps import (aligned, smallest_ids, sorted_b
                                                  step_fates, step_links, step_tracks)
 from granalytics.analysis.tracking.tracks import GranuleTracks, events_table, tracks_table
 from granalytics.base.errors import ParameterError
-from granalytics.base.validation import FLAG, Array, Instance, Interval, Options, validate_params
+from granalytics.base.validation import FLAG, WINDOW, Array, Instance, Interval, Options, validate_params
 
 
 #: Continuation rules of :func:`track_granules`: ``"main"`` (the main branch continues through
@@ -215,7 +215,7 @@ def _granule_sizes(labels):
     return np.bincount(labels[labels >= 0], minlength=n_labels).astype(np.int64)
 
 
-@validate_params({"window": [Array(ndim=1, length=2, finite=True), None], "progress": [FLAG],
+@validate_params({"window": [WINDOW, None], "progress": [FLAG],
                   "min_fragment": [Interval(Integral, 1, None)], "continuation": [CONTINUATION], "return_labels": [FLAG]})
 def track_run(frames, method="gna", window=None, progress=False, *, min_fragment=2, continuation="strict",
               return_labels=False, jobs=1, scheduler=None, **params):

@@ -19,7 +19,7 @@ from numbers import Real
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.stats import size_unit_factor
+from granalytics.analysis.stats import SIZE_UNITS, size_unit_factor
 from granalytics.analysis.tracking.tracks import GranuleTracks, KINDS, TRACKS
 from granalytics.core.windows import window_tolerance
 from granalytics.base.errors import ParameterError, user_stacklevel
@@ -27,7 +27,7 @@ from granalytics.base.validation import POSITIVE, Array, Instance, Interval, Opt
 
 #: the constraints of the rates by size class: class edges, whole numbers >= 1
 _CLASS_CONSTRAINTS = {"tracks": [TRACKS], "size_bins": [Array(ndim=1, within=Interval(Real, 1, None)), None],
-                      "bins_per_decade": [POSITIVE]}
+                      "bins_per_decade": [POSITIVE], "size_unit": [Options(SIZE_UNITS)]}
 
 
 def _steps(tracks):
