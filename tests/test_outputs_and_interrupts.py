@@ -678,13 +678,13 @@ def test_a_dropped_ctrl_c_replaces_no_output_and_is_not_lost_at_the_end(run_file
     # dropped while the table is printed, after the outputs were written: exit 130 all the same
     import granalytics.cli.stats as stats
 
-    real = stats.steady_error_notes
+    real = stats.format_steady_table
 
     def notes(*args, **kwargs):
         _DroppedInterrupt()
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(stats, "steady_error_notes", notes)
+    monkeypatch.setattr(stats, "format_steady_table", notes)
     assert main(["stats", run_file, "--window", "0:2", "--out", str(tmp_path / "ts.csv"), "--quiet"]) == 130
     assert pd.read_csv(tmp_path / "ts.csv").shape[0] > 0
     err = capsys.readouterr().err.strip().splitlines()  # (the growing synthetic run also gets the drift warning)

@@ -10,7 +10,7 @@ from granalytics.analysis.system import check_replicas, run_identity
 from granalytics.base.files import WriterLock
 from granalytics.report import save
 from granalytics.report.files import check_outputs, save_figure, staged_outputs
-from granalytics.report.tables import steady_error_notes
+from granalytics.report.tables import format_steady_table
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, check_window, run_stats, size_distribution, steady_state
 from granalytics.cli.options import (add_frame_loop_options, add_gna_options, add_size_unit_option, criterion_params,
@@ -51,8 +51,6 @@ def cmd_stats(args):
 
 
 def _stats(args):
-    import pandas as pd
-
     check_outputs(tables=(args.out, args.steady_out, args.sizes_out), plots=(args.plot,), overwrite=args.overwrite,
                   run=args.run)
     by, window = (("time_s", args.window_time) if args.window_time is not None
@@ -114,16 +112,5 @@ def _stats(args):
     print(f"steady state over {'revolutions' if by == 'revolutions' else 'time [s]'} [{lo:.4g}, {hi:.4g}]{clipped} "
           f"(C_agg={args.c_agg:g}, A_agg={args.a_agg_deg:g}°, cohesion={args.cohesion})"
           + (f", mean over {args.run} and {len(args.replica)} replica(s):" if args.replica else ":"))
-    shown = steady if args.replica else steady.rename(columns={"sem": "block_sem"})
-    with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
-        print(shown.to_string(na_rep="n/a"))
-    if args.replica:
-        print("replica_sem: standard error of the mean over the replicas (std of the replica means / √n); "
-              "replica_std: standard deviation of the replica means; block_sem: what the replicas' block s.e.m. "
-              "say of the same mean, √(Σ sem_i²)/n")
-    else:
-        print("std: over the frames of the window; block_sem: standard error of the mean from the means of its "
-              "blocks (the sem column of --steady-out)")
-    for note in steady_error_notes(steady, by, replicas=bool(args.replica)):
-        print(note)
+    print(format_steady_table(steady, by, replicas=bool(args.replica)))
     return 0

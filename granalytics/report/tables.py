@@ -1,14 +1,16 @@
 """Results as text: numbers with their errors (:func:`plus_minus`), the CG table
-(:func:`format_cg_table`) and the notes that say why an error of a printed table is n/a
-(:func:`steady_error_notes`)."""
+(:func:`format_cg_table`), a steady-state table (:func:`format_steady_table`) and the notes that
+say why an error of a printed table is n/a (:func:`steady_error_notes`)."""
 
 from __future__ import annotations
 
 import math
 
+import pandas as pd
+
 from granalytics.analysis.metrics import HEADLINE, METRICS
 
-__all__ = ["plus_minus", "format_cg_table", "steady_error_notes"]
+__all__ = ["plus_minus", "format_cg_table", "format_steady_table", "steady_error_notes"]
 
 
 def plus_minus(value, error, digits=2) -> str:
@@ -110,3 +112,21 @@ def steady_error_notes(steady, by, *, replicas=False) -> list:
         notes.append(f"n/a: {', '.join(missing.index[~empty])}: no block s.e.m.: {what} a single block "
                      f"(fewer than two {blocks} of frames), too short to estimate it; widen the window")
     return notes
+
+
+def format_steady_table(steady, by="revolutions", *, replicas=False) -> str:
+    """A steady-state table (:func:`granalytics.steady_state`, of one run or of replicas) as text:
+    one row per metric (5 significant digits; ``sem`` shown as ``block_sem`` for one run), a line
+    that says what each error column is, and the notes of :func:`steady_error_notes`."""
+    shown = steady if replicas else steady.rename(columns={"sem": "block_sem"})
+    with pd.option_context("display.float_format", "{:.5g}".format, "display.width", 120):
+        lines = [shown.to_string(na_rep="n/a")]
+    if replicas:
+        lines.append("replica_sem: standard error of the mean over the replicas (std of the replica means / √n); "
+                     "replica_std: standard deviation of the replica means; block_sem: what the replicas' block s.e.m. "
+                     "say of the same mean, √(Σ sem_i²)/n")
+    else:
+        lines.append("std: over the frames of the window; block_sem: standard error of the mean from the means of its "
+                     "blocks (the sem column of --steady-out)")
+    lines += steady_error_notes(steady, by, replicas=replicas)
+    return "\n".join(lines)
