@@ -7,7 +7,7 @@ frames, the frames of the steady window [3, 6] of a run written every 0.05 revol
 frames of ``--window``: the rows, the DataFrame's own size (``memory_usage(deep=True)``), the peak
 of Python-traced memory while :func:`particle_table` builds it (numpy and pandas allocations
 included; ``tracemalloc``), the same peak for the streamed path of ``granalytics table``
-(:func:`granalytics.analysis.table.particle_frames`, one frame's table at a time, written to Parquet by
+(:func:`granalytics.analysis.particle_tables.particle_frames`, one frame's table at a time, written to Parquet by
 :func:`granalytics.report.files.stream_table`), and
 the wall time of each. Prints a table.
 """
@@ -26,7 +26,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 import granalytics as ga  # noqa: E402
 from granalytics.datasets.synthetic import write_synthetic_run  # noqa: E402
-from granalytics.analysis.table import particle_frames  # noqa: E402
+from granalytics.analysis.particle_tables import particle_frames  # noqa: E402
 from granalytics.report.files import stream_table  # noqa: E402
 
 

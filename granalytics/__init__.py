@@ -20,8 +20,8 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :func:`sieve_grid` (:class:`SieveGrid`)
 - cohesion conventions (which force is F_coh): :func:`cohesive_force`, :data:`COHESION_CONVENTIONS`
 - coarse-graining comparison (paper Figs 3–6): :func:`compare_cg`, :class:`CGComparison`
-- the drum's confinement (D/d, L/d, bed depth, wall contacts): :func:`drum_confinement`,
-  :func:`run_confinement`, :func:`wall_touching`; the confinement curve and the split of a CG
+- the drum's confinement (D/d, L/d, bed depth, wall contacts): :func:`confinement_of_drum`,
+  :func:`confinement_of_run`, :func:`wall_touching`; the confinement curve and the split of a CG
   deviation into confinement and scaling rules: :func:`confinement_table`,
   :func:`fit_confinement_curve`, :func:`decompose_cg`, :data:`CONFINEMENT_RULE`
 - run subsets (fewer frames, float32): :func:`subset_run`
@@ -62,10 +62,10 @@ _EXPORTS = {
                     ".analysis.size_classes"),
     **dict.fromkeys(("RunMeta", "Snapshot"), ".core.snapshot"),
     **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
-                     "drum_confinement"), ".analysis.bed"),
-    **dict.fromkeys(("run_confinement", "wall_touching", "CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
+                     "confinement_of_drum"), ".analysis.bed"),
+    **dict.fromkeys(("confinement_of_run", "wall_touching", "CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
                      "fit_confinement_curve", "bed_flow"), ".analysis.confinement"),
-    **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.table"),
+    **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.particle_tables"),
     **dict.fromkeys(("frame_stats", "granule_table", "replica_steady_state", "run_stats", "size_distribution",
                      "steady_state"), ".analysis.stats"),
     **dict.fromkeys(("GrowthFit", "Surrogate", "fit_granule_growth", "fit_surrogate", "growth_points", "study_table"),
@@ -81,7 +81,7 @@ _EXPORTS = {
 #: ordinary subpackages.
 _SUBMODULES = {
     "datasets": ".datasets", "base": ".base", "core": ".core", "convert": ".convert", "export": ".export",
-    "analysis": ".analysis", "report": ".report", "edges": ".identification.edges", "table": ".analysis.table",
+    "analysis": ".analysis", "report": ".report", "edges": ".identification.edges",
 }
 
 
@@ -103,9 +103,9 @@ def __dir__():
 __all__ = [
     "__version__",
     "Snapshot", "RunMeta",
-    "bed_structure", "BedStructure", "PLANAR_FRACTION", "DrumConfinement", "drum_confinement", "run_confinement",
+    "bed_structure", "BedStructure", "PLANAR_FRACTION", "DrumConfinement", "confinement_of_drum", "confinement_of_run",
     "wall_touching", "FILL_PACKING", "confinement_table", "fit_confinement_curve", "ConfinementFit", "decompose_cg",
-    "CONFINEMENT_RULE", "bed_flow", "cg_rule_of", "particle_table", "granule_track_table", "PARTICLE_COLUMNS", "table",
+    "CONFINEMENT_RULE", "bed_flow", "cg_rule_of", "particle_table", "granule_track_table", "PARTICLE_COLUMNS",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",
     "GraphNetworkAnalysis", "DBSCANClustering", "VirtualSieve", "CommunityDetection", "CustomEdges",

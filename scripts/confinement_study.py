@@ -159,7 +159,7 @@ def pass_rates():
                               co_moving_rigid(s, 0.05, "drum")[strong].mean()])
             rates = np.array(rates)
             mean, err = rates.mean(axis=0), rates.std(axis=0, ddof=1) / np.sqrt(len(rates))
-            drum = ga.run_confinement(run.meta)
+            drum = ga.confinement_of_run(run.meta)
             print(f"| {label} | {run.meta.alpha:g} | {drum.drum_ratio:.1f} | " +
                   " | ".join(_fmt(m, e) for m, e in zip(mean, err)) + " |")
 

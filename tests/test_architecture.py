@@ -91,7 +91,7 @@ def test_importing_the_core_loads_the_run_file_contract_only():
     code = "import sys, granalytics.core; print(' '.join(sorted(m for m in sys.modules if m.startswith(('granalytics', 'dask', 'distributed', 'scipy', 'numba')))))"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    contract = {"snapshot", "format", "reader", "writer", "subset", "native", "windows"}
+    contract = {"snapshot", "format", "reader", "writer", "subset", "hdf5_file", "windows"}
     base = {"errors", "validation", "files", "interrupts", "resources"}
     assert proc.stdout.split() == sorted({"granalytics", "granalytics._version", "granalytics.base", "granalytics.core"}
                                          | {f"granalytics.core.{m}" for m in contract}

@@ -206,7 +206,7 @@ HINT = "(open the run with granalytics.open_run and pass one frame, e.g. run[0])
     (lambda s: ga.subset_run(None, "b.h5", [0]), "subset_run: src must be a file name"),
     (lambda s: ga.subset_run("a.h5", 5, [0]), "subset_run: dst must be a file name"),
     (lambda s: ga.WriterLock({"a": 1}), "WriterLock: target must be a file name"),
-    (lambda s: ga.run_confinement(None), "run_confinement: meta must be a RunMeta"),
+    (lambda s: ga.confinement_of_run(None), "confinement_of_run: meta must be a RunMeta"),
     (lambda s: ga.wall_touching(s, "meta"), "wall_touching: meta must be a RunMeta"),
     (lambda s: ga.CommunityDetection(resolution="abc").identify(s),
      "CommunityDetection: resolution must be a number > 0, got str 'abc'"),

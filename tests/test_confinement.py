@@ -88,30 +88,30 @@ def test_confinement_closed_forms():
     # a bed filling half the cross-section is as deep as the drum's radius
     d, radius, length = 1e-3, 0.02, 0.01
     n_half = round(0.5 * math.pi * radius**2 * length * 0.6 / (math.pi * d**3 / 6))
-    c = ga.drum_confinement(radius, length, d, n_half)
+    c = ga.confinement_of_drum(radius, length, d, n_half)
     assert (c.drum_ratio, c.length_ratio) == (pytest.approx(40.0), pytest.approx(10.0))
     assert c.fill_fraction == pytest.approx(0.5, rel=1e-4)
     assert c.bed_depth_ratio == pytest.approx(radius / d, rel=1e-3)
     # the lab rule's fill of 25 %: segment of central angle θ with θ − sin θ = π/2
     lab = preset("lab-cg1")
-    c = ga.drum_confinement(lab.drum_radius, lab.drum_length, lab.d_mean, lab.n_particles)
+    c = ga.confinement_of_drum(lab.drum_radius, lab.drum_length, lab.d_mean, lab.n_particles)
     assert c.fill_fraction == pytest.approx(0.25, rel=1e-12)
     theta = 2.309881460010057  # solves θ − sin θ = π/2
     assert c.bed_depth_ratio == pytest.approx((1 - math.cos(theta / 2)) * lab.drum_radius / lab.d_mean, rel=1e-9)
     with pytest.raises(ParameterError, match="drum_length"):
-        ga.drum_confinement(0.1, -1.0, 1e-3, 10)
+        ga.confinement_of_drum(0.1, -1.0, 1e-3, 10)
 
 
 def test_run_confinement_reads_the_recorded_values_or_the_parameters():
     params = {"drum_radius": 0.03, "drum_length": 0.021, "d_mean": 1.5e-3}
     meta = make_meta(500, sim_config={"params": params})
-    assert ga.run_confinement(meta) == ga.drum_confinement(0.03, 0.021, 1.5e-3, 500)
-    recorded = ga.drum_confinement(0.05, 0.02, 1e-3, 100)
+    assert ga.confinement_of_run(meta) == ga.confinement_of_drum(0.03, 0.021, 1.5e-3, 500)
+    recorded = ga.confinement_of_drum(0.05, 0.02, 1e-3, 100)
     meta = make_meta(500, sim_config={"params": params, "confinement": recorded.to_dict()})
-    assert ga.run_confinement(meta) == recorded
-    assert ga.run_confinement(make_meta(10)) is None
+    assert ga.confinement_of_run(meta) == recorded
+    assert ga.confinement_of_run(make_meta(10)) is None
     with pytest.raises(ga.ValidationError, match="confinement"):
-        ga.run_confinement(make_meta(10, sim_config={"confinement": {"drum_ratio": "big"}}))
+        ga.confinement_of_run(make_meta(10, sim_config={"confinement": {"drum_ratio": "big"}}))
 
 
 def test_wall_touching_finds_the_cylinder_the_end_plates_and_a_turned_baffle():

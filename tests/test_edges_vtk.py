@@ -89,7 +89,7 @@ def test_export_carries_granule_track_ids_and_the_drum(tmp_path):
 
     from granalytics.export.vtk import drum_mesh, export_vtk
     from granalytics.datasets.synthetic import write_synthetic_run
-    from granalytics.analysis.table import granule_tracks
+    from granalytics.analysis.particle_tables import granule_tracks
 
     path = write_synthetic_run(tmp_path / "run.h5", n_particles=150, revolutions=0.5, frames_per_revolution=8, seed=2)
     with ga.open_run(path) as run:
@@ -113,7 +113,7 @@ def test_export_carries_granule_track_ids_and_the_drum(tmp_path):
 def test_export_writes_the_track_ids_of_the_continuation_rule(tmp_path):
     """Main-branch ids by default, the strict rule's with continuation="strict"; a bad value is
     refused before anything is written."""
-    from granalytics.analysis.table import granule_tracks
+    from granalytics.analysis.particle_tables import granule_tracks
 
     path = write_synthetic_run(tmp_path / "run.h5", n_particles=200, revolutions=1.0, frames_per_revolution=8, seed=4)
     written = {}

@@ -9,7 +9,7 @@ import pytest
 import granalytics as ga
 from granalytics.core import RunMeta, RunWriter
 from granalytics.datasets.synthetic import synthetic_snapshot
-from granalytics.analysis.system import check_replicas, system_of
+from granalytics.analysis.run_systems import check_replicas, system_of
 from conftest import expects_small_run_warnings
 
 ORIGINAL = {"n_particles": 8100, "d_mean": 1.5e-3, "surface_tension": 0.1095, "drum_omega": 2.0, "seed": 0,

@@ -23,7 +23,7 @@ import numpy as np
 from granalytics.base.validation import POSITIVE, Interval, validate_params
 from granalytics.core.snapshot import SNAPSHOT, Snapshot
 
-__all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "drum_confinement",
+__all__ = ["BedStructure", "bed_structure", "PLANAR_FRACTION", "AXIAL_NORMAL_MIN", "DrumConfinement", "confinement_of_drum",
            "FILL_PACKING"]
 
 #: a contact crosses axial layers when its unit normal has |n_axis| above this
@@ -167,7 +167,7 @@ def _segment_depth(fraction: float) -> float:
 
 @validate_params({**dict.fromkeys(("drum_radius", "drum_length", "d_mean"), [POSITIVE]),
                   "n_particles": [Interval(Integral, 1, None)]})
-def drum_confinement(drum_radius: float, drum_length: float, d_mean: float, n_particles: int) -> DrumConfinement:
+def confinement_of_drum(drum_radius: float, drum_length: float, d_mean: float, n_particles: int) -> DrumConfinement:
     """The confinement of ``n_particles`` spheres of mean diameter ``d_mean`` [m] in a drum of
     radius ``drum_radius`` [m] and length ``drum_length`` [m] (:class:`DrumConfinement`)."""
     bed_area = n_particles * math.pi * d_mean**3 / 6 / FILL_PACKING / drum_length

@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.confinement import confinement_warning, run_confinement
-from granalytics.analysis.system import check_one_system, check_replicas, run_identity
+from granalytics.analysis.confinement import confinement_warning, confinement_of_run
+from granalytics.analysis.run_systems import check_one_system, check_replicas, run_identity
 from granalytics.analysis.metrics import BY_FIGURE
 from granalytics.base.validation import FLAG, WINDOW, Array, validate_params
 from granalytics.core.windows import window_mask
@@ -245,7 +245,7 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
         meta = run.meta
         if len(run) == 0:
             raise ParameterError(f"{run.path}: the run has no frames")
-        drum = run_confinement(meta)
+        drum = confinement_of_run(meta)
         if getattr(run, "unfinished", None):
             warnings.warn(f"{os.fspath(run.path)}: unfinished run: {run.unfinished}; its steady state is that of the "
                           "frames it holds", stacklevel=user_stacklevel())
@@ -397,7 +397,7 @@ def _combine_group(members, label, min_size=2):
 
 def _warn_if_not_one_system(infos, systems, mixed_systems) -> None:
     """Refuse (or warn about) runs that are not coarse-grained from one original system
-    (:func:`~granalytics.analysis.system.check_one_system`); warn when they were made under
+    (:func:`~granalytics.analysis.run_systems.check_one_system`); warn when they were made under
     different CG rules or simulator physics versions."""
     check_one_system([{**i, "system": s} for i, s in zip(infos, systems)], mixed_systems=mixed_systems)
     rules = {i["run"]: i["cg_rule"] for i in infos if i["alpha"] > 1 and i["cg_rule"] is not None}

@@ -31,7 +31,7 @@ from numbers import Real
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.bed import DrumConfinement, bed_structure, drum_confinement
+from granalytics.analysis.bed import DrumConfinement, bed_structure, confinement_of_drum
 from granalytics.base.errors import ParameterError, ValidationError
 from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Array, Instance, Interval, validate_params
 from granalytics.core.snapshot import META, SNAPSHOT, Snapshot
@@ -41,7 +41,7 @@ from granalytics.core import open_run
 from granalytics.analysis.metrics import HEADLINE
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, frame_stats, steady_state
 
-__all__ = ["run_confinement", "wall_touching", "CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", "confinement_table",
+__all__ = ["confinement_of_run", "wall_touching", "CONFINEMENT_RULE", "confinement_warning", "confinement_timeseries", "confinement_table",
            "ConfinementFit", "fit_confinement_curve", "decompose_cg", "BED_COLUMNS", "bed_flow"]
 
 # ----------------------------------------------------------------------------- a run's drum
@@ -51,7 +51,7 @@ def _drum_params(meta):
 
 
 @validate_params({"meta": [META]})
-def run_confinement(meta) -> DrumConfinement | None:
+def confinement_of_run(meta) -> DrumConfinement | None:
     """The confinement of a run's drum from its metadata (a :class:`RunMeta`): the values the
     simulator recorded in ``sim_config["confinement"]``, or computed from ``sim_config["params"]``
     (drum_radius, drum_length, d_mean [m]) for older runs; None for a run without a drum
@@ -73,7 +73,7 @@ def run_confinement(meta) -> DrumConfinement | None:
     if params is None or not all(k in params for k in ("drum_radius", "drum_length", "d_mean")):
         return None
     try:
-        return drum_confinement(params["drum_radius"], params["drum_length"], params["d_mean"], meta.n_particles)
+        return confinement_of_drum(params["drum_radius"], params["drum_length"], params["d_mean"], meta.n_particles)
     except ParameterError as exc:
         raise ValidationError("sim_config.params", str(exc)) from None
 
@@ -256,7 +256,7 @@ def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gn
         series, first = [], None
         for path in paths:
             with open_run(path) as run:
-                drum = run_confinement(run.meta)
+                drum = confinement_of_run(run.meta)
                 if drum is None:
                     raise ParameterError(f"{path}: the run has no drum description (not a run of the simulator)")
                 first = first or (run.meta, drum)

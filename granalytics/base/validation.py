@@ -26,10 +26,10 @@ import numpy as np
 from granalytics.base.errors import ParameterError, one_line
 
 __all__ = ["Constraint", "Interval", "Options", "Instance", "Array", "Window", "Callable", "Path", "POSITIVE", "FLAG",
-           "PATH", "WINDOW", "shown", "complaint", "validate", "validate_params"]
+           "PATH", "WINDOW", "typed_repr", "violation_message", "validate", "validate_params"]
 
 
-def shown(value, limit=60) -> str:
+def typed_repr(value, limit=60) -> str:
     """``type value`` for a message: the value's repr cut at ``limit`` characters."""
     text = repr(value)
     return f"{type(value).__name__} {text if len(text) <= limit else text[:limit - 3] + '...'}"
@@ -210,14 +210,14 @@ PATH = Path()
 WINDOW = Window()
 
 
-def complaint(allowed, value) -> str | None:
+def violation_message(allowed, value) -> str | None:
     """``"must be <allowed>, got <type> <value>"`` when ``value`` satisfies none of ``allowed`` (a list
     of constraints, None allowing None), else None."""
     if any(value is None if c is None else c.accepts(value) for c in allowed):
         return None
     text = [str(c) for c in allowed]
     text = text[0] if len(text) == 1 else f"{', '.join(text[:-1])} or {text[-1]}"
-    return f"must be {text}, got {one_line(shown(value))}"
+    return f"must be {text}, got {one_line(typed_repr(value))}"
 
 
 def validate(where, constraints, values) -> None:
@@ -225,7 +225,7 @@ def validate(where, constraints, values) -> None:
     for the first parameter of ``constraints`` (name -> list of constraints) whose value in
     ``values`` satisfies none of them."""
     for name, allowed in constraints.items():
-        why = complaint(allowed, values[name])
+        why = violation_message(allowed, values[name])
         if why:
             raise ParameterError(f"{f'{where}: ' if where else ''}{name} {why}")
 

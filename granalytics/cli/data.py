@@ -16,7 +16,7 @@ from granalytics.convert.prefetch import prefetched
 from granalytics.convert.registry import READERS
 from granalytics.core import RunWriter, open_run, replacing_run
 from granalytics.analysis.stats import check_window
-from granalytics.cli.options import (add_continuation_option, add_gna_options, criterion_params, every, interval,
+from granalytics.cli.options import (add_continuation_option, add_gna_options, criterion_params, frame_stride, interval,
                                      selected_frames)
 from granalytics.report.files import check_new_file, check_outputs, stream_table
 
@@ -29,11 +29,11 @@ def add_subset_parser(sub):
                                    "single precision.")
     p.add_argument("run", help="run file (.h5)")
     p.add_argument("--out", required=True, help="run file to write (.h5)")
-    p.add_argument("--every", type=every, default=1, help="keep every N-th frame (default 1: all)")
+    p.add_argument("--every", type=frame_stride, default=1, help="keep every N-th frame (default 1: all)")
     full = p.add_mutually_exclusive_group()
     full.add_argument("--full-window", type=interval, metavar="R0:R1", help="keep every frame within this revolution window")
     full.add_argument("--full-window-time", type=interval, metavar="T0:T1", help="the same in seconds")
-    p.add_argument("--window-every", type=every, default=1, metavar="K",
+    p.add_argument("--window-every", type=frame_stride, default=1, metavar="K",
                    help="inside --full-window keep only the frames whose index is a multiple of K (default 1: all)")
     p.add_argument("--float32", action="store_true", help="store floats as float32 (read back as float64)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing file")
@@ -295,7 +295,7 @@ def add_table_parser(sub):
 
 
 def cmd_table(args) -> int:
-    from granalytics.analysis.table import particle_frames
+    from granalytics.analysis.particle_tables import particle_frames
 
     check_outputs(tables=(args.out,), overwrite=args.overwrite, run=args.run)
     with WriterLock(args.out), open_run(args.run) as run, staged_outputs() as stage:

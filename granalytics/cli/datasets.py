@@ -10,7 +10,7 @@ import argparse
 from granalytics import datasets
 from granalytics.base.errors import GranalyticsError
 from granalytics.base.interrupts import interrupted
-from granalytics.cli.options import every, interval
+from granalytics.cli.options import frame_stride, interval
 
 
 def main(argv=None, prog="python -m granalytics.datasets") -> int:
@@ -29,10 +29,10 @@ def main(argv=None, prog="python -m granalytics.datasets") -> int:
     b.add_argument("src", help="sweep folder written by python -m sim sweep")
     b.add_argument("dst", help="folder to write")
     b.add_argument("--overwrite", action="store_true", help="replace dst if it exists")
-    b.add_argument("--every", type=every, default=1, help="keep one frame in N outside --full-window (default 1: all)")
+    b.add_argument("--every", type=frame_stride, default=1, help="keep one frame in N outside --full-window (default 1: all)")
     b.add_argument("--full-window", type=interval, default=None, metavar="R0:R1",
                    help="revolutions in which every frame is kept (with --every)")
-    b.add_argument("--window-every", type=every, default=1, metavar="K",
+    b.add_argument("--window-every", type=frame_stride, default=1, metavar="K",
                    help="inside --full-window keep only the frames whose index is a multiple of K (default 1: all)")
     args = parser.parse_args(argv)
     if args.command == "list":

@@ -20,7 +20,7 @@ def add_info_parser(sub):
 
 
 def cmd_info(args):
-    from granalytics.analysis.confinement import run_confinement
+    from granalytics.analysis.confinement import confinement_of_run
     from granalytics.analysis.bed import bed_structure
     from granalytics.analysis.confinement import confinement_warning
     from granalytics.analysis.cg import cg_rule_of, cg_rule_warning
@@ -30,7 +30,7 @@ def cmd_info(args):
         info = run.info()
         meta = run.meta.to_dict()
         bed = bed_structure(run[len(run) - 1]) if len(run) else None
-        drum = run_confinement(run.meta)
+        drum = confinement_of_run(run.meta)
         rule = cg_rule_of(run.meta)
     if bed is not None and bed.planar and meta.get("drum_omega"):
         warnings.warn(f"{args.run}: planar drum run, its granules and statistics are those of stacked 2-D monolayers: "

@@ -32,7 +32,7 @@ def interval(text):
 MAX_EVERY = 10**9
 
 
-def every(text):
+def frame_stride(text):
     """Parse a frame stride N (keep one frame in N): a whole number in [1, MAX_EVERY]."""
     try:
         value = int(text)

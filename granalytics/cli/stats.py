@@ -6,7 +6,7 @@ import contextlib
 import os
 
 from granalytics.core.windows import clip_window
-from granalytics.analysis.system import check_replicas, run_identity
+from granalytics.analysis.run_systems import check_replicas, run_identity
 from granalytics.base.files import WriterLock
 from granalytics.report import save
 from granalytics.report.files import check_outputs, save_figure, staged_outputs

@@ -4,7 +4,7 @@ runs and sweeps through, and nothing that analyses granules.
 Modules: :mod:`.snapshot` (:class:`Snapshot`, :class:`RunMeta`), :mod:`.format` (the HDF5 layout),
 :mod:`.writer` (:class:`RunWriter`: single-writer/multiple-reader mode, a frame committed by writing
 its time last), :mod:`.reader` (:func:`open_run`, :class:`Run`, :class:`RunSlice`: the frame index
-checked before any frame is read), :mod:`.native` (opening a file for reading), :mod:`.windows`
+checked before any frame is read), :mod:`.hdf5_file` (opening a file for reading), :mod:`.windows`
 (which frames lie in a window of revolutions), :mod:`.subset` (:func:`subset_run`) and
 :mod:`.manifest` (the sweep folder's ``manifest.csv``; imported from its own path).
 ``docs/format.md`` describes the file and what a reader may rely on.

@@ -17,7 +17,7 @@ from granalytics.base.errors import (FrameKeyError, GranalyticsError, ParameterE
                                      one_line, user_stacklevel)
 from granalytics.core.format import (CONTACT_DATASETS, CONTACT_LAYOUT, FORMAT_NAME, FORMAT_VERSION, PARTICLE_LAYOUT,
                                      PER_FRAME_DATASETS)
-from granalytics.core.native import CONVERT_HINT, HDF5Handle, open_h5
+from granalytics.core.hdf5_file import CONVERT_HINT, HDF5Handle, open_h5
 from granalytics.base.resources import check_memory
 from granalytics.base.validation import FLAG, PATH, WINDOW, Array, Instance, Interval, validate, validate_params
 from granalytics.core.windows import window_mask

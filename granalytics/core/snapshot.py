@@ -24,7 +24,7 @@ from numbers import Integral, Real
 import numpy as np
 
 from granalytics.base.errors import ValidationError, user_stacklevel
-from granalytics.base.validation import FLAG, POSITIVE, Array, Instance, Interval, complaint, shown
+from granalytics.base.validation import FLAG, POSITIVE, Array, Instance, Interval, violation_message, typed_repr
 
 __all__ = ["RunMeta", "Snapshot", "SNAPSHOT", "META"]
 
@@ -206,7 +206,7 @@ def _check_schema(name, table, schema) -> None:
         where, value = f"{name}.{key}", table[key]
         if isinstance(rule, dict):
             if not isinstance(value, dict):
-                raise ValidationError(where, f"must be a table (a dict), got {shown(value)}")
+                raise ValidationError(where, f"must be a table (a dict), got {typed_repr(value)}")
             _check_schema(where, value, rule)
         else:
             _check_field(where, rule, value)
@@ -214,7 +214,7 @@ def _check_schema(name, table, schema) -> None:
 
 def _check_field(name, allowed, value) -> None:
     """Raise ValidationError naming ``name`` when ``value`` satisfies none of the constraints ``allowed``."""
-    why = complaint(allowed, value)
+    why = violation_message(allowed, value)
     if why:
         raise ValidationError(name, why)
 

@@ -17,7 +17,7 @@ from granalytics.base.files import WriterLock, check_not_open_elsewhere, check_r
 from granalytics.base.interrupts import raise_dropped_interrupt
 from granalytics.core.format import (CONTACT_CHUNK_ROWS, CONTACT_DATASETS, CONTACT_LAYOUT, FORMAT_NAME, FORMAT_VERSION,
                                      INDEX_DATASETS, PARTICLE_LAYOUT, PER_FRAME_DATASETS)
-from granalytics.core.native import HDF5Handle
+from granalytics.core.hdf5_file import HDF5Handle
 from granalytics.core.reader import open_run
 from granalytics.core.snapshot import META, PARTICLE_FIELDS, RunMeta, Snapshot, json_problem
 from granalytics.base.validation import FLAG, PATH, Instance, Interval, Options, validate_params

@@ -266,7 +266,7 @@ def write_json(value, path, stage=None, *, indent=2):
 
 
 def stream_table(pieces, path, stage=None) -> int:
-    """Write the tables ``pieces`` (e.g. :func:`granalytics.analysis.table.particle_frames`) one
+    """Write the tables ``pieces`` (e.g. :func:`granalytics.analysis.particle_tables.particle_frames`) one
     after another into one file (.csv or .parquet), holding one piece in memory at a time,
     atomically, or into ``stage(path)`` when the outputs are written as one
     (:func:`staged_outputs`); returns the number of rows written.

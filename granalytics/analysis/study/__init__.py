@@ -15,7 +15,7 @@ Fig 7 is drawn by :func:`granalytics.report.figures.growth_figure`.
 from granalytics.analysis.study.fit import (PAPER_BETA, PAPER_GAMMA_1, GrowthFit, fit_granule_growth,
                                             fit_growth_of_table, paper_growth_law)
 from granalytics.analysis.study.surrogate import Surrogate, fit_surrogate
-from granalytics.analysis.study.table import STUDY_METRICS, growth_points, select_cohesion, study_table
+from granalytics.analysis.study.sweep_table import STUDY_METRICS, growth_points, select_cohesion, study_table
 from granalytics.core.manifest import read_manifest
 
 

@@ -12,7 +12,7 @@ from numbers import Real
 
 import numpy as np
 
-from granalytics.analysis.study.table import growth_rows
+from granalytics.analysis.study.sweep_table import growth_rows
 from granalytics.base.errors import ParameterError, user_stacklevel
 from granalytics.base.validation import Array, Interval, Options, validate_params
 

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE
-from granalytics.analysis.study.table import select_cohesion
+from granalytics.analysis.study.sweep_table import select_cohesion
 from granalytics.base.errors import ParameterError, user_stacklevel
 from granalytics.base.validation import Array, Instance, Interval, validate_params
 from granalytics.identification.cohesion import COHESION

@@ -168,8 +168,8 @@ def _draw_cg_threshold_panel(ax, rows, metric, norm, span):
         for j in range(c.size):
             if not np.ma.is_masked(grid[i, j]):
                 dark = abs(grid[i, j]) > 0.6 * span
-                shown = f"{grid[i, j]:+.0f}" + (f"\n±{error[i, j]:.0f}" if np.isfinite(error[i, j]) else "")
-                ax.text(j + 0.5, i + 0.5, shown, ha="center", va="center", fontsize=6, color="w" if dark else "k")
+                cell_text = f"{grid[i, j]:+.0f}" + (f"\n±{error[i, j]:.0f}" if np.isfinite(error[i, j]) else "")
+                ax.text(j + 0.5, i + 0.5, cell_text, ha="center", va="center", fontsize=6, color="w" if dark else "k")
     ax.set_xticks(np.arange(c.size) + 0.5, [f"{x:.3g}" for x in c], fontsize=7)
     ax.set_yticks(np.arange(a.size) + 0.5, [f"{x:g}" for x in a], fontsize=7)
     ax.set_xlabel("C_agg")

@@ -19,14 +19,14 @@ def comparison_figure(stats, pairs, title=None):
 
     from granalytics.analysis.method_comparison import identical_methods
 
-    shown = list(HEADLINE)
-    fig, axes = plt.subplots(1, len(shown) + 1, figsize=(4.3 * (len(shown) + 1), 3.9), layout="constrained")
+    headline = list(HEADLINE)
+    fig, axes = plt.subplots(1, len(headline) + 1, figsize=(4.3 * (len(headline) + 1), 3.9), layout="constrained")
     methods = list(dict.fromkeys(stats["method"]))
     colour = {name: f"C{k % 10}" for k, name in enumerate(methods)}  # a method's colour in every panel
-    same_as = identical_methods(stats, shown)
+    same_as = identical_methods(stats, headline)
     for name, part in stats.groupby("method", sort=False):
         label = f"{name} (identical to {same_as[name]})" if name in same_as else name
-        for ax, metric in zip(axes, shown):
+        for ax, metric in zip(axes, headline):
             plot_timeseries(part, metric, ax=ax, label=label, ylabel=METRICS[metric].label)
             line = ax.lines[-1]
             line.set_color(colour[name])

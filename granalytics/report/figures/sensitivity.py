@@ -21,12 +21,12 @@ def sensitivity_figure(summary, title=None):
 
     column = comotion_column(summary)
     name, unit = ("A_agg", "°") if column == "a_agg_deg" else ("rigid_tol", "")
-    shown = list(HEADLINE)
-    fig, axes = plt.subplots(2, len(shown), figsize=(4.6 * len(shown), 7.2), layout="constrained", squeeze=False)
+    headline = list(HEADLINE)
+    fig, axes = plt.subplots(2, len(headline), figsize=(4.6 * len(headline), 7.2), layout="constrained", squeeze=False)
     a_values = np.sort(summary[column].unique())
-    for ax, metric in zip(axes[0], shown):
+    for ax, metric in zip(axes[0], headline):
         _draw_sensitivity_heatmap(fig, ax, summary, column, metric, f"{name} [{unit}]" if unit else name)
-    for ax, metric in zip(axes[1], shown):
+    for ax, metric in zip(axes[1], headline):
         for a in a_values:
             part = summary[summary[column] == a].sort_values("c_agg")
             ax.errorbar(part["c_agg"], part[f"{metric}_mean"], yerr=part[f"{metric}_std"], marker=".",
@@ -38,7 +38,7 @@ def sensitivity_figure(summary, title=None):
             plain_log_ticks(ax.yaxis)
     # the legend below the panels, where it covers no curve
     handles, labels = axes[1, 0].get_legend_handles_labels()
-    middle = axes[1, len(shown) // 2]
+    middle = axes[1, len(headline) // 2]
     middle.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=min(len(labels), 6),
                   fontsize=8, title="bars: ± std over the frames", title_fontsize=8, frameon=False)
     fig.text(0.5, -0.01, "heatmaps: mean over the window's frames; white cells: no granules at that pair (⟨V_g⟩ "

@@ -52,19 +52,19 @@ def plot_size_distribution(dist, ax=None, label=None, *, color=None, explain=Tru
 
     ax = ax if ax is not None else plt.gca()
     unit = sizes_unit(dist)
-    shown = dist[dist["count"] > 0]
-    x, y = shown["size_center"].to_numpy(dtype=float), shown["density"].to_numpy(dtype=float)
+    occupied = dist[dist["count"] > 0]
+    x, y = occupied["size_center"].to_numpy(dtype=float), occupied["density"].to_numpy(dtype=float)
     line, = ax.loglog(x, y, marker="o", ms=4, lw=1, label=label, color=color)
-    few = shown["count"].to_numpy() < FEW_GRANULES
+    few = occupied["count"].to_numpy() < FEW_GRANULES
     if few.any():
         ax.plot(x[few], y[few], ls="none", marker="o", ms=6, mfc="white", color=line.get_color())
         if explain:
             add_key(ax, f"open marker: < {FEW_GRANULES} granules in the bin", ls="none", marker="o", ms=6,
                      mfc="white", color="0.4")
-    if "density_lo" in shown and len(shown):
+    if "density_lo" in occupied and len(occupied):
         floor = y[y > 0].min() / 3 if (y > 0).any() else 1e-12  # a band down to 0 reaches below the lowest point
-        lo = np.maximum(shown["density_lo"].to_numpy(dtype=float), floor)
-        ax.fill_between(x, lo, shown["density_hi"].to_numpy(dtype=float), color=line.get_color(), alpha=0.2, lw=0)
+        lo = np.maximum(occupied["density_lo"].to_numpy(dtype=float), floor)
+        ax.fill_between(x, lo, occupied["density_hi"].to_numpy(dtype=float), color=line.get_color(), alpha=0.2, lw=0)
         if explain:
             ci = dist.attrs.get("ci")
             add_key(ax, f"band: bootstrap {ci:.0%} CI over the granules" if ci else "band: bootstrap CI over the granules",
@@ -94,8 +94,8 @@ def stats_figure(ts, dist=None, window=None, title=None, x="revolutions", steady
 
     import matplotlib.pyplot as plt
 
-    shown = list(BY_FIGURE)
-    n = len(shown) + (dist is not None)
+    panels = list(BY_FIGURE)
+    n = len(panels) + (dist is not None)
     fig, axes = plt.subplots(1, n, figsize=(4 * n, 3.6), layout="constrained")
     axes = np.atleast_1d(axes)
     if window is not None and steady is None:
@@ -103,8 +103,8 @@ def stats_figure(ts, dist=None, window=None, title=None, x="revolutions", steady
 
         with warnings.catch_warnings():  # the caller has said what is wrong with the window
             warnings.simplefilter("ignore")
-            steady = steady_state(ts, window=window, columns=shown, by=x)
-    for ax, column in zip(axes, shown):
+            steady = steady_state(ts, window=window, columns=panels, by=x)
+    for ax, column in zip(axes, panels):
         plot_timeseries(ts, column, ax=ax, window=window, ylabel=METRICS[column].label, x=x, label="per frame")
         if steady is not None and column in steady.index:
             mean, sem = steady.loc[column, "mean"], steady.loc[column, "sem"]

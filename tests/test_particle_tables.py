@@ -7,6 +7,7 @@ import pytest
 import granalytics as ga
 from granalytics.cli import main
 from granalytics.datasets.synthetic import write_synthetic_run
+from granalytics.analysis.particle_tables import granule_tracks
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +33,7 @@ def test_particle_table_rows_columns_and_persistent_track_ids(run_file):
     assert (per_frame == 1).all()
     assert (table[~free].groupby(["frame", "granule_track"]).granule.nunique() == 1).all()
     # a track id that appears in several frames is the tracker's: the same id in the tracks table
-    labels, tracks = ga.table.granule_tracks(ga.open_run(run_file).select(revolutions=(0.25, 1.0)), c_agg=0.5)
+    labels, tracks = granule_tracks(ga.open_run(run_file).select(revolutions=(0.25, 1.0)), c_agg=0.5)
     lived = tracks.tracks.set_index("track")
     for track, part in table[~free].groupby("granule_track"):
         sizes = part.groupby("frame").size().tolist()
@@ -83,8 +84,8 @@ def test_track_ids_follow_the_main_branch_by_default_and_the_strict_rule_on_requ
         strict = ga.particle_table(run, c_agg=0.5, continuation="strict")
         pd.testing.assert_frame_equal(main_ids, ga.particle_table(run, c_agg=0.5, continuation="main"))
         granules = ga.granule_track_table(run, c_agg=0.5, continuation="strict")
-        _, strict_tracks = ga.table.granule_tracks(run, c_agg=0.5, continuation="strict")
-        _, main_tracks = ga.table.granule_tracks(run, c_agg=0.5)
+        _, strict_tracks = granule_tracks(run, c_agg=0.5, continuation="strict")
+        _, main_tracks = granule_tracks(run, c_agg=0.5)
     assert main_tracks.continuation == "main" and strict_tracks.continuation == "strict"
     pd.testing.assert_frame_equal(main_ids.drop(columns="granule_track"), strict.drop(columns="granule_track"))
     # the synthetic run has breakages and coalescences: the main branch keeps ids the strict rule renews
