@@ -20,6 +20,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from sim.params import SimParams  # noqa: E402
 from sim import _kernels  # noqa: E402
 from sim import run as sim_run  # noqa: E402
+from sim.checkpoint import read_checkpoint, write_checkpoint  # noqa: E402
 from sim.run import Simulation  # noqa: E402
 
 
@@ -90,11 +91,11 @@ def drum_system(size, beds=None):
     """
     saved = os.path.join(beds, f"drum-{size}.npz") if beds else None
     if saved and os.path.exists(saved):
-        return Simulation.from_checkpoint(saved)[0], f"(restored from {saved})"
+        return read_checkpoint(saved)[0], f"(restored from {saved})"
     sim, how = _settled_drum(size)
     if saved:
         os.makedirs(beds, exist_ok=True)
-        sim.save_checkpoint(saved)
+        write_checkpoint(sim, saved)
     return sim, how
 
 

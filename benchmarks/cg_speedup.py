@@ -16,7 +16,7 @@ import time
 
 import numba
 
-from sim.run import Simulation
+from sim.checkpoint import read_checkpoint
 
 PAPER = {1.0: 1.0, 2.0: 12.0, 3.0: 32.0}
 
@@ -28,7 +28,7 @@ def main():
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--threads", type=int, default=1)
     args = parser.parse_args()
-    sims = [Simulation.from_checkpoint(path)[0] for path in args.checkpoints]
+    sims = [read_checkpoint(path)[0] for path in args.checkpoints]
     numba.set_num_threads(args.threads)  # after the simulator has configured numba's threading layer
     for sim in sims:  # load the compiled kernels before timing
         sim.advance(10)

@@ -26,8 +26,12 @@ import sys
 CHILD = """
 import json, sys, time
 import numba
-from sim.run import Simulation
-sim = Simulation.from_checkpoint(sys.argv[1])[0]
+try:
+    from sim.checkpoint import read_checkpoint
+except ImportError:  # a tree from before sim/checkpoint.py: the same file format, read by Simulation
+    from sim.run import Simulation
+    read_checkpoint = Simulation.from_checkpoint
+sim = read_checkpoint(sys.argv[1])[0]
 numba.set_num_threads(int(sys.argv[3]))
 sim.advance(50)
 t0 = time.perf_counter()

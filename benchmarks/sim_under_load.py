@@ -41,8 +41,8 @@ ROOT = os.path.dirname(HERE)
 CHILD = """
 import json, sys, time
 import numba
-from sim.run import Simulation
-sim = Simulation.from_checkpoint(sys.argv[1])[0]
+from sim.checkpoint import read_checkpoint
+sim = read_checkpoint(sys.argv[1])[0]
 sim.threads = 1
 sim.advance(50)
 mode, seconds = sys.argv[2], float(sys.argv[3])
@@ -72,8 +72,9 @@ def prepare(system, beds, folder):
             sys.exit(f"{src}: no saved bed (python benchmarks/profile_step.py --beds {beds} makes it)")
         return src
     code = ("import sys; from sim.params import preset, preset_original; from sim.run import Simulation; "
+            "from sim.checkpoint import write_checkpoint; "
             f"s = Simulation(preset({system!r}), preset_original({system!r})[0]); s.advance(200); "
-            "s.save_checkpoint(sys.argv[1])")
+            "write_checkpoint(s, sys.argv[1])")
     subprocess.run([sys.executable, "-c", code, path], cwd=ROOT, check=True, env=dict(os.environ, PYTHONPATH=ROOT))
     return path
 

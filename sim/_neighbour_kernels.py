@@ -37,22 +37,6 @@ def cell_index(pos, lo, cell_size, n_cells):
     return out
 
 
-@njit(cache=True)
-def counting_sort(keys, n_keys):
-    """Stable order of ``keys`` (each in [0, n_keys)) and the start of each key's run."""
-    start = np.zeros(n_keys + 1, dtype=np.int64)
-    for k in keys:
-        start[k + 1] += 1
-    for c in range(n_keys):
-        start[c + 1] += start[c]
-    fill = start[:-1].copy()
-    order = np.empty(keys.shape[0], dtype=np.int64)
-    for i in range(keys.shape[0]):
-        order[fill[keys[i]]] = i
-        fill[keys[i]] += 1
-    return order, start
-
-
 @njit(cache=True, inline="always")
 def _unravel(c, n_cells):
     cz = c % n_cells[2]

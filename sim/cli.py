@@ -208,7 +208,7 @@ def _run(args) -> int:
     from .threads import configure_threading
 
     configure_threading()  # the program tunes its process; the library does not
-    out, ckpt = args.out, f"{args.out}.ckpt.npz"
+    out = args.out
     _check_options(args)
     if args.resume and args.overwrite:
         raise ValueError("--resume continues --out and --overwrite replaces it: give one of them")
@@ -218,7 +218,10 @@ def _run(args) -> int:
     check_threads(args.threads, "--threads")  # before the settling, not after it
     frame_every = frame_interval_steps(args.revolutions, args.frame_every_rev, params,
                                        names=("--revolutions", "--frame-every-rev"))
+    from .checkpoint import checkpoint_path, resume_run
     from .run import Simulation, check_room
+
+    ckpt = checkpoint_path(out)
 
     # a missing or read-only folder, a name too long, a file another process has open, frames that
     # cannot fit on the disk: refused now, not after the settling
@@ -228,9 +231,7 @@ def _run(args) -> int:
     check_room(params, round(args.revolutions / args.frame_every_rev) + 1, out)
 
     if args.resume:
-        if not os.path.exists(ckpt):
-            raise ValueError(f"{ckpt}: no checkpoint to resume from")
-        sim = Simulation.resume(out)
+        sim = resume_run(out)
         sim.threads = args.threads
         if sim.params != params or sim.original != original:
             changed = sorted(k for k, v in params.to_dict().items() if sim.params.to_dict().get(k) != v)

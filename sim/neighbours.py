@@ -14,6 +14,8 @@ import functools
 
 import numpy as np
 
+from granalytics.base.sorting import counting_sort
+
 from . import _neighbour_kernels as _kernels
 from .state import PARTICLE_FIELDS, SLOT_FIELDS, State
 
@@ -115,7 +117,7 @@ def rebuild(state: State, params, n_walls: int) -> State:
         raise RuntimeError(f"particle id {state.ids[i]} left the drum at step {state.step}: position {state.pos[i].tolist()} m")
     cell_of = _kernels.cell_index(state.pos, lo, cell, n_cells)
     rank = morton_rank(tuple(int(c) for c in n_cells))
-    order, cell_start = _kernels.counting_sort(rank[cell_of], rank.size)
+    order, cell_start = counting_sort(rank[cell_of], rank.size)
     new_index = np.empty(n, dtype=np.int64)
     new_index[order] = np.arange(n)
 

@@ -1,4 +1,5 @@
-"""Simulation driver: filling, settling, stepping, output to granalytics runs, checkpoints.
+"""Simulation driver: filling, settling, stepping, output to granalytics runs (its checkpoints
+are written and read by :mod:`sim.checkpoint`).
 
 Python runs only between kernel calls (a kernel call advances until the next output frame or
 the next Verlet-list rebuild, typically hundreds of steps).
@@ -6,14 +7,11 @@ the next Verlet-list rebuild, typically hundreds of steps).
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import json
 import math
 import os
 import sys
 import time as _time
-import warnings
 
 import numpy as np
 
@@ -22,6 +20,7 @@ from granalytics.base.resources import check_disk, check_memory
 
 from . import _kernels
 from .capillary import pair_capillary_force
+from .checkpoint import check_resume, checkpoint_path, remove_checkpoint, write_checkpoint
 from .drum import n_walls
 from .neighbours import empty_slots, rebuild
 from .packing import check_settled_bed, insertion_positions, settled_bed_report
@@ -36,10 +35,6 @@ __all__ = ["Simulation", "check_room", "PHYSICS_VERSION"]
 FRAME_BYTES_PER_PARTICLE = 50
 #: memory of the simulation state per particle, its slots (walls and about ten pairs) included [bytes]
 STATE_BYTES_PER_PARTICLE = 4000
-
-#: version of the one-file checkpoint (the JSON information inside the .npz under _INFO_KEY)
-CHECKPOINT_FORMAT = 2
-_INFO_KEY = "checkpoint_info"
 
 
 
@@ -70,16 +65,23 @@ class Simulation:
         The α = 1 parameters this system was coarse-grained from (recorded in the run
         metadata); defaults to ``params`` when ``params.alpha == 1``.
     state : State, optional
-        Start from this state (e.g. a checkpoint) instead of filling the drum.
+        Start from this state (e.g. a checkpoint's, :mod:`sim.checkpoint`) instead of filling the drum.
     progress : bool, default False
         A progress bar over the settling of a new filling (``settle_time``: minutes to hours
         for the large presets).
     threads : int or "auto", optional
         Threads of the kernels (:attr:`threads`); default: numba's current count.
+
+    Attributes
+    ----------
+    resume_point : sim.checkpoint.ResumePoint or None
+        Where the run goes on when this simulation was restored from a run's checkpoint
+        (:func:`sim.checkpoint.resume_run`); None otherwise.
     """
 
     _threads = None
     _governor = None
+    resume_point = None
 
     def __init__(self, params: SimParams, original: SimParams | None = None, state: State | None = None, *,
                  progress: bool = False, threads: int | str | None = None):
@@ -303,78 +305,6 @@ class Simulation:
             meta=meta if meta is not None else self.run_meta(),
         )
 
-    # ------------------------------------------------------------------ checkpoints
-    def save_checkpoint(self, path, extra=None) -> None:
-        """Write the state and parameters as ONE file, atomically.
-
-        The state arrays and the JSON information (parameters, initial liquid, ``extra``) go
-        into a single ``.npz`` (the JSON as the 0-d string array ``checkpoint_info``), written
-        to ``path + '.tmp'`` in the same directory, flushed to disk (fsync), then renamed over
-        ``path`` (``os.replace``, atomic) and the directory synced. A kill at any point leaves
-        either the previous checkpoint or the new one, never a mix.
-        """
-        path = os.fspath(path)
-        info = {"format": CHECKPOINT_FORMAT, "physics_version": PHYSICS_VERSION, "params": self.params.to_dict(),
-                "original": self.original.to_dict(), "liquid_initial": self.liquid_initial, **(extra or {})}
-        arrays = self.state.to_arrays()
-        arrays[_INFO_KEY] = np.array(json.dumps(info))
-        tmp = f"{path}.tmp"
-        try:
-            with open(tmp, "wb") as f:
-                np.savez(f, **arrays)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except Exception:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
-        _fsync_directory(os.path.dirname(os.path.abspath(path)))
-
-    @classmethod
-    def from_checkpoint(cls, path) -> tuple["Simulation", dict]:
-        """Restore a simulation from :meth:`save_checkpoint`; returns it and the extra info.
-
-        Raises
-        ------
-        ValueError
-            Missing, unreadable or damaged checkpoint (one line, naming the file).
-        """
-        path = os.fspath(path)
-        if not os.path.exists(path):
-            raise ValueError(f"{path}: no checkpoint to resume from")
-        try:
-            with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:  # closed also when not a zip
-                arrays = {name: data[name] for name in data.files}
-            if _INFO_KEY not in arrays:
-                earlier = (f"; {os.path.basename(path)}.json beside it is the two-file checkpoint of an earlier "
-                           "version: finish the run with that version, or start it again" if os.path.exists(
-                               f"{path}.json") else "")
-                raise ValueError(f"{path}: not a checkpoint of this simulator (no '{_INFO_KEY}' inside){earlier}")
-            info = json.loads(str(arrays.pop(_INFO_KEY)))
-            if info.get("format") != CHECKPOINT_FORMAT:
-                raise ValueError(f"{path}: checkpoint format {info.get('format')!r}, this simulator reads format "
-                                 f"{CHECKPOINT_FORMAT}: not a checkpoint it wrote")
-            state = State.from_arrays(arrays)
-            params = SimParams.from_dict(info.pop("params"))
-            original = SimParams.from_dict(info.pop("original"))
-            state.check(n_walls(params.n_baffles))  # never hand the kernels indices past the arrays
-            liquid_initial = float(info.pop("liquid_initial"))
-            if "frames" in info or "frame_every" in info:
-                frames, frame_every = int(info["frames"]), int(info["frame_every"])
-                if frame_every < 1 or state.step != (frames - 1) * frame_every:
-                    raise ValueError(f"state at step {state.step} is not the last of {frames} frames every "
-                                     f"{frame_every} steps")
-        except ValueError as exc:
-            message = str(exc)
-            raise ValueError(message if message.startswith(path) else f"{path}: damaged checkpoint ({message})") from None
-        except Exception as exc:  # zip, npy and JSON errors of a truncated or garbled file
-            raise ValueError(f"{path}: damaged checkpoint ({type(exc).__name__}: {exc})") from None
-        info.pop("format", None)
-        sim = cls(params, original, state=state)
-        sim.liquid_initial = liquid_initial
-        return sim, info
-
     # ------------------------------------------------------------------ runs
     def frame_plan(self, revolutions, frame_every=None) -> tuple[int, int]:
         """``(frame_every, n_frames)`` of a run of ``revolutions`` drum revolutions.
@@ -415,12 +345,14 @@ class Simulation:
         steps (default: every 0.05 revolution) to the granalytics run file ``out``; see
         :meth:`frame_plan`.
 
-        A checkpoint ``out + '.ckpt.npz'`` is written every ``checkpoint_every`` frames (None:
-        never); with ``resume=True`` the run continues from it (the file keeps the frames written
-        up to the checkpoint) and the trajectory is bit-identical to an uninterrupted run. A
-        resume first checks that the run file and the checkpoint belong together (parameters,
-        frame interval, frame count, time and step of the checkpoint's frame) and refuses with
-        ``ValueError``, changing nothing on disk, when they do not.
+        A checkpoint ``out + '.ckpt.npz'`` (:mod:`sim.checkpoint`) is written every
+        ``checkpoint_every`` frames (None: never); with ``resume=True`` a simulation restored
+        from it by :func:`sim.checkpoint.resume_run` continues the run (the file keeps the frames
+        written up to the checkpoint) and the trajectory is bit-identical to an uninterrupted run.
+        A resume first checks that the run file and the checkpoint belong together
+        (:func:`sim.checkpoint.check_resume`: parameters, frame interval, frame count, time and
+        step of the checkpoint's frame) and refuses with ``ValueError``, changing nothing on disk,
+        when they do not.
 
         Resuming a run that finished (every requested frame written and its wall time recorded)
         changes nothing: the run file is left as it is, so that a recipe can be rerun safely.
@@ -438,31 +370,29 @@ class Simulation:
                 and checkpoint_every >= 1):
             raise ValueError(f"checkpoint_every must be a whole number of frames >= 1 (or None), got {checkpoint_every!r}")
         check_room(p, n_frames, out)
-        ckpt = f"{out}.ckpt.npz"
+        ckpt = checkpoint_path(out)
         meta = self.run_meta()
         meta.provenance["planned_frames"] = int(n_frames)  # a reader can tell a killed run from a finished one
         if resume:
-            if not hasattr(self, "_resume_frame"):
-                raise ValueError("resume=True needs a simulation restored with Simulation.resume(out)")
-            if self.check_resume(out, frame_every, n_frames):
+            if self.resume_point is None:
+                raise ValueError("resume=True needs a simulation restored with sim.checkpoint.resume_run(out)")
+            if check_resume(self, out, frame_every, n_frames):
                 print(f"{out}: finished already ({n_frames} frames and the run's wall time written); "
                       "nothing to resume, the file is left as it is", file=sys.stderr)
                 return out
-            writer = RunWriter.continue_from(out, self._resume_frame)
+            writer = RunWriter.continue_from(out, self.resume_point.frames)
             writer.update_provenance(planned_frames=int(n_frames))  # the resumed run may plan more frames
         else:
             if os.path.exists(out) and not overwrite:
                 raise FileExistsError(f"{out}: file exists (pass overwrite=True, or --overwrite, to replace it)")
             writer = RunWriter(out, meta, overwrite=overwrite)
-            for stale in (ckpt, f"{ckpt}.json"):  # an earlier run's checkpoint of this file
-                with contextlib.suppress(FileNotFoundError):
-                    os.unlink(stale)
+            remove_checkpoint(out)  # an earlier run's
             writer.append(self.snapshot(meta))
             if checkpoint_every is not None:  # the settled bed: hours at 10⁵ particles, not to be settled twice
-                self.save_checkpoint(ckpt, {"frames": 1, "frame_every": frame_every, "wall_s": 0.0})
+                write_checkpoint(self, ckpt, {"frames": 1, "frame_every": frame_every, "wall_s": 0.0})
         wall0 = _time.perf_counter()
         steps0 = self.state.step
-        wall_before = getattr(self, "_resume_wall_s", 0.0)  # wall time of earlier sittings
+        wall_before = 0.0 if self.resume_point is None else self.resume_point.wall_s  # of earlier sittings
         bar = tqdm(total=n_frames, initial=writer.n_frames, unit="frame", disable=not progress,
                    desc=f"{p.n_particles} particles α={p.alpha:g}")
         import numba
@@ -475,8 +405,8 @@ class Simulation:
                 self._check_finite()
                 writer.append(self.snapshot(meta))
                 if checkpoint_every is not None and writer.n_frames % checkpoint_every == 0:
-                    self.save_checkpoint(ckpt, {"frames": writer.n_frames, "frame_every": frame_every,
-                                                "wall_s": wall_before + _time.perf_counter() - wall0})
+                    write_checkpoint(self, ckpt, {"frames": writer.n_frames, "frame_every": frame_every,
+                                                  "wall_s": wall_before + _time.perf_counter() - wall0})
                 bar.update(1)
                 # the rate of the frame just simulated (the machine's load changes as the run goes)
                 rate = (self.state.step - frame_step0) * p.n_particles / max(frame_wall, 1e-9)
@@ -491,111 +421,3 @@ class Simulation:
                 cpu_count=os.cpu_count())
         bar.close()
         return out
-
-    @classmethod
-    def resume(cls, out) -> "Simulation":
-        """The simulation of run ``out`` restored from its checkpoint, ready for ``run(..., resume=True)``.
-
-        Raises
-        ------
-        ValueError
-            No checkpoint, or a damaged one.
-        """
-        sim, info = cls.from_checkpoint(f"{os.fspath(out)}.ckpt.npz")
-        try:
-            sim._resume_frame = int(info["frames"])
-            sim._resume_frame_every = int(info["frame_every"])
-        except KeyError as exc:
-            raise ValueError(f"{out}.ckpt.npz: not a run checkpoint (no {exc.args[0]!r})") from None
-        sim._resume_wall_s = float(info.get("wall_s", 0.0))
-        sim._resume_physics_version = info.get("physics_version")  # None: written before versions were recorded
-        return sim
-
-    def check_resume(self, out, frame_every, n_frames) -> bool:
-        """Check that run file ``out`` and this simulation's checkpoint belong together before a
-        resume changes anything: same parameters (preset, overrides, seed: the whole
-        :class:`SimParams` and its original), same frame interval, the checkpoint's frame
-        within the requested run, the run file holding at least the checkpoint's frame count on
-        the same grid of steps, and its frame ``frames − 1`` at exactly the checkpoint's time and
-        step.
-
-        Returns
-        -------
-        bool
-            Whether the run finished already: the file holds at least ``n_frames`` frames and
-            the wall time that :meth:`run` writes at its end (a run stopped before its end has no
-            wall time, or fewer frames: a finished run resumed for more revolutions and killed
-            keeps the old wall time but not the frames).
-
-        Raises
-        ------
-        ValueError
-            One line naming what does not match.
-        """
-        from granalytics.core import open_run
-
-        ckpt = f"{out}.ckpt.npz"
-        frames, s = self._resume_frame, self.state
-        ckpt_frame_every = getattr(self, "_resume_frame_every", frame_every)
-        if ckpt_frame_every != frame_every:
-            raise ValueError(
-                f"{ckpt}: the run writes a frame every {ckpt_frame_every} steps, the resumed run asks for "
-                f"{frame_every} (give the same frame interval, --frame-every-rev, as when the run started)")
-        if frames > n_frames:
-            raise ValueError(f"{ckpt}: the checkpoint comes after {frames} frames, past the end of the requested "
-                             f"run ({n_frames} frames); ask for at least as many revolutions as it holds")
-        if not os.path.exists(out):
-            raise ValueError(f"{out}: run file missing; the checkpoint {ckpt} continues it and cannot be resumed without it")
-        try:
-            with open_run(out, validate=False) as run:
-                meta, steps, times = run.meta, run.steps, run.times
-        except (OSError, ValueError) as exc:
-            raise ValueError(f"{out}: cannot resume, the run file is unreadable ({exc})") from None
-        try:
-            file_params = SimParams.from_dict(meta.sim_config["params"])
-            file_original = SimParams.from_dict(meta.sim_config["original"])
-        except (KeyError, TypeError, ValueError):
-            raise ValueError(f"{out}: not a run of this simulator (no simulation parameters in its metadata)") from None
-        ckpt_version = getattr(self, "_resume_physics_version", PHYSICS_VERSION)
-        for where, version in ((ckpt, ckpt_version), (out, meta.provenance.get("physics_version"))):
-            if version is not None and (isinstance(version, bool) or not isinstance(version, int)):
-                raise ValueError(f"{where}: records its physics version as {type(version).__name__} {version!r}, not a "
-                                 "whole number: not written by this simulator")
-            if version is not None and version != PHYSICS_VERSION:
-                raise ValueError(
-                    f"{where}: made by the simulator's physics version {version}, this simulator has version "
-                    f"{PHYSICS_VERSION} (docs/simulator.md, 'Physics versions'); resuming would join two force laws "
-                    "in one trajectory: finish the run with the version that started it, or start it again with "
-                    "--overwrite")
-        if ckpt_version is None:
-            warnings.warn(f"{ckpt}: records no physics version (its simulator predates them); resuming it assumes it "
-                          f"was made by physics version {PHYSICS_VERSION} (docs/simulator.md, 'Physics versions')",
-                          stacklevel=3)
-        if file_params != self.params or file_original != self.original:
-            changed = sorted(k for k, v in self.params.to_dict().items() if file_params.to_dict().get(k) != v)
-            changed += sorted(f"original {k}" for k, v in self.original.to_dict().items()
-                              if file_original.to_dict().get(k) != v)
-            raise ValueError(f"{out}: the run file and the checkpoint {ckpt} were made with different parameters "
-                             f"({', '.join(changed)})")
-        if len(steps) < frames:
-            raise ValueError(f"{out}: holds {len(steps)} frames but the checkpoint {ckpt} comes after {frames}")
-        if not np.array_equal(steps[:frames], np.arange(frames) * frame_every):
-            raise ValueError(f"{out}: its frames are not every {frame_every} steps like the checkpoint's {ckpt}")
-        if steps[frames - 1] != s.step or times[frames - 1] != self.time:
-            raise ValueError(f"{out}: frame {frames - 1} (the checkpoint's last) is at step {steps[frames - 1]}, "
-                             f"t = {times[frames - 1]!r} s, the checkpoint {ckpt} at step {s.step}, t = {self.time!r} s")
-        return len(steps) >= n_frames and "wall_time_s" in meta.provenance
-
-
-def _fsync_directory(directory) -> None:
-    """Make a rename in ``directory`` durable (POSIX; a no-op where directories cannot be opened)."""
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)

@@ -1,4 +1,5 @@
-"""Simulation state: a dataclass of plain numpy arrays (checkpointable with ``np.savez``)."""
+"""Simulation state: a dataclass of plain numpy arrays (a checkpoint, :mod:`sim.checkpoint`, stores
+them by field name)."""
 
 from __future__ import annotations
 
@@ -139,13 +140,3 @@ class State:
             values[name] = int(values[name])
         values["sprayed_total"] = float(values["sprayed_total"])
         return cls(**values)
-
-    def save(self, path) -> None:
-        """Write every array and counter to an ``.npz`` file."""
-        np.savez(path, **self.to_arrays())
-
-    @classmethod
-    def load(cls, path) -> "State":
-        """Read a file written by :meth:`save`."""
-        with np.load(path) as data:
-            return cls.from_arrays({name: data[name] for name in data.files})

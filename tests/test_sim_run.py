@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import granalytics as ga
+from sim.checkpoint import read_checkpoint, resume_run
 from sim.params import cg_scale
 from sim.run import Simulation
 from sim.threads import ThreadGovernor, available_cores, thread_candidates
@@ -103,7 +104,7 @@ def test_resumed_run_equals_uninterrupted_run(tmp_path):
     Simulation(params, ORIGINAL).run(part, revs * 6 / 12, frame_every=frame_every, checkpoint_every=4, progress=False)
     with ga.open_run(part) as run:
         assert len(run) == 7
-    Simulation.resume(part).run(part, revs, frame_every=frame_every, checkpoint_every=4, progress=False, resume=True)
+    resume_run(part).run(part, revs, frame_every=frame_every, checkpoint_every=4, progress=False, resume=True)
     with ga.open_run(full) as a, ga.open_run(part) as b:
         assert len(a) == len(b) == 13
         assert a.meta.provenance["planned_frames"] == b.meta.provenance["planned_frames"] == 13
@@ -511,15 +512,17 @@ def assert_same_run(a_path, b_path, n_frames=13):
 def test_a_kill_at_any_point_of_a_checkpoint_leaves_a_complete_one(tmp_path, monkeypatch, full_run, point, resumed_from):
     import os
 
+    from sim import run as sim_run
+
     part = tmp_path / "part.h5"
     ckpt = f"{part}.ckpt.npz"
     real_savez, real_fsync, real_replace = np.savez, os.fsync, os.replace
     armed = {"on": False}  # the second checkpoint (frame 8) is killed; the first completes
-    save = Simulation.save_checkpoint
+    save = sim_run.write_checkpoint
 
-    def saving(self, path, extra=None):
+    def saving(sim, path, extra=None):
         armed["on"] = extra["frames"] == 8
-        save(self, path, extra)
+        save(sim, path, extra)
 
     def savez(file, *args, **kwds):
         if armed["on"] and point == "write":
@@ -545,7 +548,7 @@ def test_a_kill_at_any_point_of_a_checkpoint_leaves_a_complete_one(tmp_path, mon
             return None
         return real_replace(src, dst)
 
-    monkeypatch.setattr(Simulation, "save_checkpoint", saving)
+    monkeypatch.setattr(sim_run, "write_checkpoint", saving)
     monkeypatch.setattr(np, "savez", savez)
     monkeypatch.setattr(os, "fsync", fsync)
     monkeypatch.setattr(os, "replace", replace)
@@ -553,21 +556,82 @@ def test_a_kill_at_any_point_of_a_checkpoint_leaves_a_complete_one(tmp_path, mon
         Simulation(RESUME_PARAMS, ORIGINAL).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False)
     monkeypatch.undo()
     # one complete checkpoint, consistent in itself: the previous one or the new one
-    sim, info = Simulation.from_checkpoint(ckpt)
+    sim, info = read_checkpoint(ckpt)
     assert info["frames"] == resumed_from and info["frame_every"] == FRAME_EVERY
     assert sim.state.step == (resumed_from - 1) * FRAME_EVERY
-    Simulation.resume(part).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False, resume=True)
+    resume_run(part).run(part, REVS, frame_every=FRAME_EVERY, checkpoint_every=4, progress=False, resume=True)
     assert_same_run(full_run, part)
+
+
+#: a run file of 3 frames and its checkpoint after frame 1, written by the simulator before its
+#: checkpoints moved into sim/checkpoint.py (format 2, physics version 4; tests/data/README.md):
+#: the files that the long runs going on resume from
+FORMAT_2_RUN = os.path.join(os.path.dirname(__file__), "data", "checkpoint_format_2", "run.h5")
+SNAPSHOT_FIELDS = ("ids", "radius", "position", "velocity", "angular_velocity", "film_volume", "contact_i", "contact_j",
+                   "f_normal", "gap", "bridge_volume")
+
+
+def test_a_stored_checkpoint_of_format_2_is_read_written_again_unchanged_and_resumed(tmp_path):
+    import json
+    import shutil
+
+    from sim.checkpoint import write_checkpoint
+
+    stored = f"{FORMAT_2_RUN}.ckpt.npz"
+    sim, info = read_checkpoint(stored)
+    assert info["frames"] == 2 and info["frame_every"] == 700 and info["physics_version"] == 4
+    # written again: the same names in the same order, the same dtypes, shapes and values, the same JSON
+    write_checkpoint(sim, tmp_path / "again.ckpt.npz", info)
+    with np.load(stored) as old, np.load(tmp_path / "again.ckpt.npz") as new:
+        assert new.files == old.files
+        for name in old.files:
+            assert new[name].dtype == old[name].dtype and np.array_equal(new[name], old[name]), name
+        assert json.loads(str(old["checkpoint_info"]))["format"] == 2
+    # the restored state is the uninterrupted run's at the checkpoint: its frame 1, bit for bit
+    with ga.open_run(FORMAT_2_RUN) as run:
+        frames = list(run)
+    restored = sim.snapshot()
+    assert restored.step == frames[1].step == 700 and restored.time == frames[1].time
+    for name in SNAPSHOT_FIELDS:
+        assert np.array_equal(getattr(restored, name), getattr(frames[1], name)), name
+    np.testing.assert_allclose(restored.f_cap, frames[1].f_cap, rtol=1e-12, atol=0)
+    # resumed: straight to frame 6, and with a stop at the checkpoint of frame 4 written by this simulator
+    rev = 700 * sim.params.dt / sim.params.revolution_period
+    for name in ("straight", "stopped"):
+        os.mkdir(tmp_path / name)
+        shutil.copyfile(FORMAT_2_RUN, tmp_path / name / "run.h5")
+        shutil.copyfile(stored, tmp_path / name / "run.h5.ckpt.npz")
+    straight, stopped = tmp_path / "straight" / "run.h5", tmp_path / "stopped" / "run.h5"
+    resume_run(straight).run(straight, 6 * rev, frame_every=700, checkpoint_every=None, progress=False, resume=True)
+    resume_run(stopped).run(stopped, 4 * rev, frame_every=700, checkpoint_every=2, progress=False, resume=True)
+    assert resume_run(stopped).resume_point.frames == 4
+    resume_run(stopped).run(stopped, 6 * rev, frame_every=700, checkpoint_every=2, progress=False, resume=True)
+    assert_same_run(straight, stopped, n_frames=7)
+    with ga.open_run(straight) as run:
+        resumed = list(run)
+    for name in SNAPSHOT_FIELDS:  # the frames before the checkpoint are kept
+        assert np.array_equal(getattr(resumed[1], name), getattr(frames[1], name)), name
+    # frame 2 is the uninterrupted run's: bit for bit on the machine that wrote the files, and on
+    # another CPU within its last-bit differences amplified over 700 steps (the tolerances of the
+    # reference trajectory above)
+    a, b = resumed[2], frames[2]
+    d = sim.params.d_mean
+    assert a.step == b.step and a.time == b.time and np.array_equal(a.ids, b.ids)
+    np.testing.assert_allclose(a.position, b.position, rtol=0, atol=1e-8 * d)
+    np.testing.assert_allclose(a.velocity, b.velocity, rtol=0, atol=4e-8)
+    np.testing.assert_allclose(a.angular_velocity, b.angular_velocity, rtol=0, atol=4e-8 / d)
+    np.testing.assert_allclose(a.film_volume, b.film_volume, rtol=1e-9, atol=1e-9 * d**3)
+    assert np.array_equal(a.contact_i, b.contact_i) and np.array_equal(a.contact_j, b.contact_j)
 
 
 def test_an_earlier_versions_two_file_checkpoint_is_refused_naming_it(tmp_path):
     ckpt = tmp_path / "run.h5.ckpt.npz"
     np.savez(ckpt, position=np.zeros((2, 3)))
     with pytest.raises(ValueError, match="no 'checkpoint_info' inside"):
-        Simulation.from_checkpoint(ckpt)
+        read_checkpoint(ckpt)
     (tmp_path / "run.h5.ckpt.npz.json").write_text("{}")
     with pytest.raises(ValueError, match="run.h5.ckpt.npz.json beside it is the two-file checkpoint of an earlier version"):
-        Simulation.from_checkpoint(ckpt)
+        read_checkpoint(ckpt)
 
 
 def test_resume_refuses_a_run_file_that_is_not_the_checkpoints(tmp_path):
@@ -581,17 +645,17 @@ def test_resume_refuses_a_run_file_that_is_not_the_checkpoints(tmp_path):
                                                                    checkpoint_every=2, progress=False)
     shutil.copyfile(f"{a}.ckpt.npz", f"{b}.ckpt.npz")
     before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
-    sim = Simulation.resume(b)
+    sim = resume_run(b)
     with pytest.raises(ValueError, match="different parameters.*seed"):
         sim.run(b, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
     with pytest.raises(ValueError, match="frame every 400 steps"):
-        Simulation.resume(a).run(a, REVS, frame_every=200, checkpoint_every=2, progress=False, resume=True)
+        resume_run(a).run(a, REVS, frame_every=200, checkpoint_every=2, progress=False, resume=True)
     with pytest.raises(ValueError, match="past the end"):
-        Simulation.resume(a).run(a, REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+        resume_run(a).run(a, REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
     os.unlink(a)
     with pytest.raises(ValueError, match="run file missing"):
-        Simulation.resume(a).run(a, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+        resume_run(a).run(a, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
 
 
 def test_a_new_run_refuses_to_replace_a_file_unless_told(tmp_path):
@@ -663,11 +727,11 @@ def test_resume_refuses_a_checkpoint_of_another_physics_version(tmp_path):
     rewrite(PHYSICS_VERSION - 1)
     before = out.read_bytes()
     with pytest.raises(ValueError, match=f"physics version {PHYSICS_VERSION - 1}.*--overwrite"):
-        Simulation.resume(out).run(out, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
+        resume_run(out).run(out, REVS, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False, resume=True)
     assert out.read_bytes() == before
     rewrite(None)  # written before versions were recorded: resumed, with a warning
     with pytest.warns(UserWarning, match="records no physics version"):
-        Simulation.resume(out).run(out, REVS / 3 + REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2,
+        resume_run(out).run(out, REVS / 3 + REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2,
                                    progress=False, resume=True)
 
 
@@ -679,15 +743,15 @@ def test_resuming_a_finished_run_leaves_its_file_as_it_is(tmp_path, capsys):
     Simulation(params, ORIGINAL).run(out, revs, frame_every=frame_every, checkpoint_every=2, progress=False)
     before = out.read_bytes()
     # the last checkpoint is after frame 4 of 5: a resume would otherwise simulate the last one again
-    sim = Simulation.resume(out)
-    assert sim._resume_frame == 4
+    sim = resume_run(out)
+    assert sim.resume_point.frames == 4
     step = sim.state.step
     sim.run(out, revs, frame_every=frame_every, checkpoint_every=2, progress=False, resume=True)
     assert out.read_bytes() == before
     assert "finished already" in capsys.readouterr().err
     assert sim.state.step == step  # nothing simulated
     # asking for more revolutions does resume
-    Simulation.resume(out).run(out, revs * 6 / 4, frame_every=frame_every, checkpoint_every=2, progress=False,
+    resume_run(out).run(out, revs * 6 / 4, frame_every=frame_every, checkpoint_every=2, progress=False,
                                resume=True)
     with ga.open_run(out) as run:
         assert len(run) == 7

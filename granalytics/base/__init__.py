@@ -7,10 +7,12 @@ contract, each imported from its own module (this package imports none of them).
 - :mod:`.interrupts`: Ctrl-C and SIGTERM, never dropped;
 - :mod:`.resources`: memory and disk needs refused up front;
 - :mod:`.cluster`: a dask cluster for sweeps and frame loops;
-- :mod:`.threads`: numba's kernels on OpenMP threads, for the programs (never the library).
+- :mod:`.threads`: numba's kernels on OpenMP threads, for the programs (never the library);
+- :mod:`.sorting`: the stable counting sort (numba) of the simulator's cell lists and of the
+  granules' ranking by size.
 
-It imports nothing of granalytics above it, and its modules load NumPy at most (h5py, filelock
-and dask inside the functions that need them); :mod:`.interrupts` loads the standard library
+It imports nothing of granalytics above it, and its modules load NumPy at most (:mod:`.sorting`
+also numba; h5py, filelock and dask inside the functions that need them); :mod:`.interrupts` loads the standard library
 only, so that a program can hold a Ctrl-C from its first line
 (:func:`~granalytics.base.interrupts.interrupts_held`).
 """

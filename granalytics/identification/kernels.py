@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from granalytics.base.sorting import counting_sort
+
 
 @njit(cache=True, inline="always")
 def _angle_below(ax, ay, az, bx, by, bz, cos_a):
@@ -173,18 +175,12 @@ def _rank_by_size(comp_size):
     largest = 0
     for c in range(n_comp):
         largest = max(largest, comp_size[c])
-    start = np.zeros(largest + 2, dtype=np.int64)  # bucket b = largest − size: largest first
-    for c in range(n_comp):
-        start[largest - comp_size[c] + 1] += 1
-    for b in range(1, largest + 2):
-        start[b] += start[b - 1]
+    order, _ = counting_sort(largest - comp_size, largest + 1)  # key largest − size: largest first
     rank = np.empty(n_comp, dtype=np.int64)
     sizes = np.empty(n_comp, dtype=np.int64)
-    for c in range(n_comp):
-        b = largest - comp_size[c]
-        rank[c] = start[b]
-        sizes[start[b]] = comp_size[c]
-        start[b] += 1
+    for p in range(n_comp):
+        rank[order[p]] = p
+        sizes[p] = comp_size[order[p]]
     return rank, sizes
 
 

@@ -70,14 +70,15 @@ def run_point(task: PointTask) -> dict:
 def _run_point(task: PointTask) -> dict:
     from granalytics.core import open_run
 
+    from ..checkpoint import checkpoint_path, resume_run
     from ..run import Simulation
 
     original, params = task.sim_params()
     frame_every = frame_interval_steps(task.revolutions, task.frame_every_rev, params)
-    ckpt = f"{task.out}.ckpt.npz"
+    ckpt = checkpoint_path(task.out)
     resumed = os.path.exists(ckpt) and os.path.exists(task.out)
     if resumed:
-        sim = Simulation.resume(task.out)
+        sim = resume_run(task.out)
         if sim.params != params:
             raise ValueError(f"{ckpt}: checkpoint was made with other parameters")
     else:

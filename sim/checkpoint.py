@@ -1,0 +1,257 @@
+"""Checkpoints of a run: the simulation written to one file, restored from it, and resumed once
+the run file and the checkpoint are shown to belong together.
+
+The checkpoint of run file ``OUT`` is ``OUT.ckpt.npz`` (:func:`checkpoint_path`), format 2: every
+array of :meth:`sim.state.State.to_arrays` under its field name, and the 0-d string array
+``checkpoint_info`` holding a JSON object: ``format`` (2), ``physics_version``, ``params`` and
+``original`` (:meth:`sim.params.SimParams.to_dict`), ``liquid_initial`` [m³] and what the run adds
+(``frames``, ``frame_every``, ``wall_s``). Long runs resume from such files: the format changes
+only with :data:`CHECKPOINT_FORMAT`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import os
+import warnings
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .drum import n_walls
+from .params import PHYSICS_VERSION, SimParams
+from .state import State
+
+if TYPE_CHECKING:
+    from .run import Simulation
+
+__all__ = ["CHECKPOINT_FORMAT", "ResumePoint", "checkpoint_path", "write_checkpoint", "read_checkpoint",
+           "remove_checkpoint", "resume_run", "check_resume"]
+
+#: version of the one-file checkpoint (the JSON information inside the .npz under _INFO_KEY)
+CHECKPOINT_FORMAT = 2
+_INFO_KEY = "checkpoint_info"
+
+
+@dataclasses.dataclass(frozen=True)
+class ResumePoint:
+    """Where a run restored from its checkpoint (:func:`resume_run`) goes on.
+
+    Attributes
+    ----------
+    frames : int
+        Frames the run file held when the checkpoint was written; the state is that of frame
+        ``frames - 1``.
+    frame_every : int
+        Steps between frames.
+    wall_s : float
+        Wall time of the run's earlier sittings [s].
+    physics_version : int or None
+        The physics version the checkpoint records (None: its simulator recorded none).
+    """
+
+    frames: int
+    frame_every: int
+    wall_s: float
+    physics_version: object
+
+
+def checkpoint_path(out) -> str:
+    """The checkpoint of run file ``out``: ``out + '.ckpt.npz'``."""
+    return f"{os.fspath(out)}.ckpt.npz"
+
+
+def write_checkpoint(sim: Simulation, path, extra=None) -> None:
+    """Write the state and parameters of ``sim`` as ONE file, atomically.
+
+    The state arrays and the JSON information (parameters, initial liquid, ``extra``) go
+    into a single ``.npz`` (the JSON as the 0-d string array ``checkpoint_info``), written
+    to ``path + '.tmp'`` in the same directory, flushed to disk (fsync), then renamed over
+    ``path`` (``os.replace``, atomic) and the directory synced. A kill at any point leaves
+    either the previous checkpoint or the new one, never a mix.
+    """
+    path = os.fspath(path)
+    info = {"format": CHECKPOINT_FORMAT, "physics_version": PHYSICS_VERSION, "params": sim.params.to_dict(),
+            "original": sim.original.to_dict(), "liquid_initial": sim.liquid_initial, **(extra or {})}
+    arrays = sim.state.to_arrays()
+    arrays[_INFO_KEY] = np.array(json.dumps(info))
+    tmp = f"{path}.tmp"
+    try:
+        with open(tmp, "wb") as f:
+            np.savez(f, **arrays)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except Exception:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    _fsync_directory(os.path.dirname(os.path.abspath(path)))
+
+
+def read_checkpoint(path) -> tuple[Simulation, dict]:
+    """The simulation that :func:`write_checkpoint` wrote to ``path``, and the ``extra`` information
+    written with it.
+
+    Raises
+    ------
+    ValueError
+        Missing, unreadable or damaged checkpoint (one line, naming the file).
+    """
+    from .run import Simulation  # the run writes its checkpoints through this module
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise ValueError(f"{path}: no checkpoint to resume from")
+    try:
+        with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:  # closed also when not a zip
+            arrays = {name: data[name] for name in data.files}
+        if _INFO_KEY not in arrays:
+            earlier = (f"; {os.path.basename(path)}.json beside it is the two-file checkpoint of an earlier "
+                       "version: finish the run with that version, or start it again" if os.path.exists(
+                           f"{path}.json") else "")
+            raise ValueError(f"{path}: not a checkpoint of this simulator (no '{_INFO_KEY}' inside){earlier}")
+        info = json.loads(str(arrays.pop(_INFO_KEY)))
+        if info.get("format") != CHECKPOINT_FORMAT:
+            raise ValueError(f"{path}: checkpoint format {info.get('format')!r}, this simulator reads format "
+                             f"{CHECKPOINT_FORMAT}: not a checkpoint it wrote")
+        state = State.from_arrays(arrays)
+        params = SimParams.from_dict(info.pop("params"))
+        original = SimParams.from_dict(info.pop("original"))
+        state.check(n_walls(params.n_baffles))  # never hand the kernels indices past the arrays
+        liquid_initial = float(info.pop("liquid_initial"))
+        if "frames" in info or "frame_every" in info:
+            frames, frame_every = int(info["frames"]), int(info["frame_every"])
+            if frame_every < 1 or state.step != (frames - 1) * frame_every:
+                raise ValueError(f"state at step {state.step} is not the last of {frames} frames every "
+                                 f"{frame_every} steps")
+    except ValueError as exc:
+        message = str(exc)
+        raise ValueError(message if message.startswith(path) else f"{path}: damaged checkpoint ({message})") from None
+    except Exception as exc:  # zip, npy and JSON errors of a truncated or garbled file
+        raise ValueError(f"{path}: damaged checkpoint ({type(exc).__name__}: {exc})") from None
+    info.pop("format", None)
+    sim = Simulation(params, original, state=state)
+    sim.liquid_initial = liquid_initial
+    return sim, info
+
+
+def remove_checkpoint(out) -> None:
+    """Remove the checkpoint of run file ``out`` left by an earlier run, if any (and the ``.json``
+    half of an earlier version's two-file checkpoint)."""
+    ckpt = checkpoint_path(out)
+    for stale in (ckpt, f"{ckpt}.json"):
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(stale)
+
+
+def resume_run(out) -> Simulation:
+    """The simulation of run ``out`` restored from its checkpoint, with its :class:`ResumePoint`
+    as ``resume_point``: ready for ``run(out, ..., resume=True)``.
+
+    Raises
+    ------
+    ValueError
+        No checkpoint, a damaged one, or one that is not a run's (no frame count or interval).
+    """
+    ckpt = checkpoint_path(out)
+    sim, info = read_checkpoint(ckpt)
+    try:
+        frames, frame_every = int(info["frames"]), int(info["frame_every"])
+    except KeyError as exc:
+        raise ValueError(f"{ckpt}: not a run checkpoint (no {exc.args[0]!r})") from None
+    sim.resume_point = ResumePoint(frames=frames, frame_every=frame_every, wall_s=float(info.get("wall_s", 0.0)),
+                                   physics_version=info.get("physics_version"))
+    return sim
+
+
+def check_resume(sim: Simulation, out, frame_every, n_frames) -> bool:
+    """Check that run file ``out`` and the checkpoint that ``sim`` was resumed from
+    (:func:`resume_run`) belong together before a resume changes anything: same parameters
+    (preset, overrides, seed: the whole :class:`SimParams` and its original), same frame
+    interval, the checkpoint's frame within the requested run of ``n_frames`` frames every
+    ``frame_every`` steps, the run file holding at least the checkpoint's frame count on the same
+    grid of steps, and its frame ``frames − 1`` at exactly the checkpoint's time and step.
+
+    Returns
+    -------
+    bool
+        Whether the run finished already: the file holds at least ``n_frames`` frames and
+        the wall time that :meth:`sim.run.Simulation.run` writes at its end (a run stopped before
+        its end has no wall time, or fewer frames: a finished run resumed for more revolutions
+        and killed keeps the old wall time but not the frames).
+
+    Raises
+    ------
+    ValueError
+        One line naming what does not match.
+    """
+    from granalytics.core import open_run
+
+    ckpt = checkpoint_path(out)
+    point, s = sim.resume_point, sim.state
+    frames = point.frames
+    if point.frame_every != frame_every:
+        raise ValueError(
+            f"{ckpt}: the run writes a frame every {point.frame_every} steps, the resumed run asks for "
+            f"{frame_every} (give the same frame interval, --frame-every-rev, as when the run started)")
+    if frames > n_frames:
+        raise ValueError(f"{ckpt}: the checkpoint comes after {frames} frames, past the end of the requested "
+                         f"run ({n_frames} frames); ask for at least as many revolutions as it holds")
+    if not os.path.exists(out):
+        raise ValueError(f"{out}: run file missing; the checkpoint {ckpt} continues it and cannot be resumed without it")
+    try:
+        with open_run(out, validate=False) as run:
+            meta, steps, times = run.meta, run.steps, run.times
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{out}: cannot resume, the run file is unreadable ({exc})") from None
+    try:
+        file_params = SimParams.from_dict(meta.sim_config["params"])
+        file_original = SimParams.from_dict(meta.sim_config["original"])
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"{out}: not a run of this simulator (no simulation parameters in its metadata)") from None
+    ckpt_version = point.physics_version
+    for where, version in ((ckpt, ckpt_version), (out, meta.provenance.get("physics_version"))):
+        if version is not None and (isinstance(version, bool) or not isinstance(version, int)):
+            raise ValueError(f"{where}: records its physics version as {type(version).__name__} {version!r}, not a "
+                             "whole number: not written by this simulator")
+        if version is not None and version != PHYSICS_VERSION:
+            raise ValueError(
+                f"{where}: made by the simulator's physics version {version}, this simulator has version "
+                f"{PHYSICS_VERSION} (docs/simulator.md, 'Physics versions'); resuming would join two force laws "
+                "in one trajectory: finish the run with the version that started it, or start it again with "
+                "--overwrite")
+    if ckpt_version is None:
+        warnings.warn(f"{ckpt}: records no physics version (its simulator predates them); resuming it assumes it "
+                      f"was made by physics version {PHYSICS_VERSION} (docs/simulator.md, 'Physics versions')",
+                      stacklevel=3)
+    if file_params != sim.params or file_original != sim.original:
+        changed = sorted(k for k, v in sim.params.to_dict().items() if file_params.to_dict().get(k) != v)
+        changed += sorted(f"original {k}" for k, v in sim.original.to_dict().items()
+                          if file_original.to_dict().get(k) != v)
+        raise ValueError(f"{out}: the run file and the checkpoint {ckpt} were made with different parameters "
+                         f"({', '.join(changed)})")
+    if len(steps) < frames:
+        raise ValueError(f"{out}: holds {len(steps)} frames but the checkpoint {ckpt} comes after {frames}")
+    if not np.array_equal(steps[:frames], np.arange(frames) * frame_every):
+        raise ValueError(f"{out}: its frames are not every {frame_every} steps like the checkpoint's {ckpt}")
+    if steps[frames - 1] != s.step or times[frames - 1] != sim.time:
+        raise ValueError(f"{out}: frame {frames - 1} (the checkpoint's last) is at step {steps[frames - 1]}, "
+                         f"t = {times[frames - 1]!r} s, the checkpoint {ckpt} at step {s.step}, t = {sim.time!r} s")
+    return len(steps) >= n_frames and "wall_time_s" in meta.provenance
+
+
+def _fsync_directory(directory) -> None:
+    """Make a rename in ``directory`` durable (POSIX; a no-op where directories cannot be opened)."""
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
