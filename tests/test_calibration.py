@@ -7,7 +7,7 @@ import pytest
 
 import granalytics as ga
 from granalytics import ParameterError
-from granalytics.analysis.size_classes import grid_measurement
+from granalytics.analysis.calibration import grid_measurement
 from granalytics.datasets import DATASET_DIR
 
 EDGES = np.r_[0.0, 1e-3 * np.array([1.0, 1.4, 2.0, 2.8, 4.0, 5.6, 8.0, 11.2]), np.inf]
