@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 import granalytics as ga
-from granalytics.analysis.size_classes import grid_measurement
+from granalytics.analysis.calibration import grid_measurement
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DATA = ROOT / "datasets"

@@ -3,11 +3,12 @@
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import granalytics as ga
 from granalytics import ParameterError
-from granalytics.analysis.size_classes import grid_measurement
+from granalytics.analysis.calibration import grid_measurement
 from granalytics.datasets import DATASET_DIR
 
 EDGES = np.r_[0.0, 1e-3 * np.array([1.0, 1.4, 2.0, 2.8, 4.0, 5.6, 8.0, 11.2]), np.inf]
@@ -125,6 +126,20 @@ def test_replicas_and_the_rigid_test():
     assert cal.threshold_column == "rigid_tol"
     assert set(cal.grid.columns) >= {"c_agg", "rigid_tol", "chi2", "in_region"}
     assert cal.settings["n_frames"] == [g.volumes.shape[0] for g in grids]
+
+
+def test_a_window_takes_the_same_frames_from_a_run_and_from_a_list_of_its_snapshots(cg1_grid):
+    # lab-cg1's frame meant for revolution 3.5 is stamped 3.5000082: inside the window [3, 3.5] by
+    # the one rule of core.windows, whether the frames come as a run or as snapshots
+    measured = grid_measurement(cg1_grid, 0.6, 20.0, noise=0.01, seed=0)
+    fit = dict(c_agg=[0.3, 0.6], a_agg_deg=[20.0, 40.0], window=(3, 3.5), n_boot=20, block_rev=0.2)
+    with ga.open_run(DATASET_DIR / "lab-cg1.h5") as run:
+        by_run = ga.calibrate_thresholds(run, measured, **fit)
+        snapshots = list(run.select(revolutions=(2.5, 4)))
+    by_list = ga.calibrate_thresholds(snapshots, measured, **fit)
+    assert by_run.settings["n_frames"] == by_list.settings["n_frames"] == [11]
+    pd.testing.assert_frame_equal(by_list.grid, by_run.grid)
+    pd.testing.assert_frame_equal(by_list.distributions, by_run.distributions)
 
 
 def _write(tmp_path, text, name="m.csv"):

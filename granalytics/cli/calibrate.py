@@ -13,9 +13,8 @@ __all__ = ["add_calibrate_parser", "cmd_calibrate"]
 
 def add_calibrate_parser(sub):
     """Add the ``calibrate`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
-    from granalytics.analysis.calibration import DEFAULT_MEASURED_ERROR, Calibration
+    from granalytics.analysis.calibration import DEFAULT_MEASURED_ERROR, SIEVE_MEASURES, Calibration
     from granalytics.report import output_names
-    from granalytics.analysis.size_classes import SIEVE_MEASURES
 
     p = sub.add_parser("calibrate", help="fit C_agg and A_agg to a measured sieve analysis",
                        description="Sieve GNA's granules into the classes of a measured size distribution at every "
@@ -56,8 +55,7 @@ def add_calibrate_parser(sub):
 
 
 def cmd_calibrate(args):
-    from granalytics.analysis.calibration import Calibration, calibrate_thresholds
-    from granalytics.analysis.size_classes import read_sieve_csv
+    from granalytics.analysis.calibration import Calibration, calibrate_thresholds, read_sieve_csv
     from granalytics.report import output_paths, save
 
     if args.comotion == "rigid" and args.a_agg_deg is not None:

@@ -26,10 +26,9 @@ import os
 
 import pandas as pd
 
-from granalytics.analysis.calibration import Calibration
+from granalytics.analysis.calibration import Calibration, MeasuredDistribution
 from granalytics.analysis.cg import CGComparison
 from granalytics.analysis.population_balance import PBMPrediction
-from granalytics.analysis.size_classes import MeasuredDistribution
 from granalytics.base.errors import GranalyticsError, ParameterError
 from granalytics.base.files import write_atomically
 from granalytics.identification.result import IdentificationResult

@@ -1,9 +1,11 @@
-"""Calibration of the granule definition (C_agg and A_agg, or the rigid tolerance) against a
-measured size distribution (docs/calibration.md).
+"""The fit of the granule definition (C_agg and A_agg, or the rigid tolerance) to a measured size
+distribution, :func:`calibrate_thresholds`, and its result, :class:`Calibration`
+(docs/calibration.md).
 
 The simulated distribution at every grid point comes from one pass per frame and co-motion
-threshold (:func:`granalytics.analysis.size_classes.sieve_grid`), averaged over the steady window.
-Its error is a moving-block bootstrap over the window's frames. The distance between simulated and
+threshold (:func:`~granalytics.analysis.calibration.size_classes.sieve_grid`) over the frames of
+the steady window, averaged over them. Its error is a moving-block bootstrap over the window's
+frames (:mod:`~granalytics.analysis.calibration.bootstrap`). The distance between simulated and
 measured distributions is
 
     χ²(C_agg, A_agg) = Σ_j (P_sim(a_j) − P_meas(a_j))² / (σ_sim,j² + σ_meas,j²)
@@ -23,16 +25,17 @@ import math
 import os
 from dataclasses import dataclass, field
 from numbers import Integral, Real
-from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
-from granalytics.analysis.size_classes import MeasuredDistribution, SieveGrid, read_sieve_csv, sieve_grid
+from granalytics.analysis.calibration.bootstrap import SimulatedMean, bootstrap_region, check_block, simulated_mean
+from granalytics.analysis.calibration.measured import MeasuredDistribution, read_sieve_csv
+from granalytics.analysis.calibration.size_classes import SieveGrid, sieve_grid
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.base.errors import ParameterError
-from granalytics.core.snapshot import Snapshot
 from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Instance, Interval, Path, validate_params
+from granalytics.core.snapshot import Snapshot
 from granalytics.core.windows import window_mask
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE
@@ -145,6 +148,16 @@ def _is_one_run(run) -> bool:
     return isinstance(run, (list, tuple)) and len(run) > 0 and isinstance(run[0], Snapshot)
 
 
+def _window_frames(frames, window):
+    """The frames of a Run, RunSlice or sequence of Snapshot in the window [revolutions], by the one
+    rule of :mod:`granalytics.core.windows`: ``select`` where the frames have it, else the
+    snapshots' own revolutions."""
+    if hasattr(frames, "select"):
+        return frames.select(revolutions=window)
+    keep = window_mask([snapshot.revolutions for snapshot in frames], *window)
+    return [frames[k] for k in np.flatnonzero(keep)]
+
+
 def _grid_of(run, measured, window, kwargs) -> SieveGrid:
     """The per-frame size classes of one run in the window."""
     if isinstance(run, SieveGrid):
@@ -160,15 +173,10 @@ def _grid_of(run, measured, window, kwargs) -> SieveGrid:
 
         with open_run(run) as opened:
             return _grid_of(opened, measured, window, kwargs)
-    if hasattr(run, "select"):
-        frames = run.select(revolutions=window)
-        if len(frames) == 0:
-            raise ParameterError(f"{getattr(run, 'path', 'run')}: no frame in the window [{window[0]:g}, "
-                                 f"{window[1]:g}] revolutions")
-    else:
-        frames = [s for s in run if window_mask(np.array([s.revolutions]), *window)[0]]
-        if not frames:
-            raise ParameterError(f"no frame in the window [{window[0]:g}, {window[1]:g}] revolutions")
+    frames = _window_frames(run, window)
+    if len(frames) == 0:
+        where = f"{getattr(run, 'path', 'run')}: " if hasattr(run, "select") else ""
+        raise ParameterError(f"{where}no frame in the window [{window[0]:g}, {window[1]:g}] revolutions")
     return sieve_grid(frames, measured, **kwargs)
 
 
@@ -181,31 +189,6 @@ def _check_sizes(c_agg, comotion_values, measured, n_boot) -> None:
     edges = max(1, np.size(measured.edges_m))
     check_memory(f"calibrating over a grid of {points} threshold pairs with {n_boot} bootstrap replicas",
                  8 * points * (edges + 2) * (n_boot + 8) * 3)
-
-
-def _check_block(revolutions, block_rev) -> None:
-    """Refuse a bootstrap block that spans the whole window (or a window of one frame): its
-    replicas would all be the window itself, and the region a single point."""
-    n = np.size(revolutions)
-    span = float(revolutions[-1] - revolutions[0]) if n > 1 else 0.0
-    if n < 3 or not block_rev < span:
-        raise ParameterError(f"block_rev = {block_rev:g} revolutions: the bootstrap needs blocks shorter than the "
-                             f"window ({n} frames over {span:.3g} revolutions), or its replicas are the window itself "
-                             "and the confidence region one point; give a shorter --block-rev or a longer window")
-
-
-def _bootstrap_weights(rng, revolutions, n_boot, block_rev) -> np.ndarray:
-    """(n_boot, F) frame counts of moving-block bootstrap replicas of F time-ordered frames."""
-    n = revolutions.size
-    span = revolutions[-1] - revolutions[0] if n > 1 else 0.0
-    per_rev = (n - 1) / span if span > 0 and math.isfinite(span) else n
-    length = int(min(n, max(1, round(block_rev * per_rev))))
-    n_blocks = math.ceil(n / length)
-    starts = rng.integers(0, n - length + 1, size=(n_boot, n_blocks))
-    picks = (starts[:, :, None] + np.arange(length)).reshape(n_boot, -1)[:, :n]
-    weights = np.zeros((n_boot, n))
-    np.add.at(weights, (np.repeat(np.arange(n_boot), n), picks.ravel()), 1.0)
-    return weights
 
 
 def _describe(values, inside) -> str:
@@ -242,7 +225,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
         The run; a list of runs is a replica set (one system at several seeds): the simulated
         distribution is the mean over the runs, each bootstrapped on its own.
     measured : MeasuredDistribution or path
-        The measured sieve analysis (:func:`granalytics.analysis.size_classes.read_sieve_csv`);
+        The measured sieve analysis (:func:`~granalytics.analysis.calibration.measured.read_sieve_csv`);
         the simulated granules are sieved into its classes in original-system sizes.
     c_agg : sequence of float
         Cohesion thresholds (≥ 0).
@@ -302,15 +285,15 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
                              f"has {n_fit_axes} free threshold(s): no degree of freedom is left to test it (p undefined); "
                              "measure more classes, or fix a threshold (a grid of one value)")
     for g in grids:
-        _check_block(g.revolutions, block_rev)
+        check_block(g.revolutions, block_rev)
     rng = np.random.default_rng(seed)
-    sim = _simulated(grids, used, rng, int(n_boot), block_rev)
+    sim = simulated_mean(grids, used, rng, int(n_boot), block_rev)
     var = sim.err_p**2 + s_meas**2
     chi2 = _chi2(sim.p, p_meas, var)  # (A, C)
     noise = rng.standard_normal((int(n_boot), sim.p.shape[-1])) * s_meas
     boot_chi2 = _chi2(sim.boot_p, (p_meas + noise)[:, None, None, :], var).reshape(int(n_boot), -1)
     best = int(np.argmin(chi2.ravel()))
-    freq, region = _bootstrap_region(boot_chi2, best, level)
+    freq, region = bootstrap_region(boot_chi2, best, level)
 
     n_a, n_c = chi2.shape
     n_fit = int(n_a > 1) + int(n_c > 1)
@@ -324,7 +307,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     chi2_min = float(chi2.ravel()[best])
     dof = int(used.sum()) - n_fit
     p_value = float(chi2_law.sf(chi2_min, dof)) if dof > 0 else math.nan
-    at_best = _Simulated(*(x[a_best, c_best] for x in (sim.p, sim.err_p, sim.f, sim.err_f)), boot_p=None)
+    at_best = SimulatedMean(*(x[a_best, c_best] for x in (sim.p, sim.err_p, sim.f, sim.err_f)), boot_p=None)
     settings = {
         "runs": [str(getattr(r, "path", r)) if not isinstance(r, (list, tuple, SieveGrid)) else type(r).__name__
                  for r in runs],
@@ -341,61 +324,12 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
                        settings=settings)
 
 
-class _Simulated(NamedTuple):
-    """The simulated cumulative passing at the compared edges (``p``, its bootstrap error ``err_p``)
-    and fractions per class (``f``, ``err_f``) at every grid point (A, C, ·), and the bootstrap
-    replicas of the passing ``boot_p`` (B, A, C, E)."""
-
-    p: np.ndarray
-    err_p: np.ndarray
-    f: np.ndarray
-    err_f: np.ndarray
-    boot_p: np.ndarray | None
-
-
-def _simulated(grids, used, rng, n_boot, block_rev) -> _Simulated:
-    """Mean over the replicas' frames and its block bootstrap (each replica resampled on its own)."""
-    n_a, n_c, n_bins = grids[0].volumes.shape[1:]
-    sim_p, sim_f, boot_p, boot_f = 0.0, 0.0, 0.0, 0.0
-    for g in grids:
-        passing = g.passing[..., used].reshape(g.volumes.shape[0], -1)  # (F, A·C·E)
-        fractions = g.fractions.reshape(g.volumes.shape[0], -1)
-        weights = _bootstrap_weights(rng, g.revolutions, n_boot, block_rev)
-        weights /= weights.sum(axis=1, keepdims=True)
-        sim_p = sim_p + passing.mean(axis=0) / len(grids)
-        sim_f = sim_f + fractions.mean(axis=0) / len(grids)
-        boot_p = boot_p + weights @ passing / len(grids)
-        boot_f = boot_f + weights @ fractions / len(grids)
-    n_e = int(used.sum())
-    boot_p = boot_p.reshape(-1, n_a, n_c, n_e)
-    return _Simulated(p=sim_p.reshape(n_a, n_c, n_e), err_p=boot_p.std(axis=0, ddof=1),
-                      f=sim_f.reshape(n_a, n_c, n_bins), err_f=boot_f.reshape(-1, n_a, n_c, n_bins).std(axis=0, ddof=1),
-                      boot_p=boot_p)
-
-
 def _chi2(p_sim, p_ref, var):
     """χ² over the last axis; an edge without any error counts 0 where the two agree, else inf."""
     d2 = (p_sim - p_ref) ** 2
     with np.errstate(divide="ignore", invalid="ignore"):
         terms = np.where(var > 0, d2 / var, np.where(d2 > 0, np.inf, 0.0))
     return terms.sum(axis=-1)
-
-
-def _bootstrap_region(boot_chi2, best, level):
-    """Each bootstrap replica's best grid point (points tied with it, which give the same
-    distribution, share its vote, so that thresholds that change nothing fill the region); the
-    region is the most voted points holding ``level`` of the votes, and always the best point."""
-    n_boot = boot_chi2.shape[0]
-    low = boot_chi2.min(axis=1, keepdims=True)
-    tied = boot_chi2 <= low + 1e-12 * np.maximum(np.abs(low), 1.0)
-    freq = (tied / tied.sum(axis=1, keepdims=True)).sum(axis=0) / n_boot
-    order = np.argsort(-freq, kind="stable")
-    take = int(np.searchsorted(np.cumsum(freq[order]), level - 1e-12)) + 1
-    region = np.zeros(freq.size, dtype=bool)
-    region[order[:take]] = True
-    region &= freq > 0
-    region[best] = True
-    return freq, region
 
 
 def _grid_table(first, col, chi2, best, max_dpassing, freq, region, delta_limit) -> pd.DataFrame:
