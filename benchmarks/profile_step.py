@@ -58,9 +58,9 @@ from sim.liquid import migrate_events
 
 
 @njit
-def _repeat_slot_forces(reps, block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, arrays):
+def _repeat_slot_forces(reps, block_lo, block_hi, baffle_dir, omega_drum, block_events, kernel_params, arrays):
     for _ in range(reps):
-        _kernels._slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, arrays)
+        _kernels._slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kernel_params, arrays)
 
 
 @njit
@@ -76,9 +76,9 @@ def _repeat_migration(reps, film, pair_i, pair_j, v_b, v_max, alive, created, ru
 
 
 @njit
-def _repeat_gather(reps, kp, arrays):
+def _repeat_gather(reps, kernel_params, arrays):
     for _ in range(reps):
-        _kernels._gather_integrate(kp, arrays)
+        _kernels._gather_integrate(kernel_params, arrays)
 
 
 @njit(parallel=True)
@@ -116,7 +116,7 @@ def component_costs(sim, reps):
     mutated: positions drift by a few steps' motion, which changes nothing measurable)."""
     s, p = copy.deepcopy(sim.state), sim.params
     n = s.n_particles
-    kp = _kernels.kernel_params(p, sim.n_walls)
+    kernel_params = _kernels.kernel_params(p, sim.n_walls)
     body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(sim.n_walls)])
     arrays = _kernels.kernel_arrays(s, body_key)
     baffle_dir = np.empty((p.n_baffles + 1, 2))
@@ -125,15 +125,15 @@ def component_costs(sim, reps):
     blocks = np.zeros(n_wb + n_pb, dtype=np.int64)
     _kernels.count_block_events(s.created, s.ruptured, n, sim.n_walls, blocks)
     # migration sees the flags and event counts of one real force pass (its events are those of one step)
-    _kernels._slot_forces(0, n_wb + n_pb, baffle_dir, p.drum_omega, blocks, kp, arrays)
+    _kernels._slot_forces(0, n_wb + n_pb, baffle_dir, p.drum_omega, blocks, kernel_params, arrays)
     flags = s.created.copy(), s.ruptured.copy()
     mig = (s.film.copy(), s.pair_i, s.pair_j, s.v_b.copy(), s.v_max, s.alive.copy(), flags[0], flags[1],
            s.body_start, s.body_slots, p.v_min, body_key, blocks.copy(), sim.n_walls)
-    out = {"wall slots": _best(lambda r: _repeat_slot_forces(r, 0, n_wb, baffle_dir, p.drum_omega, blocks, kp, arrays), reps),
-           "pair slots": _best(lambda r: _repeat_slot_forces(r, n_wb, n_wb + n_pb, baffle_dir, p.drum_omega, blocks, kp,
+    out = {"wall slots": _best(lambda r: _repeat_slot_forces(r, 0, n_wb, baffle_dir, p.drum_omega, blocks, kernel_params, arrays), reps),
+           "pair slots": _best(lambda r: _repeat_slot_forces(r, n_wb, n_wb + n_pb, baffle_dir, p.drum_omega, blocks, kernel_params,
                                                              arrays), reps),
            "migration": _best(lambda r: _repeat_migration(r, *mig), reps)}
-    out["gather+integrate"] = _best(lambda r: _repeat_gather(r, kp, arrays), reps)
+    out["gather+integrate"] = _best(lambda r: _repeat_gather(r, kernel_params, arrays), reps)
     return out
 
 

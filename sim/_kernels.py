@@ -111,10 +111,10 @@ def kernel_arrays(state, body_key, bridge_table=None) -> KernelArrays:
 
 
 @njit(cache=True, parallel=True)
-def advance(n_steps, step0, settling, n_sprays, kp, arrays):
+def advance(n_steps, step0, settling, n_sprays, kernel_params, arrays):
     """Advance up to ``n_steps`` leapfrog steps from step number ``step0`` (t = step·Δt).
 
-    ``kp`` is a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays` (modified in place);
+    ``kernel_params`` is a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays` (modified in place);
     ``n_sprays`` is the number of sprays done before ``step0``.
 
     Per step: wall and pair slot forces (parallel over blocks of slots) → liquid migration
@@ -122,7 +122,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     integrate (parallel over particles) → spray when t crosses the next spray time. Stops early,
     before a step, when a particle has moved more than half the Verlet skin since the last
     rebuild (the caller then rebuilds the lists and calls again). With ``settling`` the drum is at rest (Ω = 0, angle 0) and nothing is sprayed.
-    With ``kp.bridge_volume > 0`` (the fixed-bridge-volume model) every new bridge gets that
+    With ``kernel_params.bridge_volume > 0`` (the fixed-bridge-volume model) every new bridge gets that
     volume instead of migrating liquid (none while settling), and nothing is sprayed.
 
     Returns
@@ -147,20 +147,20 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
     body_start = arrays.body_start
     body_slots = arrays.body_slots
     body_key = arrays.body_key
-    dt = kp.dt
-    n_walls = kp.n_walls
-    n_baffles = kp.n_baffles
-    v_min = kp.v_min
-    spray_interval = kp.spray_interval
-    spray_dose = kp.spray_dose
-    spray_radius = kp.spray_radius
-    half_skin = kp.half_skin
+    dt = kernel_params.dt
+    n_walls = kernel_params.n_walls
+    n_baffles = kernel_params.n_baffles
+    v_min = kernel_params.v_min
+    spray_interval = kernel_params.spray_interval
+    spray_dose = kernel_params.spray_dose
+    spray_radius = kernel_params.spray_radius
+    half_skin = kernel_params.half_skin
 
     n = pos.shape[0]
     n_slots = pair_i.shape[0]
-    omega_drum = 0.0 if settling else kp.drum_omega
-    fixed_volume = kp.bridge_volume
-    wall_volume = fixed_volume if kp.wall_bridges else 0.0
+    omega_drum = 0.0 if settling else kernel_params.drum_omega
+    fixed_volume = kernel_params.bridge_volume
+    wall_volume = fixed_volume if kernel_params.wall_bridges else 0.0
     sprayed = 0.0
     done = 0
     baffle_dir = np.empty((n_baffles + 1, 2))
@@ -186,8 +186,8 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
         if n_far > 0:
             break
         baffle_directions(n_baffles, omega_drum * (step0 + it) * dt, baffle_dir)
-        _slot_forces(0, n_wall_blocks, baffle_dir, omega_drum, block_events, kp, arrays)  # wall slots
-        _slot_forces(n_wall_blocks, n_wall_blocks + n_pair_blocks, baffle_dir, omega_drum, block_events, kp, arrays)
+        _slot_forces(0, n_wall_blocks, baffle_dir, omega_drum, block_events, kernel_params, arrays)  # wall slots
+        _slot_forces(n_wall_blocks, n_wall_blocks + n_pair_blocks, baffle_dir, omega_drum, block_events, kernel_params, arrays)
         m = event_ranges(block_events, n, n_walls, n_slots, range_lo, range_hi)
         if fixed_volume > 0.0:
             if not settling:  # the bed settles dry in both liquid models
@@ -195,7 +195,7 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
         else:
             migrate_events(film, pair_i, pair_j, v_b, v_max, alive, created, ruptured, body_start, body_slots, v_min,
                            body_key, range_lo[:m], range_hi[:m])
-        n_far = _gather_integrate(kp, arrays)
+        n_far = _gather_integrate(kernel_params, arrays)
         done += 1
         if not settling and fixed_volume == 0.0 and (step0 + it + 1) * dt >= (n_sprays + 1) * spray_interval:
             sprayed += spray(film, pos, radius, n, spray_radius, spray_dose)
@@ -204,11 +204,11 @@ def advance(n_steps, step0, settling, n_sprays, kp, arrays):
 
 
 @njit(cache=True, parallel=True)
-def _gather_integrate(kp, arrays):
+def _gather_integrate(kernel_params, arrays):
     """Sum each particle's wall and pair slot forces and torques (in slot order) plus gravity,
     then one leapfrog update of velocity, angular velocity and position. Returns the number of
     particles now more than half the Verlet skin from their position at the last rebuild."""
-    gx, gy, gz = kp.gx, kp.gy, kp.gz
+    gx, gy, gz = kernel_params.gx, kernel_params.gy, kernel_params.gz
     pos = arrays.pos
     vel = arrays.vel
     omega_p = arrays.omega
@@ -222,9 +222,9 @@ def _gather_integrate(kp, arrays):
     torque_j = arrays.torque_j
     part_start = arrays.part_start
     part_slots = arrays.part_slots
-    dt = kp.dt
-    n_walls = kp.n_walls
-    half_skin = kp.half_skin
+    dt = kernel_params.dt
+    n_walls = kernel_params.n_walls
+    half_skin = kernel_params.half_skin
     n = pos.shape[0]
     n_far = 0
     for i in prange(n):
@@ -345,11 +345,11 @@ def _clear_event_flags(lo, hi, created, ruptured):
 
 
 @njit(cache=True, parallel=True)
-def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, arrays):
+def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kernel_params, arrays):
     """Interaction state, force and torques of the slots of event blocks block_lo … block_hi−1
     (:func:`event_blocks`: wall blocks of ``WALL_BLOCK`` particles' W wall slots, then pair
     blocks of ``PAIR_BLOCK`` slots), in parallel over blocks (docs/physics.md, "Contact law" and
-    "Liquid bridges"); ``kp`` a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays`. The
+    "Liquid bridges"); ``kernel_params`` a :class:`KernelParams`, ``arrays`` a :class:`KernelArrays`. The
     step calls it for the wall blocks, then for the pair blocks, so that each thread gets an equal
     share of the expensive pair slots.
 
@@ -390,21 +390,21 @@ def _slot_forces(block_lo, block_hi, baffle_dir, omega_drum, block_events, kp, a
     f_cap = arrays.f_cap
     gap = arrays.gap
     bridge_table = arrays.bridge_table
-    dt = kp.dt
-    n_walls = kp.n_walls
-    drum_radius = kp.drum_radius
-    drum_length = kp.drum_length
-    n_baffles = kp.n_baffles
-    baffle_height = kp.baffle_height
-    cylinder_facets = kp.cylinder_facets
-    law = kp.law
-    constants = kp.law_constants
-    gamma = kp.gamma
-    eta = kp.eta
-    theta = kp.theta
-    model = kp.model
-    viscous = kp.viscous
-    capillary_in_contact = kp.capillary_in_contact
+    dt = kernel_params.dt
+    n_walls = kernel_params.n_walls
+    drum_radius = kernel_params.drum_radius
+    drum_length = kernel_params.drum_length
+    n_baffles = kernel_params.n_baffles
+    baffle_height = kernel_params.baffle_height
+    cylinder_facets = kernel_params.cylinder_facets
+    law = kernel_params.law
+    constants = kernel_params.law_constants
+    gamma = kernel_params.gamma
+    eta = kernel_params.eta
+    theta = kernel_params.theta
+    model = kernel_params.model
+    viscous = kernel_params.viscous
+    capillary_in_contact = kernel_params.capillary_in_contact
     n_particles = pos.shape[0]
     n_slots = pair_i.shape[0]
     n_wall_blocks = event_blocks(n_particles, n_walls, n_slots)[0]

@@ -203,7 +203,7 @@ class Simulation:
         the thread count before it; a call that ends at its cap is followed by no rebuild, so
         the trajectory is the same however the steps are split."""
         p, s = self.params, self.state
-        kp = _kernels.kernel_params(p, self.n_walls)
+        kernel_params = _kernels.kernel_params(p, self.n_walls)
         governor = self._governor
         remaining = n_steps
         step = 0 if settling else s.step
@@ -212,7 +212,7 @@ class Simulation:
             t0 = _time.perf_counter()
             body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(self.n_walls)])
             done, s.n_sprays, sprayed = _kernels.advance(
-                cap, step, settling, s.n_sprays, kp, _kernels.kernel_arrays(s, body_key, self._bridge_table()))
+                cap, step, settling, s.n_sprays, kernel_params, _kernels.kernel_arrays(s, body_key, self._bridge_table()))
             s.sprayed_total += sprayed
             if on_steps is not None:
                 on_steps(done)

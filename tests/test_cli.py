@@ -418,3 +418,23 @@ def test_info_names_the_simulators_contact_law(capsys):
     assert ["contact", "law", "linear_coulomb"] == next(line[:3] for line in lines if line[:2] == ["contact", "law"])
     assert main(["info", os.path.join(os.path.dirname(str(dataset_path("lab-cg3"))), "yade-wet-drum.h5")]) == 0
     assert "contact law" not in capsys.readouterr().out
+
+
+def test_every_command_takes_its_identification_defaults_from_the_gna_constructor():
+    import argparse
+    import inspect
+
+    from granalytics.cli import build_parser
+    from granalytics.identification.gna import GraphNetworkAnalysis
+
+    defaults = {name: p.default for name, p in inspect.signature(GraphNetworkAnalysis).parameters.items()}
+    subparsers = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    checked = 0
+    for command, parser in subparsers.choices.items():
+        for action in parser._actions:
+            if action.dest in ("c_agg", "a_agg_deg", "radius", "backend", "min_size", "comotion", "cohesion") \
+                    and action.default is not None and not isinstance(action.default, (list, np.ndarray)) \
+                    and (command, action.dest) != ("study", "cohesion"):  # study's default: both conventions
+                assert action.default == defaults[action.dest], (command, action.dest, action.default)
+                checked += 1
+    assert checked >= 10

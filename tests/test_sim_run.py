@@ -251,7 +251,7 @@ def test_the_force_passes_count_every_blocks_events_and_reset_only_the_last_step
 
     s, p = copy.deepcopy(settled.state), settled.params
     n, n_walls, n_slots = s.n_particles, settled.n_walls, s.pair_i.shape[0]
-    kp = _kernels.kernel_params(p, n_walls)
+    kernel_params = _kernels.kernel_params(p, n_walls)
     body_key = np.concatenate([s.ids, s.ids.max() + 1 + np.arange(n_walls)])
     arrays = _kernels.kernel_arrays(s, body_key)
     n_wb, n_pb = _kernels.event_blocks(n, n_walls, n_slots)
@@ -265,8 +265,8 @@ def test_the_force_passes_count_every_blocks_events_and_reset_only_the_last_step
         # drive the system hard (a fast drum) so that contacts form and bridges break every step
         baffle_directions(p.n_baffles, 0.01 * step, baffle_dir)
         was_alive = s.alive.copy()
-        _kernels._slot_forces(0, n_wb, baffle_dir, 20.0, blocks, kp, arrays)
-        _kernels._slot_forces(n_wb, n_wb + n_pb, baffle_dir, 20.0, blocks, kp, arrays)
+        _kernels._slot_forces(0, n_wb, baffle_dir, 20.0, blocks, kernel_params, arrays)
+        _kernels._slot_forces(n_wb, n_wb + n_pb, baffle_dir, 20.0, blocks, kernel_params, arrays)
         flagged = s.created | (s.ruptured != 0.0)
         # the flags left are exactly this step's events (the previous step's were reset) ...
         assert np.array_equal(s.created, s.alive & ~was_alive)
@@ -282,7 +282,7 @@ def test_the_force_passes_count_every_blocks_events_and_reset_only_the_last_step
         assert sum(flagged[a:b].sum() for a, b in zip(lo[:m], hi[:m])) == flagged.sum()
         migrate_events(s.film, s.pair_i, s.pair_j, s.v_b, s.v_max, s.alive, s.created, s.ruptured, s.body_start,
                        s.body_slots, p.v_min, body_key, lo[:m], hi[:m])
-        _kernels._gather_integrate(kp, arrays)
+        _kernels._gather_integrate(kernel_params, arrays)
     assert events_seen > 100
 
 
@@ -300,7 +300,7 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
                             spray_interval=0.011, spray_dose=0.012, spray_radius=0.013, skin=0.9e-3,
                             baffle_height=0.14, cylinder_facets=5, drum_omega=2.5, gravity=(0.1, -9.7, 0.2),
                             capillary_model="lambert", viscous=False, capillary_in_contact=True)
-    kp = _kernels.kernel_params(p, 7)
+    kernel_params = _kernels.kernel_params(p, 7)
     by_name = {"dt": p.dt, "n_walls": 7, "drum_radius": p.drum_radius, "drum_length": p.drum_length,
                "n_baffles": p.n_baffles, "baffle_height": 0.14, "cylinder_facets": 5, "drum_omega": 2.5, "gx": 0.1, "gy": -9.7, "gz": 0.2,
                "law": 0, "law_constants": (101.0, 102.0, 0.0103, 0.0104, 0.45) + (0.0,) * (LAW_CONSTANTS - 5),
@@ -308,13 +308,13 @@ def test_kernel_parameters_are_passed_by_name_from_simparams():
                "eta": 0.0027, "theta": 0.21, "model": CAPILLARY_MODELS["lambert"], "viscous": False,
                "capillary_in_contact": True, "v_min": 1e-15, "bridge_volume": 0.0, "wall_bridges": True, "spray_interval": 0.011, "spray_dose": 0.012,
                "spray_radius": 0.013, "half_skin": 0.45e-3}
-    assert kp._asdict() == by_name
-    assert [type(v) for v in kp] == [type(by_name[k]) for k in kp._fields]
-    assert all(type(v) is float for v in kp.law_constants)
+    assert kernel_params._asdict() == by_name
+    assert [type(v) for v in kernel_params] == [type(by_name[k]) for k in kernel_params._fields]
+    assert all(type(v) is float for v in kernel_params.law_constants)
     # the time-step kernels take the parameters and the arrays as two named structures
     for kernel in (_kernels.advance, _kernels._slot_forces):
         params = list(inspect.signature(kernel.py_func).parameters)
-        assert len(params) <= 7 and params[-2:] == ["kp", "arrays"], params
+        assert len(params) <= 7 and params[-2:] == ["kernel_params", "arrays"], params
     state = Simulation.from_particles(p, [[0.0, -0.02, 0.01], [0.005, -0.02, 0.01]], [0.002, 0.002]).state
     arrays = _kernels.kernel_arrays(state, np.arange(2 + 7))
     assert arrays.pos is state.pos and arrays.f_cap is state.f_cap and arrays.omega is state.omega

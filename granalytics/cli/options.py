@@ -9,11 +9,21 @@ import warnings
 
 import numpy as np
 
-from granalytics.identification.cohesion import COHESION_CONVENTIONS, DEFAULT_COHESION
+from granalytics.identification.cohesion import COHESION_CONVENTIONS
 from granalytics.base.errors import ParameterError, ValidationError
 from granalytics.identification import BACKENDS, make_identifier
-from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from granalytics.identification.contacts import warn_if_c_agg_unreachable
+
+
+def gna_default(name):
+    """The default of GNA's constructor parameter ``name``: the command line's default, so that a
+    command and ``GraphNetworkAnalysis()`` agree (``tests/test_cli.py`` checks every option)."""
+    import inspect
+
+    from granalytics.identification.gna import GraphNetworkAnalysis
+
+    return inspect.signature(GraphNetworkAnalysis).parameters[name].default
+
 
 def interval(text):
     """Parse ``A:B`` into a pair of floats."""
@@ -135,7 +145,7 @@ def frame_loop(args) -> dict:
 
 
 def add_cohesion_option(parser):
-    parser.add_argument("--cohesion", choices=COHESION_CONVENTIONS, default=DEFAULT_COHESION,
+    parser.add_argument("--cohesion", choices=COHESION_CONVENTIONS, default=gna_default("cohesion"),
                         help="which force is F_coh: 'acting' = the cohesion the DEM code applied (a separated "
                              "bridge's force; 0 for touching pairs unless the run applied capillary force in contact), "
                              "'bridge' = the bridge force of every wet pair, touching or not (default acting)")
@@ -156,12 +166,12 @@ def add_continuation_option(parser):
 def add_criterion_options(parser, grid_tol=False):
     """The co-motion test and the granule size floor of GNA (:func:`criterion_params` reads them);
     ``grid_tol``: ``--rigid-tol`` takes a grid (the sensitivity pass)."""
-    from granalytics.identification.contacts import COMOTION_TESTS, DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, RIGID_SCALES
+    from granalytics.identification.contacts import COMOTION_TESTS, DEFAULT_RIGID_SCALE, DEFAULT_RIGID_TOL, RIGID_SCALES
 
-    parser.add_argument("--comotion", choices=COMOTION_TESTS, default=DEFAULT_COMOTION,
+    parser.add_argument("--comotion", choices=COMOTION_TESTS, default=gna_default("comotion"),
                         help="co-motion test: 'angle' = the paper's (velocities or angular velocities within A_agg), "
                              "'rigid' = the pair moves as one rigid body, |v_j - v_i - w x (r_j - r_i)| < "
-                             f"rigid_tol·V (default {DEFAULT_COMOTION})")
+                             f"rigid_tol·V (default {gna_default('comotion')})")
     # None: not given (resolve_rigid_options fills the default, and refuses them without --comotion rigid)
     if grid_tol:
         parser.add_argument("--rigid-tol", type=grid, default=None, metavar="GRID",
@@ -172,8 +182,9 @@ def add_criterion_options(parser, grid_tol=False):
     parser.add_argument("--rigid-scale", choices=RIGID_SCALES, default=None,
                         help="V of the rigid test: 'granular' = sqrt(g·d) of each pair (d = R_i + R_j), 'drum' = the "
                              f"rim speed Ω·R_d (default {DEFAULT_RIGID_SCALE})")
-    parser.add_argument("--min-size", type=int, default=2,
-                        help="fewest particles of a granule; smaller groups count as free particles (default 2)")
+    parser.add_argument("--min-size", type=int, default=gna_default("min_size"),
+                        help="fewest particles of a granule; smaller groups count as free particles "
+                             f"(default {gna_default('min_size')})")
 
 
 def resolve_rigid_options(args, grid_tol=False) -> None:
@@ -208,14 +219,16 @@ def add_gna_options(parser, time_twin=True):
     ``time_twin`` is False: a command with a steady-state ``--window`` gives it that one)."""
     group = parser.add_argument_group("granule identification (graph network analysis, paper §2.2)")
     add_cohesion_option(group)
-    group.add_argument("--c-agg", type=float, default=PAPER_C_AGG,
-                       help=f"cohesion threshold: keep F_coh >= C_agg·2πγR (default {PAPER_C_AGG:g})")
-    group.add_argument("--a-agg-deg", type=float, default=PAPER_A_AGG_DEG,
-                       help=f"co-motion threshold angle A_agg in degrees (default {PAPER_A_AGG_DEG:g})")
+    group.add_argument("--c-agg", type=float, default=gna_default("c_agg"),
+                       help=f"cohesion threshold: keep F_coh >= C_agg·2πγR (default {gna_default('c_agg'):g})")
+    group.add_argument("--a-agg-deg", type=float, default=gna_default("a_agg_deg"),
+                       help=f"co-motion threshold angle A_agg in degrees (default {gna_default('a_agg_deg'):g})")
     add_criterion_options(group)
-    group.add_argument("--radius", choices=("pair", "mean"), default="pair",
-                       help="R in 2πγR: pair effective radius 2RiRj/(Ri+Rj) or the run's mean radius (default pair)")
-    group.add_argument("--backend", choices=sorted(BACKENDS), default="fast", help="connected-components backend (default fast)")
+    group.add_argument("--radius", choices=("pair", "mean"), default=gna_default("radius"),
+                       help="R in 2πγR: pair effective radius 2RiRj/(Ri+Rj) or the run's mean radius "
+                            f"(default {gna_default('radius')})")
+    group.add_argument("--backend", choices=sorted(BACKENDS), default=gna_default("backend"),
+                       help=f"connected-components backend (default {gna_default('backend')})")
     add_frame_window_options(group, time_twin)
 
 
