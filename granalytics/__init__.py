@@ -19,7 +19,8 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   virtual sieving into its classes :func:`sieve_classes`, over a threshold grid in one pass
   :func:`sieve_grid` (:class:`SieveGrid`)
 - cohesion conventions (which force is F_coh): :func:`cohesive_force`, :data:`COHESION_CONVENTIONS`
-- coarse-graining comparison (paper Figs 3–6): :func:`compare_cg`, :class:`CGComparison`
+- coarse-graining comparison (paper Figs 3–6): :func:`compare_cg`, :class:`CGComparison`; at every
+  threshold pair :func:`compare_cg_thresholds`, :class:`CGThresholdComparison`
 - the drum's confinement (D/d, L/d, bed depth, wall contacts): :func:`confinement_of_drum`,
   :func:`confinement_of_run`, :func:`wall_touching`; the confinement curve and the split of a CG
   deviation into confinement and scaling rules: :func:`confinement_table`,
@@ -48,7 +49,8 @@ from granalytics._version import __version__
 #: :mod:`granalytics.base`, stays light)
 _EXPORTS = {
     **dict.fromkeys(("GranalyticsError", "ParameterError", "RunFileError", "RunLockedError", "ValidationError"), ".base.errors"),
-    **dict.fromkeys(("CGComparison", "cg_rule_of", "compare_cg", "compare_cg_thresholds"), ".analysis.cg"),
+    **dict.fromkeys(("CGComparison", "CGThresholdComparison", "cg_rule_of", "compare_cg", "compare_cg_thresholds"),
+                    ".analysis.cg"),
     **dict.fromkeys(("COHESION_CONVENTIONS", "cohesive_force"), ".identification.cohesion"),
     **dict.fromkeys(("compare_methods", "identical_methods"), ".analysis.method_comparison"),
     **dict.fromkeys(("CommunityDetection", "DBSCANClustering", "GraphNetworkAnalysis",
@@ -113,6 +115,7 @@ __all__ = [
     "sensitivity", "sensitivity_summary", "compare_methods", "identical_methods",
     "calibrate_thresholds", "Calibration", "MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
+    "CGThresholdComparison",
     "study_table", "growth_points", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",
     "track_granules", "track_run", "GranuleTracks", "event_rates", "rate_errors", "coalescence_kernel", "kernel_matrix",
     "breakage_rate", "size_histories",

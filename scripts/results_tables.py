@@ -92,7 +92,8 @@ def cg_threshold_table(figures=None):
 
     names = CG_SETS["lab drum"]
     c_agg, a_agg = [round(0.2 + 0.1 * k, 2) for k in range(8)], [10.0, 20.0, 45.0]
-    table = ga.compare_cg_thresholds([dataset_path(n) for n in names], c_agg, a_agg, labels=names, window=CG_WINDOW)
+    table = ga.compare_cg_thresholds([dataset_path(n) for n in names], c_agg, a_agg, labels=names,
+                                     window=CG_WINDOW).table
     print(f"\n**CG deviation at every threshold pair** (lab drum, acting cohesion, window {CG_WINDOW[0]}–"
           f"{CG_WINDOW[1]}; C_agg = 0.2 … 0.9, A_agg = 10°, 20°, 45°; |deviation| from lab-cg1 over the "
           f"{len(c_agg) * len(a_agg)} pairs)\n")

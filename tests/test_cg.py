@@ -185,7 +185,7 @@ def test_cg_deviation_at_every_threshold_pair(tmp_path, cg_runs, capsys):
     from granalytics.cli import main
 
     runs = [str(p) for p in cg_runs[:2]]
-    table = ga.compare_cg_thresholds(runs, [0.3, 0.6], [20.0, 45.0], window=(2, 4))
+    table = ga.compare_cg_thresholds(runs, [0.3, 0.6], [20.0, 45.0], window=(2, 4)).table
     assert len(table) == len(runs) * 4
     finest = table[table.alpha == table.alpha.min()]
     assert (finest.filter(like="_rel_dev").fillna(0) == 0).all().all()
@@ -235,7 +235,7 @@ def test_threshold_grid_deviations_carry_their_standard_error():
     from granalytics.datasets import dataset_path
 
     table = compare_cg_thresholds([dataset_path("lab-cg2"), dataset_path("lab-cg3")], [0.4, 0.6], [20],
-                                  window=(3.0, 4.5))
+                                  window=(3.0, 4.5)).table
     cg3 = table[table["alpha"] == 3.0]
     assert (cg3["yield_fraction_rel_dev_se"] > 0).all() and (cg3["yield_fraction_sem"] > 0).all()
     ratio = cg3["yield_fraction_mean"] / table[table["alpha"] == 2.0]["yield_fraction_mean"].to_numpy()

@@ -28,6 +28,7 @@ pytestmark = [pytest.mark.filterwarnings("ignore:.*D/d = .* is below:UserWarning
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 CG_RUNS = [str(DATASET_DIR / "lab-cg2.h5"), str(DATASET_DIR / "lab-cg3.h5")]
 WINDOW = (3, 4)
+TRACK_WINDOW = (3, 3.5)
 
 
 @pytest.fixture(scope="module")
@@ -40,6 +41,18 @@ def calibration():
     measured = ga.read_sieve_csv(DATASET_DIR / "sieve" / "example-sieve.csv")
     return ga.calibrate_thresholds(str(DATASET_DIR / "lab-cg3.h5"), measured, [0.3, 0.6], [20.0, 40.0], window=WINDOW,
                                    n_boot=20)
+
+
+@pytest.fixture(scope="module")
+def tracks():
+    with ga.open_run(DATASET_DIR / "lab-cg3.h5") as run:
+        return ga.track_run(run.select(revolutions=TRACK_WINDOW), cohesion="acting"), run.meta
+
+
+@pytest.fixture(scope="module")
+def prediction():
+    with ga.open_run(str(DATASET_DIR / "lab-cg3.h5")) as run:
+        return ga.pbm_from_run(run, (1, 2), (2, 4), cohesion="acting")
 
 
 def _files(folder):
@@ -56,7 +69,7 @@ def test_a_table_is_saved_by_its_suffix_and_never_overwritten(tmp_path, suffix):
     assert ga.save(table, path) == [str(path)]
     back = pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
     pd.testing.assert_frame_equal(back, table)
-    with pytest.raises(ParameterError, match="exists"):
+    with pytest.raises(ParameterError, match=r"exists \(overwrite=True, or --overwrite on the command line, replaces"):
         ga.save(table, path)
     ga.save(table * 2, path, overwrite=True)
     assert (pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path))["a"].tolist() == [2, 4]
@@ -97,6 +110,42 @@ def test_a_calibration_is_saved_as_its_tables_json_and_figures(tmp_path, calibra
     assert sorted(figures) == ["calibration_distributions", "calibration_objective"]
     for fig in figures.values():
         plt.close(fig)
+
+
+def test_granule_tracks_are_saved_as_their_events_tracks_rates_and_figure_and_drawn_as_it(tmp_path, tracks):
+    tracks, meta = tracks
+    period = 2 * np.pi / abs(meta.drum_omega)
+    written = ga.save(tracks, tmp_path / "track", revolution_period_s=period, size_unit="original", alpha=meta)
+    assert [pathlib.Path(p).name for p in written] == output_names(ga.GranuleTracks)
+    assert _files(tmp_path / "track") == sorted(output_names(ga.GranuleTracks))
+    assert len(pd.read_csv(tmp_path / "track" / "events.csv")) == len(tracks.events)
+    rates = pd.read_csv(tmp_path / "track" / "rates.csv")
+    np.testing.assert_allclose(rates["rate_per_rev"], ga.event_rates(tracks, period)["rate_per_rev"])
+    kernel = pd.read_csv(tmp_path / "track" / "kernel.csv")
+    expected = ga.coalescence_kernel(tracks, size_unit="original", alpha=meta)
+    np.testing.assert_allclose(kernel["size_min_i"], expected["size_min_i"])
+    assert (kernel["size_min_i"] % 27 == 0).all()  # lab-cg3: α = 3, sizes in original particles α³·n
+    with pytest.raises(ParameterError, match="exists"):
+        ga.save(tracks, tmp_path / "track")
+    fig = ga.draw(tracks, revolution_period_s=period, title="lab-cg3")
+    assert isinstance(fig, matplotlib.figure.Figure) and len(fig.axes) >= 3
+    plt.close(fig)
+
+
+def test_a_population_balance_prediction_is_saved_as_its_tables_settings_and_figure(tmp_path, prediction):
+    import json
+
+    written = ga.save(prediction, tmp_path / "pbm")
+    assert [pathlib.Path(p).name for p in written] == output_names(ga.PBMPrediction)
+    assert _files(tmp_path / "pbm") == sorted(output_names(ga.PBMPrediction))
+    settings = json.loads((tmp_path / "pbm" / "settings.json").read_text())
+    assert settings == json.loads(json.dumps(prediction.to_json()))
+    assert settings["run"] == str(DATASET_DIR / "lab-cg3.h5") and settings["fit_window_rev"] == [1.0, 2.0]
+    assert settings["bins_per_decade"] == 4 and settings["cohesion"] == "acting"
+    summary = pd.read_csv(tmp_path / "pbm" / "summary.csv")
+    pd.testing.assert_frame_equal(summary, prediction.summary(), check_dtype=False)
+    with pytest.raises(ParameterError, match="exists"):
+        ga.save(prediction, tmp_path / "pbm")
 
 
 def test_a_measured_distribution_is_saved_as_the_csv_that_is_read_back(tmp_path):
@@ -235,3 +284,47 @@ def test_stats_and_save_write_the_same_tables(tmp_path, capsys):
     ga.save(steady, tmp_path / "py-steady.csv")
     assert cli["ts"].read_bytes() == (tmp_path / "py-ts.csv").read_bytes()
     assert cli["steady"].read_bytes() == (tmp_path / "py-steady.csv").read_bytes()
+
+
+def test_track_and_save_write_the_same_files(tmp_path, tracks, capsys):
+    run_path = str(DATASET_DIR / "lab-cg3.h5")
+    assert main(["track", run_path, "--window-rev", f"{TRACK_WINDOW[0]}:{TRACK_WINDOW[1]}", "--out",
+                 str(tmp_path / "cli"), "--quiet"]) == 0
+    capsys.readouterr()
+    tracks, meta = tracks
+    ga.save(tracks, tmp_path / "py", revolution_period_s=2 * np.pi / abs(meta.drum_omega), alpha=meta,
+            title="lab-cg3.h5: gna (cohesion=acting), min_fragment=2")
+    assert _files(tmp_path / "cli") == _files(tmp_path / "py") == sorted(output_names(ga.GranuleTracks))
+    for name in _files(tmp_path / "py"):
+        if name.endswith(".csv"):
+            assert (tmp_path / "cli" / name).read_bytes() == (tmp_path / "py" / name).read_bytes(), name
+
+
+def test_pbm_and_save_write_the_same_files(tmp_path, prediction, capsys):
+    assert main(["pbm", str(DATASET_DIR / "lab-cg3.h5"), "--fit-window", "1:2", "--predict", "2:4", "--out",
+                 str(tmp_path / "cli"), "--quiet"]) == 0
+    capsys.readouterr()
+    ga.save(prediction, tmp_path / "py")
+    assert _files(tmp_path / "cli") == _files(tmp_path / "py") == sorted(output_names(ga.PBMPrediction))
+    for name in _files(tmp_path / "py"):
+        if not name.endswith(".png"):
+            assert (tmp_path / "cli" / name).read_bytes() == (tmp_path / "py" / name).read_bytes(), name
+
+
+def test_compare_cg_over_a_threshold_grid_and_save_write_the_same_files(tmp_path, capsys):
+    c_agg, a_agg = [0.4, 0.6], [20.0]
+    assert main(["compare-cg", *CG_RUNS, "--window", f"{WINDOW[0]}:{WINDOW[1]}", "--c-agg", "0.4,0.6",
+                 "--a-agg-deg", "20", "--out", str(tmp_path / "cli"), "--quiet"]) == 0
+    capsys.readouterr()
+    comparison = ga.compare_cg_thresholds(CG_RUNS, c_agg, a_agg, window=WINDOW)
+    assert comparison.finest == comparison.table.loc[comparison.table["alpha"].idxmin(), "run"]
+    written = ga.save(comparison, tmp_path / "py")
+    assert [pathlib.Path(p).name for p in written] == output_names(ga.CGThresholdComparison)
+    assert _files(tmp_path / "cli") == _files(tmp_path / "py") == sorted(output_names(ga.CGThresholdComparison))
+    assert (tmp_path / "cli" / "cg_thresholds.csv").read_bytes() == (tmp_path / "py" / "cg_thresholds.csv").read_bytes()
+    with pytest.raises(ParameterError, match="exists"):
+        ga.save(comparison, tmp_path / "py")
+    figures = ga.draw(comparison)
+    assert sorted(figures) == [name.removesuffix(".png") for name in sorted(output_names(ga.CGThresholdComparison))[1:]]
+    for fig in figures.values():
+        plt.close(fig)

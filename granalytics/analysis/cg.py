@@ -28,7 +28,7 @@ from granalytics.base.errors import ParameterError, user_stacklevel
 from granalytics.core import open_run
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV, run_stats, size_distribution, steady_state
 
-__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "cg_rule_warning", "CG_RULE_DEVIATION", "group_replicas", "CGComparison", "PAPER_SPEEDUP", "CG_METRICS"]
+__all__ = ["compare_cg", "compare_cg_thresholds", "cg_rule_of", "cg_rule_warning", "CG_RULE_DEVIATION", "group_replicas", "CGComparison", "CGThresholdComparison", "PAPER_SPEEDUP", "CG_METRICS"]
 
 #: speed-up over CG1 reported by the paper for CG2 and CG3 (its conclusion)
 PAPER_SPEEDUP = {2.0: 12.0, 3.0: 32.0}
@@ -465,9 +465,38 @@ def _grid_block_sems(table, lo) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+@dataclass(eq=False)
+class CGThresholdComparison:
+    """Result of :func:`compare_cg_thresholds`: runs at several CG factors compared at every
+    threshold pair.
+
+    Attributes
+    ----------
+    table : DataFrame
+        One row per run and threshold pair: ``run``, ``alpha``, ``c_agg``, ``a_agg_deg``,
+        ``n_frames``, and for each headline metric ``<metric>_mean`` (over the window's frames),
+        ``<metric>_sem`` (its block s.e.m., quarter-revolution blocks as :func:`steady_state`),
+        ``<metric>_rel_dev`` ((run − finest)/finest; 0 for the finest run, NaN where the finest
+        is 0) and ``<metric>_rel_dev_se`` (its standard error from both block s.e.m.s).
+    window : (float, float)
+        The window of drum revolutions averaged.
+    cohesion : str
+        The cohesion convention.
+    """
+
+    table: pd.DataFrame
+    window: tuple
+    cohesion: str
+
+    @property
+    def finest(self) -> str:
+        """The label of the finest run (smallest α), the reference of the deviations."""
+        return self.table.loc[self.table["alpha"].idxmin(), "run"]
+
+
 @validate_params(_COMPARE_CONSTRAINTS)
 def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT_WINDOW_REV,
-                          cohesion=DEFAULT_COHESION, radius="pair", progress=False) -> pd.DataFrame:
+                          cohesion=DEFAULT_COHESION, radius="pair", progress=False) -> CGThresholdComparison:
     """Does the CG agreement survive other thresholds? The deviation of each headline statistic
     from the finest run (smallest α) at every (C_agg, A_agg) pair.
 
@@ -486,12 +515,9 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
 
     Returns
     -------
-    DataFrame
-        One row per run and threshold pair: ``run``, ``alpha``, ``c_agg``, ``a_agg_deg``,
-        ``n_frames``, and for each headline metric ``<metric>_mean`` (over the window's frames),
-        ``<metric>_sem`` (its block s.e.m., quarter-revolution blocks as :func:`steady_state`),
-        ``<metric>_rel_dev`` ((run − finest)/finest; 0 for the finest run, NaN where the finest
-        is 0) and ``<metric>_rel_dev_se`` (its standard error from both block s.e.m.s).
+    CGThresholdComparison
+        Its ``table``: one row per run and threshold pair, each headline metric's mean, block
+        s.e.m. and deviation from the finest run ± its standard error.
     """
     from granalytics.analysis.sensitivity import sensitivity, sensitivity_summary
 
@@ -531,4 +557,5 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
                                                    np.abs(ratio) * np.hypot(se / mean, base_se / base))
     columns = ["run", "alpha", "c_agg", "a_agg_deg", "n_frames"]
     columns += [f"{m}_{s}" for m in BY_FIGURE for s in ("mean", "sem", "rel_dev", "rel_dev_se")]
-    return out[columns].sort_values(["alpha", "a_agg_deg", "c_agg"]).reset_index(drop=True)
+    table = out[columns].sort_values(["alpha", "a_agg_deg", "c_agg"]).reset_index(drop=True)
+    return CGThresholdComparison(table=table, window=(lo, hi), cohesion=cohesion)

@@ -9,7 +9,6 @@ import numpy as np
 
 from granalytics.analysis.metrics import METRICS
 from granalytics.base.errors import ParameterError
-from granalytics.report.files import output_folder, staged_outputs, write_table
 from granalytics.report.tables import format_cg_table
 from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
@@ -92,10 +91,9 @@ def cmd_compare_cg(args):
 
 def _compare_cg_thresholds(args, labels) -> int:
     """compare-cg with a grid of thresholds: the deviation table and one heatmap per statistic."""
-    import matplotlib.pyplot as plt
-
-    from granalytics.analysis.cg import compare_cg_thresholds
-    from granalytics.report.figures import cg_threshold_figures
+    from granalytics.analysis.cg import CGThresholdComparison, compare_cg_thresholds
+    from granalytics.analysis.metrics import BY_FIGURE
+    from granalytics.report import output_paths, save
 
     if args.method != "gna":
         raise ParameterError(f"--method {args.method}: a threshold grid is GNA's C_agg x A_agg (give --method gna)")
@@ -108,28 +106,14 @@ def _compare_cg_thresholds(args, labels) -> int:
     a_agg = args.a_agg_deg if args.a_agg_deg is not None else np.array([PAPER_A_AGG_DEG])
     if (c_agg < 0).any() or ((a_agg <= 0) | (a_agg > 180)).any():
         raise ParameterError("--c-agg values must be >= 0 and --a-agg-deg values in (0, 180] degrees")
-    paths = {"table": os.path.join(args.out, "cg_thresholds.csv")}
-    from granalytics.analysis.metrics import BY_FIGURE
-
-    paths.update({m: os.path.join(args.out, f"cg_thresholds_{m}.png") for m in BY_FIGURE})
-    existing = [p for p in paths.values() if os.path.exists(p)]
-    if existing and not args.overwrite:
-        raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
+    output_paths(CGThresholdComparison, args.out, overwrite=args.overwrite)  # before minutes of analysis
     args.window = revolution_window(args, run_metas(args.runs), args.runs)
-    table = compare_cg_thresholds(args.runs, c_agg, a_agg, labels, window=args.window, cohesion=args.cohesion,
-                                  progress=not args.quiet)
-    figures = cg_threshold_figures(table)
-    try:
-        with output_folder(args.out), staged_outputs(args.out) as stage:
-            write_table(table, paths["table"], stage)
-            for name, fig in figures.items():
-                fig.savefig(stage(paths[name.removeprefix("cg_thresholds_")]), dpi=120)
-    finally:
-        for fig in figures.values():
-            plt.close(fig)
-    finest = table.loc[table["alpha"].idxmin(), "run"]
+    comparison = compare_cg_thresholds(args.runs, c_agg, a_agg, labels, window=args.window, cohesion=args.cohesion,
+                                       progress=not args.quiet)
+    written = save(comparison, args.out, overwrite=args.overwrite)
+    table, finest = comparison.table, comparison.finest
     worst = table[table["run"] != finest]
-    print(f"wrote {len(paths)} files to {args.out}: the deviation from {finest} at {len(c_agg) * len(a_agg)} threshold "
+    print(f"wrote {len(written)} files to {args.out}: the deviation from {finest} at {len(c_agg) * len(a_agg)} threshold "
           f"pairs (window [{args.window[0]:g}, {args.window[1]:g}] revolutions, cohesion={args.cohesion})")
     for metric in BY_FIGURE:
         dev = worst[f"{metric}_rel_dev"].abs()

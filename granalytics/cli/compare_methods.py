@@ -10,6 +10,7 @@ from granalytics.analysis.metrics import HEADLINE
 from granalytics.base.errors import ParameterError
 from granalytics.report import save
 from granalytics.report.files import check_outputs, save_figure
+from granalytics.report.tables import format_method_means
 from granalytics.identification import DEFAULT_METHODS
 from granalytics.core import open_run
 from granalytics.cli.options import (add_cohesion_option, add_frame_loop_options, frame_loop, revolution_window,
@@ -68,8 +69,6 @@ def cmd_compare(args):
         uses = [m for m in methods if m != "dbscan" or methods[m][1].get("bridged_only")]  # DBSCAN on positions has no F_coh
         save_figure(comparison_figure(stats, pairs, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion} "
                                                           f"(for {', '.join(uses) or 'no method'})"), args.plot)
-    import pandas as pd
-
     # the printed means are steady-state means over --window, as in stats (the tables hold every frame)
     lo, hi = args.window
     inside = window_mask(stats["revolutions"].to_numpy(dtype=float), lo, hi)
@@ -81,8 +80,5 @@ def cmd_compare(args):
     mean_stats = stats[inside].groupby("method", sort=False)[list(HEADLINE)].mean()
     mean_pairs = pairs[pairs["frame"].isin(frames_in)].groupby(["method_a", "method_b"], sort=False)[
         ["ari", *(f"d_{name}" for name in HEADLINE)]].mean()
-    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
-        print(f"means over the {len(frames_in)} frames in the window [{lo:g}, {hi:g}] revolutions")
-        print(mean_stats.to_string())
-        print(mean_pairs.to_string())
+    print(format_method_means(mean_stats, mean_pairs, len(frames_in), args.window))
     return 0

@@ -7,11 +7,9 @@ import argparse
 import os
 
 from granalytics.cli.options import add_cohesion_option, interval, revolution_window, threshold_options
-from granalytics.report.files import save_figure, write_json, write_table
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock
 
-_OUTPUTS = ("kernel.csv", "rates.csv", "distributions.csv", "summary.csv", "settings.json", "pbm.png")
 
 
 def add_pbm_parser(sub):
@@ -41,7 +39,8 @@ def add_pbm_parser(sub):
     predict.add_argument("--predict", type=interval, metavar="R0:R1",
                          help="revolutions to predict, from the DEM's distribution at the first frame in it")
     predict.add_argument("--predict-time", type=interval, metavar="T0:T1", help="the same in seconds")
-    p.add_argument("--out", required=True, help="output folder: " + ", ".join(_OUTPUTS))
+    p.add_argument("--out", required=True, help="output folder: kernel.csv, rates.csv, distributions.csv, summary.csv, "
+                                                "settings.json, pbm.png")
     p.add_argument("--method", choices=DEFAULT_METHODS, default="gna", help="identification method (default gna)")
     p.add_argument("--c-agg", type=float, default=None,
                    help="cohesion threshold C_agg (default: the method's, 0.6; only for methods that take it)")
@@ -62,9 +61,10 @@ def add_pbm_parser(sub):
 def cmd_pbm(args):
     """Run the ``pbm`` subcommand (see :func:`add_pbm_parser`); returns the exit status 0."""
     import granalytics as ga
-    from granalytics.report.files import output_folder, staged_outputs
+    from granalytics.analysis.population_balance import PBMPrediction
     from granalytics.identification import accepted_params
-    from granalytics.report.figures import pbm_figure
+    from granalytics.report import output_paths, save
+    from granalytics.report.files import output_folder
 
     if args.min_fragment < 1:
         raise ParameterError(f"--min-fragment must be >= 1, got {args.min_fragment}")
@@ -81,11 +81,11 @@ def cmd_pbm(args):
     if args.predict[0] < args.fit_window[0]:
         raise ParameterError(f"--predict {args.predict[0]:g}:{args.predict[1]:g} starts before --fit-window "
                              f"{args.fit_window[0]:g}:{args.fit_window[1]:g} (a prediction goes forward)")
+    # the folder made before the analysis (removed again if the command fails and leaves it empty),
+    # one writer at a time into it (OUT/pbm.lock), the outputs checked under the lock and written
+    # as one (granalytics.save)
     with output_folder(args.out), WriterLock(os.path.join(args.out, "pbm")):
-        paths = {name: os.path.join(args.out, name) for name in _OUTPUTS}
-        existing = [p for p in paths.values() if os.path.exists(p)]
-        if existing and not args.overwrite:
-            raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
+        output_paths(PBMPrediction, args.out, overwrite=args.overwrite)
         params = {**threshold_options(args, args.method), **accepted_params(args.method, cohesion=args.cohesion)}
         with ga.open_run(args.run) as run:
             pred = ga.pbm_from_run(run, args.fit_window, args.predict, method=args.method,
@@ -93,20 +93,10 @@ def cmd_pbm(args):
                                    ratio=args.ratio, progress=not args.quiet, **params)
         if not pred.pbm.success:
             raise ParameterError(f"{args.run}: the population balance did not integrate ({pred.pbm.message})")
+        written = save(pred, args.out, overwrite=args.overwrite)
         summary = pred.summary()
-        settings = {"run": args.run, "fit_window_rev": list(args.fit_window), "predict_rev": list(args.predict),
-                    **pred.setting, "bins_per_decade": args.bins_per_decade, "ratio": args.ratio,
-                    "n_particles": pred.rates.n_particles, "pivots": pred.pbm.grid.tolist(),
-                    "mass_error": pred.pbm.mass_error, "units": "rates per second; sizes in particles of the run"}
-        fig = pbm_figure(pred)  # a matplotlib Figure outside pyplot: nothing to close
-        with staged_outputs(args.out) as stage:
-            for table, name in ((pred.rates.kernel, "kernel.csv"), (pred.rates.classes, "rates.csv"),
-                                (pred.distributions(), "distributions.csv"), (summary, "summary.csv")):
-                write_table(table, paths[name], stage)
-            write_json(settings, paths["settings.json"], stage, indent=1)
-            save_figure(fig, paths["pbm.png"], stage)
         last = summary.iloc[-1]
-        print(f"wrote {len(_OUTPUTS)} files to {args.out}: at revolution {last['revolution']:.2f} the PBM has mean size "
+        print(f"wrote {len(written)} files to {args.out}: at revolution {last['revolution']:.2f} the PBM has mean size "
               f"{last['pbm_mean_size']:.2f} and yield {last['pbm_yield_fraction']:.3f}, the DEM "
               f"{last['dem_mean_size']:.2f} and {last['dem_yield_fraction']:.3f} (KS D {last['ks_d']:.3f}); "
               f"particles kept to {pred.pbm.mass_error:.1e}")

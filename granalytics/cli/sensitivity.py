@@ -5,10 +5,10 @@ from __future__ import annotations
 import os
 
 from granalytics.base.resources import check_memory
-from granalytics.analysis.metrics import HEADLINE
 from granalytics.base.errors import ParameterError
 from granalytics.report import save
 from granalytics.report.files import check_outputs, save_figure
+from granalytics.report.tables import format_sensitivity_means
 from granalytics.identification.contacts import warn_if_c_agg_unreachable
 from granalytics.core import open_run
 from granalytics.analysis.stats import check_window
@@ -80,12 +80,5 @@ def cmd_sensitivity(args):
 
         save_figure(sensitivity_figure(summary, title=f"{os.path.basename(args.run)}, revolutions "
                                  f"[{args.window[0]:g}, {args.window[1]:g}], cohesion={args.cohesion}"), args.plot)
-    import pandas as pd
-
-    shown = summary[["rigid_tol" if rigid else "a_agg_deg", "c_agg", *(f"{name}_mean" for name in HEADLINE)]]
-    print(f"mean over the frames of revolutions [{args.window[0]:g}, {args.window[1]:g}] at each threshold pair "
-          f"(cohesion={args.cohesion}; F_coh >= C_agg·2πγR keeps a contact, so above the largest F_coh/(2πγR) of "
-          "the run nothing is kept)")
-    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120, "display.max_rows", 40):
-        print(shown.to_string(index=False))
+    print(format_sensitivity_means(summary, args.window, args.cohesion, rigid=rigid))
     return 0

@@ -6,9 +6,6 @@ from __future__ import annotations
 import math
 import os
 
-import pandas as pd
-
-from granalytics.analysis.metrics import HEADLINE
 from granalytics.identification import DEFAULT_METHODS
 from granalytics.base.errors import ParameterError
 from granalytics.core.manifest import read_manifest
@@ -16,7 +13,7 @@ from granalytics.report.figures import growth_figure
 from granalytics.analysis.study import fit_growth_of_table, fit_surrogate, study_table
 from granalytics.cli.options import add_window_options, revolution_window, run_metas, threshold_options
 from granalytics.report.files import check_outputs, save_figure, write_table
-from granalytics.report.tables import plus_minus
+from granalytics.report.tables import format_study_table, format_surrogate_errors
 
 def parse_predict(text, inputs=("gamma", "omega")) -> dict:
     """Parse ``"gamma=0.2,omega=3"`` into ``{"gamma": 0.2, "omega": 3.0}``.
@@ -116,25 +113,7 @@ def cmd_study(args) -> int:
         error = getattr(row, "error", "")
         error = error if isinstance(error, str) else ""  # an empty cell reads as NaN
         print(f"  left out: {row.point} ({row.status}{': ' + error if error else ''})")
-    columns = ["point", "gamma", "omega", "alpha", "cohesion"]
-    cells = table[[c for c in columns if c in table]].copy()
-    for metric in HEADLINE:  # the ± is the replica s.e. where there are replicas, the block s.e.m. beside it
-        if args.replicas:
-            cells[f"{metric} ± replica s.e."] = [plus_minus(m, r) for m, r in zip(table[f"{metric}_mean"],
-                                                                                table[f"{metric}_replica_sem"])]
-            cells[f"{metric} block s.e.m."] = [f"{e:#.2g}" if e == e else "n/a" for e in table[f"{metric}_sem"]]
-        else:
-            cells[f"{metric} ± block s.e.m."] = [plus_minus(m, e) for m, e in zip(table[f"{metric}_mean"],
-                                                                                table[f"{metric}_sem"])]
-    if args.replicas:
-        cells.insert(1, "n_replicas", table["n_replicas"])
-    with pd.option_context("display.width", 160, "display.max_rows", 200, "display.max_colwidth", 60):
-        print(cells.to_string(index=False))
-    print("block s.e.m.: standard error of the mean from the means of blocks of the window"
-          + (" (a group's combined as √(Σ sem²)/n); replica s.e.: standard deviation of a group's replica means / √n "
-             "(n/a for a point without replicas)" if args.replicas else "")
-          + ("; n/a: the window of a point holds fewer than two blocks (quarter revolutions) of frames, or no granules"
-             if table[[f"{m}_sem" for m in HEADLINE]].isna().any().any() else ""))
+    print(format_study_table(table, replicas=bool(args.replicas)))
     if args.out:
         write_table(table, args.out)
         print(f"wrote the study table ({len(table)} rows) to {args.out}")
@@ -150,8 +129,7 @@ def cmd_study(args) -> int:
             surrogates[conv] = fit_surrogate(table, inputs, cohesion=conv)
             loo = surrogates[conv].loo
             print(f"surrogate ({label}; GP on {', '.join(inputs)}), leave-one-out error:")
-            with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
-                print(loo.to_string())
+            print(format_surrogate_errors(loo))
         except ParameterError as exc:
             print(f"surrogate ({label}): not possible: {exc}")
     if predictions:

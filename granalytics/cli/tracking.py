@@ -7,16 +7,12 @@ import os
 
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock
-from granalytics.report.files import output_folder, staged_outputs
+from granalytics.report.files import output_folder
 from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.core import open_run
-from granalytics.report.figures import tracking_figure
-from granalytics.analysis.tracking import KINDS, breakage_rate, coalescence_kernel, event_rates, track_run
+from granalytics.analysis.tracking import KINDS, GranuleTracks, track_run
 from granalytics.cli.options import (add_cohesion_option, add_frame_loop_options, add_frame_window_options,
                                      add_size_unit_option, frame_loop, selected_frames, threshold_options)
-from granalytics.report.files import save_figure, write_table
-
-_OUTPUTS = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
 
 
 def add_track_parser(sub):
@@ -56,20 +52,15 @@ def add_track_parser(sub):
 
 def cmd_track(args):
     """Run the ``track`` subcommand (see :func:`add_track_parser`); returns the exit status 0."""
-
-    import matplotlib.pyplot as plt
-
+    from granalytics.report import output_paths, save
 
     if args.min_fragment < 1:
         raise ParameterError(f"--min-fragment must be >= 1, got {args.min_fragment}")
     # the folder made before the analysis (removed again if the command fails and leaves it empty),
     # one writer at a time into it (OUT/tracking.lock), the outputs checked under the lock and
-    # written as one (all six, or none)
+    # written as one (granalytics.save)
     with output_folder(args.out), WriterLock(os.path.join(args.out, "tracking")):
-        paths = {name: os.path.join(args.out, name) for name in _OUTPUTS}
-        existing = [p for p in paths.values() if os.path.exists(p)]
-        if existing and not args.overwrite:
-            raise ParameterError(f"{existing[0]}: exists (pass --overwrite to replace the outputs in {args.out})")
+        output_paths(GranuleTracks, args.out, overwrite=args.overwrite)
         params = {**threshold_options(args, args.method), **accepted_params(args.method, cohesion=args.cohesion)}
         with open_run(args.run) as run:
             omega, meta = run.meta.drum_omega, run.meta
@@ -79,22 +70,12 @@ def cmd_track(args):
                                      f"(the run has {len(run)})")
             tracks = track_run(frames, args.method, progress=not args.quiet, min_fragment=args.min_fragment,
                                **frame_loop(args), **params)
-        period = 2 * math.pi / abs(omega) if omega else None
-        rates = event_rates(tracks, period)
-        kernel = coalescence_kernel(tracks, size_unit=args.size_unit, alpha=meta)
-        breakage = breakage_rate(tracks, size_unit=args.size_unit, alpha=meta)
         setting = ", ".join(f"{k}={v}" for k, v in params.items())
-        fig = tracking_figure(tracks, rates, kernel, size_unit=args.size_unit, alpha=meta, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
-                                                           f"min_fragment={args.min_fragment}")
-        try:
-            with staged_outputs(args.out) as stage:
-                for table, name in ((tracks.events, "events.csv"), (tracks.tracks, "tracks.csv"), (rates, "rates.csv"),
-                                    (kernel, "kernel.csv"), (breakage, "breakage.csv")):
-                    write_table(table, paths[name], stage)
-                save_figure(fig, paths["tracking.png"], stage)
-        finally:
-            plt.close(fig)
+        written = save(tracks, args.out, overwrite=args.overwrite,
+                       revolution_period_s=2 * math.pi / abs(omega) if omega else None, size_unit=args.size_unit,
+                       alpha=meta, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
+                                         f"min_fragment={args.min_fragment}")
         counts = tracks.event_counts()
-        print(f"wrote {len(_OUTPUTS)} files to {args.out}: {tracks.n_tracks} tracks over {tracks.n_frames} frames; "
+        print(f"wrote {len(written)} files to {args.out}: {tracks.n_tracks} tracks over {tracks.n_frames} frames; "
               + ", ".join(f"{kind} {counts[kind]}" for kind in KINDS))
         return 0

@@ -32,8 +32,8 @@ def new_output_paths(folder, names, *, overwrite=False) -> list:
     paths = [os.path.join(folder, name) for name in names]
     existing = [p for p in paths if os.path.exists(p)]
     if existing and not overwrite:
-        raise ParameterError(f"{existing[0]}: exists (pass overwrite / --overwrite to replace {len(existing)} "
-                             "existing output file(s))")
+        raise ParameterError(f"{existing[0]}: exists (overwrite=True, or --overwrite on the command line, replaces "
+                             f"the {len(existing)} existing output file(s))")
     return paths
 
 
@@ -185,11 +185,11 @@ def save_figure(fig, path, stage=None):
 
 
 def check_new_file(path, overwrite):
-    """Before any work: refuse to replace an existing file unless ``--overwrite``, a folder
-    always, and a file whose folder does not exist or is not writable."""
+    """Before any work: refuse to replace an existing file unless ``overwrite`` (``--overwrite`` on
+    the command line), a folder always, and a file whose folder does not exist or is not writable."""
     check_replaceable(path)  # a folder or a device (/dev/null) always, --overwrite or not
     if os.path.exists(path) and not overwrite:
-        raise ParameterError(f"{path}: file exists (pass --overwrite to replace it)")
+        raise ParameterError(f"{path}: file exists (overwrite=True, or --overwrite on the command line, replaces it)")
     check_output_folder(path)
 
 

@@ -7,12 +7,19 @@ files a result type is saved to, for checking them before the work that computes
   figure function in :mod:`granalytics.report.figures` draws it);
 - :class:`CGComparison`: saved into a folder as ``cg_table.csv``, ``cg_timeseries.csv``,
   ``cg_sizes.csv`` and the paper's Figs 3–6 as PNG and PDF; drawn as those figures (a dict);
+- :class:`CGThresholdComparison`: saved into a folder as ``cg_thresholds.csv`` and one heatmap
+  ``cg_thresholds_<metric>.png`` per headline statistic; drawn as those heatmaps (a dict);
 - :class:`Calibration`: saved into a folder as ``calibration_grid.csv``,
   ``calibration_distributions.csv``, ``calibration.json`` and its two figures; drawn as those;
+- :class:`GranuleTracks`: saved into a folder as ``events.csv``, ``tracks.csv``, ``rates.csv``,
+  ``kernel.csv``, ``breakage.csv`` (the rates of :mod:`granalytics.analysis.tracking.rates`) and
+  ``tracking.png``; drawn as that figure;
+- :class:`PBMPrediction`: saved into a folder as ``kernel.csv``, ``rates.csv``,
+  ``distributions.csv``, ``summary.csv``, ``settings.json`` (:meth:`PBMPrediction.to_json`) and
+  ``pbm.png``; drawn as the prediction beside its DEM;
 - :class:`MeasuredDistribution`: saved as the CSV of its classes that :func:`read_sieve_csv` reads;
 - :class:`IdentificationResult`: drawn as the frame in 3-D (``granalytics identify`` writes the
-  labels of every frame);
-- :class:`PBMPrediction`: drawn as the prediction beside its DEM.
+  labels of every frame).
 
 Outputs are checked before they are written (none exists unless ``overwrite``; a folder is made
 if missing) and a folder's files are written as one (all of them change, or none:
@@ -27,15 +34,18 @@ import os
 import pandas as pd
 
 from granalytics.analysis.calibration import Calibration, MeasuredDistribution
-from granalytics.analysis.cg import CGComparison
+from granalytics.analysis.cg import CGComparison, CGThresholdComparison
+from granalytics.analysis.metrics import BY_FIGURE
 from granalytics.analysis.population_balance import PBMPrediction
+from granalytics.analysis.tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates
 from granalytics.base.errors import GranalyticsError, ParameterError
 from granalytics.base.files import write_atomically
 from granalytics.identification.result import IdentificationResult
-from granalytics.report.files import (check_outputs, new_output_paths, output_folder, staged_outputs, write_json,
-                                      write_table)
+from granalytics.report.files import (check_outputs, new_output_paths, output_folder, save_figure, staged_outputs,
+                                      write_json, write_table)
 
-__all__ = ["save", "draw", "output_paths", "output_names", "CG_TABLES", "CG_FORMATS", "CALIBRATION_TABLES"]
+__all__ = ["save", "draw", "output_paths", "output_names", "CG_TABLES", "CG_FORMATS", "CALIBRATION_TABLES",
+           "TRACKING_FILES", "PBM_FILES"]
 
 #: the tables :func:`save` writes of a :class:`CGComparison`, in this order
 CG_TABLES = ("cg_table.csv", "cg_timeseries.csv", "cg_sizes.csv")
@@ -45,24 +55,35 @@ CG_FORMATS = ("png", "pdf")
 CALIBRATION_TABLES = ("calibration_grid.csv", "calibration_distributions.csv", "calibration.json")
 #: the figures of a :class:`Calibration` (the keys of :func:`~granalytics.report.figures.calibration_figures`)
 CALIBRATION_FIGURES = ("calibration_objective", "calibration_distributions")
+#: the files :func:`save` writes of a :class:`GranuleTracks`, in this order
+TRACKING_FILES = ("events.csv", "tracks.csv", "rates.csv", "kernel.csv", "breakage.csv", "tracking.png")
+#: the files :func:`save` writes of a :class:`PBMPrediction`, in this order
+PBM_FILES = ("kernel.csv", "rates.csv", "distributions.csv", "summary.csv", "settings.json", "pbm.png")
 
 
 def output_names(kind) -> list:
-    """The names of the files :func:`save` writes of a result of type ``kind`` (a result class,
-    :class:`CGComparison` or :class:`Calibration`) into its folder."""
+    """The names of the files :func:`save` writes of a result of type ``kind`` (a result class
+    saved to a folder: :class:`CGComparison`, :class:`CGThresholdComparison`, :class:`Calibration`,
+    :class:`GranuleTracks`, :class:`PBMPrediction`) into its folder."""
     if kind is CGComparison:
         from granalytics.report.figures import cg_figure_names
 
         return [*CG_TABLES, *(f"{name}.{ext}" for name in cg_figure_names() for ext in CG_FORMATS)]
+    if kind is CGThresholdComparison:
+        return ["cg_thresholds.csv", *(f"cg_thresholds_{metric}.png" for metric in BY_FIGURE)]
     if kind is Calibration:
         return [*CALIBRATION_TABLES, *(f"{name}.png" for name in CALIBRATION_FIGURES)]
+    if kind is GranuleTracks:
+        return list(TRACKING_FILES)
+    if kind is PBMPrediction:
+        return list(PBM_FILES)
     raise ParameterError(f"output_paths: a {getattr(kind, '__name__', kind)} is not saved to a folder "
-                         "(CGComparison and Calibration are)")
+                         "(CGComparison, CGThresholdComparison, Calibration, GranuleTracks and PBMPrediction are)")
 
 
 def output_paths(kind, folder, *, overwrite=False) -> list:
-    """The paths of the files :func:`save` writes of a result of type ``kind`` (a result class,
-    :class:`CGComparison` or :class:`Calibration`) into ``folder``; refuses (``ParameterError``)
+    """The paths of the files :func:`save` writes of a result of type ``kind`` (a result class
+    saved to a folder, :func:`output_names`) into ``folder``; refuses (``ParameterError``)
     a ``folder`` that is a file and files that exist unless ``overwrite``. For checking the
     outputs before the work that computes the result."""
     return new_output_paths(folder, output_names(kind), overwrite=overwrite)
@@ -81,15 +102,20 @@ def save(result, path, *, overwrite=False, **options) -> list:
     Parameters
     ----------
     result
-        A table (DataFrame), :class:`~granalytics.CGComparison` or :class:`~granalytics.Calibration`.
+        A table (DataFrame), :class:`~granalytics.CGComparison`,
+        :class:`~granalytics.CGThresholdComparison`, :class:`~granalytics.Calibration`,
+        :class:`~granalytics.GranuleTracks`, :class:`~granalytics.PBMPrediction` or
+        :class:`~granalytics.MeasuredDistribution`.
     path : path
-        The file of a table (.csv or .parquet), the folder of a comparison or calibration (made if
-        missing).
+        The file of a table (.csv or .parquet) or of a measured distribution, the folder of a
+        comparison, calibration, tracking or prediction (made if missing).
     overwrite : bool, default False
         Replace existing files (otherwise ``ParameterError`` naming the first, before anything is
         written).
     **options
-        Options of the result type's writer (a :class:`CGComparison`: ``size_unit`` of Fig 5).
+        Options of the result type's writer (a :class:`CGComparison`: ``size_unit`` of Fig 5; a
+        :class:`GranuleTracks`: ``revolution_period_s``, ``size_unit``, ``alpha`` and the figure's
+        ``title``).
 
     Returns
     -------
@@ -144,6 +170,27 @@ def _save_cg(comparison: CGComparison, folder, *, overwrite=False, size_unit="pa
 
 
 @save.register
+def _save_cg_thresholds(comparison: CGThresholdComparison, folder, *, overwrite=False) -> list:
+    """The deviation table and one heatmap per headline statistic, written into ``folder`` as one."""
+    import matplotlib.pyplot as plt
+
+    from granalytics.report.figures import cg_threshold_figures
+
+    folder = os.fspath(folder)
+    paths = output_paths(CGThresholdComparison, folder, overwrite=overwrite)
+    figures = cg_threshold_figures(comparison.table)
+    try:
+        with output_folder(folder), staged_outputs(folder) as stage:
+            write_table(comparison.table, paths[0], stage)
+            for metric, path in zip(BY_FIGURE, paths[1:]):
+                figures[f"cg_thresholds_{metric}"].savefig(stage(path), dpi=120)
+    finally:
+        for fig in figures.values():
+            plt.close(fig)
+    return paths
+
+
+@save.register
 def _save_calibration(calibration: Calibration, folder, *, overwrite=False) -> list:
     """The calibration's grid and distributions, ``calibration.json`` (:meth:`Calibration.to_json`)
     and its two figures, written into ``folder`` as one."""
@@ -164,6 +211,56 @@ def _save_calibration(calibration: Calibration, folder, *, overwrite=False) -> l
     finally:
         for fig in figures.values():
             plt.close(fig)
+    return paths
+
+
+def _tracking_tables(tracks, revolution_period_s, size_unit, alpha) -> tuple:
+    """The event rates, coalescence kernel and breakage rate of ``tracks``, as saved and drawn."""
+    return (event_rates(tracks, revolution_period_s), coalescence_kernel(tracks, size_unit=size_unit, alpha=alpha),
+            breakage_rate(tracks, size_unit=size_unit, alpha=alpha))
+
+
+@save.register
+def _save_tracks(tracks: GranuleTracks, folder, *, overwrite=False, revolution_period_s=None, size_unit="particles",
+                 alpha=None, title=None) -> list:
+    """The events and tracks, the event rates (per revolution with ``revolution_period_s``, 2π/|Ω|
+    [s]), the coalescence kernel and breakage rate (sizes in ``size_unit``, with the CG factor
+    ``alpha``, a float or a run or its metadata, for ``"original"``) and the tracking figure
+    (titled ``title``), written into ``folder`` as one."""
+    import matplotlib.pyplot as plt
+
+    from granalytics.report.figures import tracking_figure
+
+    folder = os.fspath(folder)
+    paths = output_paths(GranuleTracks, folder, overwrite=overwrite)
+    rates, kernel, breakage = _tracking_tables(tracks, revolution_period_s, size_unit, alpha)
+    fig = tracking_figure(tracks, rates, kernel, size_unit=size_unit, alpha=alpha, title=title)
+    try:
+        with output_folder(folder), staged_outputs(folder) as stage:
+            for table, path in zip((tracks.events, tracks.tracks, rates, kernel, breakage), paths):
+                write_table(table, path, stage)
+            save_figure(fig, paths[-1], stage)
+    finally:
+        plt.close(fig)
+    return paths
+
+
+@save.register
+def _save_pbm(prediction: PBMPrediction, folder, *, overwrite=False) -> list:
+    """The measured rates (``kernel.csv``, ``rates.csv``), both distributions and their summary,
+    ``settings.json`` (:meth:`PBMPrediction.to_json`) and the prediction's figure, written into
+    ``folder`` as one."""
+    from granalytics.report.figures import pbm_figure
+
+    folder = os.fspath(folder)
+    paths = output_paths(PBMPrediction, folder, overwrite=overwrite)
+    fig = pbm_figure(prediction)  # a matplotlib Figure outside pyplot: nothing to close
+    with output_folder(folder), staged_outputs(folder) as stage:
+        for table, path in zip((prediction.rates.kernel, prediction.rates.classes, prediction.distributions(),
+                                prediction.summary()), paths):
+            write_table(table, path, stage)
+        write_json(prediction.to_json(), paths[4], stage, indent=1)
+        save_figure(fig, paths[5], stage)
     return paths
 
 
@@ -189,10 +286,13 @@ def draw(result, **options):
     Parameters
     ----------
     result
-        :class:`~granalytics.CGComparison`, :class:`~granalytics.Calibration`,
-        :class:`~granalytics.IdentificationResult` or :class:`~granalytics.PBMPrediction`.
+        :class:`~granalytics.CGComparison`, :class:`~granalytics.CGThresholdComparison`,
+        :class:`~granalytics.Calibration`, :class:`~granalytics.GranuleTracks`,
+        :class:`~granalytics.IdentificationResult` or
+        :class:`~granalytics.PBMPrediction`.
     **options
-        Options of the figure function (e.g. ``size_unit`` of a comparison's Fig 5).
+        Options of the figure function (e.g. ``size_unit`` of a comparison's Fig 5; those of
+        :func:`save` for a :class:`GranuleTracks`).
 
     Returns
     -------
@@ -211,10 +311,25 @@ def _draw_cg(comparison: CGComparison, *, size_unit="particles") -> dict:
 
 
 @draw.register
+def _draw_cg_thresholds(comparison: CGThresholdComparison) -> dict:
+    from granalytics.report.figures import cg_threshold_figures
+
+    return cg_threshold_figures(comparison.table)
+
+
+@draw.register
 def _draw_calibration(calibration: Calibration) -> dict:
     from granalytics.report.figures import calibration_figures
 
     return calibration_figures(calibration)
+
+
+@draw.register
+def _draw_tracks(tracks: GranuleTracks, *, revolution_period_s=None, size_unit="particles", alpha=None, title=None):
+    from granalytics.report.figures import tracking_figure
+
+    rates, kernel, _ = _tracking_tables(tracks, revolution_period_s, size_unit, alpha)
+    return tracking_figure(tracks, rates, kernel, size_unit=size_unit, alpha=alpha, title=title)
 
 
 @draw.register

@@ -1,6 +1,9 @@
 """Results as text: numbers with their errors (:func:`plus_minus`), the CG table
 (:func:`format_cg_table`), a steady-state table (:func:`format_steady_table`) and the notes that
-say why an error of a printed table is n/a (:func:`steady_error_notes`)."""
+say why an error of a printed table is n/a (:func:`steady_error_notes`), the means of a threshold
+sensitivity pass (:func:`format_sensitivity_means`) and of a method comparison
+(:func:`format_method_means`), a parameter study's table (:func:`format_study_table`) and its
+surrogate's leave-one-out error (:func:`format_surrogate_errors`)."""
 
 from __future__ import annotations
 
@@ -10,7 +13,8 @@ import pandas as pd
 
 from granalytics.analysis.metrics import HEADLINE, METRICS
 
-__all__ = ["plus_minus", "format_cg_table", "format_steady_table", "steady_error_notes"]
+__all__ = ["plus_minus", "format_cg_table", "format_steady_table", "steady_error_notes", "format_sensitivity_means",
+           "format_method_means", "format_study_table", "format_surrogate_errors"]
 
 
 def plus_minus(value, error, digits=2) -> str:
@@ -130,3 +134,61 @@ def format_steady_table(steady, by="revolutions", *, replicas=False) -> str:
                      "blocks (the sem column of --steady-out)")
     lines += steady_error_notes(steady, by, replicas=replicas)
     return "\n".join(lines)
+
+
+
+def format_sensitivity_means(summary, window, cohesion, *, rigid=False) -> str:
+    """A sensitivity summary (:func:`granalytics.sensitivity_summary`) as text: a line that says
+    what is averaged, then each threshold pair's mean of every headline metric over the frames of
+    ``window`` [revolutions] (4 significant digits); the pair is (A_agg, C_agg), or (rigid_tol,
+    C_agg) with ``rigid``."""
+    shown = summary[["rigid_tol" if rigid else "a_agg_deg", "c_agg", *(f"{name}_mean" for name in HEADLINE)]]
+    lines = [f"mean over the frames of revolutions [{window[0]:g}, {window[1]:g}] at each threshold pair "
+             f"(cohesion={cohesion}; F_coh >= C_agg·2πγR keeps a contact, so above the largest F_coh/(2πγR) of "
+             "the run nothing is kept)"]
+    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120, "display.max_rows", 40):
+        lines.append(shown.to_string(index=False))
+    return "\n".join(lines)
+
+
+def format_method_means(mean_stats, mean_pairs, n_frames, window) -> str:
+    """A method comparison's means as text (4 significant digits): a line naming the ``n_frames``
+    frames of ``window`` [revolutions] averaged, the headline metrics of each method
+    (``mean_stats``, indexed by method) and the agreement of each pair (``mean_pairs``, indexed by
+    ``method_a``, ``method_b``)."""
+    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
+        return "\n".join([f"means over the {n_frames} frames in the window [{window[0]:g}, {window[1]:g}] revolutions",
+                          mean_stats.to_string(), mean_pairs.to_string()])
+
+
+def format_study_table(table, *, replicas=False) -> str:
+    """A study table (:func:`granalytics.study_table`) as text: each point's ``point``, ``gamma``,
+    ``omega``, ``alpha``, ``cohesion`` (those it has) and each headline metric's mean ± block
+    s.e.m. (± replica s.e., the block s.e.m. beside it and ``n_replicas``, with ``replicas``),
+    then a line that says what the errors are and why one is n/a."""
+    columns = ["point", "gamma", "omega", "alpha", "cohesion"]
+    cells = table[[c for c in columns if c in table]].copy()
+    for metric in HEADLINE:  # the ± is the replica s.e. where there are replicas, the block s.e.m. beside it
+        if replicas:
+            cells[f"{metric} ± replica s.e."] = [plus_minus(m, r) for m, r in zip(table[f"{metric}_mean"],
+                                                                                table[f"{metric}_replica_sem"])]
+            cells[f"{metric} block s.e.m."] = [f"{e:#.2g}" if e == e else "n/a" for e in table[f"{metric}_sem"]]
+        else:
+            cells[f"{metric} ± block s.e.m."] = [plus_minus(m, e) for m, e in zip(table[f"{metric}_mean"],
+                                                                                table[f"{metric}_sem"])]
+    if replicas:
+        cells.insert(1, "n_replicas", table["n_replicas"])
+    with pd.option_context("display.width", 160, "display.max_rows", 200, "display.max_colwidth", 60):
+        lines = [cells.to_string(index=False)]
+    lines.append("block s.e.m.: standard error of the mean from the means of blocks of the window"
+                 + (" (a group's combined as √(Σ sem²)/n); replica s.e.: standard deviation of a group's replica "
+                    "means / √n (n/a for a point without replicas)" if replicas else "")
+                 + ("; n/a: the window of a point holds fewer than two blocks (quarter revolutions) of frames, or no "
+                    "granules" if table[[f"{m}_sem" for m in HEADLINE]].isna().any().any() else ""))
+    return "\n".join(lines)
+
+
+def format_surrogate_errors(loo) -> str:
+    """A surrogate's leave-one-out error (:attr:`granalytics.Surrogate.loo`) as text, 4 significant digits."""
+    with pd.option_context("display.float_format", "{:.4g}".format, "display.width", 120):
+        return loo.to_string()

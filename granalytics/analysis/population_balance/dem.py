@@ -192,6 +192,12 @@ class PBMPrediction:
         The run's file name.
     setting : dict
         Identification method and parameters.
+    run_path : str
+        The run file's path, as it was opened.
+    bins_per_decade : float
+        Size classes of the rates per decade (:func:`fit_pbm_rates`).
+    ratio : float
+        Pivot ratio of the grid (:func:`pbm_grid`).
     """
 
     rates: PBMRates
@@ -202,6 +208,19 @@ class PBMPrediction:
     predict_window: tuple
     run: str = ""
     setting: dict = field(default_factory=dict)
+    run_path: str = ""
+    bins_per_decade: float = 4
+    ratio: float = 2 ** 0.25
+
+    def to_json(self) -> dict:
+        """What the prediction was computed from and how, for ``settings.json``: ``run`` (the
+        path), ``fit_window_rev``, ``predict_rev``, the identification ``setting``,
+        ``bins_per_decade``, ``ratio``, ``n_particles``, the ``pivots`` of the grid [particles],
+        ``mass_error`` (relative change of the particles over the integration) and ``units``."""
+        return {"run": self.run_path, "fit_window_rev": list(self.fit_window), "predict_rev": list(self.predict_window),
+                **self.setting, "bins_per_decade": self.bins_per_decade, "ratio": self.ratio,
+                "n_particles": self.rates.n_particles, "pivots": self.pbm.grid.tolist(),
+                "mass_error": self.pbm.mass_error, "units": "rates per second; sizes in particles of the run"}
 
     def summary(self, min_size=2) -> pd.DataFrame:
         """Per frame of the prediction window: ``revolution``, ``t_s``, the PBM's and the DEM's
@@ -323,5 +342,6 @@ def pbm_from_run(run, fit_window, predict_window, *, method="gna", min_fragment=
     pbm = rates.predict(size_counts(pred_tracks.sizes_by_frame[0], n), t, grid=grid)
     return PBMPrediction(rates=rates, pbm=pbm, dem_numbers=dem, revolutions=np.asarray(frames.revolutions, dtype=float),
                          fit_window=fit_window, predict_window=predict_window, run=os.path.basename(str(run.path)),
-                         setting={"method": method, "min_fragment": min_fragment, **params})
+                         setting={"method": method, "min_fragment": min_fragment, **params}, run_path=str(run.path),
+                         bins_per_decade=bins_per_decade, ratio=ratio)
 
