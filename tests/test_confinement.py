@@ -102,7 +102,7 @@ def test_confinement_closed_forms():
         ga.confinement_of_drum(0.1, -1.0, 1e-3, 10)
 
 
-def test_run_confinement_reads_the_recorded_values_or_the_parameters():
+def test_confinement_of_run_reads_the_recorded_values_or_the_parameters():
     params = {"drum_radius": 0.03, "drum_length": 0.021, "d_mean": 1.5e-3}
     meta = make_meta(500, sim_config={"params": params})
     assert ga.confinement_of_run(meta) == ga.confinement_of_drum(0.03, 0.021, 1.5e-3, 500)
