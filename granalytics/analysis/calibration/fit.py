@@ -3,7 +3,7 @@ distribution, :func:`calibrate_thresholds`, and its result, :class:`Calibration`
 (docs/calibration.md).
 
 The simulated distribution at every grid point comes from one pass per frame and co-motion
-threshold (:func:`~granalytics.analysis.calibration.size_classes.sieve_grid`) over the frames of
+threshold (:func:`~granalytics.analysis.calibration.size_classes.size_class_grid`) over the frames of
 the steady window, averaged over them. Its error is a moving-block bootstrap over the window's
 frames (:mod:`~granalytics.analysis.calibration.bootstrap`). The distance between simulated and
 measured distributions is
@@ -31,7 +31,7 @@ import pandas as pd
 
 from granalytics.analysis.calibration.bootstrap import SimulatedMean, bootstrap_region, check_block, simulated_mean
 from granalytics.analysis.calibration.measured import MeasuredDistribution, read_sieve_csv
-from granalytics.analysis.calibration.size_classes import SieveGrid, sieve_grid
+from granalytics.analysis.calibration.size_classes import SizeClassGrid, size_class_grid
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.base.errors import ParameterError
 from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Instance, Interval, Path, validate_params
@@ -143,7 +143,7 @@ class Calibration:
 
 
 def _is_one_run(run) -> bool:
-    if isinstance(run, (str, os.PathLike, SieveGrid)) or hasattr(run, "select"):
+    if isinstance(run, (str, os.PathLike, SizeClassGrid)) or hasattr(run, "select"):
         return True
     return isinstance(run, (list, tuple)) and len(run) > 0 and isinstance(run[0], Snapshot)
 
@@ -158,15 +158,15 @@ def _window_frames(frames, window):
     return [frames[k] for k in np.flatnonzero(keep)]
 
 
-def _grid_of(run, measured, window, kwargs) -> SieveGrid:
+def _grid_of(run, measured, window, kwargs) -> SizeClassGrid:
     """The per-frame size classes of one run in the window."""
-    if isinstance(run, SieveGrid):
+    if isinstance(run, SizeClassGrid):
         keep = window_mask(run.revolutions, *window)
         if not keep.any():
             raise ParameterError(f"no frame in the window [{window[0]:g}, {window[1]:g}] revolutions")
         if run.edges_m.shape != measured.edges_m.shape or not np.array_equal(run.edges_m, measured.edges_m):
-            raise ParameterError("the SieveGrid was computed on other classes than the measured distribution's")
-        return SieveGrid(run.volumes[keep], run.c_agg, run.comotion_values, run.comotion, run.edges_m, run.frames[keep],
+            raise ParameterError("the SizeClassGrid was computed on other classes than the measured distribution's")
+        return SizeClassGrid(run.volumes[keep], run.c_agg, run.comotion_values, run.comotion, run.edges_m, run.frames[keep],
                          run.revolutions[keep], run.time_s[keep], run.density, run.measure)
     if isinstance(run, (str, os.PathLike)):
         from granalytics.core import open_run
@@ -177,7 +177,7 @@ def _grid_of(run, measured, window, kwargs) -> SieveGrid:
     if len(frames) == 0:
         where = f"{getattr(run, 'path', 'run')}: " if hasattr(run, "select") else ""
         raise ParameterError(f"{where}no frame in the window [{window[0]:g}, {window[1]:g}] revolutions")
-    return sieve_grid(frames, measured, **kwargs)
+    return size_class_grid(frames, measured, **kwargs)
 
 
 def _check_sizes(c_agg, comotion_values, measured, n_boot) -> None:
@@ -221,12 +221,12 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
 
     Parameters
     ----------
-    run : path, Run, RunSlice, sequence of Snapshot or SieveGrid, or a list of these
+    run : path, Run, RunSlice, sequence of Snapshot or SizeClassGrid, or a list of these
         The run; a list of runs is a replica set (one system at several seeds): the simulated
         distribution is the mean over the runs, each bootstrapped on its own.
     measured : MeasuredDistribution or path
         The measured sieve analysis (:func:`~granalytics.analysis.calibration.measured.read_sieve_csv`);
-        the simulated granules are sieved into its classes in original-system sizes.
+        the simulated granules are sorted into its classes by their original-system sizes.
     c_agg : sequence of float
         Cohesion thresholds (≥ 0).
     a_agg_deg : sequence of float
@@ -236,7 +236,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     comotion, rigid_tol, rigid_scale :
         The co-motion test; with ``"rigid"`` the grid's second axis is ``rigid_tol``.
     measure : {"volume", "width"}, default "volume"
-        A granule's sieve size: its volume-equivalent diameter, or its second principal extent.
+        A granule's size: its volume-equivalent diameter, or its second principal extent.
     measured_error : float, default 0.01
         Standard error of the measured cumulative fraction passing each edge (mass fraction),
         used when the measured distribution carries none (its ``sigma``).
@@ -272,7 +272,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     for g in grids[1:]:
         if not (np.array_equal(g.c_agg, first.c_agg) and np.array_equal(g.comotion_values, first.comotion_values)
                 and g.comotion == first.comotion and g.measure == first.measure):
-            raise ParameterError("calibrate_thresholds: the replicas' SieveGrids have different grids")
+            raise ParameterError("calibrate_thresholds: the replicas' SizeClassGrids have different grids")
     used = np.isfinite(measured.edges_m) & (measured.edges_m > 0)
     if not used.any():
         raise ParameterError("the measured distribution has no finite class edge above 0 to compare at")
@@ -309,7 +309,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     p_value = float(chi2_law.sf(chi2_min, dof)) if dof > 0 else math.nan
     at_best = SimulatedMean(*(x[a_best, c_best] for x in (sim.p, sim.err_p, sim.f, sim.err_f)), boot_p=None)
     settings = {
-        "runs": [str(getattr(r, "path", r)) if not isinstance(r, (list, tuple, SieveGrid)) else type(r).__name__
+        "runs": [str(getattr(r, "path", r)) if not isinstance(r, (list, tuple, SizeClassGrid)) else type(r).__name__
                  for r in runs],
         "n_frames": [int(g.volumes.shape[0]) for g in grids], "window_rev": list(window), "measure": first.measure,
         "comotion": first.comotion, "cohesion": cohesion, "n_boot": int(n_boot), "block_rev": float(block_rev),

@@ -1,6 +1,6 @@
 """The virtual sieving of simulated granules into the classes of a sieve analysis, at one threshold
-pair (:func:`sieve_classes`) or over a whole threshold grid in one pass per frame
-(:func:`sieve_grid`, :class:`SieveGrid`), and a "measured" distribution made from such a grid
+pair (:func:`size_class_fractions`) or over a whole threshold grid in one pass per frame
+(:func:`size_class_grid`, :class:`SizeClassGrid`), and a "measured" distribution made from such a grid
 (:func:`grid_measurement`).
 
 Sizes (docs/calibration.md):
@@ -39,12 +39,12 @@ from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, comotion_mask, contact_strength
 
-__all__ = ["SIEVE_MEASURES", "sieve_classes", "SieveGrid", "sieve_grid", "grid_measurement"]
+__all__ = ["SIZE_MEASURES", "size_class_fractions", "SizeClassGrid", "size_class_grid", "grid_measurement"]
 
 #: the sieve-size measures: name -> the kernel's code
-SIEVE_MEASURES = {"volume": 0, "width": 1}
+SIZE_MEASURES = {"volume": 0, "width": 1}
 #: the constraint of a sieve-size measure
-_MEASURE = Options(tuple(SIEVE_MEASURES))
+_MEASURE = Options(tuple(SIZE_MEASURES))
 #: class edges [m] (:func:`_edges` checks the rest: two or more, ascending, >= 0)
 _EDGES = [Array(ndim=1), Instance(MeasuredDistribution)]
 
@@ -68,7 +68,7 @@ def _edges(edges_m) -> np.ndarray:
 
 @validate_params({"snapshot": [SNAPSHOT], "labels": [Array(ndim=1, dtype=Integral)], "edges_m": _EDGES,
                   "measure": [_MEASURE]})
-def sieve_classes(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
+def size_class_fractions(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
     """Virtual sieve analysis of one identification: mass fraction per class.
 
     Parameters
@@ -86,7 +86,7 @@ def sieve_classes(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
     (K+2,) float array
         Mass fraction below ``edges_m[0]``, in each class, and at or above ``edges_m[-1]``.
     """
-    edges, code = _edges(edges_m), SIEVE_MEASURES[measure]
+    edges, code = _edges(edges_m), SIZE_MEASURES[measure]
     labels = np.asarray(labels, dtype=np.int64)
     n_groups = int(labels.max()) + 1 if labels.size else 0
     hist = _kernels.class_volumes(labels, n_groups, np.ones(n_groups, dtype=np.bool_), np.zeros(n_groups),
@@ -96,8 +96,8 @@ def sieve_classes(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
 
 
 @dataclass
-class SieveGrid:
-    """Per-frame size distributions over a threshold grid (:func:`sieve_grid`).
+class SizeClassGrid:
+    """Per-frame size distributions over a threshold grid (:func:`size_class_grid`).
 
     Attributes
     ----------
@@ -149,9 +149,9 @@ def _frame_grid(snapshot, c_desc, thresholds, edges, code, radius, gamma, cohesi
 
 
 @validate_params({**SWEEP_CONSTRAINTS, "edges_m": _EDGES, "measure": [_MEASURE], "progress": [FLAG]})
-def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radius="pair", surface_tension=None,
+def size_class_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radius="pair", surface_tension=None,
                cohesion=DEFAULT_COHESION, comotion=DEFAULT_COMOTION, rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE,
-               min_size=2, jobs=1, scheduler=None, progress=False) -> SieveGrid:
+               min_size=2, jobs=1, scheduler=None, progress=False) -> SizeClassGrid:
     """The virtual sieve analysis of GNA's granules in every frame at every threshold pair, the C_agg
     axis in one pass per frame and co-motion threshold (the merge of :func:`granalytics.sensitivity`).
 
@@ -173,31 +173,31 @@ def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radi
 
     Returns
     -------
-    SieveGrid
-        Equal, bin by bin, to :func:`sieve_classes` of the GNA identification at each pair.
+    SizeClassGrid
+        Equal, bin by bin, to :func:`size_class_fractions` of the GNA identification at each pair.
     """
-    edges, code = _edges(edges_m), SIEVE_MEASURES[measure]
-    c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "sieve_grid")
+    edges, code = _edges(edges_m), SIZE_MEASURES[measure]
+    c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "size_class_grid")
     c_asc = c_desc[::-1].copy()
     frame_ids, results = map_frames(
         frames, lambda s: _frame_grid(s, c_desc, a_list, edges, code, radius, surface_tension, cohesion, comotion,
                                       rigid_scale, int(min_size)),
         progress=progress, desc="size classes", jobs=jobs, scheduler=scheduler)
-    return SieveGrid(volumes=np.stack([r[0] for r in results]), c_agg=c_asc, comotion_values=np.array(a_list),
+    return SizeClassGrid(volumes=np.stack([r[0] for r in results]), c_agg=c_asc, comotion_values=np.array(a_list),
                      comotion=comotion, edges_m=edges, frames=np.asarray(frame_ids),
                      revolutions=np.array([r[1] for r in results]), time_s=np.array([r[2] for r in results]),
                      density=float(results[0][3]), measure=measure)
 
 
-@validate_params({"grid": [Instance(SieveGrid)], "c_agg": [Interval(Real)], "threshold": [Interval(Real)],
+@validate_params({"grid": [Instance(SizeClassGrid)], "c_agg": [Interval(Real)], "threshold": [Interval(Real)],
                   "noise": [Interval(Real, 0, None)], "seed": [Interval(Integral, 0, None)], "source": [Instance(str), None]})
-def grid_measurement(grid: SieveGrid, c_agg, threshold, *, noise=0.0, seed=0, source=None) -> MeasuredDistribution:
+def grid_measurement(grid: SizeClassGrid, c_agg, threshold, *, noise=0.0, seed=0, source=None) -> MeasuredDistribution:
     """A "measured" distribution made from a simulation: the mean over ``grid``'s frames at one of its
     grid points, with optional noise (for tests of a calibration and for synthetic examples).
 
     Parameters
     ----------
-    grid : SieveGrid
+    grid : SizeClassGrid
         Its classes must hold all the mass (first edge 0, last edge ``inf``).
     c_agg, threshold : float
         A grid point: C_agg and A_agg [deg] (or the rigid tolerance).
