@@ -1,6 +1,7 @@
 """Calibration of the thresholds against a measured size distribution (docs/calibration.md)."""
 
 import json
+import re
 
 import numpy as np
 import pandas as pd
@@ -222,6 +223,26 @@ def test_the_command_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "sum to 0.9" in err[0]
     assert not (tmp_path / "x").exists()
+
+
+def test_arguments_are_refused_at_the_function_the_user_called_naming_parameter_and_value():
+    with ga.open_run(DATASET_DIR / "lab-cg3.h5") as run:
+        snapshot = run[-1]
+    free = np.full(snapshot.n_particles, -1)
+    edges = "edges_m must be a sequence of two or more ascending sizes >= 0 [m] or a MeasuredDistribution, got list"
+    for bad in ([2e-3, 1e-3], [0, np.nan, 1e-3], [-1e-3, 1e-3], [1e-3]):
+        with pytest.raises(ParameterError, match=rf"^size_class_fractions: {re.escape(edges)} \["):
+            ga.size_class_fractions(snapshot, free, bad)
+    with pytest.raises(ParameterError, match=r"^MeasuredDistribution: fractions must be a pair of numbers in \[0, 1\], "
+                                             r"got list \[1.0\]$"):
+        ga.MeasuredDistribution(edges_m=[0, 1e-3, 2e-3], fractions=[1.0])
+    measured = ga.read_sieve_csv(DATASET_DIR / "sieve" / "example-sieve.csv")
+    with pytest.raises(ParameterError, match="^calibrate_thresholds: measure must be one of 'volume', 'width', got str "
+                                             "'diameter'$"):
+        ga.calibrate_thresholds([], measured, [0.5], [20.0], measure="diameter")
+    with pytest.raises(ParameterError, match=r"^calibrate_thresholds: c_agg must be a number >= 0 or a sequence of "
+                                             r"numbers >= 0, got list \[-0.5\]$"):
+        ga.calibrate_thresholds([], measured, [-0.5], [20.0])
 
 
 def test_a_measured_file_that_is_a_fifo_is_refused_not_waited_on(tmp_path):
