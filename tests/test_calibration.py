@@ -236,6 +236,9 @@ def test_arguments_are_refused_at_the_function_the_user_called_naming_parameter_
     with pytest.raises(ParameterError, match=r"^MeasuredDistribution: fractions must be a pair of numbers in \[0, 1\], "
                                              r"got list \[1.0\]$"):
         ga.MeasuredDistribution(edges_m=[0, 1e-3, 2e-3], fractions=[1.0])
+    with pytest.raises(ParameterError, match="^MeasuredDistribution.from_classes: lower_m, upper_m, mass_fraction and "
+                                             "sigma must hold one value per class, got 2, 2, 1 values$"):
+        ga.MeasuredDistribution.from_classes([0, 1e-3], [1e-3, 2e-3], [1.0])
     measured = ga.read_sieve_csv(DATASET_DIR / "sieve" / "example-sieve.csv")
     with pytest.raises(ParameterError, match="^calibrate_thresholds: measure must be one of 'volume', 'width', got str "
                                              "'diameter'$"):

@@ -115,7 +115,7 @@ class Calibration:
                  f"C_agg: {self.constraint['c_agg']}; {name}: {self.constraint[col]}"]
         if self.poor_fit:
             lines.append(f"POOR FIT: no grid point reproduces the measured distribution (chi2/dof = "
-                         f"{self.chi2_min / max(self.dof, 1):.3g}, p = {self.p_value:.2g} < {POOR_FIT_P:g}); the region "
+                         f"{self.chi2_min / self.dof:.3g}, p = {self.p_value:.2g} < {POOR_FIT_P:g}); the region "
                          "then only says which points are least bad")
         return "\n".join(lines)
 
@@ -277,10 +277,11 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
                 and g.comotion == first.comotion and g.measure == first.measure):
             raise ParameterError("calibrate_thresholds: the replicas' SizeClassGrids have different grids")
     used = np.isfinite(measured.edges_m) & (measured.edges_m > 0)
-    n_fit_axes = int(np.size(first.comotion_values) > 1) + int(np.size(first.c_agg) > 1)
-    if int(used.sum()) <= n_fit_axes:
+    n_fit = int(first.comotion_values.size > 1) + int(first.c_agg.size > 1)  # the thresholds fitted
+    dof = int(used.sum()) - n_fit
+    if dof < 1:
         raise ParameterError(f"the measured distribution gives {int(used.sum())} class edge(s) to compare at and the fit "
-                             f"has {n_fit_axes} free threshold(s): no degree of freedom is left to test it (p undefined); "
+                             f"has {n_fit} free threshold(s): no degree of freedom is left to test it (p undefined); "
                              "measure more classes, or fix a threshold (a grid of one value)")
     p_meas = measured.passing[used]
     s_meas = (measured.sigma if measured.sigma is not None else np.full(measured.edges_m.size, measured_error))[used]
@@ -296,7 +297,6 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     freq, region = bootstrap_region(boot_chi2, best, level)
 
     n_a, n_c = chi2.shape
-    n_fit = int(n_a > 1) + int(n_c > 1)
     col = "a_agg_deg" if first.comotion == "angle" else "rigid_tol"
     grid = _grid_table(first, col, chi2, best, np.abs(sim.p - p_meas).max(axis=-1), freq, region,
                        chi2_law.ppf(level, n_fit) if n_fit else 0.0)
@@ -305,8 +305,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     constraint = {"c_agg": _describe(first.c_agg, np.isin(first.c_agg, grid.c_agg[inside])),
                   col: _describe(first.comotion_values, np.isin(first.comotion_values, grid[col][inside]))}
     chi2_min = float(chi2.ravel()[best])
-    dof = int(used.sum()) - n_fit
-    p_value = float(chi2_law.sf(chi2_min, dof)) if dof > 0 else math.nan
+    p_value = float(chi2_law.sf(chi2_min, dof))
     at_best = SimulatedMean(*(x[a_best, c_best] for x in (sim.p, sim.err_p, sim.f, sim.err_f)), boot_p=None)
     settings = {
         "runs": [str(getattr(r, "path", r)) if not isinstance(r, (list, tuple, SizeClassGrid)) else type(r).__name__
@@ -320,7 +319,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     return Calibration(grid=grid, best={"c_agg": float(first.c_agg[c_best]), col: float(first.comotion_values[a_best]),
                                         "chi2": chi2_min},
                        constraint=constraint, distributions=_distributions(measured, used, at_best, measured_error),
-                       chi2_min=chi2_min, dof=dof, p_value=p_value, poor_fit=bool(dof > 0 and p_value < POOR_FIT_P),
+                       chi2_min=chi2_min, dof=dof, p_value=p_value, poor_fit=p_value < POOR_FIT_P,
                        settings=settings)
 
 

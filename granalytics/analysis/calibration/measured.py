@@ -113,6 +113,10 @@ class MeasuredDistribution:
                      tolerance=SUM_TOLERANCE) -> "MeasuredDistribution":
         """From class bounds [m] and mass fractions (validated as :func:`read_sieve_csv` does; rows
         are counted from 1)."""
+        lengths = [len(lower_m), len(upper_m), len(mass_fraction), *([] if sigma is None else [len(sigma)])]
+        if len(set(lengths)) > 1:
+            raise ParameterError(f"MeasuredDistribution.from_classes: lower_m, upper_m, mass_fraction and sigma must "
+                                 f"hold one value per class, got {', '.join(map(str, lengths))} values")
         rows = [{"lower_m": lo, "upper_m": hi, "mass_fraction": m} for lo, hi, m in zip(lower_m, upper_m, mass_fraction)]
         return _from_class_rows(source, [(k + 1, row) for k, row in enumerate(rows)], tolerance,
                                 None if sigma is None else np.asarray(sigma, float))
