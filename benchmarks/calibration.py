@@ -1,5 +1,5 @@
-"""Time of a threshold calibration's size distributions: the one-pass sweep (ga.sieve_grid) against
-a loop of identifications, one per grid point (identify + sieve_classes), on the same frames.
+"""Time of a threshold calibration's size distributions: the one-pass sweep (ga.size_class_grid) against
+a loop of identifications, one per grid point (identify + size_class_fractions), on the same frames.
 
     python benchmarks/calibration.py [--run datasets/lab-cg1.h5] [--window 3:6] [--loop-frames 10]
 
@@ -29,19 +29,19 @@ def main():
     c_grid, a_grid = np.linspace(0.2, 0.9, 15), np.linspace(5, 60, 12)
     with ga.open_run(args.run) as run:
         frames = list(run.select(revolutions=window))
-    ga.sieve_grid(frames[:1], EDGES, c_grid[:2], a_grid[:2])  # compile (numba cache) outside the timing
-    ga.sieve_classes(frames[0], ga.identify(frames[0]).labels, EDGES)
+    ga.size_class_grid(frames[:1], EDGES, c_grid[:2], a_grid[:2])  # compile (numba cache) outside the timing
+    ga.size_class_fractions(frames[0], ga.identify(frames[0]).labels, EDGES)
     rows = []
     for measure in ("volume", "width"):
         t = time.perf_counter()
-        grid = ga.sieve_grid(frames, EDGES, c_grid, a_grid, measure=measure)
+        grid = ga.size_class_grid(frames, EDGES, c_grid, a_grid, measure=measure)
         one_pass = time.perf_counter() - t
         sample = frames[:: max(1, len(frames) // args.loop_frames)][: args.loop_frames]
         t = time.perf_counter()
         for snapshot in sample:
             for a in a_grid:
                 for c in c_grid:
-                    ga.sieve_classes(snapshot, ga.identify(snapshot, c_agg=c, a_agg_deg=a).labels, EDGES, measure)
+                    ga.size_class_fractions(snapshot, ga.identify(snapshot, c_agg=c, a_agg_deg=a).labels, EDGES, measure)
         loop = (time.perf_counter() - t) * len(frames) / len(sample)
         t = time.perf_counter()
         ga.calibrate_thresholds(grid, ga.read_sieve_csv(ROOT / "datasets" / "sieve" / "example-sieve.csv"), c_grid,

@@ -16,8 +16,8 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   :func:`compare_methods` (which methods coincide: :func:`identical_methods`)
 - calibration of the thresholds against a measured sieve analysis: :func:`calibrate_thresholds`,
   :class:`Calibration`; measured distributions :func:`read_sieve_csv`, :class:`MeasuredDistribution`;
-  virtual sieving into its classes :func:`sieve_classes`, over a threshold grid in one pass
-  :func:`sieve_grid` (:class:`SieveGrid`)
+  simulated granules in its size classes :func:`size_class_fractions`, over a threshold grid in one pass
+  :func:`size_class_grid` (:class:`SizeClassGrid`)
 - cohesion conventions (which force is F_coh): :func:`cohesive_force`, :data:`COHESION_CONVENTIONS`
 - coarse-graining comparison (paper Figs 3–6): :func:`compare_cg`, :class:`CGComparison`; at every
   threshold pair :func:`compare_cg_thresholds`, :class:`CGThresholdComparison`
@@ -59,8 +59,8 @@ _EXPORTS = {
     "WriterLock": ".base.files",
     **dict.fromkeys(("save", "draw"), ".report"),
     **dict.fromkeys(("sensitivity", "sensitivity_summary"), ".analysis.sensitivity"),
-    **dict.fromkeys(("Calibration", "MeasuredDistribution", "SieveGrid", "calibrate_thresholds", "read_sieve_csv",
-                     "sieve_classes", "sieve_grid"), ".analysis.calibration"),
+    **dict.fromkeys(("Calibration", "MeasuredDistribution", "SizeClassGrid", "calibrate_thresholds", "read_sieve_csv",
+                     "size_class_fractions", "size_class_grid"), ".analysis.calibration"),
     **dict.fromkeys(("RunMeta", "Snapshot"), ".core.snapshot"),
     **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
                      "confinement_of_drum"), ".analysis.bed"),
@@ -113,7 +113,7 @@ __all__ = [
     "edges", "datasets", "base", "core", "convert", "export", "analysis", "report", "save", "draw",
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
     "sensitivity", "sensitivity_summary", "compare_methods", "identical_methods",
-    "calibrate_thresholds", "Calibration", "MeasuredDistribution", "SieveGrid", "read_sieve_csv", "sieve_classes", "sieve_grid",
+    "calibrate_thresholds", "Calibration", "MeasuredDistribution", "SizeClassGrid", "read_sieve_csv", "size_class_fractions", "size_class_grid",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",
     "CGThresholdComparison",
     "study_table", "growth_points", "fit_granule_growth", "GrowthFit", "fit_surrogate", "Surrogate",

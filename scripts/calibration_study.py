@@ -27,7 +27,7 @@ WINDOW = (3, 6)
 
 def grid_of(name):
     with ga.open_run(DATA / f"{name}.h5") as run:
-        return ga.sieve_grid(run.select(revolutions=WINDOW), EDGES, C_GRID, A_GRID)
+        return ga.size_class_grid(run.select(revolutions=WINDOW), EDGES, C_GRID, A_GRID)
 
 
 def main():

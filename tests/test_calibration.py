@@ -1,6 +1,7 @@
 """Calibration of the thresholds against a measured size distribution (docs/calibration.md)."""
 
 import json
+import re
 
 import numpy as np
 import pandas as pd
@@ -25,29 +26,29 @@ def cg1_frames():
 
 @pytest.fixture(scope="module")
 def cg1_grid(cg1_frames):
-    return ga.sieve_grid(cg1_frames, EDGES, C_GRID, A_GRID)
+    return ga.size_class_grid(cg1_frames, EDGES, C_GRID, A_GRID)
 
 
 @pytest.mark.parametrize("measure", ["volume", "width"])
 def test_one_pass_distributions_equal_per_threshold_identification(cg1_frames, measure):
     frames = cg1_frames[::8]
     c_grid, a_grid = [0.2, 0.45, 0.6, 0.84], [10.0, 30.0, 90.0]
-    grid = ga.sieve_grid(frames, EDGES, c_grid, a_grid, measure=measure)
+    grid = ga.size_class_grid(frames, EDGES, c_grid, a_grid, measure=measure)
     for f, snapshot in enumerate(frames):
         for a_i, a in enumerate(grid.comotion_values):
             for c_i, c in enumerate(grid.c_agg):
                 labels = ga.identify(snapshot, c_agg=c, a_agg_deg=a).labels
-                expected = ga.sieve_classes(snapshot, labels, EDGES, measure)
+                expected = ga.size_class_fractions(snapshot, labels, EDGES, measure)
                 assert np.array_equal(grid.fractions[f, a_i, c_i], expected), (f, a, c)
 
 
 def test_one_pass_equals_identification_with_the_rigid_test_and_a_size_floor(cg1_frames):
     snapshot = cg1_frames[0]
-    grid = ga.sieve_grid([snapshot], EDGES, [0.3, 0.6], comotion="rigid", rigid_tol=[0.1, 0.4], min_size=3)
+    grid = ga.size_class_grid([snapshot], EDGES, [0.3, 0.6], comotion="rigid", rigid_tol=[0.1, 0.4], min_size=3)
     for a_i, tol in enumerate(grid.comotion_values):
         for c_i, c in enumerate(grid.c_agg):
             labels = ga.identify(snapshot, c_agg=c, comotion="rigid", rigid_tol=tol, min_size=3).labels
-            assert np.array_equal(grid.fractions[0, a_i, c_i], ga.sieve_classes(snapshot, labels, EDGES))
+            assert np.array_equal(grid.fractions[0, a_i, c_i], ga.size_class_fractions(snapshot, labels, EDGES))
 
 
 def test_width_is_the_virtual_sieves_second_principal_extent(cg1_frames):
@@ -57,7 +58,7 @@ def test_width_is_the_virtual_sieves_second_principal_extent(cg1_frames):
     volume = snapshot.particle_volume
     size = np.where(np.bincount(membership)[membership] >= 2, widths[membership], 2 * snapshot.radius)
     expected = np.bincount(np.searchsorted(EDGES, size, side="right"), weights=volume, minlength=EDGES.size + 1)
-    got = ga.sieve_classes(snapshot, ga.identify(snapshot, c_agg=0.45, a_agg_deg=30).labels, EDGES, "width")
+    got = ga.size_class_fractions(snapshot, ga.identify(snapshot, c_agg=0.45, a_agg_deg=30).labels, EDGES, "width")
     np.testing.assert_allclose(got, expected / volume.sum(), rtol=1e-9, atol=1e-15)
 
 
@@ -66,7 +67,7 @@ def test_cg_particles_are_sieved_in_original_system_sizes():
         snapshot = run[-1]
     alpha = snapshot.meta.alpha
     assert alpha == 3
-    free = ga.sieve_classes(snapshot, np.full(snapshot.n_particles, -1), EDGES)  # every particle free
+    free = ga.size_class_fractions(snapshot, np.full(snapshot.n_particles, -1), EDGES)  # every particle free
     d_original = 2 * snapshot.radius / alpha
     expected = np.bincount(np.searchsorted(EDGES, d_original, side="right"), weights=snapshot.radius**3,
                            minlength=EDGES.size + 1)
@@ -74,7 +75,7 @@ def test_cg_particles_are_sieved_in_original_system_sizes():
     pair = np.full(snapshot.n_particles, -1)
     pair[:2] = 0  # a granule of two CG particles: the diameter of the sphere of their solid volume
     d_v = 2 * ((snapshot.radius[:2] ** 3).sum()) ** (1 / 3)  # (6V/π)^(1/3), V = 4π/3 Σ R³
-    got = ga.sieve_classes(snapshot, pair, EDGES)
+    got = ga.size_class_fractions(snapshot, pair, EDGES)
     assert got[np.searchsorted(EDGES, d_v, side="right")] >= (snapshot.radius[:2] ** 3).sum() / (snapshot.radius**3).sum()
 
 
@@ -106,7 +107,7 @@ def test_an_axis_the_data_cannot_constrain_is_said_to_be_unconstrained(cg1_grid)
     # at C_agg above the largest strength (0.8546) nothing is a granule, whatever A_agg
     with ga.open_run(DATASET_DIR / "lab-cg1.h5") as run:
         frames = list(run.select(revolutions=(3, 3.5)))
-    g = ga.sieve_grid(frames, EDGES, [0.86, 0.9], [10.0, 30.0, 60.0])
+    g = ga.size_class_grid(frames, EDGES, [0.86, 0.9], [10.0, 30.0, 60.0])
     measured = grid_measurement(g, 0.9, 30.0, noise=0.01, seed=0)
     cal = ga.calibrate_thresholds(g, measured, [0.86, 0.9], [10.0, 30.0, 60.0], window=(3, 3.5), n_boot=50,
                                   block_rev=0.1)
@@ -118,7 +119,7 @@ def test_replicas_and_the_rigid_test():
     grids = []
     for name in ("lab-cg3", "lab-cg3-seed1"):
         with ga.open_run(DATASET_DIR / f"{name}.h5") as run:
-            grids.append(ga.sieve_grid(run.select(revolutions=(3, 4)), EDGES, [0.3, 0.6], comotion="rigid",
+            grids.append(ga.size_class_grid(run.select(revolutions=(3, 4)), EDGES, [0.3, 0.6], comotion="rigid",
                                        rigid_tol=[0.1, 0.4]))
     measured = grid_measurement(grids[0], 0.6, 0.4, noise=0.01)
     cal = ga.calibrate_thresholds(grids, measured, [0.3, 0.6], comotion="rigid", rigid_tol=[0.1, 0.4], window=(3, 4),
@@ -224,6 +225,29 @@ def test_the_command_line(tmp_path, capsys):
     assert not (tmp_path / "x").exists()
 
 
+def test_arguments_are_refused_at_the_function_the_user_called_naming_parameter_and_value():
+    with ga.open_run(DATASET_DIR / "lab-cg3.h5") as run:
+        snapshot = run[-1]
+    free = np.full(snapshot.n_particles, -1)
+    edges = "edges_m must be a sequence of two or more ascending sizes >= 0 [m] or a MeasuredDistribution, got list"
+    for bad in ([2e-3, 1e-3], [0, np.nan, 1e-3], [-1e-3, 1e-3], [1e-3]):
+        with pytest.raises(ParameterError, match=rf"^size_class_fractions: {re.escape(edges)} \["):
+            ga.size_class_fractions(snapshot, free, bad)
+    with pytest.raises(ParameterError, match=r"^MeasuredDistribution: fractions must be a pair of numbers in \[0, 1\], "
+                                             r"got list \[1.0\]$"):
+        ga.MeasuredDistribution(edges_m=[0, 1e-3, 2e-3], fractions=[1.0])
+    with pytest.raises(ParameterError, match="^MeasuredDistribution.from_classes: lower_m, upper_m, mass_fraction and "
+                                             "sigma must hold one value per class, got 2, 2, 1 values$"):
+        ga.MeasuredDistribution.from_classes([0, 1e-3], [1e-3, 2e-3], [1.0])
+    measured = ga.read_sieve_csv(DATASET_DIR / "sieve" / "example-sieve.csv")
+    with pytest.raises(ParameterError, match="^calibrate_thresholds: measure must be one of 'volume', 'width', got str "
+                                             "'diameter'$"):
+        ga.calibrate_thresholds([], measured, [0.5], [20.0], measure="diameter")
+    with pytest.raises(ParameterError, match=r"^calibrate_thresholds: c_agg must be a number >= 0 or a sequence of "
+                                             r"numbers >= 0, got list \[-0.5\]$"):
+        ga.calibrate_thresholds([], measured, [-0.5], [20.0])
+
+
 def test_a_measured_file_that_is_a_fifo_is_refused_not_waited_on(tmp_path):
     import os
 
@@ -243,6 +267,6 @@ def test_statistics_that_would_mean_nothing_and_grids_that_cannot_fit_are_refuse
         ga.calibrate_thresholds(cg1_grid, measured, C_GRID, A_GRID, n_boot=10**12)
     edges = np.array([0, 2e-3, 4e-3])
     two = ga.MeasuredDistribution(edges_m=edges, fractions=np.array([0.5, 0.5]), source="two edges")
-    grid = ga.sieve_grid(cg1_frames[::8], edges, C_GRID, A_GRID)
+    grid = ga.size_class_grid(cg1_frames[::8], edges, C_GRID, A_GRID)
     with pytest.raises(ParameterError, match="gives 2 class edge\\(s\\) to compare at and the fit has 2 free"):
         ga.calibrate_thresholds(grid, two, C_GRID, A_GRID, n_boot=20)

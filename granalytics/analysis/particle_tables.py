@@ -70,14 +70,10 @@ def particle_frames(frames, method="gna", *, min_fragment=2, continuation="main"
         lab = labels[k]
         mapping = tracks.labels_to_tracks[k]
         track = np.where(lab >= 0, mapping[np.maximum(lab, 0)] if mapping.size else -1, -1)
-        try:
-            revolutions = snapshot.revolutions
-        except Exception:  # a static run: no drum revolutions
-            revolutions = np.nan
         p, v, w = snapshot.position, snapshot.velocity, snapshot.angular_velocity
         yield pd.DataFrame({
             "frame": np.full(snapshot.n_particles, int(indices[k]), dtype=np.int64),
-            "time_s": snapshot.time, "revolutions": revolutions, "id": snapshot.ids,
+            "time_s": snapshot.time, "revolutions": snapshot.revolutions, "id": snapshot.ids,
             "x": p[:, 0], "y": p[:, 1], "z": p[:, 2], "vx": v[:, 0], "vy": v[:, 1], "vz": v[:, 2],
             "wx": w[:, 0], "wy": w[:, 1], "wz": w[:, 2], "radius": snapshot.radius,
             "film_volume": snapshot.film_volume, "granule": lab.astype(np.int64), "granule_track": track.astype(np.int64),

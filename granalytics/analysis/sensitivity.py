@@ -32,7 +32,7 @@ _METRICS = HEADLINE
 #: the column of the co-motion threshold in a sensitivity table, by co-motion test
 COMOTION_COLUMNS = {"angle": "a_agg_deg", "rigid": "rigid_tol"}
 #: the constraints (:mod:`granalytics.base.validation`) of a one-pass threshold sweep's parameters
-#: (:func:`sensitivity`, :func:`~granalytics.sieve_grid`): thresholds one number or a list of them
+#: (:func:`sensitivity`, :func:`~granalytics.size_class_grid`): thresholds one number or a list of them
 SWEEP_CONSTRAINTS = {
     "c_agg": [C_AGG, Array(ndim=1, within=C_AGG)], "a_agg_deg": [A_AGG_DEG, Array(ndim=1, within=A_AGG_DEG), None],
     "rigid_tol": [POSITIVE, Array(ndim=1, within=POSITIVE), None], "radius": [RADIUS_MODE],

@@ -13,7 +13,7 @@ __all__ = ["add_calibrate_parser", "cmd_calibrate"]
 
 def add_calibrate_parser(sub):
     """Add the ``calibrate`` command to ``sub`` (``ArgumentParser.add_subparsers``)."""
-    from granalytics.analysis.calibration import DEFAULT_MEASURED_ERROR, SIEVE_MEASURES, Calibration
+    from granalytics.analysis.calibration import DEFAULT_MEASURED_ERROR, SIZE_MEASURES, Calibration
     from granalytics.report import output_names
 
     p = sub.add_parser("calibrate", help="fit C_agg and A_agg to a measured sieve analysis",
@@ -31,8 +31,8 @@ def add_calibrate_parser(sub):
     p.add_argument("--a-agg-deg", type=grid, default=None, metavar="GRID",
                    help="angle thresholds in degrees (default 5:60:12)")
     add_window_options(p)
-    p.add_argument("--measure", choices=tuple(SIEVE_MEASURES), default="volume",
-                   help="a granule's sieve size: 'volume' = diameter of the sphere of its solid volume (default), "
+    p.add_argument("--measure", choices=tuple(SIZE_MEASURES), default="volume",
+                   help="a granule's size: 'volume' = diameter of the sphere of its solid volume (default), "
                         "'width' = its second-largest principal extent")
     p.add_argument("--measured-error", type=float, default=DEFAULT_MEASURED_ERROR, metavar="SIGMA",
                    help="standard error of the measured cumulative fraction passing, when the file has no sigma "

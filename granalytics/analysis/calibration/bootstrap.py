@@ -24,7 +24,7 @@ def check_block(revolutions, block_rev) -> None:
     """Refuse a bootstrap block that spans the whole window (or a window of one frame): its
     replicas would all be the window itself, and the region a single point."""
     n = np.size(revolutions)
-    span = float(revolutions[-1] - revolutions[0]) if n > 1 else 0.0
+    span = float(revolutions[-1] - revolutions[0])
     if n < 3 or not block_rev < span:
         raise ParameterError(f"block_rev = {block_rev:g} revolutions: the bootstrap needs blocks shorter than the "
                              f"window ({n} frames over {span:.3g} revolutions), or its replicas are the window itself "
@@ -32,11 +32,11 @@ def check_block(revolutions, block_rev) -> None:
 
 
 def _bootstrap_weights(rng, revolutions, n_boot, block_rev) -> np.ndarray:
-    """(n_boot, F) frame counts of moving-block bootstrap replicas of F time-ordered frames."""
+    """(n_boot, F) frame counts of moving-block bootstrap replicas of F time-ordered frames, whose
+    blocks :func:`check_block` has let through (shorter than the window)."""
     n = revolutions.size
-    span = revolutions[-1] - revolutions[0] if n > 1 else 0.0
-    per_rev = (n - 1) / span if span > 0 and math.isfinite(span) else n
-    length = int(min(n, max(1, round(block_rev * per_rev))))
+    per_rev = (n - 1) / (revolutions[-1] - revolutions[0])
+    length = max(1, round(block_rev * per_rev))
     n_blocks = math.ceil(n / length)
     starts = rng.integers(0, n - length + 1, size=(n_boot, n_blocks))
     picks = (starts[:, :, None] + np.arange(length)).reshape(n_boot, -1)[:, :n]

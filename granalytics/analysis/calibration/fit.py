@@ -3,7 +3,7 @@ distribution, :func:`calibrate_thresholds`, and its result, :class:`Calibration`
 (docs/calibration.md).
 
 The simulated distribution at every grid point comes from one pass per frame and co-motion
-threshold (:func:`~granalytics.analysis.calibration.size_classes.sieve_grid`) over the frames of
+threshold (:func:`~granalytics.analysis.calibration.size_classes.size_class_grid`) over the frames of
 the steady window, averaged over them. Its error is a moving-block bootstrap over the window's
 frames (:mod:`~granalytics.analysis.calibration.bootstrap`). The distance between simulated and
 measured distributions is
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from numbers import Integral, Real
 
 import numpy as np
@@ -31,7 +31,8 @@ import pandas as pd
 
 from granalytics.analysis.calibration.bootstrap import SimulatedMean, bootstrap_region, check_block, simulated_mean
 from granalytics.analysis.calibration.measured import MeasuredDistribution, read_sieve_csv
-from granalytics.analysis.calibration.size_classes import SieveGrid, sieve_grid
+from granalytics.analysis.calibration.size_classes import MEASURE, SizeClassGrid, class_grid
+from granalytics.analysis.sensitivity import SWEEP_CONSTRAINTS, threshold_grid
 from granalytics.analysis.stats import DEFAULT_WINDOW_REV
 from granalytics.base.errors import ParameterError
 from granalytics.base.validation import FLAG, POSITIVE, WINDOW, Instance, Interval, Path, validate_params
@@ -114,7 +115,7 @@ class Calibration:
                  f"C_agg: {self.constraint['c_agg']}; {name}: {self.constraint[col]}"]
         if self.poor_fit:
             lines.append(f"POOR FIT: no grid point reproduces the measured distribution (chi2/dof = "
-                         f"{self.chi2_min / max(self.dof, 1):.3g}, p = {self.p_value:.2g} < {POOR_FIT_P:g}); the region "
+                         f"{self.chi2_min / self.dof:.3g}, p = {self.p_value:.2g} < {POOR_FIT_P:g}); the region "
                          "then only says which points are least bad")
         return "\n".join(lines)
 
@@ -143,7 +144,7 @@ class Calibration:
 
 
 def _is_one_run(run) -> bool:
-    if isinstance(run, (str, os.PathLike, SieveGrid)) or hasattr(run, "select"):
+    if isinstance(run, (str, os.PathLike, SizeClassGrid)) or hasattr(run, "select"):
         return True
     return isinstance(run, (list, tuple)) and len(run) > 0 and isinstance(run[0], Snapshot)
 
@@ -158,37 +159,37 @@ def _window_frames(frames, window):
     return [frames[k] for k in np.flatnonzero(keep)]
 
 
-def _grid_of(run, measured, window, kwargs) -> SieveGrid:
-    """The per-frame size classes of one run in the window."""
-    if isinstance(run, SieveGrid):
-        keep = window_mask(run.revolutions, *window)
-        if not keep.any():
-            raise ParameterError(f"no frame in the window [{window[0]:g}, {window[1]:g}] revolutions")
-        if run.edges_m.shape != measured.edges_m.shape or not np.array_equal(run.edges_m, measured.edges_m):
-            raise ParameterError("the SieveGrid was computed on other classes than the measured distribution's")
-        return SieveGrid(run.volumes[keep], run.c_agg, run.comotion_values, run.comotion, run.edges_m, run.frames[keep],
-                         run.revolutions[keep], run.time_s[keep], run.density, run.measure)
+def _grid_of(run, measured, window, sweep) -> SizeClassGrid:
+    """The per-frame size classes of one run in the window; ``sweep``: :func:`class_grid`'s other
+    arguments."""
     if isinstance(run, (str, os.PathLike)):
         from granalytics.core import open_run
 
         with open_run(run) as opened:
-            return _grid_of(opened, measured, window, kwargs)
-    frames = _window_frames(run, window)
+            return _grid_of(opened, measured, window, sweep)
+    if isinstance(run, SizeClassGrid):
+        if not np.array_equal(run.edges_m, measured.edges_m):
+            raise ParameterError("the SizeClassGrid was computed on other classes than the measured distribution's")
+        keep = window_mask(run.revolutions, *window)
+        frames = run.frames[keep]
+    else:
+        frames = _window_frames(run, window)
     if len(frames) == 0:
         where = f"{getattr(run, 'path', 'run')}: " if hasattr(run, "select") else ""
         raise ParameterError(f"{where}no frame in the window [{window[0]:g}, {window[1]:g}] revolutions")
-    return sieve_grid(frames, measured, **kwargs)
+    if isinstance(run, SizeClassGrid):
+        return replace(run, volumes=run.volumes[keep], frames=frames, revolutions=run.revolutions[keep],
+                       time_s=run.time_s[keep])
+    return class_grid(frames, measured.edges_m, **sweep)
 
 
-def _check_sizes(c_agg, comotion_values, measured, n_boot) -> None:
+def _check_sizes(points, n_edges, n_boot) -> None:
     """Refuse, before any frame is read, a grid or bootstrap whose arrays cannot fit in memory
     (the bootstrap's passing fractions: n_boot × grid points × class edges, float64, a few copies)."""
     from granalytics.base.resources import check_memory
 
-    points = max(1, np.size(c_agg)) * max(1, np.size(comotion_values) if comotion_values is not None else 1)
-    edges = max(1, np.size(measured.edges_m))
     check_memory(f"calibrating over a grid of {points} threshold pairs with {n_boot} bootstrap replicas",
-                 8 * points * (edges + 2) * (n_boot + 8) * 3)
+                 8 * points * (n_edges + 2) * (n_boot + 8) * 3)
 
 
 def _describe(values, inside) -> str:
@@ -209,8 +210,9 @@ def _describe(values, inside) -> str:
 _FRACTION = Interval(Real, 0, 1, closed="neither")
 
 
-@validate_params({"measured": [Instance(MeasuredDistribution), Path("the path of a sieve CSV")],
-                  "window": [WINDOW], "measured_error": [_FRACTION],
+@validate_params({**{name: allowed for name, allowed in SWEEP_CONSTRAINTS.items() if name != "surface_tension"},
+                  "measured": [Instance(MeasuredDistribution), Path("the path of a sieve CSV")],
+                  "measure": [MEASURE], "window": [WINDOW], "measured_error": [_FRACTION],
                   "n_boot": [Interval(Integral, 10, None)], "block_rev": [POSITIVE], "level": [_FRACTION],
                   "seed": [Interval(Integral, 0, None), None], "progress": [FLAG]})
 def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT_WINDOW_REV, comotion=DEFAULT_COMOTION,
@@ -221,12 +223,12 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
 
     Parameters
     ----------
-    run : path, Run, RunSlice, sequence of Snapshot or SieveGrid, or a list of these
+    run : path, Run, RunSlice, sequence of Snapshot or SizeClassGrid, or a list of these
         The run; a list of runs is a replica set (one system at several seeds): the simulated
         distribution is the mean over the runs, each bootstrapped on its own.
     measured : MeasuredDistribution or path
         The measured sieve analysis (:func:`~granalytics.analysis.calibration.measured.read_sieve_csv`);
-        the simulated granules are sieved into its classes in original-system sizes.
+        the simulated granules are sorted into its classes by their original-system sizes.
     c_agg : sequence of float
         Cohesion thresholds (≥ 0).
     a_agg_deg : sequence of float
@@ -236,7 +238,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     comotion, rigid_tol, rigid_scale :
         The co-motion test; with ``"rigid"`` the grid's second axis is ``rigid_tol``.
     measure : {"volume", "width"}, default "volume"
-        A granule's sieve size: its volume-equivalent diameter, or its second principal extent.
+        A granule's size: its volume-equivalent diameter, or its second principal extent.
     measured_error : float, default 0.01
         Standard error of the measured cumulative fraction passing each edge (mass fraction),
         used when the measured distribution carries none (its ``sigma``).
@@ -263,27 +265,26 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     runs = [run] if _is_one_run(run) else list(run)
     if not runs:
         raise ParameterError("calibrate_thresholds: no run given")
-    _check_sizes(c_agg, a_agg_deg if comotion != "rigid" else rigid_tol, measured, int(n_boot))
-    kwargs = dict(c_agg=c_agg, a_agg_deg=a_agg_deg, measure=measure, radius=radius, cohesion=cohesion,
-                  comotion=comotion, rigid_tol=rigid_tol, rigid_scale=rigid_scale, min_size=min_size, jobs=jobs,
-                  progress=progress)
-    grids = [_grid_of(r, measured, window, kwargs) for r in runs]
+    c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "calibrate_thresholds")
+    _check_sizes(c_desc.size * len(a_list), np.size(measured.edges_m), int(n_boot))
+    sweep = dict(c_desc=c_desc, a_list=a_list, measure=measure, radius=radius, surface_tension=None, cohesion=cohesion,
+                 comotion=comotion, rigid_scale=rigid_scale, min_size=min_size, jobs=jobs, scheduler=None,
+                 progress=progress)
+    grids = [_grid_of(r, measured, window, sweep) for r in runs]
     first = grids[0]
     for g in grids[1:]:
         if not (np.array_equal(g.c_agg, first.c_agg) and np.array_equal(g.comotion_values, first.comotion_values)
                 and g.comotion == first.comotion and g.measure == first.measure):
-            raise ParameterError("calibrate_thresholds: the replicas' SieveGrids have different grids")
+            raise ParameterError("calibrate_thresholds: the replicas' SizeClassGrids have different grids")
     used = np.isfinite(measured.edges_m) & (measured.edges_m > 0)
-    if not used.any():
-        raise ParameterError("the measured distribution has no finite class edge above 0 to compare at")
+    n_fit = int(first.comotion_values.size > 1) + int(first.c_agg.size > 1)  # the thresholds fitted
+    dof = int(used.sum()) - n_fit
+    if dof < 1:
+        raise ParameterError(f"the measured distribution gives {int(used.sum())} class edge(s) to compare at and the fit "
+                             f"has {n_fit} free threshold(s): no degree of freedom is left to test it (p undefined); "
+                             "measure more classes, or fix a threshold (a grid of one value)")
     p_meas = measured.passing[used]
     s_meas = (measured.sigma if measured.sigma is not None else np.full(measured.edges_m.size, measured_error))[used]
-
-    n_fit_axes = int(np.size(first.comotion_values) > 1) + int(np.size(first.c_agg) > 1)
-    if int(used.sum()) <= n_fit_axes:
-        raise ParameterError(f"the measured distribution gives {int(used.sum())} class edge(s) to compare at and the fit "
-                             f"has {n_fit_axes} free threshold(s): no degree of freedom is left to test it (p undefined); "
-                             "measure more classes, or fix a threshold (a grid of one value)")
     for g in grids:
         check_block(g.revolutions, block_rev)
     rng = np.random.default_rng(seed)
@@ -296,7 +297,6 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     freq, region = bootstrap_region(boot_chi2, best, level)
 
     n_a, n_c = chi2.shape
-    n_fit = int(n_a > 1) + int(n_c > 1)
     col = "a_agg_deg" if first.comotion == "angle" else "rigid_tol"
     grid = _grid_table(first, col, chi2, best, np.abs(sim.p - p_meas).max(axis=-1), freq, region,
                        chi2_law.ppf(level, n_fit) if n_fit else 0.0)
@@ -305,11 +305,10 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     constraint = {"c_agg": _describe(first.c_agg, np.isin(first.c_agg, grid.c_agg[inside])),
                   col: _describe(first.comotion_values, np.isin(first.comotion_values, grid[col][inside]))}
     chi2_min = float(chi2.ravel()[best])
-    dof = int(used.sum()) - n_fit
-    p_value = float(chi2_law.sf(chi2_min, dof)) if dof > 0 else math.nan
+    p_value = float(chi2_law.sf(chi2_min, dof))
     at_best = SimulatedMean(*(x[a_best, c_best] for x in (sim.p, sim.err_p, sim.f, sim.err_f)), boot_p=None)
     settings = {
-        "runs": [str(getattr(r, "path", r)) if not isinstance(r, (list, tuple, SieveGrid)) else type(r).__name__
+        "runs": [str(getattr(r, "path", r)) if not isinstance(r, (list, tuple, SizeClassGrid)) else type(r).__name__
                  for r in runs],
         "n_frames": [int(g.volumes.shape[0]) for g in grids], "window_rev": list(window), "measure": first.measure,
         "comotion": first.comotion, "cohesion": cohesion, "n_boot": int(n_boot), "block_rev": float(block_rev),
@@ -320,7 +319,7 @@ def calibrate_thresholds(run, measured, c_agg, a_agg_deg=None, *, window=DEFAULT
     return Calibration(grid=grid, best={"c_agg": float(first.c_agg[c_best]), col: float(first.comotion_values[a_best]),
                                         "chi2": chi2_min},
                        constraint=constraint, distributions=_distributions(measured, used, at_best, measured_error),
-                       chi2_min=chi2_min, dof=dof, p_value=p_value, poor_fit=bool(dof > 0 and p_value < POOR_FIT_P),
+                       chi2_min=chi2_min, dof=dof, p_value=p_value, poor_fit=p_value < POOR_FIT_P,
                        settings=settings)
 
 

@@ -15,9 +15,9 @@ import pandas as pd
 
 from granalytics.base.errors import ParameterError
 from granalytics.base.files import regular_input
-from granalytics.base.validation import PATH, Array, Interval, validate_params
+from granalytics.base.validation import PATH, Array, Interval, validate, validate_params
 
-__all__ = ["MeasuredDistribution", "read_sieve_csv", "SUM_TOLERANCE"]
+__all__ = ["MeasuredDistribution", "read_sieve_csv", "SUM_TOLERANCE", "CLASS_EDGES"]
 
 #: how far from 1 the mass fractions of a measured distribution may sum (then they are rescaled to 1)
 SUM_TOLERANCE = 0.01
@@ -32,6 +32,26 @@ MIN_SIGMA = 1e-6
 
 _CLASS_FIELDS = ("lower_m", "upper_m", "mass_fraction")
 _PASSING_FIELDS = ("aperture_m", "passing_fraction")
+
+
+class _ClassEdges(Array):
+    """Class boundaries [m]: two or more ascending sizes >= 0 (the last may be ``inf``)."""
+
+    def __init__(self):
+        super().__init__(ndim=1)
+
+    def accepts(self, value) -> bool:
+        if not super().accepts(value):
+            return False
+        edges = np.asarray(value, dtype=float)
+        return edges.size >= 2 and edges[0] >= 0 and bool((np.diff(edges) > 0).all())
+
+    def __str__(self):
+        return "a sequence of two or more ascending sizes >= 0 [m]"
+
+
+#: the constraint of class edges [m]
+CLASS_EDGES = _ClassEdges()
 
 
 @dataclass(frozen=True)
@@ -50,12 +70,25 @@ class MeasuredDistribution:
         the file gives one.
     source : str
         Where it came from (a file's path, or a description).
+
+    The constructor refuses edges, fractions or errors of another shape or range
+    (:class:`ParameterError`) and keeps them as float arrays.
     """
 
     edges_m: np.ndarray
     fractions: np.ndarray
     sigma: np.ndarray | None = None
     source: str = "measured"
+
+    def __post_init__(self):
+        k = np.size(self.edges_m) - 1
+        validate("MeasuredDistribution", {"edges_m": [CLASS_EDGES],
+                                          "fractions": [Array(ndim=1, length=k, within=Interval(Real, 0, 1))],
+                                          "sigma": [Array(ndim=1, length=k + 1, within=Interval(Real, 0, None)), None]},
+                 vars(self))
+        for name in ("edges_m", "fractions", "sigma"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=float))
 
     @property
     def n_classes(self) -> int:
@@ -80,6 +113,10 @@ class MeasuredDistribution:
                      tolerance=SUM_TOLERANCE) -> "MeasuredDistribution":
         """From class bounds [m] and mass fractions (validated as :func:`read_sieve_csv` does; rows
         are counted from 1)."""
+        lengths = [len(lower_m), len(upper_m), len(mass_fraction), *([] if sigma is None else [len(sigma)])]
+        if len(set(lengths)) > 1:
+            raise ParameterError(f"MeasuredDistribution.from_classes: lower_m, upper_m, mass_fraction and sigma must "
+                                 f"hold one value per class, got {', '.join(map(str, lengths))} values")
         rows = [{"lower_m": lo, "upper_m": hi, "mass_fraction": m} for lo, hi, m in zip(lower_m, upper_m, mass_fraction)]
         return _from_class_rows(source, [(k + 1, row) for k, row in enumerate(rows)], tolerance,
                                 None if sigma is None else np.asarray(sigma, float))

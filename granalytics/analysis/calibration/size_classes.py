@@ -1,16 +1,16 @@
-"""The virtual sieving of simulated granules into the classes of a sieve analysis, at one threshold
-pair (:func:`sieve_classes`) or over a whole threshold grid in one pass per frame
-(:func:`sieve_grid`, :class:`SieveGrid`), and a "measured" distribution made from such a grid
-(:func:`grid_measurement`).
+"""Simulated granules sorted by size into the classes of a sieve analysis, at one threshold pair
+(:func:`size_class_fractions`) or over a whole threshold grid in one pass per frame
+(:func:`size_class_grid`, :class:`SizeClassGrid`), and a "measured" distribution made from such a
+grid (:func:`grid_measurement`).
 
 Sizes (docs/calibration.md):
 
-- a granule's sieve size is, by ``measure``, ``"volume"``: the diameter of the sphere of its solid
+- a granule's size is, by ``measure``, ``"volume"``: the diameter of the sphere of its solid
   volume, d_V = (6V/π)^(1/3); or ``"width"``: its second-largest principal extent (the width a
   square aperture sees; the measure of :class:`~granalytics.VirtualSieve`);
-- a free particle (not in a granule) is sieved on its own, as a grain of its own diameter; in a
+- a free particle (not in a granule) is classified on its own, as a grain of its own diameter; in a
   coarse-grained run, of its original-system diameter 2R/α;
-- a granule of CG particles is sieved at its own size: a CG particle stands for α³ original
+- a granule of CG particles is classified at its own size: a CG particle stands for α³ original
   particles of the same total solid volume, so a granule of n CG particles stands for a granule
   of α³·n original particles with the same solid volume, d_V and (to the resolution of the CG
   particles) the same extents;
@@ -29,7 +29,7 @@ from numbers import Integral, Real
 
 import numpy as np
 
-from granalytics.analysis.calibration.measured import MeasuredDistribution
+from granalytics.analysis.calibration.measured import CLASS_EDGES, MeasuredDistribution
 from granalytics.analysis.frames import map_frames
 from granalytics.analysis.sensitivity import SWEEP_CONSTRAINTS, threshold_grid
 from granalytics.base.errors import ParameterError
@@ -39,37 +39,31 @@ from granalytics.identification import kernels as _kernels
 from granalytics.identification.cohesion import DEFAULT_COHESION
 from granalytics.identification.contacts import DEFAULT_COMOTION, DEFAULT_RIGID_SCALE, comotion_mask, contact_strength
 
-__all__ = ["SIEVE_MEASURES", "sieve_classes", "SieveGrid", "sieve_grid", "grid_measurement"]
+__all__ = ["SIZE_MEASURES", "MEASURE", "size_class_fractions", "SizeClassGrid", "size_class_grid", "class_grid",
+           "grid_measurement"]
 
-#: the sieve-size measures: name -> the kernel's code
-SIEVE_MEASURES = {"volume": 0, "width": 1}
-#: the constraint of a sieve-size measure
-_MEASURE = Options(tuple(SIEVE_MEASURES))
-#: class edges [m] (:func:`_edges` checks the rest: two or more, ascending, >= 0)
-_EDGES = [Array(ndim=1), Instance(MeasuredDistribution)]
-
-
-def _alpha(snapshot) -> float:
-    alpha = getattr(snapshot.meta, "alpha", 1.0) if snapshot.meta is not None else 1.0
-    return float(alpha) if alpha and alpha > 0 else 1.0
+#: the size measures: name -> the kernel's code
+SIZE_MEASURES = {"volume": 0, "width": 1}
+#: the constraint of a size measure
+MEASURE = Options(tuple(SIZE_MEASURES))
+#: the constraints of class edges [m]
+_EDGES = [CLASS_EDGES, Instance(MeasuredDistribution)]
 
 
 def _free_size(snapshot) -> np.ndarray:
-    """A free particle's sieve size [m]: its original-system diameter 2R/α."""
-    return 2.0 * snapshot.radius / _alpha(snapshot)
+    """A free particle's size [m]: its original-system diameter 2R/α."""
+    return 2.0 * snapshot.radius / (snapshot.meta.alpha if snapshot.meta is not None else 1.0)
 
 
-def _edges(edges_m) -> np.ndarray:
-    edges = np.asarray(getattr(edges_m, "edges_m", edges_m), dtype=float)
-    if edges.size < 2 or np.isnan(edges).any() or (np.diff(edges) <= 0).any() or (edges < 0).any():
-        raise ParameterError(f"edges_m must be at least two ascending sizes >= 0 in metres, got {edges.tolist()[:8]}")
-    return edges
+def _edge_array(edges_m) -> np.ndarray:
+    """The class edges [m] of an array or a MeasuredDistribution, as floats."""
+    return np.asarray(edges_m.edges_m if isinstance(edges_m, MeasuredDistribution) else edges_m, dtype=float)
 
 
 @validate_params({"snapshot": [SNAPSHOT], "labels": [Array(ndim=1, dtype=Integral)], "edges_m": _EDGES,
-                  "measure": [_MEASURE]})
-def sieve_classes(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
-    """Virtual sieve analysis of one identification: mass fraction per class.
+                  "measure": [MEASURE]})
+def size_class_fractions(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
+    """The size classes of one identification's granules and free particles: mass fraction per class.
 
     Parameters
     ----------
@@ -79,14 +73,14 @@ def sieve_classes(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
     edges_m : (K+1,) array [m] or MeasuredDistribution
         Class boundaries.
     measure : {"volume", "width"}
-        The granule's sieve size (module docstring).
+        The granule's size (module docstring).
 
     Returns
     -------
     (K+2,) float array
         Mass fraction below ``edges_m[0]``, in each class, and at or above ``edges_m[-1]``.
     """
-    edges, code = _edges(edges_m), SIEVE_MEASURES[measure]
+    edges, code = _edge_array(edges_m), SIZE_MEASURES[measure]
     labels = np.asarray(labels, dtype=np.int64)
     n_groups = int(labels.max()) + 1 if labels.size else 0
     hist = _kernels.class_volumes(labels, n_groups, np.ones(n_groups, dtype=np.bool_), np.zeros(n_groups),
@@ -96,8 +90,8 @@ def sieve_classes(snapshot, labels, edges_m, measure="volume") -> np.ndarray:
 
 
 @dataclass
-class SieveGrid:
-    """Per-frame size distributions over a threshold grid (:func:`sieve_grid`).
+class SizeClassGrid:
+    """Per-frame size distributions over a threshold grid (:func:`size_class_grid`).
 
     Attributes
     ----------
@@ -148,12 +142,13 @@ def _frame_grid(snapshot, c_desc, thresholds, edges, code, radius, gamma, cohesi
     return out, snapshot.revolutions, snapshot.time, (snapshot.meta.density if snapshot.meta is not None else math.nan)
 
 
-@validate_params({**SWEEP_CONSTRAINTS, "edges_m": _EDGES, "measure": [_MEASURE], "progress": [FLAG]})
-def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radius="pair", surface_tension=None,
-               cohesion=DEFAULT_COHESION, comotion=DEFAULT_COMOTION, rigid_tol=None, rigid_scale=DEFAULT_RIGID_SCALE,
-               min_size=2, jobs=1, scheduler=None, progress=False) -> SieveGrid:
-    """The virtual sieve analysis of GNA's granules in every frame at every threshold pair, the C_agg
-    axis in one pass per frame and co-motion threshold (the merge of :func:`granalytics.sensitivity`).
+@validate_params({**SWEEP_CONSTRAINTS, "edges_m": _EDGES, "measure": [MEASURE], "progress": [FLAG]})
+def size_class_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radius="pair", surface_tension=None,
+                    cohesion=DEFAULT_COHESION, comotion=DEFAULT_COMOTION, rigid_tol=None,
+                    rigid_scale=DEFAULT_RIGID_SCALE, min_size=2, jobs=1, scheduler=None,
+                    progress=False) -> SizeClassGrid:
+    """The size classes of GNA's granules in every frame at every threshold pair, the C_agg axis in
+    one pass per frame and co-motion threshold (the merge of :func:`granalytics.sensitivity`).
 
     Parameters
     ----------
@@ -165,7 +160,7 @@ def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radi
     a_agg_deg : sequence of float
         Angle thresholds [deg] (``comotion="angle"``).
     measure : {"volume", "width"}
-        The granule's sieve size (module docstring).
+        The granule's size (module docstring).
     rigid_tol : sequence of float
         Tolerances of the rigid test (``comotion="rigid"``).
     radius, surface_tension, cohesion, comotion, rigid_scale, min_size, jobs, scheduler, progress :
@@ -173,31 +168,39 @@ def sieve_grid(frames, edges_m, c_agg, a_agg_deg=None, *, measure="volume", radi
 
     Returns
     -------
-    SieveGrid
-        Equal, bin by bin, to :func:`sieve_classes` of the GNA identification at each pair.
+    SizeClassGrid
+        Equal, bin by bin, to :func:`size_class_fractions` of the GNA identification at each pair.
     """
-    edges, code = _edges(edges_m), SIEVE_MEASURES[measure]
-    c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "sieve_grid")
-    c_asc = c_desc[::-1].copy()
+    c_desc, a_list = threshold_grid(c_agg, a_agg_deg, rigid_tol, comotion, "size_class_grid")
+    return class_grid(frames, _edge_array(edges_m), c_desc, a_list, measure=measure, radius=radius,
+                      surface_tension=surface_tension, cohesion=cohesion, comotion=comotion, rigid_scale=rigid_scale,
+                      min_size=min_size, jobs=jobs, scheduler=scheduler, progress=progress)
+
+
+def class_grid(frames, edges, c_desc, a_list, *, measure, radius, surface_tension, cohesion, comotion, rigid_scale,
+               min_size, jobs, scheduler, progress) -> SizeClassGrid:
+    """:func:`size_class_grid` of arguments its caller has checked: ``edges`` a float array [m],
+    ``c_desc`` and ``a_list`` the grid of :func:`~granalytics.analysis.sensitivity.threshold_grid`."""
+    code = SIZE_MEASURES[measure]
     frame_ids, results = map_frames(
         frames, lambda s: _frame_grid(s, c_desc, a_list, edges, code, radius, surface_tension, cohesion, comotion,
                                       rigid_scale, int(min_size)),
         progress=progress, desc="size classes", jobs=jobs, scheduler=scheduler)
-    return SieveGrid(volumes=np.stack([r[0] for r in results]), c_agg=c_asc, comotion_values=np.array(a_list),
-                     comotion=comotion, edges_m=edges, frames=np.asarray(frame_ids),
-                     revolutions=np.array([r[1] for r in results]), time_s=np.array([r[2] for r in results]),
-                     density=float(results[0][3]), measure=measure)
+    return SizeClassGrid(volumes=np.stack([r[0] for r in results]), c_agg=c_desc[::-1].copy(),
+                         comotion_values=np.array(a_list), comotion=comotion, edges_m=edges,
+                         frames=np.asarray(frame_ids), revolutions=np.array([r[1] for r in results]),
+                         time_s=np.array([r[2] for r in results]), density=float(results[0][3]), measure=measure)
 
 
-@validate_params({"grid": [Instance(SieveGrid)], "c_agg": [Interval(Real)], "threshold": [Interval(Real)],
+@validate_params({"grid": [Instance(SizeClassGrid)], "c_agg": [Interval(Real)], "threshold": [Interval(Real)],
                   "noise": [Interval(Real, 0, None)], "seed": [Interval(Integral, 0, None)], "source": [Instance(str), None]})
-def grid_measurement(grid: SieveGrid, c_agg, threshold, *, noise=0.0, seed=0, source=None) -> MeasuredDistribution:
+def grid_measurement(grid: SizeClassGrid, c_agg, threshold, *, noise=0.0, seed=0, source=None) -> MeasuredDistribution:
     """A "measured" distribution made from a simulation: the mean over ``grid``'s frames at one of its
     grid points, with optional noise (for tests of a calibration and for synthetic examples).
 
     Parameters
     ----------
-    grid : SieveGrid
+    grid : SizeClassGrid
         Its classes must hold all the mass (first edge 0, last edge ``inf``).
     c_agg, threshold : float
         A grid point: C_agg and A_agg [deg] (or the rigid tolerance).
@@ -210,10 +213,11 @@ def grid_measurement(grid: SieveGrid, c_agg, threshold, *, noise=0.0, seed=0, so
     ci = np.flatnonzero(np.isclose(grid.c_agg, c_agg, rtol=0, atol=1e-12))
     ai = np.flatnonzero(np.isclose(grid.comotion_values, threshold, rtol=0, atol=1e-12))
     if ci.size != 1 or ai.size != 1:
-        raise ParameterError(f"({c_agg:g}, {threshold:g}) is not a point of the grid")
+        raise ParameterError(f"grid_measurement: ({c_agg:g}, {threshold:g}) is not a point of the grid")
     frac = grid.fractions[:, ai[0], ci[0]].mean(axis=0)
     if frac[0] > 0 or frac[-1] > 0:
-        raise ParameterError("the grid's classes do not hold all the mass (make the first edge 0 and the last inf)")
+        raise ParameterError("grid_measurement: the grid's classes do not hold all the mass (make the first edge 0 "
+                             "and the last inf)")
     passing = np.cumsum(frac[1:-1])[:-1]
     if noise > 0:
         passing = passing + np.random.default_rng(seed).normal(0.0, noise, passing.size)
