@@ -302,7 +302,7 @@ def principal_extents(membership, n_groups, pos, radius, weight):
     -------
     (n_groups, 3) float array [m].
     """
-    order, start = _group_order(membership, n_groups)
+    order, start = counting_sort(membership, n_groups)
     out = np.empty((n_groups, 3))
     gyr = np.empty((3, 3))
     for g in range(n_groups):
@@ -334,21 +334,6 @@ def principal_extents(membership, n_groups, pos, radius, weight):
             out[g, k] = hi - lo
         out[g] = np.sort(out[g])[::-1]
     return out
-
-
-@njit(cache=True)
-def _group_order(membership, n_groups):
-    start = np.zeros(n_groups + 1, dtype=np.int64)
-    for g in membership:
-        start[g + 1] += 1
-    for g in range(n_groups):
-        start[g + 1] += start[g]
-    fill = start[:-1].copy()
-    order = np.empty(membership.shape[0], dtype=np.int64)
-    for i in range(membership.shape[0]):
-        order[fill[membership[i]]] = i
-        fill[membership[i]] += 1
-    return order, start
 
 
 @njit(cache=True, nogil=True)

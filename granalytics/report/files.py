@@ -240,13 +240,7 @@ def write_table(table, path, stage=None):
         else:
             table.to_parquet(tmp, index=False)
 
-    try:
-        if stage is not None:
-            write(stage(path))
-        else:
-            write_atomically(path, write)
-    except OSError as exc:
-        raise GranalyticsError(f"{path}: cannot write ({exc})") from None
+    _write_output(path, write, stage)
 
 
 def write_json(value, path, stage=None, *, indent=2):
@@ -256,6 +250,12 @@ def write_json(value, path, stage=None, *, indent=2):
         with open(tmp, "w") as handle:
             json.dump(json_safe(value), handle, indent=indent)
 
+    _write_output(path, write, stage)
+
+
+def _write_output(path, write, stage) -> None:
+    """``write(tmp)`` into ``stage(path)`` (outputs written as one) or atomically to ``path``; a
+    failure is one line naming the file."""
     try:
         if stage is not None:
             write(stage(path))

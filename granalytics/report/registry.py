@@ -28,6 +28,7 @@ if missing) and a folder's files are written as one (all of them change, or none
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 
@@ -139,12 +140,25 @@ def _save_table(table: pd.DataFrame, path, *, overwrite=False, stage=None) -> li
     return [path]
 
 
+@contextlib.contextmanager
+def _written_as_one(folder, figures=()):
+    """The ``stage`` of ``folder``'s outputs (made if missing; all its files change, or none:
+    :func:`~granalytics.report.files.staged_outputs`); ``figures`` are closed afterwards."""
+    try:
+        with output_folder(folder), staged_outputs(folder) as stage:
+            yield stage
+    finally:
+        if figures:
+            import matplotlib.pyplot as plt
+
+            for fig in figures:
+                plt.close(fig)
+
+
 @save.register
 def _save_cg(comparison: CGComparison, folder, *, overwrite=False, size_unit="particles") -> list:
     """The comparison's tables (sizes in particles of each run, with its α) and its Figs 3–6
     (Fig 5's sizes in ``size_unit``) as PNG and PDF, written into ``folder`` as one."""
-    import matplotlib.pyplot as plt
-
     from granalytics.report.figures import cg_figures
 
     folder = os.fspath(folder)
@@ -152,7 +166,7 @@ def _save_cg(comparison: CGComparison, folder, *, overwrite=False, size_unit="pa
     figures = cg_figures(comparison, size_unit=size_unit)
     written = []
     try:
-        with output_folder(folder), staged_outputs(folder) as stage:
+        with _written_as_one(folder, figures.values()) as stage:
             for table, path in zip((comparison.table, comparison.timeseries, comparison.distributions), paths):
                 write_table(table, path, stage)
                 written.append(path)
@@ -163,30 +177,21 @@ def _save_cg(comparison: CGComparison, folder, *, overwrite=False, size_unit="pa
                     written.append(path)
     except OSError as exc:
         raise ParameterError(f"{folder}: cannot write the comparison ({exc})") from None
-    finally:
-        for fig in figures.values():
-            plt.close(fig)
     return written
 
 
 @save.register
 def _save_cg_thresholds(comparison: CGThresholdComparison, folder, *, overwrite=False) -> list:
     """The deviation table and one heatmap per headline statistic, written into ``folder`` as one."""
-    import matplotlib.pyplot as plt
-
     from granalytics.report.figures import cg_threshold_figures
 
     folder = os.fspath(folder)
     paths = output_paths(CGThresholdComparison, folder, overwrite=overwrite)
     figures = cg_threshold_figures(comparison.table)
-    try:
-        with output_folder(folder), staged_outputs(folder) as stage:
-            write_table(comparison.table, paths[0], stage)
-            for metric, path in zip(BY_FIGURE, paths[1:]):
-                figures[f"cg_thresholds_{metric}"].savefig(stage(path), dpi=120)
-    finally:
-        for fig in figures.values():
-            plt.close(fig)
+    with _written_as_one(folder, figures.values()) as stage:
+        write_table(comparison.table, paths[0], stage)
+        for metric, path in zip(BY_FIGURE, paths[1:]):
+            figures[f"cg_thresholds_{metric}"].savefig(stage(path), dpi=120)
     return paths
 
 
@@ -194,23 +199,17 @@ def _save_cg_thresholds(comparison: CGThresholdComparison, folder, *, overwrite=
 def _save_calibration(calibration: Calibration, folder, *, overwrite=False) -> list:
     """The calibration's grid and distributions, ``calibration.json`` (:meth:`Calibration.to_json`)
     and its two figures, written into ``folder`` as one."""
-    import matplotlib.pyplot as plt
-
     from granalytics.report.figures import calibration_figures
 
     folder = os.fspath(folder)
     paths = output_paths(Calibration, folder, overwrite=overwrite)
     figures = calibration_figures(calibration)
-    try:
-        with output_folder(folder), staged_outputs(folder) as stage:
-            write_table(calibration.grid, paths[0], stage)
-            write_table(calibration.distributions, paths[1], stage)
-            write_json(calibration.to_json(), paths[2], stage)
-            for name, path in zip(CALIBRATION_FIGURES, paths[3:]):
-                figures[name].savefig(stage(path), dpi=120, bbox_inches="tight")
-    finally:
-        for fig in figures.values():
-            plt.close(fig)
+    with _written_as_one(folder, figures.values()) as stage:
+        write_table(calibration.grid, paths[0], stage)
+        write_table(calibration.distributions, paths[1], stage)
+        write_json(calibration.to_json(), paths[2], stage)
+        for name, path in zip(CALIBRATION_FIGURES, paths[3:]):
+            figures[name].savefig(stage(path), dpi=120, bbox_inches="tight")
     return paths
 
 
@@ -227,21 +226,16 @@ def _save_tracks(tracks: GranuleTracks, folder, *, overwrite=False, revolution_p
     [s]), the coalescence kernel and breakage rate (sizes in ``size_unit``, with the CG factor
     ``alpha``, a float or a run or its metadata, for ``"original"``) and the tracking figure
     (titled ``title``), written into ``folder`` as one."""
-    import matplotlib.pyplot as plt
-
     from granalytics.report.figures import tracking_figure
 
     folder = os.fspath(folder)
     paths = output_paths(GranuleTracks, folder, overwrite=overwrite)
     rates, kernel, breakage = _tracking_tables(tracks, revolution_period_s, size_unit, alpha)
     fig = tracking_figure(tracks, rates, kernel, size_unit=size_unit, alpha=alpha, title=title)
-    try:
-        with output_folder(folder), staged_outputs(folder) as stage:
-            for table, path in zip((tracks.events, tracks.tracks, rates, kernel, breakage), paths):
-                write_table(table, path, stage)
-            save_figure(fig, paths[-1], stage)
-    finally:
-        plt.close(fig)
+    with _written_as_one(folder, [fig]) as stage:
+        for table, path in zip((tracks.events, tracks.tracks, rates, kernel, breakage), paths):
+            write_table(table, path, stage)
+        save_figure(fig, paths[-1], stage)
     return paths
 
 
@@ -255,7 +249,7 @@ def _save_pbm(prediction: PBMPrediction, folder, *, overwrite=False) -> list:
     folder = os.fspath(folder)
     paths = output_paths(PBMPrediction, folder, overwrite=overwrite)
     fig = pbm_figure(prediction)  # a matplotlib Figure outside pyplot: nothing to close
-    with output_folder(folder), staged_outputs(folder) as stage:
+    with _written_as_one(folder) as stage:
         for table, path in zip((prediction.rates.kernel, prediction.rates.classes, prediction.distributions(),
                                 prediction.summary()), paths):
             write_table(table, path, stage)
