@@ -137,6 +137,10 @@ def write_api(folder):
     path = folder / "index.rst"
     if not path.exists() or path.read_text() != text:
         path.write_text(text)
+    listed = {f"{line.strip()}.rst" for line in out if line.startswith("   granalytics.") or line.startswith("   sim.")}
+    for stub in (folder / "generated").glob("*.rst"):  # a renamed or removed name's page from an earlier build
+        if stub.name not in listed:
+            stub.unlink()
 
 
 _FIGURE_LINK = re.compile(r"(?<!!)\[([^\]]+)\]\((\.\./figures/[^)]+\.png)\)")
