@@ -7,6 +7,7 @@ Usage::
     python benchmarks/paper_drum_runs.py cg1 [--dt-factor F] [--dir ~/granalytics-runs/paper-cg1]
     python benchmarks/paper_drum_runs.py progress [--dir ~/granalytics-runs/paper-cg1]
     python benchmarks/paper_drum_runs.py table [--dir ~/granalytics-runs/paper-family] [--window 2:4]
+    python benchmarks/paper_drum_runs.py figures --out FOLDER [--dir ~/granalytics-runs/paper-family] [--window 2:4]
 
 ``series`` makes, one after the other on one thread, the α = 1 runs of the paper drum's family
 (``python -m sim run --preset paper-cg1 --drum-ratio D``: its aspect, fill, baffles and spray
@@ -21,6 +22,10 @@ revolution, a checkpoint every frame) or resumes it. ``progress`` prints one lin
 series' steady state per D/d (mean ± replica s.e.) and the confinement law y = y∞·(1 − b/(D/d))
 fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value at the
 paper CG1's D/d = 133 with that band, and the paper drum's CG runs beside the law at their D/(αd).
+``figures`` writes the paper's Figs 3–6 for the paper drum (``ga.save`` of ``ga.compare_cg``): its
+finished CG runs, one group per preset and rule (seeds as replicas), beside the largest finished
+α = 1 run of the family (D/d 66 once it is in), with the table of each against it and the speed-up
+per particle from the recorded wall times.
 """
 
 from __future__ import annotations
@@ -233,17 +238,53 @@ def _paper_cg_table(args, window, fits):
               f"{r.n_replicas} | {r.drum_ratio:.1f} | {' | '.join(cells)} | {r.bed_angle_deg:.1f} |")
 
 
+def figures(args):
+    import granalytics as ga
+    from granalytics.report.tables import format_cg_table
+
+    done = {}
+    for ratio, seed in SERIES:
+        path = os.path.join(args.dir, f"dd{ratio}-seed{seed}.h5")
+        if _finished(path):
+            done.setdefault(ratio, []).append(path)
+    if not done:
+        print(f"no finished α = 1 run in {args.dir}")
+        return
+    ratio = max(done)
+    groups, labels = [done[ratio]], [f"α=1 D/d {ratio}"]
+    members = {}
+    for preset, rule, seed in PAPER_CG:
+        path = os.path.join(args.dir, f"{preset}-{rule}-seed{seed}.h5")
+        if _finished(path):
+            members.setdefault(f"{preset} {rule}", []).append(path)
+    groups += list(members.values())
+    labels += list(members)
+    if len(groups) < 2:
+        print("no finished paper-drum CG run yet")
+        return
+    window = tuple(float(x) for x in args.window.split(":"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the runs are of different drums (D/d) by design: mixed systems
+        comparison = ga.compare_cg(groups, labels, window=window, mixed_systems=True)
+    written = ga.save(comparison, args.out, overwrite=args.overwrite)
+    print(f"wrote {len(written)} files to {args.out}")
+    print(format_cg_table(comparison))
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="what", required=True)
     for name, folder in (("series", "paper-family"), ("cg1", "paper-cg1"), ("progress", "paper-cg1"),
-                         ("table", "paper-family")):
+                         ("table", "paper-family"), ("figures", "paper-family")):
         p = sub.add_parser(name)
         p.add_argument("--dir", default=os.path.join(HOME_RUNS, folder))
         p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
         p.add_argument("--window", default="2:4")
+        if name == "figures":
+            p.add_argument("--out", required=True, help="folder of the tables and Figs 3-6")
+            p.add_argument("--overwrite", action="store_true")
     args = parser.parse_args(argv)
-    {"series": series, "cg1": cg1, "progress": progress, "table": table}[args.what](args)
+    {"series": series, "cg1": cg1, "progress": progress, "table": table, "figures": figures}[args.what](args)
 
 
 if __name__ == "__main__":
