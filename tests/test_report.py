@@ -112,10 +112,11 @@ def test_a_calibration_is_saved_as_its_tables_json_and_figures(tmp_path, calibra
         plt.close(fig)
 
 
-def test_granule_tracks_are_saved_as_their_events_tracks_rates_and_figure_and_drawn_as_it(tmp_path, tracks):
+def test_granule_tracks_are_saved_as_their_events_tracks_rates_and_figure_and_drawn_as_it(tmp_path, tracks, capsys):
     tracks, meta = tracks
     period = 2 * np.pi / abs(meta.drum_omega)
     written = ga.save(tracks, tmp_path / "track", revolution_period_s=period, size_unit="original", alpha=meta)
+    assert capsys.readouterr().out == ""  # the library prints nothing; the command says what it wrote
     assert [pathlib.Path(p).name for p in written] == output_names(ga.GranuleTracks)
     assert _files(tmp_path / "track") == sorted(output_names(ga.GranuleTracks))
     assert len(pd.read_csv(tmp_path / "track" / "events.csv")) == len(tracks.events)
@@ -132,10 +133,11 @@ def test_granule_tracks_are_saved_as_their_events_tracks_rates_and_figure_and_dr
     plt.close(fig)
 
 
-def test_a_population_balance_prediction_is_saved_as_its_tables_settings_and_figure(tmp_path, prediction):
+def test_a_population_balance_prediction_is_saved_as_its_tables_settings_and_figure(tmp_path, prediction, capsys):
     import json
 
     written = ga.save(prediction, tmp_path / "pbm")
+    assert capsys.readouterr().out == ""
     assert [pathlib.Path(p).name for p in written] == output_names(ga.PBMPrediction)
     assert _files(tmp_path / "pbm") == sorted(output_names(ga.PBMPrediction))
     settings = json.loads((tmp_path / "pbm" / "settings.json").read_text())

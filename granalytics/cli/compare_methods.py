@@ -69,6 +69,7 @@ def cmd_compare(args):
         uses = [m for m in methods if m != "dbscan" or methods[m][1].get("bridged_only")]  # DBSCAN on positions has no F_coh
         save_figure(comparison_figure(stats, pairs, title=f"{os.path.basename(args.run)}, cohesion={args.cohesion} "
                                                           f"(for {', '.join(uses) or 'no method'})"), args.plot)
+        print(f"wrote plot to {args.plot}")
     # the printed means are steady-state means over --window, as in stats (the tables hold every frame)
     lo, hi = args.window
     inside = window_mask(stats["revolutions"].to_numpy(dtype=float), lo, hi)

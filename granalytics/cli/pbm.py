@@ -96,6 +96,7 @@ def cmd_pbm(args):
         written = save(pred, args.out, overwrite=args.overwrite)
         summary = pred.summary()
         last = summary.iloc[-1]
+        print(f"wrote plot to {written[-1]}")
         print(f"wrote {len(written)} files to {args.out}: at revolution {last['revolution']:.2f} the PBM has mean size "
               f"{last['pbm_mean_size']:.2f} and yield {last['pbm_yield_fraction']:.3f}, the DEM "
               f"{last['dem_mean_size']:.2f} and {last['dem_yield_fraction']:.3f} (KS D {last['ks_d']:.3f}); "

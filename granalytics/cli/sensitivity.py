@@ -80,5 +80,6 @@ def cmd_sensitivity(args):
 
         save_figure(sensitivity_figure(summary, title=f"{os.path.basename(args.run)}, revolutions "
                                  f"[{args.window[0]:g}, {args.window[1]:g}], cohesion={args.cohesion}"), args.plot)
+        print(f"wrote plot to {args.plot}")
     print(format_sensitivity_means(summary, args.window, args.cohesion, rigid=rigid))
     return 0

@@ -99,6 +99,7 @@ def _stats(args):
                                         if used != tuple(window) else ""))
             try:
                 save_figure(fig, args.plot, stage)
+                print(f"wrote plot to {args.plot}")
             finally:
                 plt.close(fig)
     if args.out:

@@ -148,6 +148,7 @@ def cmd_study(args) -> int:
         conv = conventions[0] if not table["cohesion"].isna().all() else None
         fig = growth_figure(table, fits.get(conv), cohesion=conv if conv else "n/a")
         save_figure(fig, args.plot)
+        print(f"wrote plot to {args.plot}")
         plt.close(fig)
     return 0
 

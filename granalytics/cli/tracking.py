@@ -76,6 +76,7 @@ def cmd_track(args):
                        alpha=meta, title=f"{os.path.basename(args.run)}: {args.method} ({setting}), "
                                          f"min_fragment={args.min_fragment}")
         counts = tracks.event_counts()
+        print(f"wrote plot to {written[-1]}")
         print(f"wrote {len(written)} files to {args.out}: {tracks.n_tracks} tracks over {tracks.n_frames} frames; "
               + ", ".join(f"{kind} {counts[kind]}" for kind in KINDS))
         return 0

@@ -181,7 +181,6 @@ def save_figure(fig, path, stage=None):
             write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=ext, bbox_inches="tight"))
     except (OSError, ValueError) as exc:
         raise GranalyticsError(f"{path}: cannot write plot ({exc})") from None
-    print(f"wrote plot to {path}")
 
 
 def check_new_file(path, overwrite):
