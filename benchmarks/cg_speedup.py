@@ -40,7 +40,7 @@ def main():
             sim.advance(steps)
             best[k] = min(best[k], (time.perf_counter() - t0) / (steps * sim.params.dt))
     ref = sims[0]
-    print(f"| CG α | particles | Δt [s] | wall s per simulated s | speed-up | ideal N/Δt ratio | paper |")
+    print("| CG α | particles | Δt [s] | wall s per simulated s | speed-up | ideal N/Δt ratio | paper |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for sim, wall in zip(sims, best):
         p = sim.params
