@@ -330,3 +330,13 @@ def test_compare_cg_over_a_threshold_grid_and_save_write_the_same_files(tmp_path
     assert sorted(figures) == [name.removesuffix(".png") for name in sorted(output_names(ga.CGThresholdComparison))[1:]]
     for fig in figures.values():
         plt.close(fig)
+
+
+@pytest.mark.parametrize("path", [None, b"table.csv", 3.0])
+def test_a_path_that_is_not_a_file_name_is_refused_in_one_line(path, comparison):
+    with pytest.raises(ParameterError, match="save: path must be a file or folder name"):
+        ga.save(pd.DataFrame({"a": [1]}), path)
+    with pytest.raises(ParameterError, match="save: path must be a file or folder name"):
+        ga.save(comparison, path)
+    with pytest.raises(ParameterError, match="save: path must be a file or folder name"):
+        output_paths(ga.CGComparison, path)

@@ -41,6 +41,7 @@ from granalytics.analysis.population_balance import PBMPrediction
 from granalytics.analysis.tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates
 from granalytics.base.errors import GranalyticsError, ParameterError
 from granalytics.base.files import write_atomically
+from granalytics.base.validation import Path, validate
 from granalytics.identification.result import IdentificationResult
 from granalytics.report.files import (check_outputs, new_output_paths, output_folder, save_figure, staged_outputs,
                                       write_json, write_table)
@@ -87,7 +88,13 @@ def output_paths(kind, folder, *, overwrite=False) -> list:
     saved to a folder, :func:`output_names`) into ``folder``; refuses (``ParameterError``)
     a ``folder`` that is a file and files that exist unless ``overwrite``. For checking the
     outputs before the work that computes the result."""
-    return new_output_paths(folder, output_names(kind), overwrite=overwrite)
+    return new_output_paths(_output_path(folder), output_names(kind), overwrite=overwrite)
+
+
+def _output_path(path) -> str:
+    """``path`` as a str, refused in one line (``ParameterError``) when it is not a file or folder name."""
+    validate("save", {"path": [Path("a file or folder name")]}, {"path": path})
+    return os.fspath(path)
 
 
 def _types(generic) -> str:
@@ -131,7 +138,7 @@ def _save_table(table: pd.DataFrame, path, *, overwrite=False, stage=None) -> li
     """A table, .csv or .parquet by ``path``'s suffix; a named index is written as the first
     columns. With ``stage`` (:func:`~granalytics.report.files.staged_outputs`'s) the caller has
     checked ``path`` and writes it together with its other outputs."""
-    path = os.fspath(path)
+    path = _output_path(path)
     if stage is None:
         check_outputs(tables=(path,), overwrite=overwrite)
     if any(name is not None for name in table.index.names):
@@ -161,7 +168,7 @@ def _save_cg(comparison: CGComparison, folder, *, overwrite=False, size_unit="pa
     (Fig 5's sizes in ``size_unit``) as PNG and PDF, written into ``folder`` as one."""
     from granalytics.report.figures import cg_figures
 
-    folder = os.fspath(folder)
+    folder = _output_path(folder)
     paths = output_paths(CGComparison, folder, overwrite=overwrite)
     figures = cg_figures(comparison, size_unit=size_unit)
     written = []
@@ -185,7 +192,7 @@ def _save_cg_thresholds(comparison: CGThresholdComparison, folder, *, overwrite=
     """The deviation table and one heatmap per headline statistic, written into ``folder`` as one."""
     from granalytics.report.figures import cg_threshold_figures
 
-    folder = os.fspath(folder)
+    folder = _output_path(folder)
     paths = output_paths(CGThresholdComparison, folder, overwrite=overwrite)
     figures = cg_threshold_figures(comparison.table)
     with _written_as_one(folder, figures.values()) as stage:
@@ -201,7 +208,7 @@ def _save_calibration(calibration: Calibration, folder, *, overwrite=False) -> l
     and its two figures, written into ``folder`` as one."""
     from granalytics.report.figures import calibration_figures
 
-    folder = os.fspath(folder)
+    folder = _output_path(folder)
     paths = output_paths(Calibration, folder, overwrite=overwrite)
     figures = calibration_figures(calibration)
     with _written_as_one(folder, figures.values()) as stage:
@@ -228,7 +235,7 @@ def _save_tracks(tracks: GranuleTracks, folder, *, overwrite=False, revolution_p
     (titled ``title``), written into ``folder`` as one."""
     from granalytics.report.figures import tracking_figure
 
-    folder = os.fspath(folder)
+    folder = _output_path(folder)
     paths = output_paths(GranuleTracks, folder, overwrite=overwrite)
     rates, kernel, breakage = _tracking_tables(tracks, revolution_period_s, size_unit, alpha)
     fig = tracking_figure(tracks, rates, kernel, size_unit=size_unit, alpha=alpha, title=title)
@@ -246,7 +253,7 @@ def _save_pbm(prediction: PBMPrediction, folder, *, overwrite=False) -> list:
     ``folder`` as one."""
     from granalytics.report.figures import pbm_figure
 
-    folder = os.fspath(folder)
+    folder = _output_path(folder)
     paths = output_paths(PBMPrediction, folder, overwrite=overwrite)
     fig = pbm_figure(prediction)  # a matplotlib Figure outside pyplot: nothing to close
     with _written_as_one(folder) as stage:
@@ -262,7 +269,7 @@ def _save_pbm(prediction: PBMPrediction, folder, *, overwrite=False) -> list:
 def _save_measured(distribution: MeasuredDistribution, path, *, overwrite=False) -> list:
     """The classes form (``lower_m,upper_m,mass_fraction``, 6 significant digits) that
     :func:`~granalytics.read_sieve_csv` reads."""
-    path = os.fspath(path)
+    path = _output_path(path)
     check_outputs(others=(path,), overwrite=overwrite)
     table = distribution.table()[["lower_m", "upper_m", "mass_fraction"]]
     try:
