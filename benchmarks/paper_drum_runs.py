@@ -63,14 +63,16 @@ def _command(out, options, factor, checkpoint_every):
 def _queue():
     """The runs of ``series`` in the order they are made: (file name, options of ``sim run``,
     frames between checkpoints). The α = 1 series and the paper drum's CG runs are interleaved, so
-    that a queue stopped part-way has a little of each; the largest runs come last."""
+    that a queue stopped part-way has a little of each; D/d 66 seed 0 comes after the first CG pair
+    (the law's fourth D/d and the α = 1 run beside the paper drum's Figs 3–6), the rest of the
+    largest runs last."""
     alpha1 = {(ratio, seed): (f"dd{ratio}-seed{seed}.h5", ["--preset", "paper-cg1", "--drum-ratio", str(ratio),
                                                           "--seed", str(seed)]) for ratio, seed in SERIES}
     cg = {key: (f"{key[0]}-{key[1]}-seed{key[2]}.h5", ["--preset", key[0], "--cg-rule", key[1], "--seed", str(key[2])])
           for key in PAPER_CG}
     order = [alpha1[r] for r in SERIES if r[0] <= 33]
-    order += [alpha1[(44, 0)], cg[PAPER_CG[0]], cg[PAPER_CG[1]], alpha1[(44, 1)], cg[PAPER_CG[2]], cg[PAPER_CG[3]],
-              alpha1[(44, 2)], alpha1[(66, 0)], cg[PAPER_CG[4]], cg[PAPER_CG[5]], alpha1[(66, 1)]]
+    order += [alpha1[(44, 0)], cg[PAPER_CG[0]], cg[PAPER_CG[1]], alpha1[(66, 0)], alpha1[(44, 1)], cg[PAPER_CG[2]],
+              cg[PAPER_CG[3]], alpha1[(44, 2)], cg[PAPER_CG[4]], cg[PAPER_CG[5]], alpha1[(66, 1)]]
     return [(name, [*options, "--quiet"], 2 if "66" in name or "paper-cg2" in name else 4) for name, options in order]
 
 
