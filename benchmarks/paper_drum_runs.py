@@ -168,15 +168,31 @@ def _running_cpu_seconds(out):
     return 0.0
 
 
+def _finished_series(folder) -> dict:
+    """The finished α = 1 runs of the series in ``folder``, by D/d: {ratio: [paths, one per seed]}."""
+    groups = {}
+    for ratio, seed in SERIES:
+        path = os.path.join(folder, f"dd{ratio}-seed{seed}.h5")
+        if _finished(path):
+            groups.setdefault(ratio, []).append(path)
+    return groups
+
+
+def _finished_paper_cg(folder) -> dict:
+    """The finished paper-drum CG runs in ``folder``: {"PRESET RULE": [paths, one per seed]}."""
+    groups = {}
+    for preset, rule, seed in PAPER_CG:
+        path = os.path.join(folder, f"{preset}-{rule}-seed{seed}.h5")
+        if _finished(path):
+            groups.setdefault(f"{preset} {rule}", []).append(path)
+    return groups
+
+
 def table(args):
     import granalytics as ga
 
     window = tuple(float(x) for x in args.window.split(":"))
-    groups = {}
-    for ratio, seed in SERIES:
-        path = os.path.join(args.dir, f"dd{ratio}-seed{seed}.h5")
-        if _finished(path):
-            groups.setdefault(ratio, []).append(path)
+    groups = _finished_series(args.dir)
     if not groups:
         print(f"no finished run in {args.dir}")
         return
@@ -213,11 +229,7 @@ def _paper_cg_table(args, window, fits):
     speed; the table says so."""
     import granalytics as ga
 
-    groups = {}
-    for preset, rule, seed in PAPER_CG:
-        path = os.path.join(args.dir, f"{preset}-{rule}-seed{seed}.h5")
-        if _finished(path):
-            groups.setdefault(f"{preset} {rule}", []).append(path)
+    groups = _finished_paper_cg(args.dir)
     if not groups:
         print("\n(no finished paper-drum CG run yet)")
         return
@@ -244,21 +256,13 @@ def figures(args):
     import granalytics as ga
     from granalytics.report.tables import format_cg_table
 
-    done = {}
-    for ratio, seed in SERIES:
-        path = os.path.join(args.dir, f"dd{ratio}-seed{seed}.h5")
-        if _finished(path):
-            done.setdefault(ratio, []).append(path)
+    done = _finished_series(args.dir)
     if not done:
         print(f"no finished α = 1 run in {args.dir}")
         return
     ratio = max(done)
     groups, labels = [done[ratio]], [f"α=1 D/d {ratio}"]
-    members = {}
-    for preset, rule, seed in PAPER_CG:
-        path = os.path.join(args.dir, f"{preset}-{rule}-seed{seed}.h5")
-        if _finished(path):
-            members.setdefault(f"{preset} {rule}", []).append(path)
+    members = _finished_paper_cg(args.dir)
     groups += list(members.values())
     labels += list(members)
     if len(groups) < 2:
