@@ -8,6 +8,8 @@ Usage::
     python benchmarks/paper_drum_runs.py progress [--dir ~/granalytics-runs/paper-cg1]
     python benchmarks/paper_drum_runs.py table [--dir ~/granalytics-runs/paper-family] [--window 2:4]
     python benchmarks/paper_drum_runs.py figures --out FOLDER [--dir ~/granalytics-runs/paper-family] [--window 2:4]
+                                                 [--reference ~/granalytics-runs/paper-cg1/paper-cg1.h5]
+                                                 [--size-unit original|particles]
 
 ``series`` makes, one after the other on one thread, the α = 1 runs of the paper drum's family
 (``python -m sim run --preset paper-cg1 --drum-ratio D``: its aspect, fill, baffles and spray
@@ -24,8 +26,9 @@ fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law
 paper CG1's D/d = 133 with that band, and the paper drum's CG runs beside the law at their D/(αd).
 ``figures`` writes the paper's Figs 3–6 for the paper drum (``ga.save`` of ``ga.compare_cg``): its
 finished CG runs, one group per preset and rule (seeds as replicas), beside the largest finished
-α = 1 run of the family (D/d 66 once it is in), with the table of each against it and the speed-up
-per particle from the recorded wall times.
+α = 1 run of the family (D/d 66 once it is in), or beside ``--reference`` (the paper's CG1 once it
+has the window), with the table of each against it and the speed-up per particle from the recorded
+wall times.
 """
 
 from __future__ import annotations
@@ -256,12 +259,15 @@ def figures(args):
     import granalytics as ga
     from granalytics.report.tables import format_cg_table
 
-    done = _finished_series(args.dir)
-    if not done:
-        print(f"no finished α = 1 run in {args.dir}")
-        return
-    ratio = max(done)
-    groups, labels = [done[ratio]], [f"α=1 D/d {ratio}"]
+    if args.reference:
+        groups, labels = [[args.reference]], [os.path.splitext(os.path.basename(args.reference))[0]]
+    else:
+        done = _finished_series(args.dir)
+        if not done:
+            print(f"no finished α = 1 run in {args.dir}")
+            return
+        ratio = max(done)
+        groups, labels = [done[ratio]], [f"α=1 D/d {ratio}"]
     members = _finished_paper_cg(args.dir)
     groups += list(members.values())
     labels += list(members)
@@ -272,7 +278,7 @@ def figures(args):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the runs are of different drums (D/d) by design: mixed systems
         comparison = ga.compare_cg(groups, labels, window=window, mixed_systems=True)
-    written = ga.save(comparison, args.out, overwrite=args.overwrite)
+    written = ga.save(comparison, args.out, overwrite=args.overwrite, size_unit=args.size_unit)
     print(f"wrote {len(written)} files to {args.out}")
     print(format_cg_table(comparison))
 
@@ -289,6 +295,12 @@ def main(argv=None):
         if name == "figures":
             p.add_argument("--out", required=True, help="folder of the tables and Figs 3-6")
             p.add_argument("--overwrite", action="store_true")
+            p.add_argument("--size-unit", choices=("original", "particles"), default="original",
+                           help="Fig 5's sizes: original-particle equivalents α³·n (the paper's unit, to "
+                           "compare CG levels of one drum; default) or each run's particles (to compare "
+                           "runs at equal confinement D/(αd))")
+            p.add_argument("--reference", help="the α = 1 run the CG runs are compared with (default: the "
+                           "family's largest finished D/d)")
     args = parser.parse_args(argv)
     {"series": series, "cg1": cg1, "progress": progress, "table": table, "figures": figures}[args.what](args)
 
