@@ -5,7 +5,7 @@ The checkpoint of run file ``OUT`` is ``OUT.ckpt.npz`` (:func:`checkpoint_path`)
 array of :meth:`sim.state.State.to_arrays` under its field name, and the 0-d string array
 ``checkpoint_info`` holding a JSON object: ``format`` (2), ``physics_version``, ``params`` and
 ``original`` (:meth:`sim.params.SimParams.to_dict`), ``liquid_initial`` [m³] and what the run adds
-(``frames``, ``frame_every``, ``wall_s``). Long runs resume from such files: the format changes
+(``frames``, ``frame_every``, ``wall_s``; ``cpu_s`` where the simulator recorded it). Long runs resume from such files: the format changes
 only with :data:`CHECKPOINT_FORMAT`.
 """
 
@@ -48,6 +48,9 @@ class ResumePoint:
         Steps between frames.
     wall_s : float
         Wall time of the run's earlier sittings [s].
+    cpu_s : float or None
+        CPU time of the run's earlier sittings, all threads [s]; None where a sitting's simulator
+        did not record it.
     physics_version : int or None
         The physics version the checkpoint records (None: its simulator recorded none).
     """
@@ -56,6 +59,7 @@ class ResumePoint:
     frame_every: int
     wall_s: float
     physics_version: object
+    cpu_s: float | None = None
 
 
 def checkpoint_path(out) -> str:
@@ -162,8 +166,10 @@ def resume_run(out) -> Simulation:
         frames, frame_every = int(info["frames"]), int(info["frame_every"])
     except KeyError as exc:
         raise ValueError(f"{ckpt}: not a run checkpoint (no {exc.args[0]!r})") from None
+    cpu_s = info.get("cpu_s")
     sim.resume_point = ResumePoint(frames=frames, frame_every=frame_every, wall_s=float(info.get("wall_s", 0.0)),
-                                   physics_version=info.get("physics_version"))
+                                   physics_version=info.get("physics_version"),
+                                   cpu_s=None if cpu_s is None else float(cpu_s))
     return sim
 
 

@@ -389,10 +389,17 @@ class Simulation:
             remove_checkpoint(out)  # an earlier run's
             writer.append(self.snapshot(meta))
             if checkpoint_every is not None:  # the settled bed: hours at 10⁵ particles, not to be settled twice
-                write_checkpoint(self, ckpt, {"frames": 1, "frame_every": frame_every, "wall_s": 0.0})
-        wall0 = _time.perf_counter()
+                write_checkpoint(self, ckpt, {"frames": 1, "frame_every": frame_every, "wall_s": 0.0, "cpu_s": 0.0})
+        wall0, cpu0 = _time.perf_counter(), _time.process_time()
         steps0 = self.state.step
-        wall_before = 0.0 if self.resume_point is None else self.resume_point.wall_s  # of earlier sittings
+        # of earlier sittings (CPU time None: a sitting's simulator did not record it)
+        wall_before, cpu_before = (0.0, 0.0) if self.resume_point is None else (self.resume_point.wall_s,
+                                                                                self.resume_point.cpu_s)
+
+        def elapsed():
+            """Wall and CPU time of the frames so far, all sittings [s]."""
+            cpu = None if cpu_before is None else cpu_before + _time.process_time() - cpu0
+            return {"wall_s": wall_before + _time.perf_counter() - wall0, "cpu_s": cpu}
         bar = tqdm(total=n_frames, initial=writer.n_frames, unit="frame", disable=not progress,
                    desc=f"{p.n_particles} particles α={p.alpha:g}")
         import numba
@@ -405,17 +412,18 @@ class Simulation:
                 self._check_finite()
                 writer.append(self.snapshot(meta))
                 if checkpoint_every is not None and writer.n_frames % checkpoint_every == 0:
-                    write_checkpoint(self, ckpt, {"frames": writer.n_frames, "frame_every": frame_every,
-                                                  "wall_s": wall_before + _time.perf_counter() - wall0})
+                    write_checkpoint(self, ckpt, {"frames": writer.n_frames, "frame_every": frame_every, **elapsed()})
                 bar.update(1)
                 # the rate of the frame just simulated (the machine's load changes as the run goes)
                 rate = (self.state.step - frame_step0) * p.n_particles / max(frame_wall, 1e-9)
                 bar.set_postfix_str(f"t={self.time:.3f} s rev={self.time / p.revolution_period:.2f} "
                                     f"{rate / 1e6:.2f}M particle-steps/s, {numba.get_num_threads()} thread(s)")
-            wall = wall_before + _time.perf_counter() - wall0
+            spent = elapsed()
+            wall, cpu = spent["wall_s"], spent["cpu_s"]
             writer.update_provenance(
                 physics_version=PHYSICS_VERSION, wall_time_s=wall, simulated_time_s=self.time,
-                wall_time_per_simulated_s=wall / max(self.time, 1e-300),
+                wall_time_per_simulated_s=wall / max(self.time, 1e-300), cpu_time_s=cpu,
+                cpu_time_per_simulated_s=None if cpu is None else cpu / max(self.time, 1e-300),
                 particle_steps_per_s=(self.state.step - steps0) * p.n_particles / max(wall - wall_before, 1e-9),
                 threads=numba.get_num_threads(), thread_policy="auto" if self._governor is not None else "fixed",
                 cpu_count=os.cpu_count())

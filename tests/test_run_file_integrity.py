@@ -598,6 +598,8 @@ def _set_json(group, key, update):
         "sim_config", json.dumps({"params": {"drum_radius": "0.02"}})), "'sim_config.params.drum_radius'"),
     ("wall_time_text", lambda f: _set_json(f["meta"], "provenance", lambda p: p.update(wall_time_s="39 s")),
      "'provenance.wall_time_s'"),
+    ("cpu_time_text", lambda f: _set_json(f["meta"], "provenance", lambda p: p.update(cpu_time_s="2 h")),
+     "'provenance.cpu_time_s'"),
     ("provenance_number", lambda f: f["meta"].attrs.__setitem__("provenance", 5), "provenance"),
 ])
 def test_mutated_metadata_is_refused_naming_the_attribute(tmp_path, run_path, capsys, name, change, words):

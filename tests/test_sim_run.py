@@ -108,6 +108,12 @@ def test_resumed_run_equals_uninterrupted_run(tmp_path):
     with ga.open_run(full) as a, ga.open_run(part) as b:
         assert len(a) == len(b) == 13
         assert a.meta.provenance["planned_frames"] == b.meta.provenance["planned_frames"] == 13
+        # the CPU time of all sittings, no less than the uninterrupted run's frames took
+        for meta in (a.meta, b.meta):
+            cpu = meta.provenance["cpu_time_s"]
+            assert cpu > 0 and meta.provenance["cpu_time_per_simulated_s"] == pytest.approx(
+                cpu / meta.provenance["simulated_time_s"])
+        assert resume_run(part).resume_point.cpu_s > 0
         assert a.unfinished is None and b.unfinished is None
         for fa, fb in zip(a, b):
             assert fa.time == fb.time
@@ -607,6 +613,10 @@ def test_a_stored_checkpoint_of_format_2_is_read_written_again_unchanged_and_res
     assert resume_run(stopped).resume_point.frames == 4
     resume_run(stopped).run(stopped, 6 * rev, frame_every=700, checkpoint_every=2, progress=False, resume=True)
     assert_same_run(straight, stopped, n_frames=7)
+    # a format-2 checkpoint written before CPU time was recorded: the run's CPU time is unknown, not partial
+    assert resume_run(stopped).resume_point.cpu_s is None
+    with ga.open_run(straight) as run:
+        assert run.meta.provenance["cpu_time_s"] is None and run.meta.provenance["wall_time_s"] > 0
     with ga.open_run(straight) as run:
         resumed = list(run)
     for name in SNAPSHOT_FIELDS:  # the frames before the checkpoint are kept

@@ -192,7 +192,8 @@ _SIM_CONFIG_SCHEMA = {
     "confinement": dict.fromkeys(("drum_ratio", "length_ratio", "bed_depth_ratio", "fill_fraction"), _FINITE),
 }
 _PROVENANCE_SCHEMA = {
-    **dict.fromkeys(("wall_time_s", "wall_time_per_simulated_s", "simulated_time_s"), _FINITE + [None]),
+    **dict.fromkeys(("wall_time_s", "wall_time_per_simulated_s", "simulated_time_s", "cpu_time_s",
+                     "cpu_time_per_simulated_s"), _FINITE + [None]),
     "planned_frames": [Interval(Integral), None],
 }
 
