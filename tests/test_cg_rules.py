@@ -218,14 +218,23 @@ def test_info_and_compare_cg_warn_where_a_rule_is_measured_outside_the_tolerance
     from granalytics.cli import main as ga_main
     from granalytics.datasets import dataset_path
 
-    weber3 = CG_RULE_DEVIATION["weber"][3.0][0]
-    assert abs(weber3) > 0.1 and abs(CG_RULE_DEVIATION["bond"][3.0][0]) < 0.1
+    weber3 = CG_RULE_DEVIATION["weber"][11.2][3.0][0]
+    assert abs(weber3) > 0.1 and abs(CG_RULE_DEVIATION["bond"][11.2][3.0][0]) < 0.1
     assert f"{100 * weber3:+.0f} %" in cg_rule_warning("weber", 3.0) and "--cg-rule bond" in cg_rule_warning("weber", 3.0)
     assert cg_rule_warning("bond", 3.0) is None and cg_rule_warning("weber", 1.0) is None
+    # judged by the most open measured drum not above the run's: the lab drum's below D/(αd) 44.4,
+    # the paper drum's from there on, where Table 2 keeps the yield (no warning)
+    assert cg_rule_warning("weber", 3.0, 30.0) == cg_rule_warning("weber", 3.0, 11.2).replace("run's 11", "run's 30")
+    assert "D/(αd) 11.2, lab drum" in cg_rule_warning("weber", 3.0, 5.0)
+    assert abs(CG_RULE_DEVIATION["weber"][44.4][3.0][0]) < 0.1 and cg_rule_warning("weber", 3.0, 44.4) is None
+    assert cg_rule_warning("weber", 2.0, 67.0) is None and cg_rule_warning("bond", 3.0, 133.0) is None
+    assert cg_rule_warning("weber", 3.0, float("nan")) == cg_rule_warning("weber", 3.0)  # drum unknown: the most confined
     assert cg_rule_warning(None, 3.0) is None  # another code's run: its rule is unknown
     assert "measured up to α = 3" in cg_rule_warning("bond", 4.0)
     assert ga_main(["info", str(dataset_path("lab-cg3"))]) == 0
     err = capsys.readouterr().err
     assert err.count("CG rule weber at α = 3 moved the steady yield") == 1
+    assert ga_main(["info", str(dataset_path("paper-cg3"))]) == 0  # D/(αd) 44.4: Table 2 measured within 10 %
+    assert "CG rule" not in capsys.readouterr().err
     with small_run_warnings(), pytest.warns(UserWarning, match="lab-cg3.h5 \\(and its 2 replica\\(s\\)\\): CG rule weber at α = 3"):
         ga.compare_cg([dataset_path("lab-cg1"), ga.datasets.replica_paths("lab-cg3")], window=(3.0, 3.5))

@@ -186,39 +186,62 @@ def group_replicas(paths) -> list:
     return list(groups.values())
 
 
-#: the relative deviation of the steady yield (angle test, acting cohesion, C_agg 0.6, A_agg 20°,
-#: window [3, 6]) of a CG run from the α = 1 run at the same confinement (D/d 11.2 of the simulated
-#: particles, lab drum), by rule and α, with its replica standard error: mean over seeds 0-4
-#: (docs/results.md, "CG rules"; benchmarks/cg_rules_study.py table)
+#: the relative deviation of the steady yield (acting cohesion, C_agg 0.6, A_agg 20°) of a CG run
+#: from α = 1 at the same confinement, with its standard error, by rule, by the confinement
+#: D/(αd) of the simulated particles at which it was measured, and by α:
+#: D/(αd) 11.2, the lab drum: against α = 1 runs at equal D/d, angle test, window [3, 6], mean over
+#: seeds 0-4 (docs/results.md, "CG rules"; benchmarks/cg_rules_study.py table);
+#: D/(αd) 44.4, the paper drum: paper-cg3 seed 0 against the α = 1 law of the paper drum's family,
+#: window [2, 4], Δt factor 1.5 (benchmarks/paper_drum_runs.py table)
 CG_RULE_DEVIATION = {
-    "weber": {1.0: (0.0, 0.0), 2.0: (-0.17, 0.01), 3.0: (-0.25, 0.02)},
-    "bond": {1.0: (0.0, 0.0), 2.0: (-0.01, 0.02), 3.0: (-0.00, 0.02)},
+    "weber": {11.2: {1.0: (0.0, 0.0), 2.0: (-0.17, 0.01), 3.0: (-0.25, 0.02)},
+              44.4: {1.0: (0.0, 0.0), 3.0: (0.00, 0.02)}},
+    "bond": {11.2: {1.0: (0.0, 0.0), 2.0: (-0.01, 0.02), 3.0: (-0.00, 0.02)},
+             44.4: {1.0: (0.0, 0.0), 3.0: (0.06, 0.02)}},
 }
+#: where each confinement of :data:`CG_RULE_DEVIATION` was measured
+_CG_RULE_MEASURED_IN = {11.2: "lab drum, five seeds", 44.4: "paper drum, one seed"}
 #: the largest |yield deviation| a CG rule may have before info and compare-cg warn
 CG_RULE_TOLERANCE = 0.10
 
 
-def cg_rule_warning(rule, alpha) -> str | None:
+def _rule_deviation(measured, alpha) -> float:
+    """The yield deviation of one rule at one confinement at ``alpha``, linear between the measured α."""
+    alphas = sorted(measured)
+    return float(np.interp(alpha, alphas, [measured[a][0] for a in alphas]))
+
+
+def cg_rule_warning(rule, alpha, drum_ratio=None) -> str | None:
     """One line when a run's CG rule at its α is measured (:data:`CG_RULE_DEVIATION`, linear in α
     between the measured factors) to move the yield by more than :data:`CG_RULE_TOLERANCE`, or
     when α lies beyond the measured factors; None otherwise (α = 1, a rule within the tolerance,
-    or a run of another code, whose rule is unknown)."""
+    or a run of another code, whose rule is unknown).
+
+    The measurement used is that of the most open measured confinement D/(αd) not above the run's
+    ``drum_ratio`` (the most confined one where ``drum_ratio`` is unknown or below them all): a
+    rule's error shrinks as the drum opens, so a run is judged by no more open a drum than its own."""
     if rule is None or alpha is None or alpha <= 1 or rule not in CG_RULE_DEVIATION:
         return None
-    measured = CG_RULE_DEVIATION[rule]
-    top = max(measured)
+    if drum_ratio is not None and not math.isfinite(drum_ratio):
+        drum_ratio = None  # a run without its drum's geometry
+    confinements = sorted(CG_RULE_DEVIATION[rule])
+    # the table's confinements are rounded to three digits
+    below = [c for c in confinements if drum_ratio is not None and c <= drum_ratio * 1.001]
+    where = below[-1] if below else confinements[0]
+    top = max(a for c in confinements for a in CG_RULE_DEVIATION[rule][c])
     if alpha > top + 1e-9:
         return (f"CG rule {rule} at α = {alpha:g}: the rules are measured up to α = {top:g} only (docs/results.md, "
                 f"'CG rules'); its error on the statistics is not known here")
-    alphas = sorted(measured)
-    deviation = float(np.interp(alpha, alphas, [measured[a][0] for a in alphas]))
+    deviation = _rule_deviation(CG_RULE_DEVIATION[rule][where], alpha)
     if abs(deviation) <= CG_RULE_TOLERANCE:
         return None
-    better = [r for r, m in CG_RULE_DEVIATION.items()
-              if abs(float(np.interp(alpha, sorted(m), [m[a][0] for a in sorted(m)]))) <= CG_RULE_TOLERANCE]
+    better = [r for r, by_confinement in CG_RULE_DEVIATION.items() if where in by_confinement
+              and abs(_rule_deviation(by_confinement[where], alpha)) <= CG_RULE_TOLERANCE]
+    run_ratio = "" if drum_ratio is None else f", this run's {drum_ratio:.0f}"
     return (f"CG rule {rule} at α = {alpha:g} moved the steady yield by about {100 * deviation:+.0f} % against α = 1 "
-            f"at equal confinement (lab drum, D/d 11.2; docs/results.md, 'CG rules')"
-            + (f"; the rule {better[0]} keeps it within {100 * CG_RULE_TOLERANCE:.0f} % (--cg-rule {better[0]})"
+            f"at equal confinement (D/(αd) {where:g}, {_CG_RULE_MEASURED_IN[where]}{run_ratio}; docs/results.md, "
+            "'CG rules')"
+            + (f"; the rule {better[0]} keeps it within {100 * CG_RULE_TOLERANCE:.0f} % there (--cg-rule {better[0]})"
                if better else ""))
 
 
@@ -336,7 +359,8 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         members = [_analyse_member(item, (lo, hi), method, cohesion, progress, params) for item in group]
         more = f" (and its {len(members) - 1} replica(s))" if len(members) > 1 else ""
         first = members[0]["info"]
-        for warning in (confinement_warning(first["drum_ratio"]), cg_rule_warning(first["cg_rule"], first["alpha"])):
+        rule_warning = cg_rule_warning(first["cg_rule"], first["alpha"], first["drum_ratio"])
+        for warning in (confinement_warning(first["drum_ratio"]), rule_warning):
             if warning:  # once per system, not per replica
                 warnings.warn(f"{first['path']}{more}: {warning}", stacklevel=user_stacklevel())
         label = labels[k] if labels is not None else _alpha_label(members[0]["info"]["alpha"],

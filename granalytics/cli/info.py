@@ -37,7 +37,7 @@ def cmd_info(args):
                       f"{bed.describe()} (last frame)")
     if drum is not None and (warning := confinement_warning(drum.drum_ratio)):
         warnings.warn(f"{args.run}: {warning}")
-    if warning := cg_rule_warning(rule, meta.get("alpha")):
+    if warning := cg_rule_warning(rule, meta.get("alpha"), drum.drum_ratio if drum is not None else None):
         warnings.warn(f"{args.run}: {warning}")
     if args.json:
         print(json.dumps(json_safe({"file": info, "meta": meta, "bed_last_frame": bed.to_dict() if bed else None,
