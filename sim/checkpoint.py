@@ -5,7 +5,9 @@ The checkpoint of run file ``OUT`` is ``OUT.ckpt.npz`` (:func:`checkpoint_path`)
 array of :meth:`sim.state.State.to_arrays` under its field name, and the 0-d string array
 ``checkpoint_info`` holding a JSON object: ``format`` (2), ``physics_version``, ``params`` and
 ``original`` (:meth:`sim.params.SimParams.to_dict`), ``liquid_initial`` [m³] and what the run adds
-(``frames``, ``frame_every``, ``wall_s``; ``cpu_s`` where the simulator recorded it). Long runs resume from such files: the format changes
+(``frames``, ``frame_every``, ``wall_s``; ``cpu_s`` where the simulator recorded it). The state is
+at frame ``frames − 1`` or, written between frames, at a later step before frame ``frames`` (a
+simulator older than that refuses such a checkpoint rather than misread it). Long runs resume from such files: the format changes
 only with :data:`CHECKPOINT_FORMAT`.
 """
 
@@ -43,7 +45,8 @@ class ResumePoint:
     ----------
     frames : int
         Frames the run file held when the checkpoint was written; the state is that of frame
-        ``frames - 1``.
+        ``frames - 1`` or, for a checkpoint written between frames (``checkpoint_minutes``), of a
+        later step before frame ``frames``.
     frame_every : int
         Steps between frames.
     wall_s : float
@@ -128,9 +131,9 @@ def read_checkpoint(path) -> tuple[Simulation, dict]:
         liquid_initial = float(info.pop("liquid_initial"))
         if "frames" in info or "frame_every" in info:
             frames, frame_every = int(info["frames"]), int(info["frame_every"])
-            if frame_every < 1 or state.step != (frames - 1) * frame_every:
-                raise ValueError(f"state at step {state.step} is not the last of {frames} frames every "
-                                 f"{frame_every} steps")
+            if frame_every < 1 or not (frames - 1) * frame_every <= state.step < frames * frame_every:
+                raise ValueError(f"state at step {state.step} is not at or after the last of {frames} frames every "
+                                 f"{frame_every} steps, before the next")
     except ValueError as exc:
         message = str(exc)
         raise ValueError(message if message.startswith(path) else f"{path}: damaged checkpoint ({message})") from None
@@ -179,7 +182,8 @@ def check_resume(sim: Simulation, out, frame_every, n_frames) -> bool:
     (preset, overrides, seed: the whole :class:`SimParams` and its original), same frame
     interval, the checkpoint's frame within the requested run of ``n_frames`` frames every
     ``frame_every`` steps, the run file holding at least the checkpoint's frame count on the same
-    grid of steps, and its frame ``frames − 1`` at exactly the checkpoint's time and step.
+    grid of steps, and its frame ``frames − 1`` at exactly the time and step of the checkpoint's
+    last frame (the checkpoint's own step where it was written at a frame).
 
     Returns
     -------
@@ -243,9 +247,12 @@ def check_resume(sim: Simulation, out, frame_every, n_frames) -> bool:
         raise ValueError(f"{out}: holds {len(steps)} frames but the checkpoint {ckpt} comes after {frames}")
     if not np.array_equal(steps[:frames], np.arange(frames) * frame_every):
         raise ValueError(f"{out}: its frames are not every {frame_every} steps like the checkpoint's {ckpt}")
-    if steps[frames - 1] != s.step or times[frames - 1] != sim.time:
+    frame_step = (frames - 1) * frame_every  # the checkpoint's last frame; its state is there or up to a frame later
+    frame_time = frame_step * sim.params.dt  # as the simulator times its frames (t = step·Δt)
+    if steps[frames - 1] != frame_step or times[frames - 1] != frame_time:
         raise ValueError(f"{out}: frame {frames - 1} (the checkpoint's last) is at step {steps[frames - 1]}, "
-                         f"t = {times[frames - 1]!r} s, the checkpoint {ckpt} at step {s.step}, t = {sim.time!r} s")
+                         f"t = {times[frames - 1]!r} s, the checkpoint {ckpt}'s at step {frame_step}, t = "
+                         f"{frame_time!r} s")
     return len(steps) >= n_frames and "wall_time_s" in meta.provenance
 
 

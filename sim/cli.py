@@ -50,6 +50,8 @@ def _check_options(args) -> None:
          "a finite number > 0"),
         ("--checkpoint-every", args.checkpoint_every, 1 <= args.checkpoint_every <= 10**9,
          "a whole number of frames in [1, 10⁹]"),
+        ("--checkpoint-minutes", args.checkpoint_minutes, args.checkpoint_minutes is None or (
+            finite(args.checkpoint_minutes) and args.checkpoint_minutes > 0), "a finite number of minutes > 0"),
         ("--omega", args.omega, args.omega is None or (finite(args.omega) and args.omega != 0),
          "a finite non-zero number (a run is measured in drum revolutions)"),
         ("--gamma", args.gamma, args.gamma is None or (finite(args.gamma) and args.gamma > 0), "a finite number > 0"),
@@ -171,6 +173,9 @@ def build_parser():
     p.add_argument("--frame-every-rev", type=float, default=0.05,
                    help="output interval [revolutions] (default 0.05)")
     p.add_argument("--checkpoint-every", type=int, default=20, help="checkpoint every N >= 1 frames (default 20)")
+    p.add_argument("--checkpoint-minutes", type=float, default=None, metavar="M",
+                   help="also checkpoint between frames once M minutes have passed since the last checkpoint "
+                        "(for frames that take long: a stop loses at most M minutes; default: at frames only)")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --out from its checkpoint (same options as when it started; a "
                         "finished run is left as it is)")
@@ -250,7 +255,8 @@ def _run(args) -> int:
             return 130
     try:
         sim.run(out, args.revolutions, frame_every=frame_every, checkpoint_every=args.checkpoint_every,
-                progress=not args.quiet, resume=args.resume, overwrite=args.overwrite)
+                progress=not args.quiet, resume=args.resume, overwrite=args.overwrite,
+                checkpoint_minutes=args.checkpoint_minutes)
     except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
         print(f"sim: error: {one_line(exc)}; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 1

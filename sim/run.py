@@ -340,13 +340,15 @@ class Simulation:
         return frame_every, n + 1
 
     def run(self, out, revolutions, *, frame_every=None, checkpoint_every=20, progress=True, resume=False,
-            overwrite=False):
+            overwrite=False, checkpoint_minutes=None):
         """Simulate ``revolutions`` drum revolutions, writing a frame every ``frame_every``
         steps (default: every 0.05 revolution) to the granalytics run file ``out``; see
         :meth:`frame_plan`.
 
         A checkpoint ``out + '.ckpt.npz'`` (:mod:`sim.checkpoint`) is written every
-        ``checkpoint_every`` frames (None: never); with ``resume=True`` a simulation restored
+        ``checkpoint_every`` frames (None: never) and, with ``checkpoint_minutes``, also between
+        frames once that many minutes of wall time have passed since the last one (for frames
+        that take long: a stop then loses at most that much work); with ``resume=True`` a simulation restored
         from it by :func:`sim.checkpoint.resume_run` continues the run (the file keeps the frames
         written up to the checkpoint) and the trajectory is bit-identical to an uninterrupted run.
         A resume first checks that the run file and the checkpoint belong together
@@ -369,6 +371,11 @@ class Simulation:
                 isinstance(checkpoint_every, (int, np.integer)) and not isinstance(checkpoint_every, bool)
                 and checkpoint_every >= 1):
             raise ValueError(f"checkpoint_every must be a whole number of frames >= 1 (or None), got {checkpoint_every!r}")
+        if checkpoint_minutes is not None and not (
+                isinstance(checkpoint_minutes, (int, float, np.integer, np.floating))
+                and not isinstance(checkpoint_minutes, bool) and math.isfinite(checkpoint_minutes)
+                and checkpoint_minutes > 0):
+            raise ValueError(f"checkpoint_minutes must be a finite number > 0 (or None), got {checkpoint_minutes!r}")
         check_room(p, n_frames, out)
         ckpt = checkpoint_path(out)
         meta = self.run_meta()
@@ -388,7 +395,8 @@ class Simulation:
             writer = RunWriter(out, meta, overwrite=overwrite)
             remove_checkpoint(out)  # an earlier run's
             writer.append(self.snapshot(meta))
-            if checkpoint_every is not None:  # the settled bed: hours at 10⁵ particles, not to be settled twice
+            if checkpoint_every is not None or checkpoint_minutes is not None:  # the settled bed: hours at 10⁵
+                # particles, not to be settled twice
                 write_checkpoint(self, ckpt, {"frames": 1, "frame_every": frame_every, "wall_s": 0.0, "cpu_s": 0.0})
         wall0, cpu0 = _time.perf_counter(), _time.process_time()
         steps0 = self.state.step
@@ -404,15 +412,31 @@ class Simulation:
                    desc=f"{p.n_particles} particles α={p.alpha:g}")
         import numba
 
+        # with checkpoint_minutes a frame is simulated in pieces of 1/20 of it, the clock read between
+        # them (the trajectory does not depend on how the steps are split)
+        piece = frame_every if checkpoint_minutes is None else max(1, frame_every // 20)
+        last_checkpoint = _time.perf_counter()
+
+        def checkpoint():
+            nonlocal last_checkpoint
+            write_checkpoint(self, ckpt, {"frames": writer.n_frames, "frame_every": frame_every, **elapsed()})
+            last_checkpoint = _time.perf_counter()
+
         with writer:
             while writer.n_frames < n_frames:
                 frame_t0, frame_step0 = _time.perf_counter(), self.state.step
-                self.advance(writer.n_frames * frame_every - self.state.step)
+                frame_step = writer.n_frames * frame_every
+                while self.state.step < frame_step:
+                    self.advance(min(piece, frame_step - self.state.step))
+                    if (checkpoint_minutes is not None and self.state.step < frame_step
+                            and _time.perf_counter() - last_checkpoint >= 60.0 * checkpoint_minutes):
+                        self._check_finite()
+                        checkpoint()  # between frames: the state at this step, the frames written so far
                 frame_wall = _time.perf_counter() - frame_t0
                 self._check_finite()
                 writer.append(self.snapshot(meta))
                 if checkpoint_every is not None and writer.n_frames % checkpoint_every == 0:
-                    write_checkpoint(self, ckpt, {"frames": writer.n_frames, "frame_every": frame_every, **elapsed()})
+                    checkpoint()
                 bar.update(1)
                 # the rate of the frame just simulated (the machine's load changes as the run goes)
                 rate = (self.state.step - frame_step0) * p.n_particles / max(frame_wall, 1e-9)

@@ -134,6 +134,8 @@ def refused(result, *words):
     (["--seed", "-1"], ["--seed"]),
     (["--particles", "10"], ["--particles 10", "0 particles"]),
     (["--checkpoint-every", "0"], ["--checkpoint-every"]),
+    (["--checkpoint-minutes", "0"], ["--checkpoint-minutes", "> 0"]),
+    (["--checkpoint-minutes", "nan"], ["--checkpoint-minutes"]),
     (["--revolutions", "inf"], ["--revolutions"]),
     (["--revolutions", "nan"], ["--revolutions"]),
     (["--omega", "0"], ["--omega"]),

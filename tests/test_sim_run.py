@@ -125,6 +125,45 @@ def test_resumed_run_equals_uninterrupted_run(tmp_path):
     assert meta.surface_tension == pytest.approx(3 * ORIGINAL.surface_tension)
 
 
+def test_a_run_checkpointed_between_frames_resumes_to_the_uninterrupted_run(tmp_path, monkeypatch):
+    """checkpoint_minutes: checkpoints between frames (here after every piece of a frame); a run
+    stopped right after one resumes from that step and writes the uninterrupted run's frames."""
+    import sim.run as sim_run
+
+    params = dataclasses.replace(SMALL, settle_time=0.01)
+    frame_every = 400
+    revs = 6 * frame_every * params.dt / params.revolution_period  # 6 frames after the first
+    full = Simulation(params, ORIGINAL).run(tmp_path / "full.h5", revs, frame_every=frame_every, checkpoint_every=None,
+                                            progress=False)
+    written = []
+    real_write = sim_run.write_checkpoint
+
+    class Stop(Exception):
+        pass
+
+    def write_then_stop(sim, path, extra):
+        real_write(sim, path, extra)
+        written.append((sim.state.step, extra["frames"]))
+        if sim.state.step == 3 * frame_every + 5 * (frame_every // 20):  # inside frame 4, after frame 3
+            raise Stop
+
+    monkeypatch.setattr(sim_run, "write_checkpoint", write_then_stop)
+    part = tmp_path / "part.h5"
+    with pytest.raises(Stop):
+        Simulation(params, ORIGINAL).run(part, revs, frame_every=frame_every, checkpoint_every=None, progress=False,
+                                         checkpoint_minutes=1e-9)
+    monkeypatch.setattr(sim_run, "write_checkpoint", real_write)
+    assert written[0] == (0, 1)  # the settled bed
+    assert all((frames - 1) * frame_every <= step < frames * frame_every for step, frames in written)
+    point = resume_run(part).resume_point
+    assert point.frames == 4 and resume_run(part).state.step == 3 * frame_every + 100
+    resume_run(part).run(part, revs, frame_every=frame_every, checkpoint_every=None, progress=False, resume=True,
+                         checkpoint_minutes=1e-9)
+    assert_same_run(full, part, n_frames=7)
+    with pytest.raises(ValueError, match="checkpoint_minutes must be a finite number > 0"):
+        Simulation(params, ORIGINAL).run(tmp_path / "x.h5", revs, frame_every=frame_every, checkpoint_minutes=0)
+
+
 def test_snapshot_is_a_valid_granalytics_frame_with_bridges(settled):
     sim = copy(settled)
     sim.advance(2000)
