@@ -19,7 +19,7 @@ CG runs under both rules (paper-cg3 ``weber`` and ``bond`` seeds 0-1, paper-cg2 
 beside the bundled seed 0, paper-cg2 ``bond`` seed 0), 4 revolutions each, the largest last; a run
 already finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` starts
 the paper's CG1 (``--preset paper-cg1``, its own settling, 4 revolutions, a frame every 0.05
-revolution, a checkpoint every frame) or resumes it. ``progress`` prints one line for
+revolution, a checkpoint every frame and every 10 minutes between) or resumes it. ``progress`` prints one line for
 ``benchmarks/paper_cg1_progress.md`` (revolutions done, CPU hours, machine). ``table`` prints the
 series' steady state per D/d (mean ± replica s.e.) and the confinement law y = y∞·(1 − b/(D/d))
 fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value at the
@@ -93,7 +93,8 @@ def series(args):
 def cg1(args):
     os.makedirs(args.dir, exist_ok=True)
     out = os.path.join(args.dir, "paper-cg1.h5")
-    cmd = _command(out, ["--preset", "paper-cg1"], args.dt_factor, 1)
+    # a frame is half an hour of one thread: checkpoints also between frames, so a stop loses ≤ 10 min
+    cmd = _command(out, ["--preset", "paper-cg1", "--checkpoint-minutes", "10"], args.dt_factor, 1)
     print(" ".join(cmd[2:]), flush=True)
     started = datetime.datetime.now().isoformat(timespec="seconds")
     child = subprocess.Popen(cmd)
