@@ -6,6 +6,7 @@ Usage::
     python benchmarks/paper_drum_runs.py series [--dt-factor F] [--dir ~/granalytics-runs/paper-family]
     python benchmarks/paper_drum_runs.py cg1 [--dt-factor F] [--dir ~/granalytics-runs/paper-cg1]
     python benchmarks/paper_drum_runs.py progress [--dir ~/granalytics-runs/paper-cg1]
+    python benchmarks/paper_drum_runs.py subset [--dir ~/granalytics-runs/paper-family] [--window 2:4]
     python benchmarks/paper_drum_runs.py table [--dir ~/granalytics-runs/paper-family] [--window 2:4]
     python benchmarks/paper_drum_runs.py figures --out FOLDER [--dir ~/granalytics-runs/paper-family] [--window 2:4]
                                                  [--reference ~/granalytics-runs/paper-cg1/paper-cg1.h5]
@@ -20,7 +21,9 @@ beside the bundled seed 0, paper-cg2 ``bond`` seed 0), 4 revolutions each, the l
 already finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` starts
 the paper's CG1 (``--preset paper-cg1``, its own settling, 4 revolutions, a frame every 0.05
 revolution, a checkpoint every frame and every 10 minutes between) or resumes it. ``progress`` prints one line for
-``benchmarks/paper_cg1_progress.md`` (revolutions done, CPU hours, machine). ``table`` prints the
+``benchmarks/paper_cg1_progress.md`` (revolutions done, CPU hours, machine). ``subset`` writes the
+float32 subset of each finished run into ``benchmarks/paper_family_runs/`` (those there are kept).
+``table`` prints the
 series' steady state per D/d (mean ± replica s.e.) and the confinement law y = y∞·(1 − b/(D/d))
 fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value at the
 paper CG1's D/d = 133 with that band, and the paper drum's CG runs beside the law at their D/(αd).
@@ -192,6 +195,26 @@ def _finished_paper_cg(folder) -> dict:
     return groups
 
 
+#: the committed float32 subsets of the finished runs (benchmarks/paper_family_runs/README.md)
+SUBSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_family_runs")
+
+
+def subset(args):
+    """Write the float32 subset of each finished run not yet in ``SUBSETS``: every twentieth frame
+    before the window, every second (D/d 22 and 33) or fourth (larger runs) inside it."""
+    lo, hi = args.window.split(":")
+    finished = [*_finished_series(args.dir).values(), *_finished_paper_cg(args.dir).values()]
+    for path in (p for group in finished for p in group):
+        out = os.path.join(SUBSETS, os.path.basename(path))
+        if os.path.exists(out):
+            continue
+        thin = "2" if os.path.basename(path).startswith(("dd22-", "dd33-")) else "4"
+        cmd = [sys.executable, "-m", "granalytics", "subset", path, "--out", out, "--float32", "--full-window",
+               f"{lo}:{hi}", "--every", "20", "--window-every", thin]
+        print(" ".join(cmd[2:]), flush=True)
+        subprocess.run(cmd, check=True)
+
+
 def table(args):
     import granalytics as ga
 
@@ -288,7 +311,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="what", required=True)
     for name, folder in (("series", "paper-family"), ("cg1", "paper-cg1"), ("progress", "paper-cg1"),
-                         ("table", "paper-family"), ("figures", "paper-family")):
+                         ("subset", "paper-family"), ("table", "paper-family"), ("figures", "paper-family")):
         p = sub.add_parser(name)
         p.add_argument("--dir", default=os.path.join(HOME_RUNS, folder))
         p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
@@ -303,7 +326,8 @@ def main(argv=None):
             p.add_argument("--reference", help="the α = 1 run the CG runs are compared with (default: the "
                            "family's largest finished D/d)")
     args = parser.parse_args(argv)
-    {"series": series, "cg1": cg1, "progress": progress, "table": table, "figures": figures}[args.what](args)
+    {"series": series, "cg1": cg1, "progress": progress, "subset": subset, "table": table,
+     "figures": figures}[args.what](args)
 
 
 if __name__ == "__main__":
