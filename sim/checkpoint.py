@@ -7,8 +7,8 @@ array of :meth:`sim.state.State.to_arrays` under its field name, and the 0-d str
 ``original`` (:meth:`sim.params.SimParams.to_dict`), ``liquid_initial`` [m³] and what the run adds
 (``frames``, ``frame_every``, ``wall_s``; ``cpu_s`` where the simulator recorded it). The state is
 at frame ``frames − 1`` or, written between frames, at a later step before frame ``frames`` (a
-simulator older than that refuses such a checkpoint rather than misread it). Long runs resume from such files: the format changes
-only with :data:`CHECKPOINT_FORMAT`.
+simulator older than that refuses such a checkpoint rather than misread it). Long runs resume
+from such files: the format changes only with :data:`CHECKPOINT_FORMAT`.
 """
 
 from __future__ import annotations

@@ -348,8 +348,8 @@ class Simulation:
         A checkpoint ``out + '.ckpt.npz'`` (:mod:`sim.checkpoint`) is written every
         ``checkpoint_every`` frames (None: never) and, with ``checkpoint_minutes``, also between
         frames once that many minutes of wall time have passed since the last one (for frames
-        that take long: a stop then loses at most that much work); with ``resume=True`` a simulation restored
-        from it by :func:`sim.checkpoint.resume_run` continues the run (the file keeps the frames
+        that take long: a stop then loses at most that much work); with ``resume=True`` a
+        simulation restored from it by :func:`sim.checkpoint.resume_run` continues the run (the file keeps the frames
         written up to the checkpoint) and the trajectory is bit-identical to an uninterrupted run.
         A resume first checks that the run file and the checkpoint belong together
         (:func:`sim.checkpoint.check_resume`: parameters, frame interval, frame count, time and

@@ -228,7 +228,8 @@ def test_info_and_compare_cg_warn_where_a_rule_is_measured_outside_the_tolerance
     assert "D/(αd) 11.2, lab drum" in cg_rule_warning("weber", 3.0, 5.0)
     assert abs(CG_RULE_DEVIATION["weber"][44.4][3.0][0]) < 0.1 and cg_rule_warning("weber", 3.0, 44.4) is None
     assert cg_rule_warning("weber", 2.0, 67.0) is None and cg_rule_warning("bond", 3.0, 133.0) is None
-    assert cg_rule_warning("weber", 3.0, float("nan")) == cg_rule_warning("weber", 3.0)  # drum unknown: the most confined
+    # a drum unknown: the most confined measurement
+    assert cg_rule_warning("weber", 3.0, float("nan")) == cg_rule_warning("weber", 3.0)
     assert cg_rule_warning(None, 3.0) is None  # another code's run: its rule is unknown
     assert "measured up to α = 3" in cg_rule_warning("bond", 4.0)
     assert ga_main(["info", str(dataset_path("lab-cg3"))]) == 0
