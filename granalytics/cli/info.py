@@ -57,6 +57,7 @@ def cmd_info(args):
         print(f"  {'contact law':<{width}}  {law} (the simulator's; its parameters in sim_config.params)")
         print(f"  {'CG rule':<{width}}  {rule} (α = {meta.get('alpha', 1):g}; {_RULE_SAYS.get(rule, '')})")
         print(f"  {'time step':<{width}}  {_time_step_line(sim_params, meta['sim_config'].get('steps_per_contact'))}")
+        print(f"  {'cost':<{width}}  {_cost_line(meta.get('provenance') or {})}")
     print("run metadata (SI units; contact_angle in rad)")
     for key, value in meta.items():
         if key in ("sim_config", "provenance"):
@@ -76,6 +77,30 @@ def _time_step_line(sim_params: dict, steps_per_contact) -> str:
     if isinstance(steps_per_contact, (int, float)):
         said += f", t_c/Δt = {steps_per_contact:.4g} (mean pair)"
     return said
+
+
+def _cost_line(provenance: dict) -> str:
+    """``info``'s line on what the simulator's run cost: wall and CPU time (all sittings), threads
+    and the rate, as its provenance records them."""
+    wall, cpu = provenance.get("wall_time_s"), provenance.get("cpu_time_s")
+    if not isinstance(wall, (int, float)):
+        return "not recorded (a run that has not finished records its cost at its end)"
+    said = f"wall {_duration(wall)}"
+    said += f", CPU {_duration(cpu)}" if isinstance(cpu, (int, float)) else ", CPU not recorded"
+    if isinstance(provenance.get("threads"), int):
+        said += f", {provenance['threads']} thread(s) at the end"
+    if isinstance(provenance.get("particle_steps_per_s"), (int, float)):
+        said += f", {provenance['particle_steps_per_s'] / 1e6:.3g} M particle-steps/s (last sitting)"
+    return said
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` as hours and minutes, minutes and seconds, or seconds."""
+    if seconds >= 3600:
+        return f"{int(seconds // 3600)} h {int(seconds % 3600 // 60)} min"
+    if seconds >= 60:
+        return f"{int(seconds // 60)} min {int(seconds % 60)} s"
+    return f"{seconds:.3g} s"
 
 
 #: what ``info`` says of a CG rule
