@@ -3,6 +3,8 @@ CG1 itself (120 000 particles), kept outside the work tree and resumed across wo
 
 Usage::
 
+    python benchmarks/paper_drum_runs.py start [--dt-factor F]   # first thing in a working period
+    python benchmarks/paper_drum_runs.py stop
     python benchmarks/paper_drum_runs.py series [--dt-factor F] [--dir ~/granalytics-runs/paper-family]
     python benchmarks/paper_drum_runs.py cg1 [--dt-factor F] [--dir ~/granalytics-runs/paper-cg1]
     python benchmarks/paper_drum_runs.py progress [--dir ~/granalytics-runs/paper-cg1]
@@ -12,6 +14,9 @@ Usage::
                                                  [--reference ~/granalytics-runs/paper-cg1/paper-cg1.h5]
                                                  [--size-unit original|particles]
 
+``start`` starts or resumes ``cg1`` and ``series`` (below), each detached from the shell unless
+it is running already, CG1 at normal priority and the series at nice 5, their output appended to
+``log.txt`` beside them; ``stop`` ends both as Ctrl-C would (each simulation keeps its checkpoint).
 ``series`` makes, one after the other on one thread, the α = 1 runs of the paper drum's family
 (``python -m sim run --preset paper-cg1 --drum-ratio D``: its aspect, fill, baffles and spray
 zone, sized for D/d of the particles) at D/d 22, 33 and 44 (539, 1 819 and 4 312 particles; seeds
@@ -106,7 +111,7 @@ def cg1(args):
             code = child.wait(timeout=60)
         except subprocess.TimeoutExpired:
             code = None
-        _record_cpu_seconds(args.dir, started, _running_cpu_seconds(out))
+        _record_cpu_seconds(args.dir, started, _cpu_seconds_of(child.pid))  # its own child's, no other's
         if code is not None:
             if code:
                 raise subprocess.CalledProcessError(code, cmd)
@@ -143,8 +148,27 @@ def progress(args):
     ckpt = f"{out}.ckpt.npz"
     cpu = _cpu_hours(args.dir)
     print(f"| {stamp} | {revolutions:.2f} revolutions, {frames} frames (Δt factor {params.get('dt_factor', 1):g}; "
-          f"checkpoint {'at ' + datetime.datetime.fromtimestamp(os.path.getmtime(ckpt)).strftime('%H:%M') if os.path.exists(ckpt) else 'none'}) "
-          f"| {cpu} | {machine} |")
+          f"checkpoint {'at ' + datetime.datetime.fromtimestamp(os.path.getmtime(ckpt)).strftime('%H:%M') if os.path.exists(ckpt) else 'none'})"
+          f"{_pace(ckpt)} | {cpu} | {machine} |")
+
+
+def _pace(ckpt) -> str:
+    """The run's pace so far (the checkpoint's wall time over its steps, every sitting, waiting for
+    the other core included) and the wall hours it gives to 3 and 4 revolutions; "" without one."""
+    import json
+
+    if not os.path.exists(ckpt):
+        return ""
+    with np.load(ckpt) as data:  # the two small entries only
+        info, step = json.loads(str(data["checkpoint_info"])), int(data["step"])
+    wall, frame_every = info.get("wall_s"), info["frame_every"]
+    if not wall or step < frame_every:
+        return ""
+    per_frame = wall / step * frame_every
+    frames_per_rev = 20  # a frame every 0.05 revolution
+    more = [(revs, (revs * frames_per_rev * frame_every - step) / frame_every * per_frame / 3600) for revs in (3, 4)]
+    return (f"; pace so far {per_frame / 60:.0f} min a frame: ≈ " +
+            ", ".join(f"{h:.0f} h more to {revs} revolutions" for revs, h in more if h > 0))
 
 
 def _cpu_hours(folder):
@@ -155,24 +179,83 @@ def _cpu_hours(folder):
     if os.path.exists(path):
         with open(path) as f:
             total = sum(float(line.split()[0]) for line in f if line.strip())
-    running = _running_cpu_seconds(os.path.join(folder, "paper-cg1.h5"))
+    running = _processes("sim", os.path.join(folder, "paper-cg1.h5"))
     return f"{total / 3600:.2f} CPU h" + (" (running)" if running else "")
 
 
-def _running_cpu_seconds(out):
-    """CPU seconds of the running simulation of ``out`` (0 if none), from /proc."""
-    ticks = os.sysconf("SC_CLK_TCK")
+def _processes(*words) -> list:
+    """The ids of the other processes whose command line holds every one of ``words``: as a whole
+    argument, or as its last part after a "/" (``paper_drum_runs.py`` finds
+    ``benchmarks/paper_drum_runs.py``), from /proc."""
+    found = []
     for pid in filter(str.isdigit, os.listdir("/proc")):
         try:
             with open(f"/proc/{pid}/cmdline", "rb") as f:
                 cmdline = f.read().split(b"\0")
-            if b"sim" in cmdline and out.encode() in cmdline:
-                with open(f"/proc/{pid}/stat") as f:
-                    fields = f.read().rsplit(")", 1)[1].split()
-                return (int(fields[11]) + int(fields[12])) / ticks
         except OSError:
             continue
-    return 0.0
+        if int(pid) != os.getpid() and all(any(arg == word.encode() or arg.endswith(b"/" + word.encode())
+                                               for arg in cmdline) for word in words):
+            found.append(int(pid))
+    return found
+
+
+def _cpu_seconds_of(pid) -> float:
+    """CPU seconds of process ``pid`` (user and system; 0 once it has ended), from /proc."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+#: the long runs ``start`` keeps going: (subcommand, its folder under HOME_RUNS, niceness); CG1
+#: first on a core of its own, the series at a lower priority on the other
+LONG_RUNS = (("cg1", "paper-cg1", 0), ("series", "paper-family", 5))
+
+
+def start(args):
+    """Start (or resume) each long run that is not running, detached from this shell (it outlives
+    it; a machine's stop ends it), its output appended to ``log.txt`` in its folder."""
+    for what, folder, niceness in LONG_RUNS:
+        if running := _processes(os.path.basename(__file__), what):
+            print(f"{what}: running already (pid {', '.join(map(str, running))})")
+            continue
+        folder = os.path.join(HOME_RUNS, folder)
+        os.makedirs(folder, exist_ok=True)
+        with open(os.path.join(folder, "log.txt"), "a") as log:
+            child = subprocess.Popen([sys.executable, os.path.abspath(__file__), what, "--dt-factor", f"{args.dt_factor:g}"],
+                                     stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                     start_new_session=True, env={**os.environ, "TQDM_MININTERVAL": "30"},
+                                     preexec_fn=lambda n=niceness: os.nice(n))
+        print(f"{what}: started (pid {child.pid}, nice {niceness}), log {folder}/log.txt")
+
+
+def stop(args):
+    """Stop the long runs as Ctrl-C would (SIGTERM: each simulation keeps its last checkpoint and
+    releases its lock), the drivers first so that they start nothing new."""
+    import signal
+
+    drivers = [pid for what, _, _ in LONG_RUNS for pid in _processes(os.path.basename(__file__), what)]
+    # the simulations the drivers started: run files in the long runs' folders
+    sims = [pid for pid in _processes("sim", "run") if _writes_under(pid, HOME_RUNS)]
+    for pid in drivers + sims:
+        try:
+            os.kill(pid, signal.SIGTERM)
+            print(f"stopped pid {pid}")
+        except ProcessLookupError:
+            pass
+
+
+def _writes_under(pid, folder) -> bool:
+    """Whether process ``pid``'s ``--out`` lies in ``folder``."""
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            args = f.read().decode(errors="replace").split("\0")
+    except OSError:
+        return False
+    return "--out" in args[:-1] and args[args.index("--out") + 1].startswith(folder + os.sep)
 
 
 def _finished_series(folder) -> dict:
@@ -311,7 +394,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="what", required=True)
     for name, folder in (("series", "paper-family"), ("cg1", "paper-cg1"), ("progress", "paper-cg1"),
-                         ("subset", "paper-family"), ("table", "paper-family"), ("figures", "paper-family")):
+                         ("subset", "paper-family"), ("table", "paper-family"), ("figures", "paper-family"),
+                         ("start", ""), ("stop", "")):
         p = sub.add_parser(name)
         p.add_argument("--dir", default=os.path.join(HOME_RUNS, folder))
         p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
@@ -327,7 +411,7 @@ def main(argv=None):
                            "family's largest finished D/d)")
     args = parser.parse_args(argv)
     {"series": series, "cg1": cg1, "progress": progress, "subset": subset, "table": table,
-     "figures": figures}[args.what](args)
+     "figures": figures, "start": start, "stop": stop}[args.what](args)
 
 
 if __name__ == "__main__":
