@@ -31,7 +31,8 @@ float32 subset of each finished run into ``benchmarks/paper_family_runs/`` (thos
 ``table`` prints the
 series' steady state per D/d (mean ± replica s.e.) and the confinement law y = y∞·(1 − b/(D/d))
 fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value at the
-paper CG1's D/d = 133 with that band, and the paper drum's CG runs beside the law at their D/(αd).
+paper CG1's D/d = 133 with that band, the paper drum's CG runs beside the law at their D/(αd), and
+the paper's CG1 (``--cg1``) beside the law's prediction once it covers the window.
 ``figures`` writes the paper's Figs 3–6 for the paper drum (``ga.save`` of ``ga.compare_cg``): its
 finished CG runs, one group per preset and rule (seeds as replicas), beside the largest finished
 α = 1 run of the family (D/d 66 once it is in), or beside ``--reference`` (the paper's CG1 once it
@@ -330,6 +331,37 @@ def table(args):
               f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {float(fit(133.3)):.3f} ± "
               f"{float(fit.error(133.3)):.3f} |")
     _paper_cg_table(args, window, fits)
+    _cg1_against_law(args.cg1, window, fits)
+
+
+def _cg1_against_law(path, window, fits):
+    """The paper's CG1 (window, block s.e.m.) beside the law's prediction at its D/d and the paper's
+    "slightly above 55 %": issue 54's verdict, once the run covers the window."""
+    import granalytics as ga
+
+    if not os.path.exists(path):
+        print(f"\n(no paper-cg1 run at {path})")
+        return
+    with ga.open_run(path, validate=False) as run:
+        last = float(run.revolutions[-1]) if len(run) else 0.0
+    if last < window[1] - 1e-3:
+        print(f"\n(paper-cg1 has {last:.2f} revolutions, the window [{window[0]:g}, {window[1]:g}] needs "
+              f"{window[1]:g}; its verdict waits)")
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = ga.confinement_table([[path]], window, labels=["paper-cg1"])
+    r = next(t.itertuples(index=False))
+    print(f"\n### The paper's CG1 against the α = 1 law's prediction, window [{window[0]:g}, {window[1]:g}]\n")
+    print("| metric | CG1 (± block s.e.m.) | law at D/d {:.1f} | deviation | paper |".format(r.drum_ratio))
+    print("| --- | --- | --- | --- | --- |")
+    for metric, label in LAW_METRICS:
+        fit, mean, err = fits[metric], getattr(r, metric), getattr(r, f"{metric}_err")
+        law, law_err = float(fit(r.drum_ratio)), float(fit.error(r.drum_ratio))
+        paper = "slightly above 0.55" if metric == "yield_fraction" else ""
+        print(f"| {label} | {mean:.4g} ± {err:.2g} | {law:.4g} ± {law_err:.2g} | {100 * (mean / law - 1):+.0f} % ± "
+              f"{100 * np.hypot(err / law, mean * law_err / law**2):.0f} % | {paper} |")
+    print(f"\nbed angle {r.bed_angle_deg:.1f}°, coordination {r.coordination:.2f}, {r.n_particles} particles")
 
 
 def _paper_cg_table(args, window, fits):
@@ -400,6 +432,9 @@ def main(argv=None):
         p.add_argument("--dir", default=os.path.join(HOME_RUNS, folder))
         p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
         p.add_argument("--window", default="2:4")
+        if name == "table":
+            p.add_argument("--cg1", default=os.path.join(HOME_RUNS, "paper-cg1", "paper-cg1.h5"),
+                           help="the paper's CG1 run, set beside the law's prediction once it covers the window")
         if name == "figures":
             p.add_argument("--out", required=True, help="folder of the tables and Figs 3-6")
             p.add_argument("--overwrite", action="store_true")
