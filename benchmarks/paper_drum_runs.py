@@ -14,30 +14,30 @@ Usage::
                                                  [--reference ~/granalytics-runs/paper-cg1/paper-cg1.h5]
                                                  [--size-unit original|particles]
 
-``start`` starts or resumes ``cg1`` and ``series`` (below), each detached from the shell unless
-it is running already, CG1 at normal priority and the series at nice 5, their output appended to
+``start`` starts or resumes ``cg1`` and ``series`` (below), each detached from the shell unless it
+is running already, CG1 at normal priority and the series at nice 5, their output appended to
 ``log.txt`` beside them; ``stop`` ends both as Ctrl-C would (each simulation keeps its checkpoint).
+
 ``series`` makes, one after the other on one thread, the α = 1 runs of the paper drum's family
-(``python -m sim run --preset paper-cg1 --drum-ratio D``: its aspect, fill, baffles and spray
-zone, sized for D/d of the particles) at D/d 22, 33 and 44 (539, 1 819 and 4 312 particles; seeds
-0-2) and 66 (14 554 particles; seed 0, then seed 1), and, interleaved with them, the paper drum's
-CG runs under both rules (paper-cg3 ``weber`` and ``bond`` seeds 0-1, paper-cg2 ``weber`` seed 1
-beside the bundled seed 0, paper-cg2 ``bond`` seed 0), 4 revolutions each, the largest last; a run
-already finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` starts
-the paper's CG1 (``--preset paper-cg1``, its own settling, 4 revolutions, a frame every 0.05
-revolution, a checkpoint every frame and every 10 minutes between) or resumes it. ``progress`` prints one line for
+(``python -m sim run --preset paper-cg1 --drum-ratio D``: its aspect, fill, baffles and spray zone,
+sized for D/d of the particles) at D/d 22, 33 and 44 (539, 1 819 and 4 312 particles; seeds 0-2) and
+66 (14 554 particles; seed 0, then seed 1), and, interleaved with them, the paper drum's CG runs
+under both rules (paper-cg3 ``weber`` and ``bond`` seeds 0-1, paper-cg2 ``weber`` seed 1 beside the
+bundled seed 0, paper-cg2 ``bond`` seed 0), 4 revolutions each, the largest last; a run already
+finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` starts the paper's
+CG1 (``--preset paper-cg1``, its own settling, 4 revolutions, a frame every 0.05 revolution, a
+checkpoint every frame and every 10 minutes between) or resumes it. ``progress`` prints one line for
 ``benchmarks/paper_cg1_progress.md`` (revolutions done, CPU hours, machine). ``subset`` writes the
 float32 subset of each finished run into ``benchmarks/paper_family_runs/`` (those there are kept).
-``table`` prints the
-series' steady state per D/d (mean ± replica s.e.) and the confinement law y = y∞·(1 − b/(D/d))
-fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value at the
-paper CG1's D/d = 133 with that band, the paper drum's CG runs beside the law at their D/(αd), and
-the paper's CG1 (``--cg1``) beside the law's prediction once it covers the window.
+``table`` prints the series' steady state per D/d (mean ± replica s.e.) and the confinement law y =
+y∞·(1 − b/(D/d)) fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value
+at the paper CG1's D/d = 133 with that band, the paper drum's CG runs beside the law at their
+D/(αd), and the paper's CG1 (``--cg1``) beside the law's prediction once it covers the window.
 ``figures`` writes the paper's Figs 3–6 for the paper drum (``ga.save`` of ``ga.compare_cg``): its
-finished CG runs, one group per preset and rule (seeds as replicas), beside the largest finished
-α = 1 run of the family (D/d 66 once it is in), or beside ``--reference`` (the paper's CG1 once it
-has the window), with the table of each against it and the speed-up per particle from the recorded
-wall times.
+finished CG runs, one group per preset and rule (seeds as replicas), beside the largest finished α =
+1 run of the family (D/d 66 once it is in), or beside ``--reference`` (the paper's CG1 once it has
+the window), with the table of each against it and the speed-up from the recorded wall times (the
+load-free one, also per particle-step, from the runs' checkpoints: ``benchmarks/cg_speedup.py``).
 """
 
 from __future__ import annotations
