@@ -162,12 +162,12 @@ def _pace(ckpt) -> str:
         return ""
     with np.load(ckpt) as data:  # the two small entries only
         info, step = json.loads(str(data["checkpoint_info"])), int(data["step"])
-    wall, frame_every = info.get("wall_s"), info["frame_every"]
+    wall, frame_every, params = info.get("wall_s"), info["frame_every"], info["params"]
     if not wall or step < frame_every:
         return ""
     per_frame = wall / step * frame_every
-    frames_per_rev = 20  # a frame every 0.05 revolution
-    more = [(revs, (revs * frames_per_rev * frame_every - step) / frame_every * per_frame / 3600) for revs in (3, 4)]
+    steps_per_rev = 2 * np.pi / params["drum_omega"] / params["dt"]
+    more = [(revs, (revs * steps_per_rev - step) / frame_every * per_frame / 3600) for revs in (3, 4)]
     return (f"; pace so far {per_frame / 60:.0f} min a frame: ≈ " +
             ", ".join(f"{h:.0f} h more to {revs} revolutions" for revs, h in more if h > 0))
 
@@ -184,21 +184,25 @@ def _cpu_hours(folder):
     return f"{total / 3600:.2f} CPU h" + (" (running)" if running else "")
 
 
-def _processes(*words) -> list:
-    """The ids of the other processes whose command line holds every one of ``words``: as a whole
-    argument, or as its last part after a "/" (``paper_drum_runs.py`` finds
-    ``benchmarks/paper_drum_runs.py``), from /proc."""
-    found = []
+def _command_lines() -> dict:
+    """{pid: its command line's arguments} of the other processes, from /proc."""
+    lines = {}
     for pid in filter(str.isdigit, os.listdir("/proc")):
         try:
             with open(f"/proc/{pid}/cmdline", "rb") as f:
-                cmdline = f.read().split(b"\0")
+                lines[int(pid)] = f.read().decode(errors="replace").split("\0")
         except OSError:
             continue
-        if int(pid) != os.getpid() and all(any(arg == word.encode() or arg.endswith(b"/" + word.encode())
-                                               for arg in cmdline) for word in words):
-            found.append(int(pid))
-    return found
+    lines.pop(os.getpid(), None)
+    return lines
+
+
+def _processes(*words) -> list:
+    """The ids of the other processes whose command line holds every one of ``words``: as a whole
+    argument, or as its last part after a "/" (``paper_drum_runs.py`` finds
+    ``benchmarks/paper_drum_runs.py``)."""
+    return [pid for pid, args in _command_lines().items()
+            if all(any(arg == word or arg.endswith("/" + word) for arg in args) for word in words)]
 
 
 def _cpu_seconds_of(pid) -> float:
@@ -240,23 +244,14 @@ def stop(args):
 
     drivers = [pid for what, _, _ in LONG_RUNS for pid in _processes(os.path.basename(__file__), what)]
     # the simulations the drivers started: run files in the long runs' folders
-    sims = [pid for pid in _processes("sim", "run") if _writes_under(pid, HOME_RUNS)]
+    sims = [pid for pid, command in _command_lines().items() if "sim" in command and "run" in command
+            and "--out" in command[:-1] and command[command.index("--out") + 1].startswith(HOME_RUNS + os.sep)]
     for pid in drivers + sims:
         try:
             os.kill(pid, signal.SIGTERM)
             print(f"stopped pid {pid}")
         except ProcessLookupError:
             pass
-
-
-def _writes_under(pid, folder) -> bool:
-    """Whether process ``pid``'s ``--out`` lies in ``folder``."""
-    try:
-        with open(f"/proc/{pid}/cmdline", "rb") as f:
-            args = f.read().decode(errors="replace").split("\0")
-    except OSError:
-        return False
-    return "--out" in args[:-1] and args[args.index("--out") + 1].startswith(folder + os.sep)
 
 
 def _finished_series(folder) -> dict:

@@ -415,6 +415,7 @@ class Simulation:
         # with checkpoint_minutes a frame is simulated in pieces of 1/20 of it, the clock read between
         # them (the trajectory does not depend on how the steps are split)
         piece = frame_every if checkpoint_minutes is None else max(1, frame_every // 20)
+        between_s = math.inf if checkpoint_minutes is None else 60.0 * checkpoint_minutes
         last_checkpoint = _time.perf_counter()
 
         def checkpoint():
@@ -428,8 +429,7 @@ class Simulation:
                 frame_step = writer.n_frames * frame_every
                 while self.state.step < frame_step:
                     self.advance(min(piece, frame_step - self.state.step))
-                    if (checkpoint_minutes is not None and self.state.step < frame_step
-                            and _time.perf_counter() - last_checkpoint >= 60.0 * checkpoint_minutes):
+                    if self.state.step < frame_step and _time.perf_counter() - last_checkpoint >= between_s:
                         self._check_finite()
                         checkpoint()  # between frames: the state at this step, the frames written so far
                 frame_wall = _time.perf_counter() - frame_t0
