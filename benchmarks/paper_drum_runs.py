@@ -26,7 +26,9 @@ under both rules (paper-cg3 ``weber`` and ``bond`` seeds 0-1, paper-cg2 ``weber`
 bundled seed 0, paper-cg2 ``bond`` seed 0), 4 revolutions each, the largest last; a run already
 finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` starts the paper's
 CG1 (``--preset paper-cg1``, its own settling, 4 revolutions, a frame every 0.05 revolution, a
-checkpoint every frame and every 10 minutes between) or resumes it. ``progress`` prints one line for
+checkpoint every frame and every 10 minutes between) or resumes it, on one thread beside the series
+and on ``--threads auto`` once the series is done (the series, at its end, restarts a running CG1
+right after its next checkpoint, so that it takes the second core). ``progress`` prints one line for
 ``benchmarks/paper_cg1_progress.md`` (revolutions done, CPU hours, machine). ``subset`` writes the
 float32 subset of each finished run into ``benchmarks/paper_family_runs/`` (those there are kept).
 ``table`` prints the series' steady state per D/d (mean ± replica s.e.) and the confinement law y =
@@ -66,10 +68,10 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from cg_rules_study import finished as _finished  # noqa: E402  (a sibling script)
 
 
-def _command(out, options, factor, checkpoint_every):
+def _command(out, options, factor, checkpoint_every, threads="1"):
     resume = ["--resume"] if os.path.exists(f"{out}.ckpt.npz") else ["--overwrite"] if os.path.exists(out) else []
     return [sys.executable, "-m", "sim", "run", *options, "--revolutions", str(REVOLUTIONS), "--dt-factor", f"{factor:g}",
-            "--threads", "1", "--checkpoint-every", str(checkpoint_every), "--out", out, *resume]
+            "--threads", threads, "--checkpoint-every", str(checkpoint_every), "--out", out, *resume]
 
 
 def _queue():
@@ -97,13 +99,44 @@ def series(args):
         cmd = _command(out, options, args.dt_factor, checkpoint_every)
         print(" ".join(cmd[2:]), flush=True)
         subprocess.run(cmd, check=True)
+    _hand_the_core_to_cg1(args)
+
+
+def _series_done() -> bool:
+    folder = os.path.join(HOME_RUNS, "paper-family")
+    return all(_finished(os.path.join(folder, name)) for name, _, _ in _queue())
+
+
+def _hand_the_core_to_cg1(args):
+    """Once the series is done, restart a running CG1 (one thread) right after its next checkpoint
+    (at most 10 min away, so no work is lost), so that it takes the core the series leaves."""
+    import time
+
+    folder = os.path.join(HOME_RUNS, "paper-cg1")
+    ckpt = os.path.join(folder, "paper-cg1.h5.ckpt.npz")
+    commands = _command_lines()
+    if not any(commands[pid][commands[pid].index("--threads") + 1] == "1" for pid in _simulations(folder)) \
+            or not os.path.exists(ckpt):
+        return  # no CG1 running, or on `auto` threads already
+    seen, waited = os.path.getmtime(ckpt), 0
+    while os.path.getmtime(ckpt) == seen and waited < 1800:
+        time.sleep(5)
+        waited += 5
+    print("series done: CG1 restarted after its checkpoint, to take the second core", flush=True)
+    _stop(["cg1"])
+    while _processes(os.path.basename(__file__), "cg1") or _simulations(folder):
+        time.sleep(1)
+    _start(["cg1"], args.dt_factor)
 
 
 def cg1(args):
     os.makedirs(args.dir, exist_ok=True)
     out = os.path.join(args.dir, "paper-cg1.h5")
+    # one thread beside the series; once it is done, `auto`: the second core while it is free, and
+    # near one thread's rate under other work (a fixed 2 would crawl beside a test suite)
+    threads = "auto" if _series_done() else "1"
     # a frame is half an hour of one thread: checkpoints also between frames, so a stop loses ≤ 10 min
-    cmd = _command(out, ["--preset", "paper-cg1", "--checkpoint-minutes", "10"], args.dt_factor, 1)
+    cmd = _command(out, ["--preset", "paper-cg1", "--checkpoint-minutes", "10"], args.dt_factor, 1, threads)
     print(" ".join(cmd[2:]), flush=True)
     started = datetime.datetime.now().isoformat(timespec="seconds")
     child = subprocess.Popen(cmd)
@@ -223,29 +256,44 @@ LONG_RUNS = (("cg1", "paper-cg1", 0), ("series", "paper-family", 5))
 def start(args):
     """Start (or resume) each long run that is not running, detached from this shell (it outlives
     it; a machine's stop ends it), its output appended to ``log.txt`` in its folder."""
+    _start([what for what, _, _ in LONG_RUNS], args.dt_factor)
+
+
+def _start(whats, dt_factor):
     for what, folder, niceness in LONG_RUNS:
+        if what not in whats:
+            continue
         if running := _processes(os.path.basename(__file__), what):
             print(f"{what}: running already (pid {', '.join(map(str, running))})")
             continue
         folder = os.path.join(HOME_RUNS, folder)
         os.makedirs(folder, exist_ok=True)
         with open(os.path.join(folder, "log.txt"), "a") as log:
-            child = subprocess.Popen([sys.executable, os.path.abspath(__file__), what, "--dt-factor", f"{args.dt_factor:g}"],
+            child = subprocess.Popen([sys.executable, os.path.abspath(__file__), what, "--dt-factor", f"{dt_factor:g}"],
                                      stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                      start_new_session=True, env={**os.environ, "TQDM_MININTERVAL": "30"},
-                                     preexec_fn=lambda n=niceness: os.nice(n))
+                                     preexec_fn=lambda n=niceness: os.setpriority(os.PRIO_PROCESS, 0, n))
         print(f"{what}: started (pid {child.pid}, nice {niceness}), log {folder}/log.txt")
 
 
 def stop(args):
     """Stop the long runs as Ctrl-C would (SIGTERM: each simulation keeps its last checkpoint and
     releases its lock), the drivers first so that they start nothing new."""
+    _stop([what for what, _, _ in LONG_RUNS])
+
+
+def _simulations(folder) -> list:
+    """The ids of the simulations writing a run file in ``folder``."""
+    return [pid for pid, command in _command_lines().items() if "sim" in command and "run" in command
+            and "--out" in command[:-1] and os.path.dirname(command[command.index("--out") + 1]) == folder]
+
+
+def _stop(whats):
     import signal
 
-    drivers = [pid for what, _, _ in LONG_RUNS for pid in _processes(os.path.basename(__file__), what)]
-    # the simulations the drivers started: run files in the long runs' folders
-    sims = [pid for pid, command in _command_lines().items() if "sim" in command and "run" in command
-            and "--out" in command[:-1] and command[command.index("--out") + 1].startswith(HOME_RUNS + os.sep)]
+    drivers = [pid for what in whats for pid in _processes(os.path.basename(__file__), what)]
+    folders = {what: os.path.join(HOME_RUNS, folder) for what, folder, _ in LONG_RUNS}
+    sims = [pid for what in whats for pid in _simulations(folders[what])]
     for pid in drivers + sims:
         try:
             os.kill(pid, signal.SIGTERM)
