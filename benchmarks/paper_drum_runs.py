@@ -30,7 +30,7 @@ checkpoint every frame and every 10 minutes between) or resumes it, on one threa
 and on ``--threads auto`` once the series is done (the series, at its end, restarts a running CG1
 right after its next checkpoint, so that it takes the second core). ``progress`` prints one line for
 ``benchmarks/paper_cg1_progress.md`` (revolutions done, CPU hours, machine). ``subset`` writes the
-float32 subset of each finished run into ``benchmarks/paper_family_runs/`` (those there are kept).
+float32 subset of each finished run (and of CG1 once it covers the window) into ``benchmarks/paper_family_runs/`` (those there are kept).
 ``table`` prints the series' steady state per D/d (mean ± replica s.e.) and the confinement law y =
 y∞·(1 − b/(D/d)) fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value
 at the paper CG1's D/d = 133 with that band, the paper drum's CG runs beside the law at their
@@ -328,16 +328,28 @@ SUBSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_family
 
 def subset(args):
     """Write the float32 subset of each finished run not yet in ``SUBSETS``: every twentieth frame
-    before the window, every second (D/d 22 and 33) or fourth (larger runs) inside it."""
+    before the window, every second (D/d 22 and 33) or fourth (larger runs) inside it; and the
+    paper's CG1 once it covers the window (finished or not: it may stop at 3 revolutions), four
+    frames only, as a float32 frame of 120 000 particles is ~10 MB: every fortieth before the
+    window (the settled bed), the window's ends and middle."""
+    import granalytics as ga
+
     lo, hi = args.window.split(":")
-    finished = [*_finished_series(args.dir).values(), *_finished_paper_cg(args.dir).values()]
-    for path in (p for group in finished for p in group):
+    finished = [p for group in [*_finished_series(args.dir).values(), *_finished_paper_cg(args.dir).values()]
+                for p in group]
+    thinning = {p: ("20", "2" if os.path.basename(p).startswith(("dd22-", "dd33-")) else "4") for p in finished}
+    cg1_run = os.path.join(HOME_RUNS, "paper-cg1", "paper-cg1.h5")
+    if os.path.exists(cg1_run):
+        with ga.open_run(cg1_run, validate=False) as run:
+            if len(run) and float(run.revolutions[-1]) >= float(hi) - 1e-3:
+                # the window's ends and middle (a frame every 0.05 revolution), the settled bed before it
+                thinning[cg1_run] = ("40", str(round(10 * (float(hi) - float(lo)))))
+    for path, (every, window_every) in thinning.items():
         out = os.path.join(SUBSETS, os.path.basename(path))
         if os.path.exists(out):
             continue
-        thin = "2" if os.path.basename(path).startswith(("dd22-", "dd33-")) else "4"
         cmd = [sys.executable, "-m", "granalytics", "subset", path, "--out", out, "--float32", "--full-window",
-               f"{lo}:{hi}", "--every", "20", "--window-every", thin]
+               f"{lo}:{hi}", "--every", every, "--window-every", window_every]
         print(" ".join(cmd[2:]), flush=True)
         subprocess.run(cmd, check=True)
 
