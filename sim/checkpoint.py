@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import math
 import os
 import warnings
 from typing import TYPE_CHECKING
@@ -134,6 +135,12 @@ def read_checkpoint(path) -> tuple[Simulation, dict]:
             if frame_every < 1 or not (frames - 1) * frame_every <= state.step < frames * frame_every:
                 raise ValueError(f"state at step {state.step} is not at or after the last of {frames} frames every "
                                  f"{frame_every} steps, before the next")
+        for key in ("wall_s", "cpu_s"):  # the run's time so far [s]; cpu_s null where a sitting did not record it
+            value = info.get(key)
+            if key in info and not (value is None and key == "cpu_s") and not (
+                    isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+                    and value >= 0):
+                raise ValueError(f"{key} is {value!r}, not a time in seconds >= 0")
     except ValueError as exc:
         message = str(exc)
         raise ValueError(message if message.startswith(path) else f"{path}: damaged checkpoint ({message})") from None
@@ -253,7 +260,11 @@ def check_resume(sim: Simulation, out, frame_every, n_frames) -> bool:
         raise ValueError(f"{out}: frame {frames - 1} (the checkpoint's last) is at step {steps[frames - 1]}, "
                          f"t = {times[frames - 1]!r} s, the checkpoint {ckpt}'s at step {frame_step}, t = "
                          f"{frame_time!r} s")
-    return len(steps) >= n_frames and "wall_time_s" in meta.provenance
+    finished = len(steps) >= n_frames and "wall_time_s" in meta.provenance
+    if not finished and frames >= n_frames and s.step > frame_step:
+        raise ValueError(f"{ckpt}: the checkpoint's state (step {s.step}) lies past the last frame of the requested "
+                         f"run (frame {n_frames - 1}, step {frame_step}); ask for more revolutions")
+    return finished
 
 
 def _fsync_directory(directory) -> None:

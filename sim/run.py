@@ -155,11 +155,15 @@ class Simulation:
         if progress and first and not _kernels_cached():
             print("compiling the simulator's kernels (the first run of this installation: about a minute; later "
                   "runs load them from numba's cache)", file=sys.stderr, flush=True)
+        wall0, cpu0 = _time.perf_counter(), _time.process_time()
         self._advance(first, settling=True)
         with tqdm(total=settle_steps, initial=first, unit="step", unit_scale=True, disable=not progress,
                   desc=f"settling {n} particles α={p.alpha:g}") as bar:
             self._advance(settle_steps - first, settling=True, on_steps=bar.update)
         self.state.step = 0
+        # the settling's cost, apart from the run's (a run's cpu_time_s starts at its frame 0)
+        self.settle_cost = {"settle_wall_time_s": _time.perf_counter() - wall0,
+                            "settle_cpu_time_s": _time.process_time() - cpu0}
         self.settled_bed = settled_bed_report(p, self.snapshot())
         check_settled_bed(self.settled_bed, p.settle_time)
         if p.bridge_volume > 0:  # the fixed-volume model: the touching pairs of the settled bed are wet
@@ -266,7 +270,8 @@ class Simulation:
                         "walls": "cylinder, baffles 1..n_baffles, end plates z=0 and z=L",
                         "liquid_model": "fixed_bridge_volume" if p.bridge_volume > 0 else "films_spray_migration"},
             provenance={"code": "sim", "version": __version__, "physics_version": PHYSICS_VERSION,
-                        **({"settled_bed": self.settled_bed} if getattr(self, "settled_bed", None) else {})},
+                        **({"settled_bed": self.settled_bed} if getattr(self, "settled_bed", None) else {}),
+                        **getattr(self, "settle_cost", {})},
         )
 
     def snapshot(self, meta: RunMeta | None = None) -> Snapshot:
@@ -414,12 +419,13 @@ class Simulation:
 
         # with checkpoint_minutes a frame is simulated in pieces of 1/20 of it, the clock read between
         # them (the trajectory does not depend on how the steps are split)
-        piece = frame_every if checkpoint_minutes is None else max(1, frame_every // 20)
+        piece = frame_every if checkpoint_minutes is None else -(-frame_every // 20)
         between_s = math.inf if checkpoint_minutes is None else 60.0 * checkpoint_minutes
         last_checkpoint = _time.perf_counter()
 
         def checkpoint():
             nonlocal last_checkpoint
+            writer.sync()  # the frames the checkpoint counts on disk before it
             write_checkpoint(self, ckpt, {"frames": writer.n_frames, "frame_every": frame_every, **elapsed()})
             last_checkpoint = _time.perf_counter()
 

@@ -232,6 +232,9 @@ def test_info_and_compare_cg_warn_where_a_rule_is_measured_outside_the_tolerance
     assert cg_rule_warning("weber", 3.0, float("nan")) == cg_rule_warning("weber", 3.0)
     assert cg_rule_warning(None, 3.0) is None  # another code's run: its rule is unknown
     assert "measured up to α = 3" in cg_rule_warning("bond", 4.0)
+    # more confined than any measurement: said, even where the rule kept the yield there
+    assert "D/(αd) 8.0 is more confined than any measured (11.2" in cg_rule_warning("bond", 3.0, 8.0)
+    assert cg_rule_warning("bond", 3.0, 11.2) is None
     assert ga_main(["info", str(dataset_path("lab-cg3"))]) == 0
     err = capsys.readouterr().err
     assert err.count("CG rule weber at α = 3 moved the steady yield") == 1

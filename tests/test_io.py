@@ -80,6 +80,23 @@ def test_writer_rejects_changing_particle_count_time_order_and_existing_file(tmp
         with RunWriter(tmp_path / "x.h5", synthetic_meta(10)) as writer:
             writer.append(frames[0])
 
+def test_writer_sync_puts_the_committed_frames_on_disk(tmp_path, frames, monkeypatch):
+    import granalytics.core.writer as writer_module
+
+    synced = []
+    real_fsync = writer_module.os.fsync
+    monkeypatch.setattr(writer_module.os, "fsync", lambda fd: (synced.append(os.readlink(f"/proc/self/fd/{fd}")),
+                                                               real_fsync(fd)))
+    path = tmp_path / "w.h5"
+    with RunWriter(path, frames[0].meta) as writer:
+        writer.append(frames[0])
+        writer.sync()
+        assert synced == [str(path)]
+        with open_run(path) as run:  # a reader sees the synced frame while the writer is open
+            assert len(run) == 1
+    with pytest.raises(RunFileError, match="writer is closed"):
+        writer.sync()
+
 def test_file_without_frames_reads_as_empty_run(tmp_path, frames):
     path = tmp_path / "empty.h5"
     RunWriter(path, frames[0].meta).close()

@@ -114,6 +114,8 @@ def test_resumed_run_equals_uninterrupted_run(tmp_path):
             assert cpu > 0 and meta.provenance["cpu_time_per_simulated_s"] == pytest.approx(
                 cpu / meta.provenance["simulated_time_s"])
         assert resume_run(part).resume_point.cpu_s > 0
+        for meta in (a.meta, b.meta):  # the settling's cost, apart from the run's
+            assert meta.provenance["settle_wall_time_s"] > 0 and meta.provenance["settle_cpu_time_s"] > 0
         assert a.unfinished is None and b.unfinished is None
         for fa, fb in zip(a, b):
             assert fa.time == fb.time
@@ -157,6 +159,10 @@ def test_a_run_checkpointed_between_frames_resumes_to_the_uninterrupted_run(tmp_
     assert all((frames - 1) * frame_every <= step < frames * frame_every for step, frames in written)
     point = resume_run(part).resume_point
     assert point.frames == 4 and resume_run(part).state.step == 3 * frame_every + 100
+    # resumed for fewer revolutions, the checkpoint's state would lie past the requested last frame
+    with pytest.raises(ValueError, match="lies past the last frame of the requested run \\(frame 3"):
+        resume_run(part).run(part, revs / 2, frame_every=frame_every, checkpoint_every=None, progress=False,
+                             resume=True)
     resume_run(part).run(part, revs, frame_every=frame_every, checkpoint_every=None, progress=False, resume=True,
                          checkpoint_minutes=1e-9)
     assert_same_run(full, part, n_frames=7)
@@ -782,6 +788,22 @@ def test_resume_refuses_a_checkpoint_of_another_physics_version(tmp_path):
     with pytest.warns(UserWarning, match="records no physics version"):
         resume_run(out).run(out, REVS / 3 + REVS / 12, frame_every=FRAME_EVERY, checkpoint_every=2,
                                    progress=False, resume=True)
+
+
+@pytest.mark.parametrize("key, value", [("wall_s", "12"), ("wall_s", float("nan")), ("wall_s", None),
+                                        ("cpu_s", -1.0), ("cpu_s", True), ("cpu_s", float("inf"))])
+def test_a_checkpoint_with_a_damaged_time_is_refused_naming_it(tmp_path, key, value):
+    import json
+
+    out = tmp_path / "a.h5"
+    Simulation(RESUME_PARAMS, ORIGINAL).run(out, REVS / 3, frame_every=FRAME_EVERY, checkpoint_every=2, progress=False)
+    ckpt = f"{out}.ckpt.npz"
+    with np.load(ckpt) as data:
+        arrays = {name: data[name] for name in data.files}
+    info = json.loads(str(arrays["checkpoint_info"]))
+    np.savez(ckpt, **{**arrays, "checkpoint_info": np.array(json.dumps({**info, key: value}))})
+    with pytest.raises(ValueError, match=f"{ckpt}: damaged checkpoint \\({key} is .*not a time in seconds"):
+        resume_run(out)
 
 
 def test_resuming_a_finished_run_leaves_its_file_as_it_is(tmp_path, capsys):

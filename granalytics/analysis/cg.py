@@ -214,8 +214,9 @@ def _rule_deviation(measured, alpha) -> float:
 def cg_rule_warning(rule, alpha, drum_ratio=None) -> str | None:
     """One line when a run's CG rule at its α is measured (:data:`CG_RULE_DEVIATION`, linear in α
     between the measured factors) to move the yield by more than :data:`CG_RULE_TOLERANCE`, or
-    when α lies beyond the measured factors; None otherwise (α = 1, a rule within the tolerance,
-    or a run of another code, whose rule is unknown).
+    when α lies beyond the factors measured at that confinement, or when the run is more confined
+    than any measurement; None otherwise (α = 1, a rule within the tolerance, or a run of another
+    code, whose rule is unknown).
 
     The measurement used is that of the most open measured confinement D/(αd) not above the run's
     ``drum_ratio`` (the most confined one where ``drum_ratio`` is unknown or below them all): a
@@ -228,12 +229,16 @@ def cg_rule_warning(rule, alpha, drum_ratio=None) -> str | None:
     # the table's confinements are rounded to three digits
     below = [c for c in confinements if drum_ratio is not None and c <= drum_ratio * 1.001]
     where = below[-1] if below else confinements[0]
-    top = max(a for c in confinements for a in CG_RULE_DEVIATION[rule][c])
+    top = max(CG_RULE_DEVIATION[rule][where])
     if alpha > top + 1e-9:
-        return (f"CG rule {rule} at α = {alpha:g}: the rules are measured up to α = {top:g} only (docs/results.md, "
-                f"'CG rules'); its error on the statistics is not known here")
+        return (f"CG rule {rule} at α = {alpha:g}: the rules are measured up to α = {top:g} only at D/(αd) {where:g} "
+                f"(docs/results.md, 'CG rules'); its error on the statistics is not known here")
     deviation = _rule_deviation(CG_RULE_DEVIATION[rule][where], alpha)
     if abs(deviation) <= CG_RULE_TOLERANCE:
+        if drum_ratio is not None and not below:  # more confined than measured: the error may be larger
+            return (f"CG rule {rule} at α = {alpha:g}: this run's D/(αd) {drum_ratio:.1f} is more confined than any "
+                    f"measured ({where:g}, {_CG_RULE_MEASURED_IN[where]}, where the rule moved the steady yield by "
+                    f"{100 * deviation:+.0f} %); its error may be larger here (docs/results.md, 'CG rules')")
         return None
     better = [r for r, by_confinement in CG_RULE_DEVIATION.items() if where in by_confinement
               and abs(_rule_deviation(by_confinement[where], alpha)) <= CG_RULE_TOLERANCE]

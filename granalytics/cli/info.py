@@ -81,7 +81,8 @@ def _time_step_line(sim_params: dict, steps_per_contact) -> str:
 
 def _cost_line(provenance: dict) -> str:
     """``info``'s line on what the simulator's run cost: wall and CPU time (all sittings), threads
-    and the rate, as its provenance records them."""
+    and the rate, and the settling's wall and CPU time before frame 0, as its provenance records
+    them."""
     wall, cpu = provenance.get("wall_time_s"), provenance.get("cpu_time_s")
     if not isinstance(wall, (int, float)):
         return "not recorded (a run that has not finished records its cost at its end)"
@@ -91,6 +92,9 @@ def _cost_line(provenance: dict) -> str:
         said += f", {provenance['threads']} thread(s) at the end"
     if isinstance(provenance.get("particle_steps_per_s"), (int, float)):
         said += f", {provenance['particle_steps_per_s'] / 1e6:.3g} M particle-steps/s (last sitting)"
+    settle_wall, settle_cpu = provenance.get("settle_wall_time_s"), provenance.get("settle_cpu_time_s")
+    if isinstance(settle_wall, (int, float)) and isinstance(settle_cpu, (int, float)):
+        said += f"; the settling before it: wall {_duration(settle_wall)}, CPU {_duration(settle_cpu)}"
     return said
 
 

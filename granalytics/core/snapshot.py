@@ -193,7 +193,7 @@ _SIM_CONFIG_SCHEMA = {
 }
 _PROVENANCE_SCHEMA = {
     **dict.fromkeys(("wall_time_s", "wall_time_per_simulated_s", "simulated_time_s", "cpu_time_s",
-                     "cpu_time_per_simulated_s"), _FINITE + [None]),
+                     "cpu_time_per_simulated_s", "settle_wall_time_s", "settle_cpu_time_s"), _FINITE + [None]),
     "planned_frames": [Interval(Integral), None],
 }
 

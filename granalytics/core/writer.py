@@ -275,6 +275,19 @@ class RunWriter(HDF5Handle):
         self._constant_steps = frame >= 1 and snapshot.step == self._last_step
         self._last_step = snapshot.step
 
+    def sync(self) -> None:
+        """Make the committed frames durable: flush HDF5's buffers and ask the OS to write the file
+        to disk (``fsync``), e.g. before a checkpoint that names them, so that after a power loss
+        the file still holds every frame the checkpoint counts."""
+        if self._file is None:
+            raise RunFileError(f"{self.path}: writer is closed")
+        self._file.flush()
+        fd = os.open(self.path, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
     def update_provenance(self, **items) -> None:
         """Merge ``items`` into the run's ``provenance`` metadata when the writer closes.
 
