@@ -62,6 +62,9 @@ REVOLUTIONS = 4
 DEFAULT_FACTOR = 1.5
 LAW_METRICS = (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩/V_p"), ("n_granules_norm", "N_g/N"))
 HOME_RUNS = os.path.expanduser("~/granalytics-runs")
+SERIES_DIR = os.path.join(HOME_RUNS, "paper-family")
+CG1_DIR = os.path.join(HOME_RUNS, "paper-cg1")
+CG1_RUN = os.path.join(CG1_DIR, "paper-cg1.h5")
 
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -103,8 +106,7 @@ def series(args):
 
 
 def _series_done() -> bool:
-    folder = os.path.join(HOME_RUNS, "paper-family")
-    return all(_finished(os.path.join(folder, name)) for name, _, _ in _queue())
+    return all(_finished(os.path.join(SERIES_DIR, name)) for name, _, _ in _queue())
 
 
 def _hand_the_core_to_cg1(args):
@@ -112,10 +114,8 @@ def _hand_the_core_to_cg1(args):
     (at most 10 min away, so no work is lost), so that it takes the core the series leaves."""
     import time
 
-    folder = os.path.join(HOME_RUNS, "paper-cg1")
-    ckpt = os.path.join(folder, "paper-cg1.h5.ckpt.npz")
-    commands = _command_lines()
-    if not any(commands[pid][commands[pid].index("--threads") + 1] == "1" for pid in _simulations(folder)) \
+    ckpt = f"{CG1_RUN}.ckpt.npz"
+    if not any(args[args.index("--threads") + 1] == "1" for args in _simulations(CG1_DIR).values()) \
             or not os.path.exists(ckpt):
         return  # no CG1 running, or on `auto` threads already
     seen, waited = os.path.getmtime(ckpt), 0
@@ -124,7 +124,7 @@ def _hand_the_core_to_cg1(args):
         waited += 5
     print("series done: CG1 restarted after its checkpoint, to take the second core", flush=True)
     _stop(["cg1"])
-    while _processes(os.path.basename(__file__), "cg1") or _simulations(folder):
+    while _processes(os.path.basename(__file__), "cg1") or _simulations(CG1_DIR):
         time.sleep(1)
     _start(["cg1"], args.dt_factor)
 
@@ -248,9 +248,9 @@ def _cpu_seconds_of(pid) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-#: the long runs ``start`` keeps going: (subcommand, its folder under HOME_RUNS, niceness); CG1
+#: the long runs ``start`` keeps going: (subcommand, its folder, niceness); CG1
 #: first on a core of its own, the series at a lower priority on the other
-LONG_RUNS = (("cg1", "paper-cg1", 0), ("series", "paper-family", 5))
+LONG_RUNS = (("cg1", CG1_DIR, 0), ("series", SERIES_DIR, 5))
 
 
 def start(args):
@@ -266,7 +266,6 @@ def _start(whats, dt_factor):
         if running := _processes(os.path.basename(__file__), what):
             print(f"{what}: running already (pid {', '.join(map(str, running))})")
             continue
-        folder = os.path.join(HOME_RUNS, folder)
         os.makedirs(folder, exist_ok=True)
         with open(os.path.join(folder, "log.txt"), "a") as log:
             child = subprocess.Popen([sys.executable, os.path.abspath(__file__), what, "--dt-factor", f"{dt_factor:g}"],
@@ -282,18 +281,17 @@ def stop(args):
     _stop([what for what, _, _ in LONG_RUNS])
 
 
-def _simulations(folder) -> list:
-    """The ids of the simulations writing a run file in ``folder``."""
-    return [pid for pid, command in _command_lines().items() if "sim" in command and "run" in command
-            and "--out" in command[:-1] and os.path.dirname(command[command.index("--out") + 1]) == folder]
+def _simulations(folder) -> dict:
+    """{pid: command line's arguments} of the simulations writing a run file in ``folder``."""
+    return {pid: command for pid, command in _command_lines().items() if "sim" in command and "run" in command
+            and "--out" in command[:-1] and os.path.dirname(command[command.index("--out") + 1]) == folder}
 
 
 def _stop(whats):
     import signal
 
     drivers = [pid for what in whats for pid in _processes(os.path.basename(__file__), what)]
-    folders = {what: os.path.join(HOME_RUNS, folder) for what, folder, _ in LONG_RUNS}
-    sims = [pid for what in whats for pid in _simulations(folders[what])]
+    sims = [pid for what, folder, _ in LONG_RUNS if what in whats for pid in _simulations(folder)]
     for pid in drivers + sims:
         try:
             os.kill(pid, signal.SIGTERM)
@@ -338,12 +336,11 @@ def subset(args):
     finished = [p for group in [*_finished_series(args.dir).values(), *_finished_paper_cg(args.dir).values()]
                 for p in group]
     thinning = {p: ("20", "2" if os.path.basename(p).startswith(("dd22-", "dd33-")) else "4") for p in finished}
-    cg1_run = os.path.join(HOME_RUNS, "paper-cg1", "paper-cg1.h5")
-    if os.path.exists(cg1_run):
-        with ga.open_run(cg1_run, validate=False) as run:
+    if os.path.exists(CG1_RUN):
+        with ga.open_run(CG1_RUN, validate=False) as run:
             if len(run) and float(run.revolutions[-1]) >= float(hi) - 1e-3:
                 # the window's ends and middle (a frame every 0.05 revolution), the settled bed before it
-                thinning[cg1_run] = ("40", str(round(10 * (float(hi) - float(lo)))))
+                thinning[CG1_RUN] = ("40", str(round(10 * (float(hi) - float(lo)))))
     for path, (every, window_every) in thinning.items():
         out = os.path.join(SUBSETS, os.path.basename(path))
         if os.path.exists(out):
@@ -488,7 +485,7 @@ def main(argv=None):
         p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
         p.add_argument("--window", default="2:4")
         if name == "table":
-            p.add_argument("--cg1", default=os.path.join(HOME_RUNS, "paper-cg1", "paper-cg1.h5"),
+            p.add_argument("--cg1", default=CG1_RUN,
                            help="the paper's CG1 run, set beside the law's prediction once it covers the window")
         if name == "figures":
             p.add_argument("--out", required=True, help="folder of the tables and Figs 3-6")

@@ -135,11 +135,11 @@ def read_checkpoint(path) -> tuple[Simulation, dict]:
             if frame_every < 1 or not (frames - 1) * frame_every <= state.step < frames * frame_every:
                 raise ValueError(f"state at step {state.step} is not at or after the last of {frames} frames every "
                                  f"{frame_every} steps, before the next")
-        for key in ("wall_s", "cpu_s"):  # the run's time so far [s]; cpu_s null where a sitting did not record it
-            value = info.get(key)
-            if key in info and not (value is None and key == "cpu_s") and not (
-                    isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-                    and value >= 0):
+        for key, nullable in (("wall_s", False), ("cpu_s", True)):  # the run's time so far [s]; cpu_s null
+            value = info.get(key)                                       # where a sitting did not record it
+            if key not in info or nullable and value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{key} is {value!r}, not a time in seconds >= 0")
     except ValueError as exc:
         message = str(exc)
