@@ -97,7 +97,7 @@ def series(args):
     os.makedirs(args.dir, exist_ok=True)
     for name, options, checkpoint_every in _queue():
         out = os.path.join(args.dir, name)
-        if _finished(out):
+        if _finished_run(out):
             continue
         cmd = _command(out, options, args.dt_factor, checkpoint_every)
         print(" ".join(cmd[2:]), flush=True)
@@ -106,7 +106,17 @@ def series(args):
 
 
 def _series_done() -> bool:
-    return all(_finished(os.path.join(SERIES_DIR, name)) for name, _, _ in _queue())
+    return all(_finished_run(os.path.join(SERIES_DIR, name)) for name, _, _ in _queue())
+
+
+def _finished_run(path):
+    """The finished run ``path`` of the series, or its committed float32 subset (``SUBSETS``) where
+    this machine has not the run (a new machine: the runs outside the work tree are gone, their
+    subsets are not); None if neither."""
+    if _finished(path):
+        return path
+    kept = os.path.join(SUBSETS, os.path.basename(path))
+    return kept if os.path.exists(kept) else None
 
 
 def _hand_the_core_to_cg1(args):
@@ -304,8 +314,7 @@ def _finished_series(folder) -> dict:
     """The finished α = 1 runs of the series in ``folder``, by D/d: {ratio: [paths, one per seed]}."""
     groups = {}
     for ratio, seed in SERIES:
-        path = os.path.join(folder, f"dd{ratio}-seed{seed}.h5")
-        if _finished(path):
+        if path := _finished_run(os.path.join(folder, f"dd{ratio}-seed{seed}.h5")):
             groups.setdefault(ratio, []).append(path)
     return groups
 
@@ -314,8 +323,7 @@ def _finished_paper_cg(folder) -> dict:
     """The finished paper-drum CG runs in ``folder``: {"PRESET RULE": [paths, one per seed]}."""
     groups = {}
     for preset, rule, seed in PAPER_CG:
-        path = os.path.join(folder, f"{preset}-{rule}-seed{seed}.h5")
-        if _finished(path):
+        if path := _finished_run(os.path.join(folder, f"{preset}-{rule}-seed{seed}.h5")):
             groups.setdefault(f"{preset} {rule}", []).append(path)
     return groups
 

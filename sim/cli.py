@@ -179,6 +179,10 @@ def build_parser():
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --out from its checkpoint (same options as when it started; a "
                         "finished run is left as it is)")
+    p.add_argument("--resume-from", metavar="CKPT",
+                   help="start --out as a new part of the run whose checkpoint CKPT is (a copy kept when its files "
+                        "were lost, say): the part holds the frames from the checkpoint's next one on (same "
+                        "options as when the run started)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     sub.add_parser("presets", help="list the presets")
     add_sweep_parser(sub)
@@ -217,6 +221,9 @@ def _run(args) -> int:
     _check_options(args)
     if args.resume and args.overwrite:
         raise ValueError("--resume continues --out and --overwrite replaces it: give one of them")
+    if args.resume and args.resume_from:
+        raise ValueError("--resume continues --out from its own checkpoint, --resume-from starts it from another: "
+                         "give one of them")
     if not args.resume and os.path.exists(out) and not args.overwrite:
         raise ValueError(f"{out} exists; give --overwrite to replace it, or --resume to continue it from its checkpoint")
     original, params = _params(args)
@@ -235,12 +242,13 @@ def _run(args) -> int:
         check_not_open_elsewhere(out)
     check_room(params, round(args.revolutions / args.frame_every_rev) + 1, out)
 
-    if args.resume:
-        sim = resume_run(out)
+    if args.resume or args.resume_from:
+        sim = resume_run(out, from_checkpoint=args.resume_from)
         sim.threads = args.threads
         if sim.params != params or sim.original != original:
             changed = sorted(k for k, v in params.to_dict().items() if sim.params.to_dict().get(k) != v)
-            raise ValueError(f"{ckpt}: checkpoint was made with other parameters ({', '.join(changed) or 'original system'}); "
+            raise ValueError(f"{args.resume_from or ckpt}: checkpoint was made with other parameters "
+                             f"({', '.join(changed) or 'original system'}); "
                              f"give the options the run started with")
     else:
         try:
@@ -256,7 +264,7 @@ def _run(args) -> int:
     try:
         sim.run(out, args.revolutions, frame_every=frame_every, checkpoint_every=args.checkpoint_every,
                 progress=not args.quiet, resume=args.resume, overwrite=args.overwrite,
-                checkpoint_minutes=args.checkpoint_minutes)
+                checkpoint_minutes=args.checkpoint_minutes, new_part=bool(args.resume_from))
     except RuntimeError as exc:  # the simulation itself failed (e.g. a particle left the drum)
         print(f"sim: error: {one_line(exc)}; {_what_is_left(out, ckpt)}", file=sys.stderr)
         return 1

@@ -20,7 +20,7 @@ from granalytics.base.resources import check_disk, check_memory
 
 from . import _kernels
 from .capillary import pair_capillary_force
-from .checkpoint import check_resume, checkpoint_path, remove_checkpoint, write_checkpoint
+from .checkpoint import check_new_part, check_resume, checkpoint_path, remove_checkpoint, write_checkpoint
 from .drum import n_walls
 from .neighbours import empty_slots, rebuild
 from .packing import check_settled_bed, insertion_positions, settled_bed_report
@@ -345,7 +345,7 @@ class Simulation:
         return frame_every, n + 1
 
     def run(self, out, revolutions, *, frame_every=None, checkpoint_every=20, progress=True, resume=False,
-            overwrite=False, checkpoint_minutes=None):
+            overwrite=False, checkpoint_minutes=None, new_part=False):
         """Simulate ``revolutions`` drum revolutions, writing a frame every ``frame_every``
         steps (default: every 0.05 revolution) to the granalytics run file ``out``; see
         :meth:`frame_plan`.
@@ -363,6 +363,14 @@ class Simulation:
 
         Resuming a run that finished (every requested frame written and its wall time recorded)
         changes nothing: the run file is left as it is, so that a recipe can be rerun safely.
+
+        With ``new_part=True`` a simulation restored from any run's checkpoint
+        (:func:`sim.checkpoint.resume_run` of ``from_checkpoint``) continues that run in a new
+        file ``out``, a **part** of the run: it holds the frames from the checkpoint's next one
+        on (``provenance["first_frame"]``), and the frames before stay in the file they were
+        written to. A run whose files are lost but whose checkpoint was kept (copied to another
+        machine, say) goes on this way; the part's trajectory is the uninterrupted run's, bit for
+        bit on one machine. A part resumes from its own checkpoint like any run.
 
         An existing ``out`` is replaced only with ``overwrite=True`` (``FileExistsError``
         otherwise); a new run removes a checkpoint of ``out`` left by an earlier run.
@@ -385,24 +393,35 @@ class Simulation:
         ckpt = checkpoint_path(out)
         meta = self.run_meta()
         meta.provenance["planned_frames"] = int(n_frames)  # a reader can tell a killed run from a finished one
+        if (resume or new_part) and self.resume_point is None:
+            raise ValueError("resume=True and new_part=True need a simulation restored with "
+                             "sim.checkpoint.resume_run")
+        checkpointing = checkpoint_every is not None or checkpoint_minutes is not None
+        if resume and new_part:
+            raise ValueError("resume=True continues the file out, new_part=True starts it: give one of them")
         if resume:
-            if self.resume_point is None:
-                raise ValueError("resume=True needs a simulation restored with sim.checkpoint.resume_run(out)")
-            if check_resume(self, out, frame_every, n_frames):
+            finished, first = check_resume(self, out, frame_every, n_frames)
+            if finished:
                 print(f"{out}: finished already ({n_frames} frames and the run's wall time written); "
                       "nothing to resume, the file is left as it is", file=sys.stderr)
                 return out
-            writer = RunWriter.continue_from(out, self.resume_point.frames)
-            writer.update_provenance(planned_frames=int(n_frames))  # the resumed run may plan more frames
+            writer = RunWriter.continue_from(out, self.resume_point.frames - first)
+            writer.update_provenance(planned_frames=int(n_frames - first))  # the resumed run may plan more frames
         else:
             if os.path.exists(out) and not overwrite:
                 raise FileExistsError(f"{out}: file exists (pass overwrite=True, or --overwrite, to replace it)")
+            first = check_new_part(self, frame_every, n_frames) if new_part else 0
+            if first:
+                meta.provenance.update(first_frame=first, planned_frames=int(n_frames - first))
             writer = RunWriter(out, meta, overwrite=overwrite)
             remove_checkpoint(out)  # an earlier run's
-            writer.append(self.snapshot(meta))
-            if checkpoint_every is not None or checkpoint_minutes is not None:  # the settled bed: hours at 10⁵
-                # particles, not to be settled twice
-                write_checkpoint(self, ckpt, {"frames": 1, "frame_every": frame_every, "wall_s": 0.0, "cpu_s": 0.0})
+            if not new_part:
+                writer.append(self.snapshot(meta))
+            if checkpointing:  # the settled bed (hours at 10⁵ particles, not to be settled twice), or a part's
+                # start: where it resumes from should it stop before its first frame
+                write_checkpoint(self, ckpt, {"frames": first + writer.n_frames, "frame_every": frame_every,
+                                              "wall_s": self.resume_point.wall_s if new_part else 0.0,
+                                              "cpu_s": self.resume_point.cpu_s if new_part else 0.0})
         wall0, cpu0 = _time.perf_counter(), _time.process_time()
         steps0 = self.state.step
         # of earlier sittings (CPU time None: a sitting's simulator did not record it)
@@ -413,7 +432,11 @@ class Simulation:
             """Wall and CPU time of the frames so far, all sittings [s]."""
             cpu = None if cpu_before is None else cpu_before + _time.process_time() - cpu0
             return {"wall_s": wall_before + _time.perf_counter() - wall0, "cpu_s": cpu}
-        bar = tqdm(total=n_frames, initial=writer.n_frames, unit="frame", disable=not progress,
+        def done():
+            """Frames of the run written so far, this part's and those of the parts before it."""
+            return first + writer.n_frames
+
+        bar = tqdm(total=n_frames, initial=done(), unit="frame", disable=not progress,
                    desc=f"{p.n_particles} particles α={p.alpha:g}")
         import numba
 
@@ -426,13 +449,13 @@ class Simulation:
         def checkpoint():
             nonlocal last_checkpoint
             writer.sync()  # the frames the checkpoint counts on disk before it
-            write_checkpoint(self, ckpt, {"frames": writer.n_frames, "frame_every": frame_every, **elapsed()})
+            write_checkpoint(self, ckpt, {"frames": done(), "frame_every": frame_every, **elapsed()})
             last_checkpoint = _time.perf_counter()
 
         with writer:
-            while writer.n_frames < n_frames:
+            while done() < n_frames:
                 frame_t0, frame_step0 = _time.perf_counter(), self.state.step
-                frame_step = writer.n_frames * frame_every
+                frame_step = done() * frame_every
                 while self.state.step < frame_step:
                     self.advance(min(piece, frame_step - self.state.step))
                     if self.state.step < frame_step and _time.perf_counter() - last_checkpoint >= between_s:
@@ -441,7 +464,7 @@ class Simulation:
                 frame_wall = _time.perf_counter() - frame_t0
                 self._check_finite()
                 writer.append(self.snapshot(meta))
-                if checkpoint_every is not None and writer.n_frames % checkpoint_every == 0:
+                if checkpoint_every is not None and done() % checkpoint_every == 0:
                     checkpoint()
                 bar.update(1)
                 # the rate of the frame just simulated (the machine's load changes as the run goes)

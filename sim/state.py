@@ -15,6 +15,9 @@ PARTICLE_FIELDS = ("ids", "pos", "vel", "omega", "radius", "mass", "inertia", "x
 #: per-slot arrays
 SLOT_FIELDS = ("pair_i", "pair_j", "alive", "created", "ruptured", "v_b", "v_max", "fs", "nprev",
                "force", "torque_i", "torque_j", "f_normal", "f_cap", "gap")
+#: the per-slot outputs of the last step: every step's force pass writes them (a dead slot's are
+#: zero) before anything reads them, so a state with them zeroed steps on to the same trajectory
+SLOT_OUTPUT_FIELDS = ("force", "torque_i", "torque_j", "f_normal", "f_cap", "gap")
 
 
 @dataclass

@@ -210,6 +210,25 @@ def test_an_existing_out_is_replaced_only_with_overwrite(cli, tmp_path):
     refused(cli("r.h5", "--overwrite", "--resume"), "--resume", "--overwrite")
 
 
+def test_resume_from_a_kept_checkpoint_starts_a_part_and_refuses_what_does_not_match(cli, tmp_path):
+    assert cli("a.h5")[0] == 0  # its last checkpoint after 4 frames
+    kept = tmp_path / "kept.ckpt.npz"
+    shutil.copyfile(tmp_path / "a.h5.ckpt.npz", kept)
+    refused(cli("p.h5", "--resume", "--resume-from", str(kept)), "--resume", "--resume-from", "one of them")
+    refused(cli("p.h5", "--resume-from", str(kept), "--seed", "1"), "kept.ckpt.npz", "other parameters", "seed")
+    refused(cli("p.h5", "--resume-from", str(kept), "--revolutions", "0.003"), "after 4 frames, the requested run has 4")
+    refused(cli("a.h5", "--resume-from", str(kept), "--revolutions", "0.006"), "a.h5 exists", "--overwrite")
+    refused(cli("p.h5", "--resume-from", str(tmp_path / "none.npz"), "--revolutions", "0.006"), "no checkpoint")
+    assert not (tmp_path / "p.h5").exists()
+    # the part holds the run's frames 4-6 of a run extended to 0.006 revolution, as a run made at once
+    assert cli("p.h5", "--resume-from", str(kept), "--revolutions", "0.006")[0] == 0
+    assert cli("once.h5", "--revolutions", "0.006")[0] == 0
+    with ga.open_run(tmp_path / "p.h5") as part, ga.open_run(tmp_path / "once.h5") as once:
+        assert len(part) == 3 and part.meta.provenance["first_frame"] == 4 and part.unfinished is None
+        for fa, fb in zip(once[4:], part):
+            assert fa.step == fb.step and np.array_equal(fa.position, fb.position)
+
+
 def test_the_last_frame_is_at_the_requested_revolutions(cli, tmp_path):
     # 0.0015 revolution is 523.6 steps, rounded up to 524: 4 intervals reach 0.006 revolution
     assert cli("r.h5", "--revolutions", "0.006", "--frame-every-rev", "0.0015")[0] == 0

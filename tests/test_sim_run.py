@@ -170,6 +170,63 @@ def test_a_run_checkpointed_between_frames_resumes_to_the_uninterrupted_run(tmp_
         Simulation(params, ORIGINAL).run(tmp_path / "x.h5", revs, frame_every=frame_every, checkpoint_minutes=0)
 
 
+def test_a_run_goes_on_in_a_new_part_from_a_kept_checkpoint_as_if_uninterrupted(tmp_path):
+    """A run whose files are lost but whose checkpoint was kept (a compacted copy elsewhere) goes on
+    in a new file, a part holding the frames from the checkpoint's next one: they are the
+    uninterrupted run's frames, and the part resumes from its own checkpoint like any run."""
+    from sim.checkpoint import checkpoint_path, compact_checkpoint
+    from sim.state import SLOT_OUTPUT_FIELDS
+
+    params = dataclasses.replace(SMALL, settle_time=0.01)
+    frame_every = 400
+    revs = 12 * frame_every * params.dt / params.revolution_period  # 12 frames after the first
+    full = Simulation(params, ORIGINAL).run(tmp_path / "full.h5", revs, frame_every=frame_every, checkpoint_every=None,
+                                            progress=False)
+    lost = tmp_path / "lost.h5"  # stopped after 6 frames, its last checkpoint at frame 4
+    Simulation(params, ORIGINAL).run(lost, revs * 5 / 12, frame_every=frame_every, checkpoint_every=4, progress=False)
+    kept = tmp_path / "kept.ckpt.npz"
+    assert compact_checkpoint(checkpoint_path(lost), kept) < os.path.getsize(checkpoint_path(lost)) / 2
+    with np.load(kept) as copy, np.load(checkpoint_path(lost)) as original:
+        assert set(copy.files) == set(original.files)
+        assert any(original[name].any() for name in SLOT_OUTPUT_FIELDS)  # the outputs it drops were there
+        for name in copy.files:
+            assert np.array_equal(copy[name], 0 * original[name] if name in SLOT_OUTPUT_FIELDS else original[name])
+    (tmp_path / "bad.npz").write_bytes(b"not a checkpoint")
+    with pytest.raises(ValueError, match="bad.npz: damaged checkpoint"):
+        compact_checkpoint(tmp_path / "bad.npz", tmp_path / "bad-copy.npz")
+    assert not os.path.exists(tmp_path / "bad-copy.npz")
+    os.unlink(lost)
+    os.unlink(checkpoint_path(lost))
+    part = tmp_path / "part.h5"
+    # the part is made in two sittings: the first stops after frame 9 of the run, the second resumes it
+    resume_run(part, from_checkpoint=kept).run(part, revs * 9 / 12, frame_every=frame_every, checkpoint_every=4,
+                                               progress=False, new_part=True)
+    assert resume_run(part).resume_point.frames == 8  # the part's own checkpoint counts the run's frames
+    resume_run(part).run(part, revs, frame_every=frame_every, checkpoint_every=4, progress=False, resume=True)
+    with ga.open_run(full) as a, ga.open_run(part) as b:
+        assert b.meta.provenance["first_frame"] == 4 and b.meta.provenance["planned_frames"] == 9
+        assert b.unfinished is None
+        # the cost counts every sitting, those of the lost file included
+        assert b.meta.provenance["cpu_time_s"] > resume_run(kept, from_checkpoint=kept).resume_point.cpu_s > 0
+        assert len(b) == 9
+        for fa, fb in zip(a[4:], b):
+            assert fa.time == fb.time and fa.step == fb.step
+            for name in ("ids", "position", "velocity", "angular_velocity", "film_volume", "contact_i", "contact_j",
+                         "f_cap", "f_normal", "gap", "bridge_volume"):
+                assert np.array_equal(getattr(fa, name), getattr(fb, name)), name
+    # a part of a run that ends at the checkpoint's frames is refused: nothing is left to make
+    with pytest.raises(ValueError, match="after 4 frames, the requested run has 4: no frame is left"):
+        resume_run(tmp_path / "p2.h5", from_checkpoint=kept).run(
+            tmp_path / "p2.h5", revs * 3 / 12, frame_every=frame_every, checkpoint_every=4, progress=False,
+            new_part=True)
+    with pytest.raises(ValueError, match="frame every 400 steps, the resumed run asks for 200"):
+        resume_run(tmp_path / "p3.h5", from_checkpoint=kept).run(
+            tmp_path / "p3.h5", revs, frame_every=200, checkpoint_every=4, progress=False, new_part=True)
+    with pytest.raises(ValueError, match="give one of them"):
+        resume_run(part).run(part, revs, frame_every=frame_every, progress=False, resume=True, new_part=True)
+    assert not os.path.exists(tmp_path / "p2.h5") and not os.path.exists(tmp_path / "p3.h5")
+
+
 def test_snapshot_is_a_valid_granalytics_frame_with_bridges(settled):
     sim = copy(settled)
     sim.advance(2000)

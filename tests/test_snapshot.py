@@ -122,6 +122,10 @@ def test_run_meta_defaults_and_validation():
         make_meta(10, sim_config={"params": {"dt": float("nan")}})
     with pytest.raises(ValidationError, match="JSON"):
         make_meta(10, provenance={"x": object()})
+    for first in (-1, 2.5, "4"):  # a part's first frame (sim run --resume-from): a whole number >= 0
+        with pytest.raises(ValidationError, match="field 'provenance.first_frame'"):
+            make_meta(10, provenance={"first_frame": first})
+    assert make_meta(10, provenance={"first_frame": 40}).provenance["first_frame"] == 40
     with pytest.warns(UserWarning, match="unknown keys"):
         m2 = RunMeta.from_dict(dict(m.to_dict(), future_field=3))
     assert m2.provenance["unknown_meta"] == {"future_field": 3}

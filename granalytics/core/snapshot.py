@@ -195,6 +195,7 @@ _PROVENANCE_SCHEMA = {
     **dict.fromkeys(("wall_time_s", "wall_time_per_simulated_s", "simulated_time_s", "cpu_time_s",
                      "cpu_time_per_simulated_s", "settle_wall_time_s", "settle_cpu_time_s"), _FINITE + [None]),
     "planned_frames": [Interval(Integral), None],
+    "first_frame": [Interval(Integral, 0, None), None],
 }
 
 
