@@ -8,10 +8,11 @@ Usage::
     python benchmarks/paper_drum_runs.py series [--dt-factor F] [--dir ~/granalytics-runs/paper-family]
     python benchmarks/paper_drum_runs.py cg1 [--dt-factor F] [--dir ~/granalytics-runs/paper-cg1]
     python benchmarks/paper_drum_runs.py progress [--dir ~/granalytics-runs/paper-cg1]
+    python benchmarks/paper_drum_runs.py keep [--dir ~/granalytics-runs/paper-cg1]   # before each stop; commit
     python benchmarks/paper_drum_runs.py subset [--dir ~/granalytics-runs/paper-family] [--window 2:4]
     python benchmarks/paper_drum_runs.py table [--dir ~/granalytics-runs/paper-family] [--window 2:4]
     python benchmarks/paper_drum_runs.py figures --out FOLDER [--dir ~/granalytics-runs/paper-family] [--window 2:4]
-                                                 [--reference ~/granalytics-runs/paper-cg1/paper-cg1.h5]
+                                                 [--reference RUN]
                                                  [--size-unit original|particles]
 
 ``start`` starts or resumes ``cg1`` and ``series`` (below), each detached from the shell unless it
@@ -28,17 +29,23 @@ finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` 
 CG1 (``--preset paper-cg1``, its own settling, 4 revolutions, a frame every 0.05 revolution, a
 checkpoint every frame and every 10 minutes between) or resumes it, on one thread beside the series
 and on ``--threads auto`` once the series is done (the series, at its end, restarts a running CG1
-right after its next checkpoint, so that it takes the second core). ``progress`` prints one line for
-``benchmarks/paper_cg1_progress.md`` (revolutions done, CPU hours, machine). ``subset`` writes the
-float32 subset of each finished run (and of CG1 once it covers the window) into ``benchmarks/paper_family_runs/`` (those there are kept).
+right after its next checkpoint, so that it takes the second core). CG1 outlasts any one machine:
+``keep``, before each stop, keeps in the repository (``benchmarks/paper_cg1_run/``) a compacted copy
+of its newest checkpoint, the statistics of every frame that checkpoint covers and its frames at 0,
+2, 3 and 4 revolutions as float32; ``cg1`` on a machine without the run (or with an older one)
+goes on from the kept checkpoint in a new part, ``paper-cg1-fromNNN.h5`` (``sim run
+--resume-from``). ``progress`` prints one line for ``benchmarks/paper_cg1_progress.md``
+(revolutions done, pace, CPU hours of every sitting from the checkpoint, machine). ``subset``
+writes the float32 subset of each finished run into ``benchmarks/paper_family_runs/`` (those there
+are kept); where this machine has not a run, the series counts its subset there as finished.
 ``table`` prints the series' steady state per D/d (mean ± replica s.e.) and the confinement law y =
 y∞·(1 − b/(D/d)) fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value
 at the paper CG1's D/d = 133 with that band, the paper drum's CG runs beside the law at their
-D/(αd), and the paper's CG1 (``--cg1``) beside the law's prediction once it covers the window.
+D/(αd), and the paper's CG1 (from its kept statistics) beside the law's prediction once they
+cover the window.
 ``figures`` writes the paper's Figs 3–6 for the paper drum (``ga.save`` of ``ga.compare_cg``): its
 finished CG runs, one group per preset and rule (seeds as replicas), beside the largest finished α =
-1 run of the family (D/d 66 once it is in), or beside ``--reference`` (the paper's CG1 once it has
-the window), with the table of each against it and the speed-up from the recorded wall times (the
+1 run of the family (D/d 66 once it is in), or beside the α = 1 run file ``--reference``, with the table of each against it and the speed-up from the recorded wall times (the
 load-free one, also per particle-step, from the runs' checkpoints: ``benchmarks/cg_speedup.py``).
 """
 
@@ -64,7 +71,6 @@ LAW_METRICS = (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩/V_p"
 HOME_RUNS = os.path.expanduser("~/granalytics-runs")
 SERIES_DIR = os.path.join(HOME_RUNS, "paper-family")
 CG1_DIR = os.path.join(HOME_RUNS, "paper-cg1")
-CG1_RUN = os.path.join(CG1_DIR, "paper-cg1.h5")
 
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -124,12 +130,13 @@ def _hand_the_core_to_cg1(args):
     (at most 10 min away, so no work is lost), so that it takes the core the series leaves."""
     import time
 
-    ckpt = f"{CG1_RUN}.ckpt.npz"
-    if not any(args[args.index("--threads") + 1] == "1" for args in _simulations(CG1_DIR).values()) \
-            or not os.path.exists(ckpt):
+    running = [command for command in _simulations(CG1_DIR).values()
+               if command[command.index("--threads") + 1] == "1"]
+    if not running:
         return  # no CG1 running, or on `auto` threads already
-    seen, waited = os.path.getmtime(ckpt), 0
-    while os.path.getmtime(ckpt) == seen and waited < 1800:
+    ckpt = checkpoint_path(running[0][running[0].index("--out") + 1])
+    seen, waited = os.path.getmtime(ckpt) if os.path.exists(ckpt) else None, 0
+    while (os.path.getmtime(ckpt) if os.path.exists(ckpt) else None) == seen and waited < 1800:
         time.sleep(5)
         waited += 5
     print("series done: CG1 restarted after its checkpoint, to take the second core", flush=True)
@@ -139,72 +146,193 @@ def _hand_the_core_to_cg1(args):
     _start(["cg1"], args.dt_factor)
 
 
+#: what the repository keeps of the paper's CG1, so that the run goes on when a working period
+#: starts on a machine that lost ``CG1_DIR`` (benchmarks/paper_cg1_run/README.md)
+CG1_KEPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_cg1_run")
+CG1_KEPT_CHECKPOINT = os.path.join(CG1_KEPT, "paper-cg1.ckpt.npz")
+#: CG1's frames kept as float32 run files (~10 MB each): the settled bed, the window's ends and middle
+CG1_KEPT_FRAMES = (0, 40, 60, 80)
+
+
+def checkpoint_path(out) -> str:
+    return f"{out}.ckpt.npz"
+
+
+def _checkpoint_point(path):
+    """(frames, step, info) of checkpoint ``path`` (its two small entries only), None if missing."""
+    import json
+
+    if not os.path.exists(path):
+        return None
+    with np.load(path) as data:
+        info = json.loads(str(data["checkpoint_info"]))
+        return int(info["frames"]), int(data["step"]), info
+
+
+def _cg1_parts(folder) -> list:
+    """CG1's run files on this machine, [(first frame, path)] in order: ``paper-cg1.h5`` (from frame
+    0) and the parts ``paper-cg1-fromNNN.h5`` begun from a kept checkpoint (``sim run --resume-from``)."""
+    parts = []
+    for name in os.listdir(folder) if os.path.isdir(folder) else []:
+        if name == "paper-cg1.h5":
+            parts.append((0, os.path.join(folder, name)))
+        elif name.startswith("paper-cg1-from") and name.endswith(".h5") and name[14:-3].isdigit():
+            parts.append((int(name[14:-3]), os.path.join(folder, name)))
+    return sorted(parts)
+
+
+def _cg1_newest(folder):
+    """(path of the newest checkpoint of CG1, its point, its run file or None for the kept one):
+    this machine's part whose checkpoint lies furthest on, or the repository's kept checkpoint where
+    that lies further (or this machine has none); None if neither exists."""
+    best = None
+    for _, path in _cg1_parts(folder):
+        point = _checkpoint_point(checkpoint_path(path))
+        if point and (best is None or point[1] > best[1][1]):
+            best = (checkpoint_path(path), point, path)
+    kept = _checkpoint_point(CG1_KEPT_CHECKPOINT)
+    if kept and (best is None or kept[1] > best[1][1]):
+        best = (CG1_KEPT_CHECKPOINT, kept, None)
+    return best
+
+
 def cg1(args):
     os.makedirs(args.dir, exist_ok=True)
-    out = os.path.join(args.dir, "paper-cg1.h5")
     # one thread beside the series; once it is done, `auto`: the second core while it is free, and
     # near one thread's rate under other work (a fixed 2 would crawl beside a test suite)
     threads = "auto" if _series_done() else "1"
     # a frame is half an hour of one thread: checkpoints also between frames, so a stop loses ≤ 10 min
-    cmd = _command(out, ["--preset", "paper-cg1", "--checkpoint-minutes", "10"], args.dt_factor, 1, threads)
+    options = ["--preset", "paper-cg1", "--checkpoint-minutes", "10"]
+    newest = _cg1_newest(args.dir)
+    if newest is None or newest[2] is not None:  # a new run, or this machine's part resumed
+        cmd = _command(newest[2] if newest else os.path.join(args.dir, "paper-cg1.h5"), options, args.dt_factor, 1,
+                       threads)
+    else:  # this machine lost the run (or has an older part): a new part from the kept checkpoint
+        part = os.path.join(args.dir, f"paper-cg1-from{newest[1][0]:03d}.h5")
+        cmd = [arg for arg in _command(part, options, args.dt_factor, 1, threads) if arg != "--resume"]
+        cmd += ["--resume-from", CG1_KEPT_CHECKPOINT] + (["--overwrite"] if os.path.exists(part)
+                                                         and "--overwrite" not in cmd else [])
     print(" ".join(cmd[2:]), flush=True)
-    started = datetime.datetime.now().isoformat(timespec="seconds")
-    child = subprocess.Popen(cmd)
-    while True:  # this working period's CPU time, for the progress log, kept up to date every minute
-        try:  # (a machine that stops kills this process too: a line written only at the end was lost)
-            code = child.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            code = None
-        _record_cpu_seconds(args.dir, started, _cpu_seconds_of(child.pid))  # its own child's, no other's
-        if code is not None:
-            if code:
-                raise subprocess.CalledProcessError(code, cmd)
-            return
+    subprocess.run(cmd, check=True)
 
 
-def _record_cpu_seconds(folder, started, seconds):
-    """Set this working period's line (``SECONDS STARTED``) of ``cpu_seconds.txt``."""
-    if not seconds:
+def keep(args):
+    """Keep what the next machine needs of CG1 in the repository (``CG1_KEPT``): a compacted copy
+    of its newest checkpoint, the statistics of every frame it covers (``frames.csv``, granule
+    sizes in ``sizes.csv``, the run's metadata in ``meta.json``) and its frames of
+    ``CG1_KEPT_FRAMES`` as float32. Run before each stop, then commit the folder."""
+    from sim.checkpoint import compact_checkpoint
+
+    newest = _cg1_newest(args.dir)
+    if newest is None:
+        print(f"no CG1 run in {args.dir} and none kept")
         return
-    path = os.path.join(folder, "cpu_seconds.txt")
-    lines = []
-    if os.path.exists(path):
-        with open(path) as f:
-            lines = [line for line in f if line.strip() and not line.rstrip().endswith(started)]
-    lines.append(f"{seconds:.0f} {started}\n")
+    os.makedirs(CG1_KEPT, exist_ok=True)
+    if newest[2] is not None:
+        size = compact_checkpoint(newest[0], CG1_KEPT_CHECKPOINT)
+        print(f"kept {newest[0]} (frames {newest[1][0]}, step {newest[1][1]}) as {CG1_KEPT_CHECKPOINT}: "
+              f"{size / 1e6:.1f} MB")
+    covered = _checkpoint_point(CG1_KEPT_CHECKPOINT)[0]  # a later part makes the frames from here on again
+    _keep_statistics(args.dir, covered)
+    _keep_frames(args.dir, covered)
+
+
+def _read_kept_statistics():
+    """(frames table, sizes table) kept of CG1 so far (empty tables before the first)."""
+    import pandas as pd
+
+    frames, sizes = (os.path.join(CG1_KEPT, name) for name in ("frames.csv", "sizes.csv"))
+    if not os.path.exists(frames):
+        return pd.DataFrame(), pd.DataFrame(columns=["frame", "size", "count"])
+    return pd.read_csv(frames), pd.read_csv(sizes)
+
+
+def _keep_statistics(folder, covered):
+    """Add to ``frames.csv`` and ``sizes.csv`` the statistics of CG1's frames below ``covered``
+    that this machine holds and the tables lack (GNA at the paper's thresholds, acting cohesion:
+    the time series of ``confinement_table`` and each frame's granule sizes)."""
+    import json
+
+    import pandas as pd
+
+    import granalytics as ga
+    from granalytics.analysis.confinement import confinement_timeseries
+
+    table, sizes = _read_kept_statistics()
+    done = set(table["frame"]) if len(table) else set()
+    new_rows, new_sizes = [table], [sizes]
+    for first, path in _cg1_parts(folder):
+        with ga.open_run(path, validate=False) as run:
+            wanted = [k for k in range(len(run)) if first + k < covered and first + k not in done]
+            if not wanted:
+                continue
+            meta_path = os.path.join(CG1_KEPT, "meta.json")
+            if first == 0 and not os.path.exists(meta_path):  # the run's own (its settling's cost)
+                _write_atomically(meta_path, json.dumps(run.meta.to_dict(), indent=1, sort_keys=True))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a run being written is unfinished
+                ts, frame_sizes = confinement_timeseries([run[k] for k in wanted], run.meta, return_sizes=True,
+                                                         progress=True)
+        ts["frame"] = [first + k for k in wanted]
+        new_rows.append(ts)
+        for k, granules in zip(ts["frame"], frame_sizes):
+            size, count = np.unique(granules, return_counts=True)
+            new_sizes.append(pd.DataFrame({"frame": k, "size": size, "count": count}))
+        done.update(ts["frame"])
+        print(f"statistics of frames {ts['frame'].min()}-{ts['frame'].max()} of {path}", flush=True)
+    table = pd.concat([t for t in new_rows if len(t)], ignore_index=True).sort_values("frame")
+    sizes = pd.concat([t for t in new_sizes if len(t)], ignore_index=True).sort_values(["frame", "size"])
+    _write_atomically(os.path.join(CG1_KEPT, "frames.csv"), table.to_csv(index=False))
+    _write_atomically(os.path.join(CG1_KEPT, "sizes.csv"), sizes.to_csv(index=False))
+
+
+def _keep_frames(folder, covered):
+    """Write the float32 copy of each frame of ``CG1_KEPT_FRAMES`` below ``covered`` that this
+    machine holds and the repository lacks."""
+    import granalytics as ga
+
+    for frame in CG1_KEPT_FRAMES:
+        out = os.path.join(CG1_KEPT, f"frame-{frame:03d}.h5")
+        if frame >= covered or os.path.exists(out):
+            continue
+        for first, path in _cg1_parts(folder):
+            with ga.open_run(path, validate=False) as run:
+                held = first <= frame < first + len(run)
+            if held:
+                ga.subset_run(path, out, [frame - first], float_dtype="float32")
+                print(f"kept frame {frame} as {out}: {os.path.getsize(out) / 1e6:.1f} MB", flush=True)
+                break
+
+
+def _write_atomically(path, text):
     with open(path + ".tmp", "w") as f:
-        f.writelines(lines)
+        f.write(text)
     os.replace(path + ".tmp", path)
 
 
 def progress(args):
-    import granalytics as ga
-
-    out = os.path.join(args.dir, "paper-cg1.h5")
+    """One line for ``benchmarks/paper_cg1_progress.md``: where CG1 stands (this machine's newest
+    checkpoint, or the repository's kept one), its pace and CPU time, the machine."""
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     machine = f"{platform.node()}, {os.cpu_count()} cores"
-    if not os.path.exists(out):
-        print(f"| {stamp} | no run at {out} (not started here, or this machine lost it) | | {machine} |")
+    newest = _cg1_newest(args.dir)
+    if newest is None:
+        print(f"| {stamp} | no CG1 run in {args.dir} and none kept | | {machine} |")
         return
-    with ga.open_run(out, validate=False) as run:
-        revolutions = float(run.revolutions[-1]) if len(run) else 0.0
-        frames, params = len(run), run.meta.sim_config["params"]
-    ckpt = f"{out}.ckpt.npz"
-    cpu = _cpu_hours(args.dir)
+    ckpt, (frames, step, info), run = newest
+    params = info["params"]
+    revolutions = step * params["dt"] * params["drum_omega"] / (2 * np.pi)
+    where = (f"checkpoint at {datetime.datetime.fromtimestamp(os.path.getmtime(ckpt)).strftime('%H:%M')}"
+             + (f" of {os.path.basename(run)}" if run else ", the kept one: this machine has none newer"))
+    running = " (running)" if _simulations(args.dir) else ""
+    cpu = info.get("cpu_s")
     print(f"| {stamp} | {revolutions:.2f} revolutions, {frames} frames (Δt factor {params.get('dt_factor', 1):g}; "
-          f"checkpoint {'at ' + datetime.datetime.fromtimestamp(os.path.getmtime(ckpt)).strftime('%H:%M') if os.path.exists(ckpt) else 'none'})"
-          f"{_pace(ckpt)} | {cpu} | {machine} |")
+          f"{where}){_pace(info, step)} | {'' if cpu is None else f'{cpu / 3600:.2f} CPU h{running}'} | {machine} |")
 
 
-def _pace(ckpt) -> str:
+def _pace(info, step) -> str:
     """The run's pace so far (the checkpoint's wall time over its steps, every sitting, waiting for
     the other core included) and the wall hours it gives to 3 and 4 revolutions; "" without one."""
-    import json
-
-    if not os.path.exists(ckpt):
-        return ""
-    with np.load(ckpt) as data:  # the two small entries only
-        info, step = json.loads(str(data["checkpoint_info"])), int(data["step"])
     wall, frame_every, params = info.get("wall_s"), info["frame_every"], info["params"]
     if not wall or step < frame_every:
         return ""
@@ -213,18 +341,6 @@ def _pace(ckpt) -> str:
     more = [(revs, (revs * steps_per_rev - step) / frame_every * per_frame / 3600) for revs in (3, 4)]
     return (f"; pace so far {per_frame / 60:.0f} min a frame: ≈ " +
             ", ".join(f"{h:.0f} h more to {revs} revolutions" for revs, h in more if h > 0))
-
-
-def _cpu_hours(folder):
-    """CPU hours of the CG1 run: the working periods recorded in ``cpu_seconds.txt`` (one line of
-    seconds each, kept up to date every minute by :func:`cg1`; the running period's line included)."""
-    path = os.path.join(folder, "cpu_seconds.txt")
-    total = 0.0
-    if os.path.exists(path):
-        with open(path) as f:
-            total = sum(float(line.split()[0]) for line in f if line.strip())
-    running = _processes("sim", os.path.join(folder, "paper-cg1.h5"))
-    return f"{total / 3600:.2f} CPU h" + (" (running)" if running else "")
 
 
 def _command_lines() -> dict:
@@ -246,16 +362,6 @@ def _processes(*words) -> list:
     ``benchmarks/paper_drum_runs.py``)."""
     return [pid for pid, args in _command_lines().items()
             if all(any(arg == word or arg.endswith("/" + word) for arg in args) for word in words)]
-
-
-def _cpu_seconds_of(pid) -> float:
-    """CPU seconds of process ``pid`` (user and system; 0 once it has ended), from /proc."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-    except OSError:
-        return 0.0
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 #: the long runs ``start`` keeps going: (subcommand, its folder, niceness); CG1
@@ -334,21 +440,12 @@ SUBSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_family
 
 def subset(args):
     """Write the float32 subset of each finished run not yet in ``SUBSETS``: every twentieth frame
-    before the window, every second (D/d 22 and 33) or fourth (larger runs) inside it; and the
-    paper's CG1 once it covers the window (finished or not: it may stop at 3 revolutions), four
-    frames only, as a float32 frame of 120 000 particles is ~10 MB: every fortieth before the
-    window (the settled bed), the window's ends and middle."""
-    import granalytics as ga
-
+    before the window, every second (D/d 22 and 33) or fourth (larger runs) inside it. (CG1's
+    frames are kept by ``keep``.)"""
     lo, hi = args.window.split(":")
     finished = [p for group in [*_finished_series(args.dir).values(), *_finished_paper_cg(args.dir).values()]
                 for p in group]
     thinning = {p: ("20", "2" if os.path.basename(p).startswith(("dd22-", "dd33-")) else "4") for p in finished}
-    if os.path.exists(CG1_RUN):
-        with ga.open_run(CG1_RUN, validate=False) as run:
-            if len(run) and float(run.revolutions[-1]) >= float(hi) - 1e-3:
-                # the window's ends and middle (a frame every 0.05 revolution), the settled bed before it
-                thinning[CG1_RUN] = ("40", str(round(10 * (float(hi) - float(lo)))))
     for path, (every, window_every) in thinning.items():
         out = os.path.join(SUBSETS, os.path.basename(path))
         if os.path.exists(out):
@@ -391,37 +488,42 @@ def table(args):
               f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {float(fit(133.3)):.3f} ± "
               f"{float(fit.error(133.3)):.3f} |")
     _paper_cg_table(args, window, fits)
-    _cg1_against_law(args.cg1, window, fits)
+    _cg1_against_law(window, fits)
 
 
-def _cg1_against_law(path, window, fits):
-    """The paper's CG1 (window, block s.e.m.) beside the law's prediction at its D/d and the paper's
-    "slightly above 55 %": issue 54's verdict, once the run covers the window."""
-    import granalytics as ga
+def _cg1_against_law(window, fits):
+    """The paper's CG1 (window, block s.e.m., from the statistics ``keep`` kept of every frame)
+    beside the law's prediction at its D/d and the paper's "slightly above 55 %": issue 54's
+    verdict, once the run covers the window."""
+    import json
 
-    if not os.path.exists(path):
-        print(f"\n(no paper-cg1 run at {path})")
-        return
-    with ga.open_run(path, validate=False) as run:
-        last = float(run.revolutions[-1]) if len(run) else 0.0
+    from granalytics import RunMeta
+    from granalytics.analysis.confinement import BED_COLUMNS, confinement_of_run
+    from granalytics.analysis.metrics import HEADLINE
+    from granalytics.analysis.stats import steady_state
+
+    frames, _ = _read_kept_statistics()
+    last = float(frames["revolutions"].max()) if len(frames) else 0.0
     if last < window[1] - 1e-3:
-        print(f"\n(paper-cg1 has {last:.2f} revolutions, the window [{window[0]:g}, {window[1]:g}] needs "
+        print(f"\n(paper-cg1 has {last:.2f} revolutions kept, the window [{window[0]:g}, {window[1]:g}] needs "
               f"{window[1]:g}; its verdict waits)")
         return
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        t = ga.confinement_table([[path]], window, labels=["paper-cg1"])
-    r = next(t.itertuples(index=False))
+    with open(os.path.join(CG1_KEPT, "meta.json")) as f:
+        meta = RunMeta.from_dict(json.load(f))
+    drum_ratio = confinement_of_run(meta).drum_ratio
+    steady = steady_state(frames, window, columns=(*HEADLINE, *BED_COLUMNS), source="paper-cg1")
     print(f"\n### The paper's CG1 against the α = 1 law's prediction, window [{window[0]:g}, {window[1]:g}]\n")
-    print("| metric | CG1 (± block s.e.m.) | law at D/d {:.1f} | deviation | paper |".format(r.drum_ratio))
+    print(f"| metric | CG1 (± block s.e.m.) | law at D/d {drum_ratio:.1f} | deviation | paper |")
     print("| --- | --- | --- | --- | --- |")
     for metric, label in LAW_METRICS:
-        fit, mean, err = fits[metric], getattr(r, metric), getattr(r, f"{metric}_err")
-        law, law_err = float(fit(r.drum_ratio)), float(fit.error(r.drum_ratio))
+        fit, mean, err = fits[metric], steady.loc[metric, "mean"], steady.loc[metric, "sem"]
+        law, law_err = float(fit(drum_ratio)), float(fit.error(drum_ratio))
         paper = "slightly above 0.55" if metric == "yield_fraction" else ""
         print(f"| {label} | {mean:.4g} ± {err:.2g} | {law:.4g} ± {law_err:.2g} | {100 * (mean / law - 1):+.0f} % ± "
               f"{100 * np.hypot(err / law, mean * law_err / law**2):.0f} % | {paper} |")
-    print(f"\nbed angle {r.bed_angle_deg:.1f}°, coordination {r.coordination:.2f}, {r.n_particles} particles")
+    print(f"\nbed angle {steady.loc['bed_angle_deg', 'mean']:.1f}°, coordination "
+          f"{steady.loc['coordination', 'mean']:.2f}, {meta.n_particles} particles, "
+          f"{int(steady.loc['yield_fraction', 'n_frames'])} frames")
 
 
 def _paper_cg_table(args, window, fits):
@@ -486,15 +588,12 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="what", required=True)
     for name, folder in (("series", "paper-family"), ("cg1", "paper-cg1"), ("progress", "paper-cg1"),
-                         ("subset", "paper-family"), ("table", "paper-family"), ("figures", "paper-family"),
+                         ("keep", "paper-cg1"), ("subset", "paper-family"), ("table", "paper-family"), ("figures", "paper-family"),
                          ("start", ""), ("stop", "")):
         p = sub.add_parser(name)
         p.add_argument("--dir", default=os.path.join(HOME_RUNS, folder))
         p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
         p.add_argument("--window", default="2:4")
-        if name == "table":
-            p.add_argument("--cg1", default=CG1_RUN,
-                           help="the paper's CG1 run, set beside the law's prediction once it covers the window")
         if name == "figures":
             p.add_argument("--out", required=True, help="folder of the tables and Figs 3-6")
             p.add_argument("--overwrite", action="store_true")
@@ -505,7 +604,7 @@ def main(argv=None):
             p.add_argument("--reference", help="the α = 1 run the CG runs are compared with (default: the "
                            "family's largest finished D/d)")
     args = parser.parse_args(argv)
-    {"series": series, "cg1": cg1, "progress": progress, "subset": subset, "table": table,
+    {"series": series, "cg1": cg1, "progress": progress, "keep": keep, "subset": subset, "table": table,
      "figures": figures, "start": start, "stop": stop}[args.what](args)
 
 

@@ -3,6 +3,7 @@ confinement of a run (D/d, L/d, bed depth, wall contacts), the rigid co-motion t
 size floor and the confinement curve's fit and rule."""
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -333,3 +334,19 @@ def test_the_command_line_runs_the_rigid_test_and_the_size_floor(tmp_path, capsy
     assert main(["sensitivity", path, "--window", "3:3.5", "--comotion", "rigid", "--rigid-tol", "0.1,0.4",
                  "--c-agg", "0.6", "--quiet"]) == 0
     assert "rigid_tol" in capsys.readouterr().out
+
+
+def test_the_confinement_time_series_returns_each_frames_granule_sizes_on_request():
+    from granalytics.analysis.confinement import confinement_timeseries
+
+    path = os.path.join(os.path.dirname(__file__), "..", "datasets", "lab-cg3.h5")
+    with ga.open_run(path) as run:
+        frames = run[-4:]
+        table = confinement_timeseries(frames, run.meta)
+        again, sizes = confinement_timeseries(frames, run.meta, return_sizes=True)
+        plain = ga.run_stats(frames, return_sizes=True)[1]
+    assert again.equals(table) and len(sizes) == len(table) == 4
+    for row, frame_sizes, expected in zip(table.itertuples(), sizes, plain):
+        assert np.array_equal(frame_sizes, expected)  # the granules run_stats finds, frame by frame
+        assert len(frame_sizes) == row.n_granules and frame_sizes.sum() == pytest.approx(
+            row.yield_fraction * row.n_particles)

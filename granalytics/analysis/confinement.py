@@ -177,8 +177,8 @@ def confinement_warning(drum_ratio, rule=None) -> str | None:
 
 
 @validate_params({"meta": [META], "progress": [FLAG]})
-def confinement_timeseries(frames, meta, method="gna", *, progress=False, jobs=1, scheduler=None,
-                           **params) -> pd.DataFrame:
+def confinement_timeseries(frames, meta, method="gna", *, progress=False, return_sizes=False, jobs=1,
+                           scheduler=None, **params) -> pd.DataFrame:
     """:func:`~granalytics.run_stats`' time series with the bed's share of particles touching a
     wall (``wall_share``, :func:`~granalytics.wall_touching`), its coordination number
     (``coordination``, touching particle contacts per particle, walls not counted), its angle
@@ -193,6 +193,9 @@ def confinement_timeseries(frames, meta, method="gna", *, progress=False, jobs=1
         The identification, as for :func:`~granalytics.run_stats`.
     progress : bool, default False
         Progress bar over frames.
+    return_sizes : bool, default False
+        Also return the granule sizes (particles per granule) of every frame, as
+        :func:`~granalytics.run_stats` does.
     jobs, scheduler :
         Where the frames are analysed: ``jobs`` threads here, or a dask cluster (a scheduler's
         address or a ``distributed.Client``); see :func:`granalytics.analysis.frames.map_frames`.
@@ -200,17 +203,20 @@ def confinement_timeseries(frames, meta, method="gna", *, progress=False, jobs=1
     identifier = make_identifier(method, **params)
 
     def one_frame(snapshot):
-        row = frame_stats(snapshot, identifier.identify(snapshot))
+        result = identifier.identify(snapshot)
+        row = frame_stats(snapshot, result)
         row["wall_share"] = float(wall_touching(snapshot, meta).mean())
         row["coordination"] = bed_structure(snapshot).coordination
         row["bed_angle_deg"], row["kinetic_energy_norm"] = bed_flow(snapshot, meta)
-        return row
+        return row, result.sizes
 
-    frame_ids, rows = map_frames(frames, one_frame, progress=progress, desc="confinement", jobs=jobs,
-                               scheduler=scheduler)
+    frame_ids, results = map_frames(frames, one_frame, progress=progress, desc="confinement", jobs=jobs,
+                                    scheduler=scheduler)
+    rows = [row for row, _ in results]
     for k, row in zip(frame_ids, rows):
         row.insert(0, "frame", int(k))
-    return pd.concat(rows, ignore_index=True)
+    table = pd.concat(rows, ignore_index=True)
+    return (table, [sizes for _, sizes in results]) if return_sizes else table
 
 
 def _group_paths(group):

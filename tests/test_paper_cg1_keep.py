@@ -1,0 +1,102 @@
+"""The paper's CG1 goes on across machines (benchmarks/paper_drum_runs.py): ``keep`` keeps a compacted
+checkpoint, every covered frame's statistics and chosen float32 frames in the repository; on a machine
+that lost the run, ``cg1`` starts a part from the kept checkpoint, and the statistics kept over both
+machines are those of the uninterrupted run."""
+
+import dataclasses
+import importlib.util
+import os
+import shutil
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import granalytics as ga
+from granalytics.analysis.confinement import confinement_timeseries
+from sim.checkpoint import resume_run
+from sim.params import cg_scale
+from sim.run import Simulation
+
+from conftest import former_lab_original
+
+BENCH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
+ORIGINAL = former_lab_original(5400)
+PARAMS = dataclasses.replace(cg_scale(ORIGINAL, 3.0), settle_time=0.01, spray_interval=0.01, initial_film=0.004)
+FRAME_EVERY = 400
+
+
+@pytest.fixture
+def driver(tmp_path, monkeypatch):
+    spec = importlib.util.spec_from_file_location("paper_drum_runs", os.path.join(BENCH, "paper_drum_runs.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    kept = tmp_path / "kept"
+    monkeypatch.setattr(module, "CG1_KEPT", str(kept))
+    monkeypatch.setattr(module, "CG1_KEPT_CHECKPOINT", str(kept / "paper-cg1.ckpt.npz"))
+    monkeypatch.setattr(module, "CG1_KEPT_FRAMES", (0, 5, 11))
+    monkeypatch.setattr(module, "_series_done", lambda: False)
+    monkeypatch.setattr(module, "_simulations", lambda folder: {})
+    return module
+
+
+def revolutions(frames):
+    return frames * FRAME_EVERY * PARAMS.dt / PARAMS.revolution_period
+
+
+def test_cg1_goes_on_from_what_the_repository_kept_when_a_machine_lost_the_run(driver, tmp_path, monkeypatch, capsys):
+    full = Simulation(PARAMS, ORIGINAL).run(tmp_path / "full.h5", revolutions(10), frame_every=FRAME_EVERY,
+                                            checkpoint_every=None, progress=False)
+    machine_a = tmp_path / "a"
+    machine_a.mkdir()
+    # machine A: the run from its start, stopped after frame 7 (its last checkpoint after 6 frames)
+    Simulation(PARAMS, ORIGINAL).run(machine_a / "paper-cg1.h5", revolutions(7), frame_every=FRAME_EVERY,
+                                     checkpoint_every=3, progress=False)
+    args = type("Args", (), {"dir": str(machine_a), "dt_factor": 1.5})
+    driver.keep(args)
+    kept = tmp_path / "kept"
+    table = pd.read_csv(kept / "frames.csv")
+    assert table["frame"].tolist() == list(range(6))  # the frames the kept checkpoint covers, not frame 6
+    assert {"frame-000.h5", "frame-005.h5", "meta.json", "sizes.csv", "paper-cg1.ckpt.npz"} <= set(os.listdir(kept))
+    assert not (kept / "frame-011.h5").exists()
+    driver.keep(args)  # kept again: nothing added twice
+    assert pd.read_csv(kept / "frames.csv")["frame"].tolist() == list(range(6))
+
+    # machine B has nothing: cg1 starts a part from the kept checkpoint
+    machine_b = tmp_path / "b"
+    commands = []
+    monkeypatch.setattr(driver.subprocess, "run", lambda cmd, check: commands.append(cmd))
+    driver.cg1(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))
+    cmd = commands[-1]
+    assert cmd[cmd.index("--out") + 1] == str(machine_b / "paper-cg1-from006.h5")
+    assert cmd[cmd.index("--resume-from") + 1] == str(kept / "paper-cg1.ckpt.npz") and "--resume" not in cmd
+    # made here with the tiny system's options: the part from frame 6 to the end
+    part = machine_b / "paper-cg1-from006.h5"
+    resume_run(part, from_checkpoint=kept / "paper-cg1.ckpt.npz").run(
+        part, revolutions(10), frame_every=FRAME_EVERY, checkpoint_every=1, progress=False, new_part=True)
+    driver.cg1(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))  # its own checkpoint now
+    assert "--resume" in commands[-1] and commands[-1][commands[-1].index("--out") + 1] == str(part)
+    driver.keep(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))
+    table = pd.read_csv(kept / "frames.csv")
+    sizes = pd.read_csv(kept / "sizes.csv")
+    assert table["frame"].tolist() == list(range(11))
+    assert (kept / "frame-005.h5").exists() and (kept / "frame-011.h5").exists() is False
+    # the kept statistics are the uninterrupted run's, frame by frame
+    with ga.open_run(full) as run:
+        expected, expected_sizes = confinement_timeseries(run, run.meta, return_sizes=True)
+        frame5 = run[5].position
+    assert np.allclose(table.drop(columns=["frame"]).select_dtypes("number").to_numpy(),
+                       expected.drop(columns=["frame"]).select_dtypes("number").to_numpy(), equal_nan=True)
+    for k, granules in enumerate(expected_sizes):
+        mine = sizes[sizes["frame"] == k]
+        assert np.array_equal(np.repeat(mine["size"], mine["count"]), np.sort(granules))
+    with ga.open_run(kept / "frame-005.h5") as run:
+        assert len(run) == 1 and np.allclose(run[0].position, frame5, rtol=1e-6)
+    # the progress line reads machine B's part, or the kept checkpoint once B has lost it too
+    capsys.readouterr()
+    driver.progress(type("Args", (), {"dir": str(machine_b)}))
+    assert "11 frames" in capsys.readouterr().out.split("|")[2]
+    shutil.rmtree(machine_b)
+    driver.progress(type("Args", (), {"dir": str(machine_b)}))
+    line = capsys.readouterr().out
+    assert "11 frames" in line and "the kept one: this machine has none newer" in line
