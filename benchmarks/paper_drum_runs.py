@@ -66,6 +66,8 @@ SERIES = [(22, 0), (22, 1), (22, 2), (33, 0), (33, 1), (33, 2), (44, 0), (44, 1)
 PAPER_CG = [("paper-cg3", "weber", 0), ("paper-cg3", "bond", 0), ("paper-cg3", "weber", 1), ("paper-cg3", "bond", 1),
             ("paper-cg2", "weber", 1), ("paper-cg2", "bond", 0)]
 REVOLUTIONS = 4
+FRAME_EVERY_REV = 0.05
+WINDOW = (2.0, 4.0)
 DEFAULT_FACTOR = 1.5
 LAW_METRICS = (("yield_fraction", "yield"), ("mean_volume_norm", "⟨V_g⟩/V_p"), ("n_granules_norm", "N_g/N"))
 HOME_RUNS = os.path.expanduser("~/granalytics-runs")
@@ -105,9 +107,12 @@ def series(args):
         out = os.path.join(args.dir, name)
         if _finished_run(out):
             continue
-        cmd = _command(out, options, args.dt_factor, checkpoint_every)
+        stem = name[:-3]
+        cmd = _run_command(args.dir, stem, options, args.dt_factor, checkpoint_every, "1",
+                           _series_kept_checkpoint(stem))
         print(" ".join(cmd[2:]), flush=True)
         subprocess.run(cmd, check=True)
+        _join_parts(args.dir, stem)
     _hand_the_core_to_cg1(args)
 
 
@@ -169,31 +174,63 @@ def _checkpoint_point(path):
         return int(info["frames"]), int(data["step"]), info
 
 
-def _cg1_parts(folder) -> list:
-    """CG1's run files on this machine, [(first frame, path)] in order: ``paper-cg1.h5`` (from frame
-    0) and the parts ``paper-cg1-fromNNN.h5`` begun from a kept checkpoint (``sim run --resume-from``)."""
+def _parts(folder, stem) -> list:
+    """The run files of run ``stem`` on this machine, [(first frame, path)] in order: ``STEM.h5``
+    (from frame 0) and the parts ``STEM-fromNNN.h5`` begun from a kept checkpoint (``sim run
+    --resume-from``)."""
     parts = []
     for name in os.listdir(folder) if os.path.isdir(folder) else []:
-        if name == "paper-cg1.h5":
+        if name == f"{stem}.h5":
             parts.append((0, os.path.join(folder, name)))
-        elif name.startswith("paper-cg1-from") and name.endswith(".h5") and name[14:-3].isdigit():
-            parts.append((int(name[14:-3]), os.path.join(folder, name)))
+        elif name.startswith(f"{stem}-from") and name.endswith(".h5") and name[len(stem) + 5:-3].isdigit():
+            parts.append((int(name[len(stem) + 5:-3]), os.path.join(folder, name)))
     return sorted(parts)
 
 
-def _cg1_newest(folder):
-    """(path of the newest checkpoint of CG1, its point, its run file or None for the kept one):
-    this machine's part whose checkpoint lies furthest on, or the repository's kept checkpoint where
-    that lies further (or this machine has none); None if neither exists."""
+def _newest(folder, stem, kept_checkpoint):
+    """(path of the newest checkpoint of run ``stem``, its point, its run file or None for the kept
+    one): this machine's part whose checkpoint lies furthest on, or the repository's
+    ``kept_checkpoint`` where that lies further (or this machine has none); None if neither exists."""
     best = None
-    for _, path in _cg1_parts(folder):
+    for _, path in _parts(folder, stem):
         point = _checkpoint_point(checkpoint_path(path))
         if point and (best is None or point[1] > best[1][1]):
             best = (checkpoint_path(path), point, path)
-    kept = _checkpoint_point(CG1_KEPT_CHECKPOINT)
+    kept = _checkpoint_point(kept_checkpoint)
     if kept and (best is None or kept[1] > best[1][1]):
-        best = (CG1_KEPT_CHECKPOINT, kept, None)
+        best = (kept_checkpoint, kept, None)
     return best
+
+
+def _run_command(folder, stem, options, factor, checkpoint_every, threads, kept_checkpoint):
+    """``sim run`` of run ``stem`` in ``folder``: a new run, this machine's newest part resumed, or,
+    where the repository's kept checkpoint lies further (this machine lost the run, or has an
+    older part), a new part ``STEM-fromNNN.h5`` from it."""
+    newest = _newest(folder, stem, kept_checkpoint)
+    if newest is None or newest[2] is not None:
+        return _command(newest[2] if newest else os.path.join(folder, f"{stem}.h5"), options, factor,
+                        checkpoint_every, threads)
+    part = os.path.join(folder, f"{stem}-from{newest[1][0]:03d}.h5")
+    cmd = [arg for arg in _command(part, options, factor, checkpoint_every, threads) if arg != "--resume"]
+    return cmd + ["--resume-from", kept_checkpoint] + (["--overwrite"] if os.path.exists(part)
+                                                        and "--overwrite" not in cmd else [])
+
+
+def _keep_checkpoint(folder, stem, kept_checkpoint):
+    """Keep a compacted copy of this machine's newest checkpoint of run ``stem`` as
+    ``kept_checkpoint`` where it lies further than the one kept; return the kept one's frame count
+    (the frames a later part does not make again), None if neither exists."""
+    from sim.checkpoint import compact_checkpoint
+
+    newest = _newest(folder, stem, kept_checkpoint)
+    if newest is None:
+        return None
+    if newest[2] is not None:
+        os.makedirs(os.path.dirname(kept_checkpoint), exist_ok=True)
+        size = compact_checkpoint(newest[0], kept_checkpoint)
+        print(f"kept {newest[0]} (frames {newest[1][0]}, step {newest[1][1]}) as {kept_checkpoint}: "
+              f"{size / 1e6:.1f} MB", flush=True)
+    return _checkpoint_point(kept_checkpoint)[0]
 
 
 def cg1(args):
@@ -202,39 +239,32 @@ def cg1(args):
     # near one thread's rate under other work (a fixed 2 would crawl beside a test suite)
     threads = "auto" if _series_done() else "1"
     # a frame is half an hour of one thread: checkpoints also between frames, so a stop loses ≤ 10 min
-    options = ["--preset", "paper-cg1", "--checkpoint-minutes", "10"]
-    newest = _cg1_newest(args.dir)
-    if newest is None or newest[2] is not None:  # a new run, or this machine's part resumed
-        cmd = _command(newest[2] if newest else os.path.join(args.dir, "paper-cg1.h5"), options, args.dt_factor, 1,
-                       threads)
-    else:  # this machine lost the run (or has an older part): a new part from the kept checkpoint
-        part = os.path.join(args.dir, f"paper-cg1-from{newest[1][0]:03d}.h5")
-        cmd = [arg for arg in _command(part, options, args.dt_factor, 1, threads) if arg != "--resume"]
-        cmd += ["--resume-from", CG1_KEPT_CHECKPOINT] + (["--overwrite"] if os.path.exists(part)
-                                                         and "--overwrite" not in cmd else [])
+    cmd = _run_command(args.dir, "paper-cg1", ["--preset", "paper-cg1", "--checkpoint-minutes", "10"], args.dt_factor,
+                       1, threads, CG1_KEPT_CHECKPOINT)
     print(" ".join(cmd[2:]), flush=True)
     subprocess.run(cmd, check=True)
 
 
 def keep(args):
-    """Keep what the next machine needs of CG1 in the repository (``CG1_KEPT``): a compacted copy
-    of its newest checkpoint, the statistics of every frame it covers (``frames.csv``, granule
-    sizes in ``sizes.csv``, the run's metadata in ``meta.json``) and its frames of
-    ``CG1_KEPT_FRAMES`` as float32. Run before each stop, then commit the folder."""
-    from sim.checkpoint import compact_checkpoint
-
-    newest = _cg1_newest(args.dir)
-    if newest is None:
+    """Keep in the repository what a later machine needs of the long runs: of CG1 (``CG1_KEPT``) a
+    compacted copy of its newest checkpoint, the statistics of every frame it covers
+    (``frames.csv``, granule sizes in ``sizes.csv``, the run's metadata in ``meta.json``) and its
+    frames of ``CG1_KEPT_FRAMES`` as float32; of the series' unfinished run (``SERIES_KEPT``) its
+    compacted checkpoint and, as float32, the frames of its subset that checkpoint covers. Run
+    before each stop, then commit both folders."""
+    covered = _keep_checkpoint(args.dir, "paper-cg1", CG1_KEPT_CHECKPOINT)
+    if covered is None:
         print(f"no CG1 run in {args.dir} and none kept")
-        return
-    os.makedirs(CG1_KEPT, exist_ok=True)
-    if newest[2] is not None:
-        size = compact_checkpoint(newest[0], CG1_KEPT_CHECKPOINT)
-        print(f"kept {newest[0]} (frames {newest[1][0]}, step {newest[1][1]}) as {CG1_KEPT_CHECKPOINT}: "
-              f"{size / 1e6:.1f} MB")
-    covered = _checkpoint_point(CG1_KEPT_CHECKPOINT)[0]  # a later part makes the frames from here on again
-    _keep_statistics(args.dir, covered)
-    _keep_frames(args.dir, covered)
+    else:
+        _keep_statistics(args.dir, covered)
+        _keep_frames(args.dir, covered)
+    for name, _, _ in _queue():
+        stem = name[:-3]
+        if _finished_run(os.path.join(args.series_dir, name)) or not _parts(args.series_dir, stem):
+            continue
+        covered = _keep_checkpoint(args.series_dir, stem, _series_kept_checkpoint(stem))
+        if covered is not None:
+            _keep_subset_frames(args.series_dir, stem, covered)
 
 
 def _read_kept_statistics():
@@ -261,7 +291,7 @@ def _keep_statistics(folder, covered):
     table, sizes = _read_kept_statistics()
     done = set(table["frame"]) if len(table) else set()
     new_rows, new_sizes = [table], [sizes]
-    for first, path in _cg1_parts(folder):
+    for first, path in _parts(folder, "paper-cg1"):
         with ga.open_run(path, validate=False) as run:
             wanted = [k for k in range(len(run)) if first + k < covered and first + k not in done]
             if not wanted:
@@ -295,7 +325,7 @@ def _keep_frames(folder, covered):
         out = os.path.join(CG1_KEPT, f"frame-{frame:03d}.h5")
         if frame >= covered or os.path.exists(out):
             continue
-        for first, path in _cg1_parts(folder):
+        for first, path in _parts(folder, "paper-cg1"):
             with ga.open_run(path, validate=False) as run:
                 held = first <= frame < first + len(run)
             if held:
@@ -315,7 +345,7 @@ def progress(args):
     checkpoint, or the repository's kept one), its pace and CPU time, the machine."""
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     machine = f"{platform.node()}, {os.cpu_count()} cores"
-    newest = _cg1_newest(args.dir)
+    newest = _newest(args.dir, "paper-cg1", CG1_KEPT_CHECKPOINT)
     if newest is None:
         print(f"| {stamp} | no CG1 run in {args.dir} and none kept | | {machine} |")
         return
@@ -440,20 +470,120 @@ SUBSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_family
 
 def subset(args):
     """Write the float32 subset of each finished run not yet in ``SUBSETS``: every twentieth frame
-    before the window, every second (D/d 22 and 33) or fourth (larger runs) inside it. (CG1's
-    frames are kept by ``keep``.)"""
+    before the window, every second (D/d 22 and 33) or fourth (larger runs) inside it (a run made
+    in parts: from the frames kept of it and the last part). (CG1's frames are kept by ``keep``.)"""
     lo, hi = args.window.split(":")
+    for name, _, _ in _queue():
+        _join_parts(args.dir, name[:-3])
     finished = [p for group in [*_finished_series(args.dir).values(), *_finished_paper_cg(args.dir).values()]
                 for p in group]
-    thinning = {p: ("20", "2" if os.path.basename(p).startswith(("dd22-", "dd33-")) else "4") for p in finished}
-    for path, (every, window_every) in thinning.items():
+    for path in finished:
         out = os.path.join(SUBSETS, os.path.basename(path))
         if os.path.exists(out):
             continue
+        every, window_every = _thinning(os.path.basename(path))
         cmd = [sys.executable, "-m", "granalytics", "subset", path, "--out", out, "--float32", "--full-window",
-               f"{lo}:{hi}", "--every", every, "--window-every", window_every]
+               f"{lo}:{hi}", "--every", str(every), "--window-every", str(window_every)]
         print(" ".join(cmd[2:]), flush=True)
         subprocess.run(cmd, check=True)
+
+
+def _thinning(name):
+    """(every, window_every) of the subset of run ``name``: every twentieth frame outside the window,
+    every second (D/d 22 and 33) or fourth (larger runs) inside it."""
+    return 20, 2 if name.startswith(("dd22-", "dd33-")) else 4
+
+
+#: what the repository keeps of the series' unfinished run, so that it goes on on another machine
+SERIES_KEPT = os.path.join(SUBSETS, "unfinished")
+
+
+def _series_kept_checkpoint(stem):
+    return os.path.join(SERIES_KEPT, f"{stem}.ckpt.npz")
+
+
+def _subset_frames(stem, info) -> set:
+    """The run's indices of the frames of run ``stem``'s subset (:func:`_thinning`, window
+    ``WINDOW``), from a checkpoint's ``info`` (its frame interval and parameters)."""
+    from granalytics.core.subset import thinned_frames
+
+    every, window_every = _thinning(stem)
+    params = info["params"]
+    revolutions = (np.arange(round(REVOLUTIONS / FRAME_EVERY_REV) + 1) * info["frame_every"] * params["dt"]
+                   * params["drum_omega"] / (2 * np.pi))
+    return set(thinned_frames(revolutions, every, WINDOW, window_every).tolist())
+
+
+def _kept_subset_files(stem) -> dict:
+    """{the run's frame index: (file, its index there)} of the frames kept of run ``stem``."""
+    import granalytics as ga
+
+    held = {}
+    for name in sorted(os.listdir(SERIES_KEPT)) if os.path.isdir(SERIES_KEPT) else []:
+        if name.startswith(f"{stem}.f") and name.endswith(".h5"):
+            path = os.path.join(SERIES_KEPT, name)
+            with ga.open_run(path, validate=False) as run:
+                first, kept = run.meta.provenance.get("first_frame", 0), run.meta.provenance["subset_of"]["frames_kept"]
+            held.update({first + k: (path, i) for i, k in enumerate(kept)})
+    return held
+
+
+def _keep_subset_frames(folder, stem, covered):
+    """Keep, as float32, the frames of run ``stem``'s subset below ``covered`` that this machine
+    holds and the repository lacks (``SERIES_KEPT/STEM.fAAA-BBB.h5``, one file per keep)."""
+    import granalytics as ga
+
+    info = _checkpoint_point(_series_kept_checkpoint(stem))[2]
+    kept = _kept_subset_files(stem)
+    wanted = sorted(k for k in _subset_frames(stem, info) if k < covered and k not in kept)
+    for first, path in _parts(folder, stem):
+        with ga.open_run(path, validate=False) as run:
+            local = [k - first for k in wanted if first <= k < first + len(run)]
+        if local:
+            out = os.path.join(SERIES_KEPT, f"{stem}.f{first + local[0]:03d}-{first + local[-1]:03d}.h5")
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a run being written is unfinished
+                ga.subset_run(path, out, local, float_dtype="float32")
+            print(f"kept {len(local)} frames of {path} as {out}", flush=True)
+
+
+def _join_parts(folder, stem):
+    """Once run ``stem``, made in parts, has finished, write its float32 subset to ``SUBSETS`` from
+    the frames kept of it (``SERIES_KEPT``) and this machine's parts, and remove what was kept.
+    A run made in one piece is left to :func:`subset`."""
+    import granalytics as ga
+    from granalytics import RunMeta, RunWriter
+    from granalytics.core.subset import replacing_run
+
+    parts = _parts(folder, stem)
+    out = os.path.join(SUBSETS, f"{stem}.h5")
+    if not parts or parts[-1][0] == 0 or os.path.exists(out) or not _finished(parts[-1][1]):
+        return
+    info = _checkpoint_point(checkpoint_path(parts[-1][1]))[2]
+    sources = _kept_subset_files(stem)
+    for first, path in parts:
+        with ga.open_run(path, validate=False) as run:
+            sources.update({first + k: (path, k) for k in range(len(run))})
+    frames = sorted(_subset_frames(stem, info))
+    missing = [k for k in frames if k not in sources]
+    if missing:
+        print(f"{stem}: cannot write its subset, frames {missing} were neither kept nor made here", flush=True)
+        return
+    with ga.open_run(parts[-1][1]) as last:
+        meta = RunMeta.from_dict(last.meta.to_dict())
+    meta.provenance.pop("first_frame", None)
+    meta.provenance.update(planned_frames=len(frames), subset_of={
+        "file": f"{stem}.h5, made in parts ({', '.join(os.path.basename(p) for _, p in parts)} and earlier)",
+        "frames_in_source": round(REVOLUTIONS / FRAME_EVERY_REV) + 1, "frames_kept": frames, "float_dtype": "float32"})
+    with replacing_run(out) as tmp, RunWriter(tmp, meta, float_dtype="float32", overwrite=True) as writer:
+        for k in frames:
+            path, index = sources[k]
+            with ga.open_run(path) as run:
+                writer.append(run[index])
+    for name in os.listdir(SERIES_KEPT):
+        if name.startswith((f"{stem}.f", f"{stem}.ckpt")):
+            os.unlink(os.path.join(SERIES_KEPT, name))
+    print(f"{stem}: made in parts, its subset of {len(frames)} frames written to {out}", flush=True)
 
 
 def table(args):
@@ -592,6 +722,8 @@ def main(argv=None):
                          ("start", ""), ("stop", "")):
         p = sub.add_parser(name)
         p.add_argument("--dir", default=os.path.join(HOME_RUNS, folder))
+        if name == "keep":
+            p.add_argument("--series-dir", default=SERIES_DIR)
         p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
         p.add_argument("--window", default="2:4")
         if name == "figures":

@@ -35,9 +35,37 @@ def driver(tmp_path, monkeypatch):
     monkeypatch.setattr(module, "CG1_KEPT", str(kept))
     monkeypatch.setattr(module, "CG1_KEPT_CHECKPOINT", str(kept / "paper-cg1.ckpt.npz"))
     monkeypatch.setattr(module, "CG1_KEPT_FRAMES", (0, 5, 11))
+    # nothing of the real runs: their folders, the repository's kept files, the processes
+    for name, folder in (("HOME_RUNS", "home"), ("SERIES_DIR", "home/paper-family"), ("CG1_DIR", "home/paper-cg1"),
+                         ("SUBSETS", "subsets"), ("SERIES_KEPT", "subsets/unfinished")):
+        monkeypatch.setattr(module, name, str(tmp_path / folder))
+    os.makedirs(tmp_path / "subsets")
+    monkeypatch.setattr(module, "_queue", lambda: [("dd44-seed1.h5", [], 3)])
     monkeypatch.setattr(module, "_series_done", lambda: False)
     monkeypatch.setattr(module, "_simulations", lambda folder: {})
+    monkeypatch.setattr(module, "_processes", lambda *words: [])
     return module
+
+
+def stopped_after(out, frames, monkeypatch):
+    """A run of 10 frames after the first stopped (killed) right after its checkpoint at ``frames``."""
+    import sim.run as sim_run
+
+    real_write = sim_run.write_checkpoint
+
+    class Stop(Exception):
+        pass
+
+    def write_then_stop(sim, path, extra):
+        real_write(sim, path, extra)
+        if extra["frames"] == frames:
+            raise Stop
+
+    monkeypatch.setattr(sim_run, "write_checkpoint", write_then_stop)
+    with pytest.raises(Stop):
+        Simulation(PARAMS, ORIGINAL).run(out, revolutions(10), frame_every=FRAME_EVERY, checkpoint_every=3,
+                                         progress=False)
+    monkeypatch.setattr(sim_run, "write_checkpoint", real_write)
 
 
 def revolutions(frames):
@@ -52,7 +80,7 @@ def test_cg1_goes_on_from_what_the_repository_kept_when_a_machine_lost_the_run(d
     # machine A: the run from its start, stopped after frame 7 (its last checkpoint after 6 frames)
     Simulation(PARAMS, ORIGINAL).run(machine_a / "paper-cg1.h5", revolutions(7), frame_every=FRAME_EVERY,
                                      checkpoint_every=3, progress=False)
-    args = type("Args", (), {"dir": str(machine_a), "dt_factor": 1.5})
+    args = type("Args", (), {"dir": str(machine_a), "series_dir": str(tmp_path / "no-series"), "dt_factor": 1.5})
     driver.keep(args)
     kept = tmp_path / "kept"
     table = pd.read_csv(kept / "frames.csv")
@@ -76,7 +104,7 @@ def test_cg1_goes_on_from_what_the_repository_kept_when_a_machine_lost_the_run(d
         part, revolutions(10), frame_every=FRAME_EVERY, checkpoint_every=1, progress=False, new_part=True)
     driver.cg1(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))  # its own checkpoint now
     assert "--resume" in commands[-1] and commands[-1][commands[-1].index("--out") + 1] == str(part)
-    driver.keep(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))
+    driver.keep(type("Args", (), {"dir": str(machine_b), "series_dir": str(tmp_path / "no-series")}))
     table = pd.read_csv(kept / "frames.csv")
     sizes = pd.read_csv(kept / "sizes.csv")
     assert table["frame"].tolist() == list(range(11))
@@ -100,3 +128,37 @@ def test_cg1_goes_on_from_what_the_repository_kept_when_a_machine_lost_the_run(d
     driver.progress(type("Args", (), {"dir": str(machine_b)}))
     line = capsys.readouterr().out
     assert "11 frames" in line and "the kept one: this machine has none newer" in line
+
+
+def test_a_series_run_made_on_two_machines_gets_the_subset_of_the_uninterrupted_run(driver, tmp_path, monkeypatch):
+    per_frame = revolutions(1)
+    monkeypatch.setattr(driver, "REVOLUTIONS", 10 * per_frame)
+    monkeypatch.setattr(driver, "FRAME_EVERY_REV", per_frame)
+    monkeypatch.setattr(driver, "WINDOW", (5 * per_frame, 10 * per_frame))
+    monkeypatch.setattr(driver, "_thinning", lambda name: (3, 2))  # frames 0, 3, 6, 9 and 6, 8, 10 in the window
+    full = Simulation(PARAMS, ORIGINAL).run(tmp_path / "full.h5", revolutions(10), frame_every=FRAME_EVERY,
+                                            checkpoint_every=None, progress=False)
+    machine_a, machine_b = tmp_path / "a", tmp_path / "b"
+    machine_a.mkdir()
+    stopped_after(machine_a / "dd44-seed1.h5", 6, monkeypatch)
+    driver.keep(type("Args", (), {"dir": str(tmp_path / "no-cg1"), "series_dir": str(machine_a)}))
+    kept = sorted(os.listdir(tmp_path / "subsets" / "unfinished"))
+    assert kept == ["dd44-seed1.ckpt.npz", "dd44-seed1.f000-003.h5"]  # frames 0 and 3: those below 6
+    commands = []
+    monkeypatch.setattr(driver.subprocess, "run", lambda cmd, check: commands.append(cmd))
+    monkeypatch.setattr(driver, "_hand_the_core_to_cg1", lambda args: None)
+    driver.series(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))
+    cmd = commands[-1]
+    part = machine_b / "dd44-seed1-from006.h5"
+    assert cmd[cmd.index("--out") + 1] == str(part) and "--resume-from" in cmd
+    resume_run(part, from_checkpoint=tmp_path / "subsets" / "unfinished" / "dd44-seed1.ckpt.npz").run(
+        part, revolutions(10), frame_every=FRAME_EVERY, checkpoint_every=3, progress=False, new_part=True)
+    driver.series(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))  # finished: joined
+    assert os.listdir(tmp_path / "subsets" / "unfinished") == []
+    with ga.open_run(tmp_path / "subsets" / "dd44-seed1.h5") as joined, ga.open_run(full) as run:
+        assert joined.unfinished is None and "first_frame" not in joined.meta.provenance
+        assert joined.meta.provenance["subset_of"]["frames_kept"] == [0, 3, 6, 8, 9, 10]
+        assert [int(s) for s in joined.steps] == [k * FRAME_EVERY for k in (0, 3, 6, 8, 9, 10)]
+        for frame, k in zip(joined, (0, 3, 6, 8, 9, 10)):
+            assert np.allclose(frame.position, run[k].position, rtol=1e-6, atol=0)
+    assert driver._finished_run(str(machine_b / "dd44-seed1.h5")) == str(tmp_path / "subsets" / "dd44-seed1.h5")
