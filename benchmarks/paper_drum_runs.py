@@ -12,7 +12,7 @@ Usage::
     python benchmarks/paper_drum_runs.py subset [--dir ~/granalytics-runs/paper-family] [--window 2:4]
     python benchmarks/paper_drum_runs.py table [--dir ~/granalytics-runs/paper-family] [--window 2:4]
     python benchmarks/paper_drum_runs.py figures --out FOLDER [--dir ~/granalytics-runs/paper-family] [--window 2:4]
-                                                 [--reference RUN]
+                                                 [--reference RUN|benchmarks/paper_cg1_run]
                                                  [--size-unit original|particles]
 
 ``start`` starts or resumes ``cg1`` and ``series`` (below), each detached from the shell unless it
@@ -45,7 +45,8 @@ D/(αd), and the paper's CG1 (from its kept statistics) beside the law's predict
 cover the window.
 ``figures`` writes the paper's Figs 3–6 for the paper drum (``ga.save`` of ``ga.compare_cg``): its
 finished CG runs, one group per preset and rule (seeds as replicas), beside the largest finished α =
-1 run of the family (D/d 66 once it is in), or beside the α = 1 run file ``--reference``, with the table of each against it and the speed-up from the recorded wall times (the
+1 run of the family (D/d 66 once it is in), or beside ``--reference``: an α = 1 run file, or the
+paper's CG1 from the statistics kept of it (``benchmarks/paper_cg1_run``, ``ga.RunStatistics``), with the table of each against it and the speed-up from the recorded wall times (the
 load-free one, also per particle-step, from the runs' checkpoints: ``benchmarks/cg_speedup.py``).
 """
 
@@ -267,53 +268,35 @@ def keep(args):
             _keep_subset_frames(args.series_dir, stem, covered)
 
 
-def _read_kept_statistics():
-    """(frames table, sizes table) kept of CG1 so far (empty tables before the first)."""
-    import pandas as pd
+def _kept_statistics():
+    """The statistics kept of CG1 so far (``ga.RunStatistics``), None before the first."""
+    import granalytics as ga
 
-    frames, sizes = (os.path.join(CG1_KEPT, name) for name in ("frames.csv", "sizes.csv"))
-    if not os.path.exists(frames):
-        return pd.DataFrame(), pd.DataFrame(columns=["frame", "size", "count"])
-    return pd.read_csv(frames), pd.read_csv(sizes)
+    return ga.RunStatistics.read(CG1_KEPT) if os.path.exists(os.path.join(CG1_KEPT, "frames.csv")) else None
 
 
 def _keep_statistics(folder, covered):
-    """Add to ``frames.csv`` and ``sizes.csv`` the statistics of CG1's frames below ``covered``
-    that this machine holds and the tables lack (GNA at the paper's thresholds, acting cohesion:
-    the time series of ``confinement_table`` and each frame's granule sizes)."""
-    import json
-
-    import pandas as pd
-
+    """Add to the statistics kept of CG1 (``ga.RunStatistics`` in ``CG1_KEPT``) those of its frames
+    below ``covered`` that this machine holds and they lack (GNA at the paper's thresholds, acting
+    cohesion, and the bed's figures: the time series ``confinement_table`` averages)."""
     import granalytics as ga
-    from granalytics.analysis.confinement import confinement_timeseries
 
-    table, sizes = _read_kept_statistics()
-    done = set(table["frame"]) if len(table) else set()
-    new_rows, new_sizes = [table], [sizes]
+    kept = _kept_statistics()
+    done = set(kept.timeseries["frame"]) if kept else set()
     for first, path in _parts(folder, "paper-cg1"):
         with ga.open_run(path, validate=False) as run:
             wanted = [k for k in range(len(run)) if first + k < covered and first + k not in done]
             if not wanted:
                 continue
-            meta_path = os.path.join(CG1_KEPT, "meta.json")
-            if first == 0 and not os.path.exists(meta_path):  # the run's own (its settling's cost)
-                _write_atomically(meta_path, json.dumps(run.meta.to_dict(), indent=1, sort_keys=True))
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # a run being written is unfinished
-                ts, frame_sizes = confinement_timeseries([run[k] for k in wanted], run.meta, return_sizes=True,
-                                                         progress=True)
-        ts["frame"] = [first + k for k in wanted]
-        new_rows.append(ts)
-        for k, granules in zip(ts["frame"], frame_sizes):
-            size, count = np.unique(granules, return_counts=True)
-            new_sizes.append(pd.DataFrame({"frame": k, "size": size, "count": count}))
-        done.update(ts["frame"])
-        print(f"statistics of frames {ts['frame'].min()}-{ts['frame'].max()} of {path}", flush=True)
-    table = pd.concat([t for t in new_rows if len(t)], ignore_index=True).sort_values("frame")
-    sizes = pd.concat([t for t in new_sizes if len(t)], ignore_index=True).sort_values(["frame", "size"])
-    _write_atomically(os.path.join(CG1_KEPT, "frames.csv"), table.to_csv(index=False))
-    _write_atomically(os.path.join(CG1_KEPT, "sizes.csv"), sizes.to_csv(index=False))
+                new = ga.RunStatistics.of_frames([run[k] for k in wanted], run.meta, [first + k for k in wanted],
+                                                 progress=True, path=CG1_KEPT)
+        kept = new if kept is None else kept.join(new)
+        done.update(new.timeseries["frame"])
+        print(f"statistics of frames {first + wanted[0]}-{first + wanted[-1]} of {path}", flush=True)
+    if kept is not None:
+        kept.save(CG1_KEPT, overwrite=True)
 
 
 def _keep_frames(folder, covered):
@@ -332,12 +315,6 @@ def _keep_frames(folder, covered):
                 ga.subset_run(path, out, [frame - first], float_dtype="float32")
                 print(f"kept frame {frame} as {out}: {os.path.getsize(out) / 1e6:.1f} MB", flush=True)
                 break
-
-
-def _write_atomically(path, text):
-    with open(path + ".tmp", "w") as f:
-        f.write(text)
-    os.replace(path + ".tmp", path)
 
 
 def progress(args):
@@ -625,23 +602,19 @@ def _cg1_against_law(window, fits):
     """The paper's CG1 (window, block s.e.m., from the statistics ``keep`` kept of every frame)
     beside the law's prediction at its D/d and the paper's "slightly above 55 %": issue 54's
     verdict, once the run covers the window."""
-    import json
-
-    from granalytics import RunMeta
     from granalytics.analysis.confinement import BED_COLUMNS, confinement_of_run
     from granalytics.analysis.metrics import HEADLINE
     from granalytics.analysis.stats import steady_state
 
-    frames, _ = _read_kept_statistics()
-    last = float(frames["revolutions"].max()) if len(frames) else 0.0
+    kept = _kept_statistics()
+    last = float(kept.timeseries["revolutions"].max()) if kept else 0.0
     if last < window[1] - 1e-3:
         print(f"\n(paper-cg1 has {last:.2f} revolutions kept, the window [{window[0]:g}, {window[1]:g}] needs "
               f"{window[1]:g}; its verdict waits)")
         return
-    with open(os.path.join(CG1_KEPT, "meta.json")) as f:
-        meta = RunMeta.from_dict(json.load(f))
+    meta = kept.meta
     drum_ratio = confinement_of_run(meta).drum_ratio
-    steady = steady_state(frames, window, columns=(*HEADLINE, *BED_COLUMNS), source="paper-cg1")
+    steady = steady_state(kept.timeseries, window, columns=(*HEADLINE, *BED_COLUMNS), source="paper-cg1")
     print(f"\n### The paper's CG1 against the α = 1 law's prediction, window [{window[0]:g}, {window[1]:g}]\n")
     print(f"| metric | CG1 (± block s.e.m.) | law at D/d {drum_ratio:.1f} | deviation | paper |")
     print("| --- | --- | --- | --- | --- |")
@@ -690,8 +663,10 @@ def figures(args):
     import granalytics as ga
     from granalytics.report.tables import format_cg_table
 
-    if args.reference:
-        groups, labels = [[args.reference]], [os.path.splitext(os.path.basename(args.reference))[0]]
+    if args.reference:  # a run file, or statistics kept in place of one (CG1's: CG1_KEPT)
+        reference = ga.RunStatistics.read(args.reference) if os.path.isdir(args.reference) else args.reference
+        name = "paper-cg1" if os.path.isdir(args.reference) else os.path.splitext(os.path.basename(args.reference))[0]
+        groups, labels = [[reference]], [name]
     else:
         done = _finished_series(args.dir)
         if not done:
@@ -733,8 +708,9 @@ def main(argv=None):
                            help="Fig 5's sizes: original-particle equivalents α³·n (the paper's unit, to "
                            "compare CG levels of one drum; default) or each run's particles (to compare "
                            "runs at equal confinement D/(αd))")
-            p.add_argument("--reference", help="the α = 1 run the CG runs are compared with (default: the "
-                           "family's largest finished D/d)")
+            p.add_argument("--reference", help="the α = 1 run the CG runs are compared with, a run file or "
+                           "statistics kept in place of one (the paper's CG1: benchmarks/paper_cg1_run; default: "
+                           "the family's largest finished D/d)")
     args = parser.parse_args(argv)
     {"series": series, "cg1": cg1, "progress": progress, "keep": keep, "subset": subset, "table": table,
      "figures": figures, "start": start, "stop": stop}[args.what](args)

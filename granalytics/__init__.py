@@ -11,7 +11,8 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
   returning :class:`IdentificationResult`; the kept contact graph as tables, NetworkX or igraph
   graphs: :mod:`granalytics.identification.edges`
 - statistics: :func:`granule_table`, :func:`frame_stats`, :func:`run_stats`,
-  :func:`steady_state`, :func:`size_distribution`
+  :func:`steady_state`, :func:`size_distribution`; a run's statistics kept in place of its
+  frames: :class:`RunStatistics`
 - threshold sensitivity and method comparison: :func:`sensitivity`, :func:`sensitivity_summary`,
   :func:`compare_methods` (which methods coincide: :func:`identical_methods`)
 - calibration of the thresholds against a measured sieve analysis: :func:`calibrate_thresholds`,
@@ -67,6 +68,7 @@ _EXPORTS = {
     **dict.fromkeys(("confinement_of_run", "wall_touching", "CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
                      "fit_confinement_curve", "bed_flow"), ".analysis.confinement"),
     **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.particle_tables"),
+    "RunStatistics": ".analysis.run_statistics",
     **dict.fromkeys(("frame_stats", "granule_table", "replica_steady_state", "run_stats", "size_distribution",
                      "steady_state"), ".analysis.stats"),
     **dict.fromkeys(("GrowthFit", "Surrogate", "fit_granule_growth", "fit_surrogate", "growth_points", "study_table"),
@@ -112,6 +114,7 @@ __all__ = [
     "GraphNetworkAnalysis", "DBSCANClustering", "VirtualSieve", "CommunityDetection", "CustomEdges",
     "edges", "datasets", "base", "core", "convert", "export", "analysis", "report", "save", "draw",
     "granule_table", "frame_stats", "run_stats", "steady_state", "replica_steady_state", "size_distribution",
+    "RunStatistics",
     "sensitivity", "sensitivity_summary", "compare_methods", "identical_methods",
     "calibrate_thresholds", "Calibration", "MeasuredDistribution", "SizeClassGrid", "read_sieve_csv", "size_class_fractions", "size_class_grid",
     "cohesive_force", "COHESION_CONVENTIONS", "compare_cg", "compare_cg_thresholds", "CGComparison",

@@ -157,10 +157,11 @@ def _run_list(runs, where) -> list:
 
 
 def _run_item(item, where):
-    """One run of a comparison: a run file's path or an open run (anything with ``meta``)."""
+    """One run of a comparison: a run file's path, an open run (anything with ``meta``) or its kept
+    :class:`~granalytics.analysis.run_statistics.RunStatistics`."""
     if not isinstance(item, (str, os.PathLike)) and not hasattr(item, "meta"):
-        raise ParameterError(f"{where}: a run must be a run file's path or an open run, got {type(item).__name__} "
-                             f"{item!r}")
+        raise ParameterError(f"{where}: a run must be a run file's path, an open run or its RunStatistics, got "
+                             f"{type(item).__name__} {item!r}")
     return item
 
 
@@ -267,36 +268,48 @@ def _recorded(value) -> float:
 
 def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
     """One run of a comparison: its time series, steady state, pooled window sizes and provenance."""
+    from granalytics.analysis.confinement import BED_COLUMNS
+    from granalytics.analysis.run_statistics import RunStatistics
+
     lo, hi = window
-    run = open_run(item) if isinstance(item, (str, os.PathLike)) else item
-    try:
-        meta = run.meta
-        if len(run) == 0:
-            raise ParameterError(f"{run.path}: the run has no frames")
-        drum = confinement_of_run(meta)
-        if getattr(run, "unfinished", None):
-            warnings.warn(f"{os.fspath(run.path)}: unfinished run: {run.unfinished}; its steady state is that of the "
-                          "frames it holds", stacklevel=user_stacklevel())
-        ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
-        steady = steady_state(ts, window=(lo, hi), source=os.fspath(run.path))
-        revs = ts["revolutions"].to_numpy()
-        inside = window_mask(revs, lo, hi)
-        pooled = np.concatenate([s for s, keep in zip(frame_sizes, inside) if keep] or [np.zeros(0, np.int64)])
-        provenance = meta.provenance
-        info = {
-            **run_identity(run), "path": os.fspath(run.path),
-            "n_particles_original": meta.n_particles_original, "mean_radius_original": meta.mean_radius_original,
-            "revolutions_last": float(revs[-1]),
-            # None: recorded as not measured (RunMeta checks that these are numbers or None)
-            "wall_time_s": _recorded(provenance.get("wall_time_s")),
-            "wall_time_per_simulated_s": _recorded(provenance.get("wall_time_per_simulated_s")),
-            "physics_version": provenance.get("physics_version"),
-            "cg_rule": cg_rule_of(meta),
-            "drum_ratio": drum.drum_ratio if drum is not None else math.nan,
-        }
-    finally:
-        if run is not item:
-            run.close()
+    if isinstance(item, RunStatistics):  # kept in place of the frames: identified as asked already
+        item.check_identification(method, {**params, "cohesion": cohesion})
+        if len(item) == 0:
+            raise ParameterError(f"{item.path}: the run statistics hold no frames")
+        meta, identity, frame_sizes = item.meta, item.identity(), item.sizes
+        ts = item.timeseries.drop(columns=[c for c in BED_COLUMNS if c in item.timeseries])
+        ts["method"], ts["cohesion"] = method, cohesion
+    else:
+        run = open_run(item) if isinstance(item, (str, os.PathLike)) else item
+        try:
+            meta = run.meta
+            if len(run) == 0:
+                raise ParameterError(f"{run.path}: the run has no frames")
+            if getattr(run, "unfinished", None):
+                warnings.warn(f"{os.fspath(run.path)}: unfinished run: {run.unfinished}; its steady state is that of "
+                              "the frames it holds", stacklevel=user_stacklevel())
+            ts, frame_sizes = run_stats(run, method, progress=progress, return_sizes=True, cohesion=cohesion, **params)
+            identity = {**run_identity(run), "path": os.fspath(run.path)}
+        finally:
+            if run is not item:
+                run.close()
+    drum = confinement_of_run(meta)
+    steady = steady_state(ts, window=(lo, hi), source=identity["path"])
+    revs = ts["revolutions"].to_numpy()
+    inside = window_mask(revs, lo, hi)
+    pooled = np.concatenate([s for s, keep in zip(frame_sizes, inside) if keep] or [np.zeros(0, np.int64)])
+    provenance = meta.provenance
+    info = {
+        **identity,
+        "n_particles_original": meta.n_particles_original, "mean_radius_original": meta.mean_radius_original,
+        "revolutions_last": float(revs[-1]),
+        # None: recorded as not measured (RunMeta checks that these are numbers or None)
+        "wall_time_s": _recorded(provenance.get("wall_time_s")),
+        "wall_time_per_simulated_s": _recorded(provenance.get("wall_time_per_simulated_s")),
+        "physics_version": provenance.get("physics_version"),
+        "cg_rule": cg_rule_of(meta),
+        "drum_ratio": drum.drum_ratio if drum is not None else math.nan,
+    }
     return {"info": info, "timeseries": ts, "steady": steady, "sizes": pooled}
 
 
@@ -320,7 +333,8 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
 
     Parameters
     ----------
-    runs : sequence of paths (or :class:`~granalytics.Run`), or of groups of them
+    runs : sequence of paths (or :class:`~granalytics.Run`, or :class:`~granalytics.RunStatistics`
+        kept in place of a run's frames), or of groups of them
         At least two systems; their metadata give α, the particle counts and the wall time. An
         entry that is a list or tuple of runs is a group of **replicas** (runs of one system that
         differ in their seed, e.g. from :func:`group_replicas`): its statistics are the mean over

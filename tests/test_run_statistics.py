@@ -1,0 +1,66 @@
+"""A run's statistics kept in place of its frames (RunStatistics): written and read back unchanged,
+joined from parts, and compared by compare_cg exactly as the run file they were made of."""
+
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import granalytics as ga
+from granalytics import ParameterError, RunStatistics
+
+DATA = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "datasets")
+CG3, CG2 = os.path.join(DATA, "lab-cg3.h5"), os.path.join(DATA, "lab-cg2.h5")
+
+
+@pytest.fixture(scope="module")
+def kept():
+    with ga.open_run(CG3) as run:
+        return RunStatistics.of_frames(run, run.meta, path="lab-cg3 kept")
+
+
+def test_the_statistics_are_the_runs_frame_by_frame_and_come_back_unchanged_from_disk(kept, tmp_path):
+    plain, sizes = ga.run_stats(ga.open_run(CG3), return_sizes=True)
+    assert len(kept) == len(plain) == 121 and kept.timeseries["frame"].tolist() == list(range(121))
+    assert np.allclose(kept.timeseries["yield_fraction"], plain["yield_fraction"])
+    assert all(np.array_equal(a, b) for a, b in zip(kept.sizes, sizes))
+    assert kept.params["c_agg"] == 0.6 and kept.params["cohesion"] == "acting" and "backend" not in kept.params
+    kept.save(tmp_path / "stats")
+    with pytest.raises(ParameterError, match="holds frames.csv, sizes.csv, meta.json already"):
+        kept.save(tmp_path / "stats")
+    back = RunStatistics.read(tmp_path / "stats")
+    pd.testing.assert_frame_equal(back.timeseries, kept.timeseries, check_dtype=False)
+    assert all(np.array_equal(np.sort(a), np.sort(b)) for a, b in zip(back.sizes, kept.sizes))
+    assert back.meta.to_dict() == kept.meta.to_dict() and back.params == kept.params and back.method == "gna"
+    with pytest.raises(ParameterError, match="not kept run statistics"):
+        RunStatistics.read(tmp_path / "nothing")
+
+
+def test_statistics_kept_in_parts_join_into_the_whole_runs(kept):
+    with ga.open_run(CG3) as run:
+        first = RunStatistics.of_frames(run[:50], run.meta)
+        second = RunStatistics.of_frames(run[50:], run.meta, frame_indices=range(50, 121))
+    joined = second.join(first)
+    pd.testing.assert_frame_equal(joined.timeseries, kept.timeseries)
+    assert all(np.array_equal(a, b) for a, b in zip(joined.sizes, kept.sizes))
+    with pytest.raises(ParameterError, match="frame 0 is in"):
+        joined.join(first)
+    with ga.open_run(CG2) as run:
+        other = RunStatistics.of_frames(run[:2], run.meta, frame_indices=[200, 201])
+    with pytest.raises(ParameterError, match="statistics of another run"):
+        joined.join(other)
+
+
+def test_compare_cg_takes_kept_statistics_as_the_run_they_were_made_of(kept):
+    with pytest.warns(UserWarning):
+        from_files = ga.compare_cg([CG2, CG3])
+    with pytest.warns(UserWarning):
+        from_kept = ga.compare_cg([CG2, kept])
+    columns = [c for c in from_files.table if c.endswith(("_mean", "_sem", "_rel_dev")) or c == "ks_distance"]
+    pd.testing.assert_frame_equal(from_kept.table[columns], from_files.table[columns])
+    pd.testing.assert_frame_equal(from_kept.distributions, from_files.distributions)
+    assert from_kept.runs.loc[1, "path"] == "lab-cg3 kept"
+    # the kept statistics cannot be identified again under other thresholds
+    with pytest.warns(UserWarning), pytest.raises(ParameterError, match="c_agg=0.6.*asked for 'gna' \\(c_agg=0.5\\)"):
+        ga.compare_cg([CG2, kept], c_agg=0.5)
