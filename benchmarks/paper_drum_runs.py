@@ -251,8 +251,9 @@ def keep(args):
     compacted copy of its newest checkpoint, the statistics of every frame it covers
     (``frames.csv``, granule sizes in ``sizes.csv``, the run's metadata in ``meta.json``) and its
     frames of ``CG1_KEPT_FRAMES`` as float32; of the series' unfinished run (``SERIES_KEPT``) its
-    compacted checkpoint and, as float32, the frames of its subset that checkpoint covers. Run
-    before each stop, then commit both folders."""
+    compacted checkpoint and, as float32, the frames of its subset that checkpoint covers; of each
+    paper-drum CG run finished here, its last checkpoint (compacted, for the load-free speed-ups).
+    Run before each stop, then commit both folders."""
     covered = _keep_checkpoint(args.dir, "paper-cg1", CG1_KEPT_CHECKPOINT)
     if covered is None:
         print(f"no CG1 run in {args.dir} and none kept")
@@ -261,11 +262,15 @@ def keep(args):
         _keep_frames(args.dir, covered)
     for name, _, _ in _queue():
         stem = name[:-3]
-        if _finished_run(os.path.join(args.series_dir, name)) or not _parts(args.series_dir, stem):
+        if not _parts(args.series_dir, stem):
             continue
-        covered = _keep_checkpoint(args.series_dir, stem, _series_kept_checkpoint(stem))
-        if covered is not None:
-            _keep_subset_frames(args.series_dir, stem, covered)
+        if not _finished_run(os.path.join(args.series_dir, name)):
+            covered = _keep_checkpoint(args.series_dir, stem, _series_kept_checkpoint(stem))
+            if covered is not None:
+                _keep_subset_frames(args.series_dir, stem, covered)
+        elif stem.startswith("paper-cg") and not os.path.exists(_final_checkpoint(stem)):
+            # a wet, sprayed bed at the run's end, for the load-free speed-ups (benchmarks/cg_speedup.py)
+            _keep_checkpoint(args.series_dir, stem, _final_checkpoint(stem))
 
 
 def _kept_statistics():
@@ -477,6 +482,12 @@ SERIES_KEPT = os.path.join(SUBSETS, "unfinished")
 
 def _series_kept_checkpoint(stem):
     return os.path.join(SERIES_KEPT, f"{stem}.ckpt.npz")
+
+
+def _final_checkpoint(stem):
+    """Where ``keep`` keeps the last checkpoint of a finished paper-drum CG run (compacted), for
+    ``benchmarks/cg_speedup.py`` on a later machine."""
+    return os.path.join(SUBSETS, "checkpoints", f"{stem}.ckpt.npz")
 
 
 def _subset_frames(stem, info) -> set:

@@ -136,29 +136,36 @@ def test_a_series_run_made_on_two_machines_gets_the_subset_of_the_uninterrupted_
     monkeypatch.setattr(driver, "FRAME_EVERY_REV", per_frame)
     monkeypatch.setattr(driver, "WINDOW", (5 * per_frame, 10 * per_frame))
     monkeypatch.setattr(driver, "_thinning", lambda name: (3, 2))  # frames 0, 3, 6, 9 and 6, 8, 10 in the window
+    monkeypatch.setattr(driver, "_queue", lambda: [("paper-cg3-weber-seed1.h5", [], 3)])
     full = Simulation(PARAMS, ORIGINAL).run(tmp_path / "full.h5", revolutions(10), frame_every=FRAME_EVERY,
                                             checkpoint_every=None, progress=False)
     machine_a, machine_b = tmp_path / "a", tmp_path / "b"
     machine_a.mkdir()
-    stopped_after(machine_a / "dd44-seed1.h5", 6, monkeypatch)
+    stopped_after(machine_a / "paper-cg3-weber-seed1.h5", 6, monkeypatch)
     driver.keep(type("Args", (), {"dir": str(tmp_path / "no-cg1"), "series_dir": str(machine_a)}))
     kept = sorted(os.listdir(tmp_path / "subsets" / "unfinished"))
-    assert kept == ["dd44-seed1.ckpt.npz", "dd44-seed1.f000-003.h5"]  # frames 0 and 3: those below 6
+    assert kept == ["paper-cg3-weber-seed1.ckpt.npz", "paper-cg3-weber-seed1.f000-003.h5"]  # frames 0 and 3: those below 6
     commands = []
     monkeypatch.setattr(driver.subprocess, "run", lambda cmd, check: commands.append(cmd))
     monkeypatch.setattr(driver, "_hand_the_core_to_cg1", lambda args: None)
     driver.series(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))
     cmd = commands[-1]
-    part = machine_b / "dd44-seed1-from006.h5"
+    part = machine_b / "paper-cg3-weber-seed1-from006.h5"
     assert cmd[cmd.index("--out") + 1] == str(part) and "--resume-from" in cmd
-    resume_run(part, from_checkpoint=tmp_path / "subsets" / "unfinished" / "dd44-seed1.ckpt.npz").run(
+    resume_run(part, from_checkpoint=tmp_path / "subsets" / "unfinished" / "paper-cg3-weber-seed1.ckpt.npz").run(
         part, revolutions(10), frame_every=FRAME_EVERY, checkpoint_every=3, progress=False, new_part=True)
     driver.series(type("Args", (), {"dir": str(machine_b), "dt_factor": 1.5}))  # finished: joined
     assert os.listdir(tmp_path / "subsets" / "unfinished") == []
-    with ga.open_run(tmp_path / "subsets" / "dd44-seed1.h5") as joined, ga.open_run(full) as run:
+    with ga.open_run(tmp_path / "subsets" / "paper-cg3-weber-seed1.h5") as joined, ga.open_run(full) as run:
         assert joined.unfinished is None and "first_frame" not in joined.meta.provenance
         assert joined.meta.provenance["subset_of"]["frames_kept"] == [0, 3, 6, 8, 9, 10]
         assert [int(s) for s in joined.steps] == [k * FRAME_EVERY for k in (0, 3, 6, 8, 9, 10)]
         for frame, k in zip(joined, (0, 3, 6, 8, 9, 10)):
             assert np.allclose(frame.position, run[k].position, rtol=1e-6, atol=0)
-    assert driver._finished_run(str(machine_b / "dd44-seed1.h5")) == str(tmp_path / "subsets" / "dd44-seed1.h5")
+    subset = tmp_path / "subsets" / "paper-cg3-weber-seed1.h5"
+    assert driver._finished_run(str(machine_b / "paper-cg3-weber-seed1.h5")) == str(subset)
+    # a finished paper-drum CG run: its last checkpoint is kept for the load-free speed-ups
+    driver.keep(type("Args", (), {"dir": str(tmp_path / "no-cg1"), "series_dir": str(machine_b)}))
+    final = tmp_path / "subsets" / "checkpoints" / "paper-cg3-weber-seed1.ckpt.npz"
+    assert resume_run(final, from_checkpoint=final).resume_point.frames == 9
+    assert os.listdir(tmp_path / "subsets" / "unfinished") == []
