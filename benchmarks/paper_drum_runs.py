@@ -217,21 +217,25 @@ def _run_command(folder, stem, options, factor, checkpoint_every, threads, kept_
                                                         and "--overwrite" not in cmd else [])
 
 
-def _keep_checkpoint(folder, stem, kept_checkpoint):
-    """Keep a compacted copy of this machine's newest checkpoint of run ``stem`` as
-    ``kept_checkpoint`` where it lies further than the one kept; return the kept one's frame count
-    (the frames a later part does not make again), None if neither exists."""
+def _keep_run(folder, stem, kept_checkpoint, keep_frames) -> bool:
+    """Keep what a later machine needs of run ``stem``: ``keep_frames(covered)`` first (what is kept
+    of the frames below ``covered``, the frame count of the newest checkpoint), then a compacted
+    copy of this machine's newest checkpoint as ``kept_checkpoint`` where it lies further than the
+    one kept. In that order a stop between the two leaves frames kept that a later part makes again
+    (they are skipped), never a kept checkpoint past frames that were not kept. False if there is
+    no checkpoint of the run, here or kept."""
     from sim.checkpoint import compact_checkpoint
 
     newest = _newest(folder, stem, kept_checkpoint)
     if newest is None:
-        return None
+        return False
+    keep_frames(newest[1][0])
     if newest[2] is not None:
         os.makedirs(os.path.dirname(kept_checkpoint), exist_ok=True)
         size = compact_checkpoint(newest[0], kept_checkpoint)
         print(f"kept {newest[0]} (frames {newest[1][0]}, step {newest[1][1]}) as {kept_checkpoint}: "
               f"{size / 1e6:.1f} MB", flush=True)
-    return _checkpoint_point(kept_checkpoint)[0]
+    return True
 
 
 def cg1(args):
@@ -254,23 +258,22 @@ def keep(args):
     compacted checkpoint and, as float32, the frames of its subset that checkpoint covers; of each
     paper-drum CG run finished here, its last checkpoint (compacted, for the load-free speed-ups).
     Run before each stop, then commit both folders."""
-    covered = _keep_checkpoint(args.dir, "paper-cg1", CG1_KEPT_CHECKPOINT)
-    if covered is None:
-        print(f"no CG1 run in {args.dir} and none kept")
-    else:
+    def cg1_frames(covered):
         _keep_statistics(args.dir, covered)
         _keep_frames(args.dir, covered)
+
+    if not _keep_run(args.dir, "paper-cg1", CG1_KEPT_CHECKPOINT, cg1_frames):
+        print(f"no CG1 run in {args.dir} and none kept")
     for name, _, _ in _queue():
         stem = name[:-3]
         if not _parts(args.series_dir, stem):
             continue
         if not _finished_run(os.path.join(args.series_dir, name)):
-            covered = _keep_checkpoint(args.series_dir, stem, _series_kept_checkpoint(stem))
-            if covered is not None:
-                _keep_subset_frames(args.series_dir, stem, covered)
+            _keep_run(args.series_dir, stem, _series_kept_checkpoint(stem),
+                      lambda covered, stem=stem: _keep_subset_frames(args.series_dir, stem, covered))
         elif stem.startswith("paper-cg") and not os.path.exists(_final_checkpoint(stem)):
             # a wet, sprayed bed at the run's end, for the load-free speed-ups (benchmarks/cg_speedup.py)
-            _keep_checkpoint(args.series_dir, stem, _final_checkpoint(stem))
+            _keep_run(args.series_dir, stem, _final_checkpoint(stem), lambda covered: None)
 
 
 def _kept_statistics():
@@ -317,6 +320,7 @@ def _keep_frames(folder, covered):
             with ga.open_run(path, validate=False) as run:
                 held = first <= frame < first + len(run)
             if held:
+                os.makedirs(CG1_KEPT, exist_ok=True)
                 ga.subset_run(path, out, [frame - first], float_dtype="float32")
                 print(f"kept frame {frame} as {out}: {os.path.getsize(out) / 1e6:.1f} MB", flush=True)
                 break
@@ -521,13 +525,14 @@ def _keep_subset_frames(folder, stem, covered):
     holds and the repository lacks (``SERIES_KEPT/STEM.fAAA-BBB.h5``, one file per keep)."""
     import granalytics as ga
 
-    info = _checkpoint_point(_series_kept_checkpoint(stem))[2]
+    info = _newest(folder, stem, _series_kept_checkpoint(stem))[1][2]
     kept = _kept_subset_files(stem)
     wanted = sorted(k for k in _subset_frames(stem, info) if k < covered and k not in kept)
     for first, path in _parts(folder, stem):
         with ga.open_run(path, validate=False) as run:
             local = [k - first for k in wanted if first <= k < first + len(run)]
         if local:
+            os.makedirs(SERIES_KEPT, exist_ok=True)
             out = os.path.join(SERIES_KEPT, f"{stem}.f{first + local[0]:03d}-{first + local[-1]:03d}.h5")
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # a run being written is unfinished

@@ -393,12 +393,11 @@ class Simulation:
         ckpt = checkpoint_path(out)
         meta = self.run_meta()
         meta.provenance["planned_frames"] = int(n_frames)  # a reader can tell a killed run from a finished one
+        if resume and new_part:
+            raise ValueError("resume=True continues the file out, new_part=True starts it: give one of them")
         if (resume or new_part) and self.resume_point is None:
             raise ValueError("resume=True and new_part=True need a simulation restored with "
                              "sim.checkpoint.resume_run")
-        checkpointing = checkpoint_every is not None or checkpoint_minutes is not None
-        if resume and new_part:
-            raise ValueError("resume=True continues the file out, new_part=True starts it: give one of them")
         if resume:
             finished, first = check_resume(self, out, frame_every, n_frames)
             if finished:
@@ -417,7 +416,7 @@ class Simulation:
             remove_checkpoint(out)  # an earlier run's
             if not new_part:
                 writer.append(self.snapshot(meta))
-            if checkpointing:  # the settled bed (hours at 10⁵ particles, not to be settled twice), or a part's
+            if checkpoint_every is not None or checkpoint_minutes is not None:  # the settled bed (hours at 10⁵ particles, not to be settled twice), or a part's
                 # start: where it resumes from should it stop before its first frame
                 write_checkpoint(self, ckpt, {"frames": first + writer.n_frames, "frame_every": frame_every,
                                               "wall_s": self.resume_point.wall_s if new_part else 0.0,

@@ -44,11 +44,21 @@ def driver(tmp_path, monkeypatch):
     monkeypatch.setattr(module, "_series_done", lambda: False)
     monkeypatch.setattr(module, "_simulations", lambda folder: {})
     monkeypatch.setattr(module, "_processes", lambda *words: [])
-    return module
+    real = [os.path.join(BENCH, "paper_cg1_run"), os.path.join(BENCH, "paper_family_runs")]
+    before = _listing(real)
+    yield module
+    assert _listing(real) == before, "a test wrote into the repository's kept runs"
 
 
-def stopped_after(out, frames, monkeypatch):
-    """A run of 10 frames after the first stopped (killed) right after its checkpoint at ``frames``."""
+def _listing(folders) -> dict:
+    """{path: modification time} of everything under ``folders``."""
+    return {os.path.join(root, name): os.path.getmtime(os.path.join(root, name))
+            for folder in folders for root, _, names in os.walk(folder) for name in names}
+
+
+def stopped_after(out, frames, monkeypatch, resume=False):
+    """A run of 10 frames after the first stopped (killed) right after its checkpoint at ``frames``
+    (``resume``: the run in ``out`` resumed from its checkpoint, then stopped)."""
     import sim.run as sim_run
 
     real_write = sim_run.write_checkpoint
@@ -63,8 +73,8 @@ def stopped_after(out, frames, monkeypatch):
 
     monkeypatch.setattr(sim_run, "write_checkpoint", write_then_stop)
     with pytest.raises(Stop):
-        Simulation(PARAMS, ORIGINAL).run(out, revolutions(10), frame_every=FRAME_EVERY, checkpoint_every=3,
-                                         progress=False)
+        (resume_run(out) if resume else Simulation(PARAMS, ORIGINAL)).run(
+            out, revolutions(10), frame_every=FRAME_EVERY, checkpoint_every=3, progress=False, resume=resume)
     monkeypatch.setattr(sim_run, "write_checkpoint", real_write)
 
 
@@ -169,3 +179,36 @@ def test_a_series_run_made_on_two_machines_gets_the_subset_of_the_uninterrupted_
     final = tmp_path / "subsets" / "checkpoints" / "paper-cg3-weber-seed1.ckpt.npz"
     assert resume_run(final, from_checkpoint=final).resume_point.frames == 9
     assert os.listdir(tmp_path / "subsets" / "unfinished") == []
+
+
+def test_a_stop_between_keeping_the_frames_and_the_checkpoint_loses_nothing(driver, tmp_path, monkeypatch):
+    """keep keeps the frames' statistics before the checkpoint: a stop between the two leaves
+    statistics of frames a later part makes again, which are skipped, not counted twice."""
+    full = Simulation(PARAMS, ORIGINAL).run(tmp_path / "full.h5", revolutions(10), frame_every=FRAME_EVERY,
+                                            checkpoint_every=None, progress=False)
+    machine_a, machine_b = tmp_path / "a", tmp_path / "b"
+    machine_a.mkdir()
+    args_a = type("Args", (), {"dir": str(machine_a), "series_dir": str(tmp_path / "no-series")})
+    stopped_after(machine_a / "paper-cg1.h5", 3, monkeypatch)
+    driver.keep(args_a)  # frames 0-2 and the checkpoint at 3
+    stopped_after(machine_a / "paper-cg1.h5", 6, monkeypatch, resume=True)
+
+    def stop(*args):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch, pytest.raises(KeyboardInterrupt):
+        patch.setattr("sim.checkpoint.compact_checkpoint", stop)
+        driver.keep(args_a)  # frames 3-5 kept, the checkpoint at 6 not
+    kept = tmp_path / "kept"
+    assert pd.read_csv(kept / "frames.csv")["frame"].tolist() == list(range(6))
+    assert resume_run(kept / "paper-cg1.ckpt.npz", from_checkpoint=kept / "paper-cg1.ckpt.npz").resume_point.frames == 3
+    part = machine_b / "paper-cg1-from003.h5"
+    machine_b.mkdir()
+    resume_run(part, from_checkpoint=kept / "paper-cg1.ckpt.npz").run(
+        part, revolutions(10), frame_every=FRAME_EVERY, checkpoint_every=1, progress=False, new_part=True)
+    driver.keep(type("Args", (), {"dir": str(machine_b), "series_dir": str(tmp_path / "no-series")}))
+    table = pd.read_csv(kept / "frames.csv")
+    assert table["frame"].tolist() == list(range(11))
+    with ga.open_run(full) as run:
+        expected = confinement_timeseries(run, run.meta)
+    assert np.allclose(table["yield_fraction"], expected["yield_fraction"])
