@@ -175,7 +175,7 @@ HINT = "(open the run with granalytics.open_run and pass one frame, e.g. run[0])
     (lambda s: ga.GraphNetworkAnalysis().identify("run.h5"), "GraphNetworkAnalysis.identify: snapshot must be"),
     (lambda s: ga.run_stats([1, 2]), f"GraphNetworkAnalysis.identify: snapshot must be a granalytics Snapshot {HINT}, got int 1"),
     (lambda s: ga.compare_cg(5), "compare_cg: runs must be a list"),
-    (lambda s: ga.compare_cg([1, 2]), "compare_cg: a run must be a run file's path or an open run, got int"),
+    (lambda s: ga.compare_cg([1, 2]), "compare_cg: a run must be a run file's path, an open run or its RunStatistics, got int"),
     (lambda s: ga.compare_cg(["a.h5", "b.h5"], window="3:6"), "compare_cg: window must be a pair of finite numbers (lo, hi) with lo <= hi, got str '"),
     (lambda s: ga.subset_run("a.h5", "b.h5", [[0, 1], [2]]), "subset_run: frames must be a sequence of numbers"),
     (lambda s: ga.study_table(5), "study_table: sweep_dir must be a folder (str or path-like) or a list of them, got int 5"),
