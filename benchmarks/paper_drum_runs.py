@@ -304,7 +304,7 @@ def _keep_statistics(folder, covered):
         done.update(new.timeseries["frame"])
         print(f"statistics of frames {first + wanted[0]}-{first + wanted[-1]} of {path}", flush=True)
     if kept is not None:
-        kept.save(CG1_KEPT, overwrite=True)
+        ga.save(kept, CG1_KEPT, overwrite=True)
 
 
 def _keep_frames(folder, covered):

@@ -7,7 +7,7 @@ sizes, with the run's metadata and how the granules were identified. :func:`~gra
 takes such :class:`RunStatistics` wherever it takes a run file, so that the kept run is compared
 with others (Figs 3–6, the table) as if its frames were there.
 
-On disk it is a folder (:meth:`RunStatistics.save`, :meth:`RunStatistics.read`):
+On disk it is a folder (``granalytics.save(statistics, folder)``, :meth:`RunStatistics.read`):
 
 ``frames.csv``
     One row per frame, by the run's frame index ``frame``: the columns of
@@ -34,11 +34,12 @@ import pandas as pd
 from granalytics.base.errors import ParameterError
 from granalytics.core.snapshot import RunMeta
 
-__all__ = ["RunStatistics"]
+__all__ = ["RunStatistics", "RUN_STATISTICS_FILES"]
 
 #: parameters that change how fast granules are found, not which: not compared between statistics
 _SPEED_ONLY = ("backend",)
-_FILES = ("frames.csv", "sizes.csv", "meta.json")
+#: the files of a folder of run statistics, in the order they are written
+RUN_STATISTICS_FILES = ("frames.csv", "sizes.csv", "meta.json")
 
 
 def _identification(method, params) -> dict:
@@ -142,32 +143,20 @@ class RunStatistics:
                 "seed": self.meta.sim_config.get("params", {}).get("seed"), "system": system_of(self.meta),
                 "content": digest.hexdigest()}
 
-    def save(self, folder, *, overwrite=False) -> str:
-        """Write the statistics to ``folder`` (created; each file written whole, then renamed into
-        place). Existing files are replaced only with ``overwrite``."""
-        folder = os.fspath(folder)
-        os.makedirs(folder, exist_ok=True)
-        there = [name for name in _FILES if os.path.exists(os.path.join(folder, name))]
-        if there and not overwrite:
-            raise ParameterError(f"{folder}: holds {', '.join(there)} already (pass overwrite=True to replace them)")
+    def tables(self) -> dict:
+        """What :func:`granalytics.save` writes of the statistics, by file name: ``frames.csv`` and
+        ``sizes.csv`` (DataFrames), ``meta.json`` (a dict)."""
         counts = [np.unique(s, return_counts=True) for s in self.sizes]
         sizes = pd.DataFrame({
             "frame": np.repeat(self.timeseries["frame"].to_numpy(), [len(size) for size, _ in counts]),
             "size": np.concatenate([size for size, _ in counts] or [np.zeros(0, np.int64)]),
             "count": np.concatenate([count for _, count in counts] or [np.zeros(0, np.int64)])})
-        texts = {"frames.csv": self.timeseries.to_csv(index=False), "sizes.csv": sizes.to_csv(index=False),
-                 "meta.json": json.dumps({"meta": self.meta.to_dict(), "method": self.method, "params": self.params},
-                                         indent=1, sort_keys=True)}
-        for name, text in texts.items():
-            path = os.path.join(folder, name)
-            with open(path + ".tmp", "w") as f:
-                f.write(text)
-            os.replace(path + ".tmp", path)
-        return folder
+        return {"frames.csv": self.timeseries, "sizes.csv": sizes,
+                "meta.json": {"meta": self.meta.to_dict(), "method": self.method, "params": self.params}}
 
     @classmethod
     def read(cls, folder) -> "RunStatistics":
-        """The statistics :meth:`save` wrote to ``folder``.
+        """The statistics :func:`granalytics.save` wrote to ``folder``.
 
         Raises
         ------
@@ -175,7 +164,7 @@ class RunStatistics:
             A file missing or unreadable (naming it).
         """
         folder = os.fspath(folder)
-        paths = {name: os.path.join(folder, name) for name in _FILES}
+        paths = {name: os.path.join(folder, name) for name in RUN_STATISTICS_FILES}
         try:
             with open(paths["meta.json"]) as f:
                 info = json.load(f)

@@ -18,6 +18,8 @@ files a result type is saved to, for checking them before the work that computes
   ``distributions.csv``, ``summary.csv``, ``settings.json`` (:meth:`PBMPrediction.to_json`) and
   ``pbm.png``; drawn as the prediction beside its DEM;
 - :class:`MeasuredDistribution`: saved as the CSV of its classes that :func:`read_sieve_csv` reads;
+- :class:`RunStatistics`: saved into a folder as ``frames.csv``, ``sizes.csv`` and ``meta.json``,
+  which :meth:`RunStatistics.read` reads;
 - :class:`IdentificationResult`: drawn as the frame in 3-D (``granalytics identify`` writes the
   labels of every frame).
 
@@ -38,6 +40,7 @@ from granalytics.analysis.calibration import Calibration, MeasuredDistribution
 from granalytics.analysis.cg import CGComparison, CGThresholdComparison
 from granalytics.analysis.metrics import BY_FIGURE
 from granalytics.analysis.population_balance import PBMPrediction
+from granalytics.analysis.run_statistics import RUN_STATISTICS_FILES, RunStatistics
 from granalytics.analysis.tracking import GranuleTracks, breakage_rate, coalescence_kernel, event_rates
 from granalytics.base.errors import GranalyticsError, ParameterError
 from granalytics.base.files import write_atomically
@@ -79,8 +82,11 @@ def output_names(kind) -> list:
         return list(TRACKING_FILES)
     if kind is PBMPrediction:
         return list(PBM_FILES)
+    if kind is RunStatistics:
+        return list(RUN_STATISTICS_FILES)
     raise ParameterError(f"output_paths: a {getattr(kind, '__name__', kind)} is not saved to a folder "
-                         "(CGComparison, CGThresholdComparison, Calibration, GranuleTracks and PBMPrediction are)")
+                         "(CGComparison, CGThresholdComparison, Calibration, GranuleTracks, PBMPrediction and "
+                         "RunStatistics are)")
 
 
 def output_paths(kind, folder, *, overwrite=False) -> list:
@@ -112,11 +118,11 @@ def save(result, path, *, overwrite=False, **options) -> list:
     result
         A table (DataFrame), :class:`~granalytics.CGComparison`,
         :class:`~granalytics.CGThresholdComparison`, :class:`~granalytics.Calibration`,
-        :class:`~granalytics.GranuleTracks`, :class:`~granalytics.PBMPrediction` or
-        :class:`~granalytics.MeasuredDistribution`.
+        :class:`~granalytics.GranuleTracks`, :class:`~granalytics.PBMPrediction`,
+        :class:`~granalytics.RunStatistics` or :class:`~granalytics.MeasuredDistribution`.
     path : path
         The file of a table (.csv or .parquet) or of a measured distribution, the folder of a
-        comparison, calibration, tracking or prediction (made if missing).
+        comparison, calibration, tracking, prediction or run statistics (made if missing).
     overwrite : bool, default False
         Replace existing files (otherwise ``ParameterError`` naming the first, before anything is
         written).
@@ -217,6 +223,19 @@ def _save_calibration(calibration: Calibration, folder, *, overwrite=False) -> l
         write_json(calibration.to_json(), paths[2], stage)
         for name, path in zip(CALIBRATION_FIGURES, paths[3:]):
             figures[name].savefig(stage(path), dpi=120, bbox_inches="tight")
+    return paths
+
+
+@save.register
+def _save_run_statistics(statistics: RunStatistics, folder, *, overwrite=False) -> list:
+    """The kept statistics' ``frames.csv``, ``sizes.csv`` and ``meta.json``
+    (:meth:`RunStatistics.tables`), written into ``folder`` as one."""
+    folder = _output_path(folder)
+    paths = output_paths(RunStatistics, folder, overwrite=overwrite)
+    tables = statistics.tables()
+    with _written_as_one(folder) as stage:
+        for name, path in zip(RUN_STATISTICS_FILES, paths):
+            (write_json if name.endswith(".json") else write_table)(tables[name], path, stage)
     return paths
 
 
