@@ -78,10 +78,11 @@ CG1_DIR = os.path.join(HOME_RUNS, "paper-cg1")
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from cg_rules_study import finished as _finished  # noqa: E402  (a sibling script)
+from sim.checkpoint import checkpoint_path  # noqa: E402
 
 
 def _command(out, options, factor, checkpoint_every, threads="1"):
-    resume = ["--resume"] if os.path.exists(f"{out}.ckpt.npz") else ["--overwrite"] if os.path.exists(out) else []
+    resume = ["--resume"] if os.path.exists(checkpoint_path(out)) else ["--overwrite"] if os.path.exists(out) else []
     return [sys.executable, "-m", "sim", "run", *options, "--revolutions", str(REVOLUTIONS), "--dt-factor", f"{factor:g}",
             "--threads", threads, "--checkpoint-every", str(checkpoint_every), "--out", out, *resume]
 
@@ -158,10 +159,6 @@ CG1_KEPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_cg1_r
 CG1_KEPT_CHECKPOINT = os.path.join(CG1_KEPT, "paper-cg1.ckpt.npz")
 #: CG1's frames kept as float32 run files (~10 MB each): the settled bed, the window's ends and middle
 CG1_KEPT_FRAMES = (0, 40, 60, 80)
-
-
-def checkpoint_path(out) -> str:
-    return f"{out}.ckpt.npz"
 
 
 def _checkpoint_point(path):
@@ -333,7 +330,8 @@ def progress(args):
     machine = f"{platform.node()}, {os.cpu_count()} cores"
     newest = _newest(args.dir, "paper-cg1", CG1_KEPT_CHECKPOINT)
     if newest is None:
-        print(f"| {stamp} | no CG1 run in {args.dir} and none kept | | {machine} |")
+        doing = "started, settling (no checkpoint yet)" if _simulations(args.dir) else "no CG1 run"
+        print(f"| {stamp} | {doing} in {args.dir}, none kept | | {machine} |")
         return
     ckpt, (frames, step, info), run = newest
     params = info["params"]
