@@ -64,3 +64,19 @@ def test_compare_cg_takes_kept_statistics_as_the_run_they_were_made_of(kept):
     # the kept statistics cannot be identified again under other thresholds
     with pytest.warns(UserWarning), pytest.raises(ParameterError, match="c_agg=0.6.*asked for 'gna' \\(c_agg=0.5\\)"):
         ga.compare_cg([CG2, kept], c_agg=0.5)
+
+
+def test_compare_cg_on_the_command_line_reads_a_folder_of_kept_statistics(kept, tmp_path, capsys):
+    from granalytics.cli import main
+
+    ga.save(kept, tmp_path / "cg3-stats")
+    assert main(["compare-cg", CG2, CG3, "--out", str(tmp_path / "files"), "--quiet"]) == 0
+    assert main(["compare-cg", CG2, str(tmp_path / "cg3-stats"), "--out", str(tmp_path / "kept"), "--quiet"]) == 0
+    files, kept_table = (pd.read_csv(tmp_path / name / "cg_table.csv") for name in ("files", "kept"))
+    assert np.allclose(kept_table["yield_fraction_mean"], files["yield_fraction_mean"])
+    assert np.allclose(kept_table["ks_distance"], files["ks_distance"], equal_nan=True)
+    # a threshold grid identifies the granules again: it needs the frames
+    capsys.readouterr()
+    code = main(["compare-cg", CG2, str(tmp_path / "cg3-stats"), "--c-agg", "0.4,0.6", "--out", str(tmp_path / "grid"),
+                 "--quiet"])
+    assert code == 2 and "holds statistics kept at one threshold pair" in capsys.readouterr().err

@@ -175,14 +175,18 @@ def _replica_group(item) -> list:
 
 
 def group_replicas(paths) -> list:
-    """Group run files into replicas of one system: runs with equal α and particle count (and
-    original system) are replicas (they differ in their seed). Returns a list of groups (lists of
-    paths) in the order of each group's first run, for :func:`compare_cg`."""
+    """Group run files (or :class:`~granalytics.RunStatistics` kept of runs) into replicas of one
+    system: runs with equal α and particle count (and original system) are replicas (they differ in
+    their seed). Returns a list of groups (lists of paths) in the order of each group's first run,
+    for :func:`compare_cg`."""
     groups = {}
     for path in paths:
-        with open_run(path) as run:
-            meta = run.meta
-            key = (float(meta.alpha), int(meta.n_particles), int(meta.n_particles_original))
+        if hasattr(path, "meta"):
+            meta = path.meta
+        else:
+            with open_run(path) as run:
+                meta = run.meta
+        key = (float(meta.alpha), int(meta.n_particles), int(meta.n_particles_original))
         groups.setdefault(key, []).append(path)
     return list(groups.values())
 
@@ -564,7 +568,13 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
     """
     from granalytics.analysis.sensitivity import sensitivity, sensitivity_summary
 
+    from granalytics.analysis.run_statistics import RunStatistics
+
     runs = [_run_item(item, "compare_cg_thresholds") for item in _run_list(runs, "compare_cg_thresholds")]
+    for item in runs:
+        if isinstance(item, RunStatistics):
+            raise ParameterError(f"compare_cg_thresholds: {item.path} holds statistics kept at one threshold pair; "
+                                 "a threshold grid identifies the granules again and needs the run's frames")
     if len(runs) < 2:
         raise ParameterError("compare_cg_thresholds needs at least two runs")
     if labels is not None and len(labels) != len(runs):

@@ -13,8 +13,8 @@ from granalytics.report.tables import format_cg_table
 from granalytics.identification import DEFAULT_METHODS, accepted_params
 from granalytics.identification.common import PAPER_A_AGG_DEG, PAPER_C_AGG
 from granalytics.cli.options import (threshold_options, add_cohesion_option, add_criterion_options,
-                                     add_size_unit_option, criterion_params, grid, revolution_window, run_metas,
-                                     setting, add_window_options)
+                                     add_size_unit_option, criterion_params, grid, revolution_window, run_items,
+                                     run_metas, setting, add_window_options)
 
 
 def add_compare_cg_parser(sub):
@@ -25,7 +25,8 @@ def add_compare_cg_parser(sub):
                                    "mean ± block s.e.m. (± replica s.e., the block s.e.m. beside it, with --replicas) "
                                    "with the relative deviation from the finest run ± its s.e., the "
                                    "Kolmogorov–Smirnov distance of the size distributions, and the measured CG speed-up.")
-    p.add_argument("runs", nargs="+", help="run files (.h5), at least two")
+    p.add_argument("runs", nargs="+", help="run files (.h5), at least two; a folder is the statistics kept of a run "
+                                           "in place of its frames (granalytics.RunStatistics)")
     p.add_argument("--out", required=True, help="output folder: cg_table.csv, cg_timeseries.csv, cg_sizes.csv, fig3–fig6 .png/.pdf")
     p.add_argument("--labels", help="comma-separated run names (default: CG<α> (<N> particles))")
     p.add_argument("--replicas", action="store_true",
@@ -79,8 +80,9 @@ def cmd_compare_cg(args):
     for param, value in args.set or []:
         params[param] = value
     output_paths(CGComparison, args.out, overwrite=args.overwrite)  # before minutes of analysis
-    runs = group_replicas(args.runs) if args.replicas else args.runs
-    args.window = revolution_window(args, run_metas(args.runs), args.runs)
+    items = run_items(args.runs)
+    runs = group_replicas(items) if args.replicas else items
+    args.window = revolution_window(args, run_metas(items), args.runs)
     comparison = compare_cg(runs, labels, window=args.window, method=args.method, cohesion=args.cohesion,
                             progress=not args.quiet, mixed_systems=args.mixed_systems, **params)
     written = save(comparison, args.out, overwrite=args.overwrite, size_unit=args.size_unit)
@@ -107,8 +109,9 @@ def _compare_cg_thresholds(args, labels) -> int:
     if (c_agg < 0).any() or ((a_agg <= 0) | (a_agg > 180)).any():
         raise ParameterError("--c-agg values must be >= 0 and --a-agg-deg values in (0, 180] degrees")
     output_paths(CGThresholdComparison, args.out, overwrite=args.overwrite)  # before minutes of analysis
-    args.window = revolution_window(args, run_metas(args.runs), args.runs)
-    comparison = compare_cg_thresholds(args.runs, c_agg, a_agg, labels, window=args.window, cohesion=args.cohesion,
+    items = run_items(args.runs)
+    args.window = revolution_window(args, run_metas(items), args.runs)
+    comparison = compare_cg_thresholds(items, c_agg, a_agg, labels, window=args.window, cohesion=args.cohesion,
                                        progress=not args.quiet)
     written = save(comparison, args.out, overwrite=args.overwrite)
     table, finest = comparison.table, comparison.finest

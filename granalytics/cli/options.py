@@ -280,14 +280,28 @@ def revolution_window(args, metas, names=()) -> tuple:
 
 
 def run_metas(paths) -> list:
-    """The :class:`~granalytics.core.RunMeta` of each run file (opened for its metadata only)."""
+    """The :class:`~granalytics.core.RunMeta` of each run file (opened for its metadata only), or
+    of each :class:`~granalytics.RunStatistics` (:func:`run_items`)."""
     from granalytics.core import open_run
 
     metas = []
     for path in paths:
+        if hasattr(path, "meta"):
+            metas.append(path.meta)
+            continue
         with open_run(path, validate=False) as run:
             metas.append(run.meta)
     return metas
+
+
+def run_items(paths) -> list:
+    """The runs a command was given: each run file's path, and for a folder the
+    :class:`~granalytics.RunStatistics` kept in it (``granalytics.save`` of them)."""
+    import os
+
+    from granalytics.analysis.run_statistics import RunStatistics
+
+    return [RunStatistics.read(path) if os.path.isdir(path) else path for path in paths]
 
 
 def gna_identifier(args):
