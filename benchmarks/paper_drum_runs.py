@@ -548,7 +548,10 @@ def _join_parts(folder, stem):
 
     parts = _parts(folder, stem)
     out = os.path.join(SUBSETS, f"{stem}.h5")
-    if not parts or parts[-1][0] == 0 or os.path.exists(out) or not _finished(parts[-1][1]):
+    if not parts or os.path.exists(out) or not _finished(parts[-1][1]):
+        return
+    if parts[-1][0] == 0:  # finished in one piece here: what was kept of it is not needed
+        _forget_kept(stem)
         return
     info = _checkpoint_point(checkpoint_path(parts[-1][1]))[2]
     sources = _kept_subset_files(stem)
@@ -571,10 +574,15 @@ def _join_parts(folder, stem):
             path, index = sources[k]
             with ga.open_run(path) as run:
                 writer.append(run[index])
-    for name in os.listdir(SERIES_KEPT):
+    _forget_kept(stem)
+    print(f"{stem}: made in parts, its subset of {len(frames)} frames written to {out}", flush=True)
+
+
+def _forget_kept(stem):
+    """Remove what ``keep`` kept of the series run ``stem`` (it has finished)."""
+    for name in os.listdir(SERIES_KEPT) if os.path.isdir(SERIES_KEPT) else []:
         if name.startswith((f"{stem}.f", f"{stem}.ckpt")):
             os.unlink(os.path.join(SERIES_KEPT, name))
-    print(f"{stem}: made in parts, its subset of {len(frames)} frames written to {out}", flush=True)
 
 
 def table(args):

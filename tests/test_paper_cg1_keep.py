@@ -212,3 +212,18 @@ def test_a_stop_between_keeping_the_frames_and_the_checkpoint_loses_nothing(driv
     with ga.open_run(full) as run:
         expected = confinement_timeseries(run, run.meta)
     assert np.allclose(table["yield_fraction"], expected["yield_fraction"])
+
+
+def test_what_was_kept_of_a_series_run_is_removed_when_it_finishes_in_one_piece(driver, tmp_path, monkeypatch):
+    machine = tmp_path / "a"
+    machine.mkdir()
+    stopped_after(machine / "dd44-seed1.h5", 6, monkeypatch)
+    driver.keep(type("Args", (), {"dir": str(tmp_path / "no-cg1"), "series_dir": str(machine)}))
+    kept = tmp_path / "subsets" / "unfinished"
+    assert sorted(os.listdir(kept)) == ["dd44-seed1.ckpt.npz", "dd44-seed1.f000-000.h5"]
+    driver._join_parts(str(machine), "dd44-seed1")  # unfinished: nothing changes
+    assert len(os.listdir(kept)) == 2
+    resume_run(machine / "dd44-seed1.h5").run(machine / "dd44-seed1.h5", revolutions(10), frame_every=FRAME_EVERY,
+                                              checkpoint_every=3, progress=False, resume=True)
+    driver._join_parts(str(machine), "dd44-seed1")  # finished here in one piece: `subset` takes the run
+    assert os.listdir(kept) == [] and not (tmp_path / "subsets" / "dd44-seed1.h5").exists()
