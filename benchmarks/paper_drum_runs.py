@@ -601,23 +601,31 @@ def table(args):
     print("| D/d | N | seeds | yield | ⟨V_g⟩/V_p | N_g/N | coordination | bed angle [°] |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in t.itertuples(index=False):
-        print(f"| {r.drum_ratio:.1f} | {r.n_particles} | {r.n_replicas} | {r.yield_fraction:.3f} ± "
-              f"{r.yield_fraction_err:.3f} | {r.mean_volume_norm:.2f} ± {r.mean_volume_norm_err:.2f} | "
+        print(f"| {r.drum_ratio:.1f} | {r.n_particles} | {r.n_replicas} | {r.yield_fraction:.4f} ± "
+              f"{r.yield_fraction_err:.4f} | {r.mean_volume_norm:.2f} ± {r.mean_volume_norm_err:.2f} | "
               f"{r.n_granules_norm:.4f} ± {r.n_granules_norm_err:.4f} | {r.coordination:.2f} | {r.bed_angle_deg:.1f} |")
     if len(t) < 3:
         print("\n(the law needs three D/d or more)")
         return
     fits = {}
-    print("\nThe law's errors are scaled by √(χ²/dof) where it exceeds 1 (`fit_confinement_curve` does it).\n")
+    print("\nEach point weighs by the larger of its replica s.e. and its block s.e.m. (a few seeds may agree by "
+          "chance far better than their frames scatter); the law's errors are scaled by √(χ²/dof) where it "
+          "exceeds 1 (`fit_confinement_curve` does it).\n")
     print("| metric | y∞ | b [d] | χ²/dof | at D/d 133 (band: scaled 1σ) |")
     print("| --- | --- | --- | --- | --- |")
     for metric, label in LAW_METRICS:
-        fit = fits[metric] = ga.fit_confinement_curve(t["drum_ratio"], t[metric], np.maximum(t[f"{metric}_err"], 1e-4))
+        fit = fits[metric] = ga.fit_confinement_curve(t["drum_ratio"], t[metric], _law_errors(t, metric))
         print(f"| {label} | {fit.y_inf:.3f} ± {np.sqrt(fit.covariance[0, 0]):.3f} | {fit.b:.2f} ± "
               f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {float(fit(133.3)):.3f} ± "
               f"{float(fit.error(133.3)):.3f} |")
     _paper_cg_table(args, window, fits)
     _cg1_against_law(window, fits)
+
+
+def _law_errors(t, metric):
+    """The errors the law weighs ``confinement_table`` row's ``metric`` by: the larger of the replica
+    s.e. and the block s.e.m., so that two seeds that agree by chance do not pin the fit."""
+    return np.maximum(t[f"{metric}_err"], t[f"{metric}_block_sem"])
 
 
 def _cg1_against_law(window, fits):

@@ -350,3 +350,25 @@ def test_the_confinement_time_series_returns_each_frames_granule_sizes_on_reques
         assert np.array_equal(frame_sizes, expected)  # the granules run_stats finds, frame by frame
         assert len(frame_sizes) == row.n_granules and frame_sizes.sum() == pytest.approx(
             row.yield_fraction * row.n_particles)
+
+
+@expects_small_run_warnings
+def test_the_confinement_table_gives_a_group_its_replica_error_and_its_block_error_beside_it():
+    from granalytics.analysis.stats import combine_steady_states, steady_state
+    from granalytics.analysis.confinement import confinement_timeseries
+    from granalytics.datasets import replica_paths
+
+    paths, window = replica_paths("lab-cg3"), (3.0, 6.0)
+    t = ga.confinement_table([paths, paths[:1]], window, labels=["group", "one"]).set_index("label")
+    singles = []
+    for path in paths:
+        with ga.open_run(path) as run:
+            singles.append(steady_state(confinement_timeseries(run.select(revolutions=window), run.meta), window))
+    combined = combine_steady_states(singles)
+    group, one = t.loc["group"], t.loc["one"]
+    assert group.n_replicas == len(paths) and one.n_replicas == 1
+    assert group.yield_fraction == pytest.approx(combined.loc["yield_fraction", "mean"], rel=1e-12)
+    assert group.yield_fraction_err == pytest.approx(combined.loc["yield_fraction", "replica_sem"], rel=1e-12)
+    assert group.yield_fraction_block_sem == pytest.approx(combined.loc["yield_fraction", "block_sem"], rel=1e-12)
+    # one run: its error is its block s.e.m., the same in both columns
+    assert one.yield_fraction_err == one.yield_fraction_block_sem == pytest.approx(singles[0].loc["yield_fraction", "sem"])

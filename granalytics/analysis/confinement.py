@@ -249,7 +249,10 @@ def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gn
         ``length_ratio`` (L/d), ``bed_depth_ratio`` (nominal depth/d), then for every metric of
         the headline statistics and :data:`BED_COLUMNS` its mean over the window (``<metric>``,
         averaged over replicas) and its error ``<metric>_err``: the replica standard error for a
-        group of two or more, the block s.e.m. of the one run otherwise.
+        group of two or more, the block s.e.m. of the one run otherwise; ``<metric>_block_sem`` is
+        the block s.e.m. (of a group: combined over its replicas, √(Σ sem²)/n). Two or three
+        replicas may agree by chance far better than their frames scatter; a fit that weighs the
+        points by their errors may take the larger of the two.
     """
     groups = [_group_paths(g) for g in groups]
     if not groups:
@@ -269,7 +272,7 @@ def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gn
                 series.append(confinement_timeseries(run.select(revolutions=window), run.meta, method,
                                                      progress=progress, **params))
         steady = steady_state(series if len(series) > 1 else series[0], window, columns, source=str(paths[0]))
-        error = steady["replica_sem"] if len(series) > 1 else steady["sem"]
+        error, block_sem = (steady["replica_sem"], steady["block_sem"]) if len(series) > 1 else (steady["sem"],) * 2
         meta, drum = first
         row = {"label": labels[k] if labels is not None else str(paths[0]).rsplit("/", 1)[-1].removesuffix(".h5"),
                "alpha": meta.alpha, "n_particles": meta.n_particles, "n_replicas": len(series),
@@ -278,6 +281,7 @@ def confinement_table(groups, window=DEFAULT_WINDOW_REV, labels=None, method="gn
         for col in columns:
             row[col] = float(steady.loc[col, "mean"])
             row[f"{col}_err"] = float(error.loc[col])
+            row[f"{col}_block_sem"] = float(block_sem.loc[col])
         rows.append(row)
     return pd.DataFrame(rows)
 
