@@ -628,6 +628,12 @@ def _law_errors(t, metric):
     return np.maximum(t[f"{metric}_err"], t[f"{metric}_block_sem"])
 
 
+def _plus_minus(value, error) -> str:
+    """``value ± error``, the error to two significant digits and the value to the same decimal."""
+    decimals = max(0, 1 - int(np.floor(np.log10(error)))) if error > 0 else 4
+    return f"{value:.{decimals}f} ± {error:.{decimals}f}"
+
+
 def _cg1_against_law(window, fits):
     """The paper's CG1 (window, block s.e.m., from the statistics ``keep`` kept of every frame)
     beside the law's prediction at its D/d and the paper's "slightly above 55 %": issue 54's
@@ -674,16 +680,16 @@ def _paper_cg_table(args, window, fits):
         warnings.simplefilter("ignore")
         t = ga.confinement_table(list(groups.values()), window, labels=list(groups))
     print(f"\n### The paper drum's CG runs against the α = 1 law at their D/(αd), window [{window[0]:g}, "
-          f"{window[1]:g}]\n")
+          f"{window[1]:g}] (± the larger of replica s.e. and block s.e.m., as the law weighs its points)\n")
     print("| run | α | N | seeds | D/(αd) | yield | law | ⟨V_g⟩/V_p | law | N_g/N | law | bed angle [°] |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for r in t.itertuples(index=False):
+    for k, r in enumerate(t.itertuples(index=False)):
         cells = []
         for metric, _ in LAW_METRICS:
-            fit, mean, err = fits[metric], getattr(r, metric), getattr(r, f"{metric}_err")
+            fit, mean, err = fits[metric], getattr(r, metric), _law_errors(t, metric).iloc[k]
             law, law_err = float(fit(r.drum_ratio)), float(fit.error(r.drum_ratio))
             deviation = mean / law - 1
-            cells += [f"{mean:.4g} ± {err:.2g}", f"{law:.4g} ± {law_err:.2g} ({100 * deviation:+.0f} % ± "
+            cells += [_plus_minus(mean, err), f"{_plus_minus(law, law_err)} ({100 * deviation:+.0f} % ± "
                       f"{100 * np.hypot(err / law, mean * law_err / law**2):.0f} %)"]
         print(f"| {r.label}{' (twin: Ω√α)' if 'bond' in r.label else ''} | {r.alpha:g} | {r.n_particles} | "
               f"{r.n_replicas} | {r.drum_ratio:.1f} | {' | '.join(cells)} | {r.bed_angle_deg:.1f} |")

@@ -227,3 +227,10 @@ def test_what_was_kept_of_a_series_run_is_removed_when_it_finishes_in_one_piece(
                                               checkpoint_every=3, progress=False, resume=True)
     driver._join_parts(str(machine), "dd44-seed1")  # finished here in one piece: `subset` takes the run
     assert os.listdir(kept) == [] and not (tmp_path / "subsets" / "dd44-seed1.h5").exists()
+
+
+def test_the_law_weighs_each_point_by_the_larger_of_its_replica_and_block_errors(driver):
+    t = pd.DataFrame({"yield_fraction_err": [0.0003, 0.004], "yield_fraction_block_sem": [0.004, 0.002]})
+    assert driver._law_errors(t, "yield_fraction").tolist() == [0.004, 0.004]
+    assert driver._plus_minus(0.61234, 0.000061) == "0.612340 ± 0.000061"
+    assert driver._plus_minus(6.617, 0.14) == "6.62 ± 0.14" and driver._plus_minus(0.5, 0.0) == "0.5000 ± 0.0000"
