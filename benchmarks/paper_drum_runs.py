@@ -619,6 +619,7 @@ def table(args):
               f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {float(fit(133.3)):.3f} ± "
               f"{float(fit.error(133.3)):.3f} |")
     _paper_cg_table(args, window, fits)
+    _cost_table(args)
     _cg1_against_law(window, fits)
 
 
@@ -693,6 +694,40 @@ def _paper_cg_table(args, window, fits):
                       f"{100 * np.hypot(err / law, mean * law_err / law**2):.0f} %)"]
         print(f"| {r.label}{' (twin: Ω√α)' if 'bond' in r.label else ''} | {r.alpha:g} | {r.n_particles} | "
               f"{r.n_replicas} | {r.drum_ratio:.1f} | {' | '.join(cells)} | {r.bed_angle_deg:.1f} |")
+
+
+def _cost_table(args):
+    """What each finished run cost: CPU seconds per simulated second (of the rotating drum, the
+    settling apart) as its simulator recorded them, per particle, and CG1's cost over it (CG1's
+    rate from its newest checkpoint, so far). Runs made before the simulator recorded CPU time are
+    left out; every run was made on one thread beside another long run on the second core."""
+    import granalytics as ga
+
+    rows = []
+    runs = {**{f"α = 1, D/d {r}": g for r, g in _finished_series(args.dir).items()}, **_finished_paper_cg(args.dir)}
+    for label, paths in runs.items():
+        rates = []
+        for path in paths:
+            with ga.open_run(path, validate=False) as run:
+                n, rate = run.meta.n_particles, run.meta.provenance.get("cpu_time_per_simulated_s")
+            if rate:
+                rates.append(rate)
+        if rates:
+            rows.append((label, n, f"{len(rates)} of {len(paths)}", float(np.mean(rates))))
+    newest = _newest(CG1_DIR, "paper-cg1", CG1_KEPT_CHECKPOINT)
+    cg1 = None
+    if newest and newest[1][1] > 0 and newest[1][2].get("cpu_s"):
+        _, (_, step, info), _ = newest
+        cg1 = info["cpu_s"] / (step * info["params"]["dt"])
+        rows.insert(0, ("paper-cg1 (so far)", info["params"]["n_particles"], "1 of 1", cg1))
+    if not rows:
+        return
+    print("\n### Cost: CPU seconds per simulated second, one thread beside another run (as recorded)\n")
+    print("| run | N | runs with a CPU record | CPU s per simulated s | per particle [ms] | paper-cg1 over it |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for label, n, counted, rate in rows:
+        over = f"{cg1 / rate:.1f}×" if cg1 else "(no CG1 checkpoint)"
+        print(f"| {label} | {n} | {counted} | {rate:.0f} | {1e3 * rate / n:.1f} | {over} |")
 
 
 def figures(args):

@@ -234,3 +234,25 @@ def test_the_law_weighs_each_point_by_the_larger_of_its_replica_and_block_errors
     assert driver._law_errors(t, "yield_fraction").tolist() == [0.004, 0.004]
     assert driver._plus_minus(0.61234, 0.000061) == "0.612340 ± 0.000061"
     assert driver._plus_minus(6.617, 0.14) == "6.62 ± 0.14" and driver._plus_minus(0.5, 0.0) == "0.5000 ± 0.0000"
+
+
+def test_the_cost_table_gives_cg1s_cpu_rate_over_each_runs(driver, tmp_path, monkeypatch, capsys):
+    from sim.checkpoint import checkpoint_path
+
+    cg1 = tmp_path / "home" / "paper-cg1" / "paper-cg1.h5"
+    cg1.parent.mkdir(parents=True, exist_ok=True)
+    Simulation(PARAMS, ORIGINAL).run(cg1, revolutions(3), frame_every=FRAME_EVERY, checkpoint_every=3, progress=False)
+    other = tmp_path / "cg3.h5"
+    Simulation(PARAMS, ORIGINAL).run(other, revolutions(2), frame_every=FRAME_EVERY, checkpoint_every=None, progress=False)
+    monkeypatch.setattr(driver, "_finished_series", lambda folder: {})
+    monkeypatch.setattr(driver, "_finished_paper_cg", lambda folder: {"paper-cg3 weber": [str(other)]})
+    capsys.readouterr()
+    driver._cost_table(type("Args", (), {"dir": str(tmp_path / "no-series")}))
+    rows = {line.split("|")[1].strip(): line.split("|")[2:-1] for line in capsys.readouterr().out.splitlines()
+            if line.startswith("| paper-cg")}
+    _, step, info = driver._checkpoint_point(checkpoint_path(cg1))
+    cg1_rate = info["cpu_s"] / (step * info["params"]["dt"])
+    with ga.open_run(other) as run:
+        rate = run.meta.provenance["cpu_time_per_simulated_s"]
+    assert rows["paper-cg1 (so far)"][2].strip() == f"{cg1_rate:.0f}" and rows["paper-cg3 weber"][2].strip() == f"{rate:.0f}"
+    assert rows["paper-cg3 weber"][4].strip() == f"{cg1_rate / rate:.1f}×"
