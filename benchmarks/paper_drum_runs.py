@@ -53,9 +53,11 @@ load-free one, also per particle-step, from the runs' checkpoints: ``benchmarks/
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import warnings
@@ -142,8 +144,10 @@ def _hand_the_core_to_cg1(args):
     if not running:
         return  # no CG1 running, or on `auto` threads already
     ckpt = checkpoint_path(running[0][running[0].index("--out") + 1])
-    seen, waited = os.path.getmtime(ckpt) if os.path.exists(ckpt) else None, 0
-    while (os.path.getmtime(ckpt) if os.path.exists(ckpt) else None) == seen and waited < 1800:
+    if not os.path.exists(ckpt):
+        return  # settling (its first checkpoint is the settled bed, an hour or more away): left alone
+    seen, waited = os.path.getmtime(ckpt), 0
+    while os.path.getmtime(ckpt) == seen and waited < 1800:
         time.sleep(5)
         waited += 5
     print("series done: CG1 restarted after its checkpoint, to take the second core", flush=True)
@@ -226,13 +230,37 @@ def _keep_run(folder, stem, kept_checkpoint, keep_frames) -> bool:
     newest = _newest(folder, stem, kept_checkpoint)
     if newest is None:
         return False
-    keep_frames(newest[1][0])
-    if newest[2] is not None:
+    if newest[2] is None:  # the kept checkpoint is the newest: its frames only
+        keep_frames(newest[1][0])
+        return True
+    with _snapshot(newest[0]) as snapshot:
+        covered, step, _ = _checkpoint_point(snapshot)
+        keep_frames(covered)
         os.makedirs(os.path.dirname(kept_checkpoint), exist_ok=True)
-        size = compact_checkpoint(newest[0], kept_checkpoint)
-        print(f"kept {newest[0]} (frames {newest[1][0]}, step {newest[1][1]}) as {kept_checkpoint}: "
-              f"{size / 1e6:.1f} MB", flush=True)
+        size = compact_checkpoint(snapshot, kept_checkpoint)
+    print(f"kept {newest[0]} (frames {covered}, step {step}) as {kept_checkpoint}: {size / 1e6:.1f} MB", flush=True)
     return True
+
+
+@contextlib.contextmanager
+def _snapshot(checkpoint):
+    """A name for ``checkpoint`` as it is now, while the simulation goes on: a hard link (the
+    simulator replaces a checkpoint by renaming a new file over it, so the link keeps the old one),
+    or a copy where the file system has no links; removed afterwards. ``keep`` reads the frames a
+    checkpoint covers and compacts it from the same snapshot, so a checkpoint the simulator writes
+    meanwhile cannot lie past the frames kept."""
+    snapshot = f"{checkpoint}.keeping"
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(snapshot)  # left by a keep that was stopped
+    try:
+        os.link(checkpoint, snapshot)
+    except OSError:
+        shutil.copyfile(checkpoint, snapshot)
+    try:
+        yield snapshot
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(snapshot)
 
 
 def cg1(args):
@@ -453,23 +481,11 @@ SUBSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_family
 
 
 def subset(args):
-    """Write the float32 subset of each finished run not yet in ``SUBSETS``: every twentieth frame
-    before the window, every second (D/d 22 and 33) or fourth (larger runs) inside it (a run made
-    in parts: from the frames kept of it and the last part). (CG1's frames are kept by ``keep``.)"""
-    lo, hi = args.window.split(":")
+    """Write the float32 subset of each finished run of the series not yet in ``SUBSETS``
+    (:func:`_join_parts`; the series writes each as it finishes). (CG1's frames are kept by
+    ``keep``.)"""
     for name, _, _ in _queue():
         _join_parts(args.dir, name[:-3])
-    finished = [p for group in [*_finished_series(args.dir).values(), *_finished_paper_cg(args.dir).values()]
-                for p in group]
-    for path in finished:
-        out = os.path.join(SUBSETS, os.path.basename(path))
-        if os.path.exists(out):
-            continue
-        every, window_every = _thinning(os.path.basename(path))
-        cmd = [sys.executable, "-m", "granalytics", "subset", path, "--out", out, "--float32", "--full-window",
-               f"{lo}:{hi}", "--every", str(every), "--window-every", str(window_every)]
-        print(" ".join(cmd[2:]), flush=True)
-        subprocess.run(cmd, check=True)
 
 
 def _thinning(name):
@@ -539,26 +555,34 @@ def _keep_subset_frames(folder, stem, covered):
 
 
 def _join_parts(folder, stem):
-    """Once run ``stem``, made in parts, has finished, write its float32 subset to ``SUBSETS`` from
-    the frames kept of it (``SERIES_KEPT``) and this machine's parts, and remove what was kept.
-    A run made in one piece is left to :func:`subset`."""
+    """Once run ``stem`` has finished here, write its float32 subset to ``SUBSETS`` (the frames of
+    :func:`_subset_frames`: every twentieth before the window, every second or fourth inside it),
+    then remove what ``keep`` kept of it. A run made in one piece gives its frames; a run made in
+    parts, the frames kept of it (``SERIES_KEPT``) and this machine's parts. Where a frame is
+    neither, nothing is written and nothing removed."""
     import granalytics as ga
     from granalytics import RunMeta, RunWriter
     from granalytics.core.subset import replacing_run
 
     parts = _parts(folder, stem)
-    out = os.path.join(SUBSETS, f"{stem}.h5")
-    if not parts or os.path.exists(out) or not _finished(parts[-1][1]):
+    if not parts or not _finished(parts[-1][1]):
         return
-    if parts[-1][0] == 0:  # finished in one piece here: what was kept of it is not needed
+    out = os.path.join(SUBSETS, f"{stem}.h5")
+    if os.path.exists(out):
         _forget_kept(stem)
         return
     info = _checkpoint_point(checkpoint_path(parts[-1][1]))[2]
+    frames = sorted(_subset_frames(stem, info))
+    if parts[-1][0] == 0:  # made in one piece here
+        os.makedirs(SUBSETS, exist_ok=True)
+        ga.subset_run(parts[-1][1], out, frames, float_dtype="float32")
+        _forget_kept(stem)
+        print(f"{stem}: its subset of {len(frames)} frames written to {out}", flush=True)
+        return
     sources = _kept_subset_files(stem)
     for first, path in parts:
         with ga.open_run(path, validate=False) as run:
             sources.update({first + k: (path, k) for k in range(len(run))})
-    frames = sorted(_subset_frames(stem, info))
     missing = [k for k in frames if k not in sources]
     if missing:
         print(f"{stem}: cannot write its subset, frames {missing} were neither kept nor made here", flush=True)
@@ -626,7 +650,7 @@ def table(args):
 def _law_errors(t, metric):
     """The errors the law weighs ``confinement_table`` row's ``metric`` by: the larger of the replica
     s.e. and the block s.e.m., so that two seeds that agree by chance do not pin the fit."""
-    return np.maximum(t[f"{metric}_err"], t[f"{metric}_block_sem"])
+    return np.fmax(t[f"{metric}_err"], t[f"{metric}_block_sem"])  # one NaN (too few blocks): the other
 
 
 def _plus_minus(value, error) -> str:
@@ -700,7 +724,9 @@ def _cost_table(args):
     """What each finished run cost: CPU seconds per simulated second (of the rotating drum, the
     settling apart) as its simulator recorded them, per particle, and CG1's cost over it (CG1's
     rate from its newest checkpoint, so far). Runs made before the simulator recorded CPU time are
-    left out; every run was made on one thread beside another long run on the second core."""
+    left out. The series' runs are made on one thread beside CG1; CG1 on one thread beside them,
+    then on ``auto`` threads once the series is done, its CPU time summed over its threads: the
+    ratio compares the CPU time each run took, not wall times."""
     import granalytics as ga
 
     rows = []

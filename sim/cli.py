@@ -224,13 +224,17 @@ def _run(args) -> int:
     if args.resume and args.resume_from:
         raise ValueError("--resume continues --out from its own checkpoint, --resume-from starts it from another: "
                          "give one of them")
+    from .checkpoint import checkpoint_path, resume_run
+
+    if args.resume_from and os.path.abspath(args.resume_from) == os.path.abspath(checkpoint_path(out)):
+        raise ValueError(f"--resume-from {args.resume_from} is {out}'s own checkpoint, which a new part in {out} "
+                         "would replace along with its frames: give --resume to continue it, or another --out")
     if not args.resume and os.path.exists(out) and not args.overwrite:
         raise ValueError(f"{out} exists; give --overwrite to replace it, or --resume to continue it from its checkpoint")
     original, params = _params(args)
     check_threads(args.threads, "--threads")  # before the settling, not after it
     frame_every = frame_interval_steps(args.revolutions, args.frame_every_rev, params,
                                        names=("--revolutions", "--frame-every-rev"))
-    from .checkpoint import checkpoint_path, resume_run
     from .run import Simulation, check_room
 
     ckpt = checkpoint_path(out)

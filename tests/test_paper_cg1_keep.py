@@ -214,19 +214,62 @@ def test_a_stop_between_keeping_the_frames_and_the_checkpoint_loses_nothing(driv
     assert np.allclose(table["yield_fraction"], expected["yield_fraction"])
 
 
-def test_what_was_kept_of_a_series_run_is_removed_when_it_finishes_in_one_piece(driver, tmp_path, monkeypatch):
+def test_a_series_run_finished_in_one_piece_has_its_subset_written_before_what_was_kept_is_removed(
+        driver, tmp_path, monkeypatch):
+    per_frame = revolutions(1)
+    monkeypatch.setattr(driver, "REVOLUTIONS", 10 * per_frame)
+    monkeypatch.setattr(driver, "FRAME_EVERY_REV", per_frame)
+    monkeypatch.setattr(driver, "WINDOW", (5 * per_frame, 10 * per_frame))
+    monkeypatch.setattr(driver, "_thinning", lambda name: (3, 2))  # frames 0, 3, 6, 9 and 6, 8, 10 in the window
     machine = tmp_path / "a"
     machine.mkdir()
     stopped_after(machine / "dd44-seed1.h5", 6, monkeypatch)
     driver.keep(type("Args", (), {"dir": str(tmp_path / "no-cg1"), "series_dir": str(machine)}))
     kept = tmp_path / "subsets" / "unfinished"
-    assert sorted(os.listdir(kept)) == ["dd44-seed1.ckpt.npz", "dd44-seed1.f000-000.h5"]
+    assert sorted(os.listdir(kept)) == ["dd44-seed1.ckpt.npz", "dd44-seed1.f000-003.h5"]
     driver._join_parts(str(machine), "dd44-seed1")  # unfinished: nothing changes
-    assert len(os.listdir(kept)) == 2
+    assert len(os.listdir(kept)) == 2 and not (tmp_path / "subsets" / "dd44-seed1.h5").exists()
     resume_run(machine / "dd44-seed1.h5").run(machine / "dd44-seed1.h5", revolutions(10), frame_every=FRAME_EVERY,
                                               checkpoint_every=3, progress=False, resume=True)
-    driver._join_parts(str(machine), "dd44-seed1")  # finished here in one piece: `subset` takes the run
-    assert os.listdir(kept) == [] and not (tmp_path / "subsets" / "dd44-seed1.h5").exists()
+    driver._join_parts(str(machine), "dd44-seed1")  # finished here in one piece: its subset, then forget
+    assert os.listdir(kept) == []
+    with ga.open_run(tmp_path / "subsets" / "dd44-seed1.h5") as subset, ga.open_run(machine / "dd44-seed1.h5") as run:
+        assert subset.meta.provenance["subset_of"]["frames_kept"] == [0, 3, 6, 8, 9, 10]
+        assert np.allclose(subset[2].position, run[6].position, rtol=1e-6, atol=0)
+
+
+def test_keep_reads_and_compacts_one_snapshot_while_the_simulator_writes_a_newer_checkpoint(driver, tmp_path,
+                                                                                            monkeypatch):
+    """A checkpoint written while ``keep`` computes the frames' statistics does not become the kept
+    one: the kept checkpoint never lies past the frames kept."""
+    from sim.checkpoint import checkpoint_path
+
+    machine = tmp_path / "a"
+    machine.mkdir()
+    out = machine / "paper-cg1.h5"
+    stopped_after(out, 3, monkeypatch)
+    real = driver._keep_statistics
+
+    def statistics_while_the_run_goes_on(folder, covered):
+        real(folder, covered)
+        stopped_after(out, 6, monkeypatch, resume=True)  # the simulator's next checkpoint, meanwhile
+
+    monkeypatch.setattr(driver, "_keep_statistics", statistics_while_the_run_goes_on)
+    driver.keep(type("Args", (), {"dir": str(machine), "series_dir": str(tmp_path / "no-series")}))
+    kept = tmp_path / "kept"
+    assert pd.read_csv(kept / "frames.csv")["frame"].tolist() == [0, 1, 2]
+    assert resume_run(kept / "paper-cg1.ckpt.npz", from_checkpoint=kept / "paper-cg1.ckpt.npz").resume_point.frames == 3
+    assert driver._checkpoint_point(checkpoint_path(out))[0] == 6 and not os.path.exists(f"{checkpoint_path(out)}.keeping")
+
+
+def test_the_core_is_not_handed_to_a_cg1_that_is_settling(driver, tmp_path, monkeypatch):
+    out = tmp_path / "home" / "paper-cg1" / "paper-cg1.h5"
+    monkeypatch.setattr(driver, "_simulations", lambda folder: {1: ["sim", "run", "--threads", "1", "--out", str(out)]})
+    stopped = []
+    monkeypatch.setattr(driver, "_stop", stopped.append)
+    monkeypatch.setattr("time.sleep", lambda s: pytest.fail("waited for a checkpoint that settling will not write soon"))
+    driver._hand_the_core_to_cg1(type("Args", (), {"dt_factor": 1.5}))
+    assert stopped == []
 
 
 def test_the_law_weighs_each_point_by_the_larger_of_its_replica_and_block_errors(driver):

@@ -52,6 +52,24 @@ def test_statistics_kept_in_parts_join_into_the_whole_runs(kept):
         joined.join(other)
 
 
+def test_joined_statistics_carry_the_metadata_of_the_run_as_it_stood_last():
+    """The part made last (a finished run's wall time) gives the metadata; what only the first
+    recorded (the settling) stays; a part's frames are numbered from its first frame."""
+    from granalytics import RunMeta
+
+    with ga.open_run(CG3) as run:
+        early, late = RunMeta.from_dict(run.meta.to_dict()), RunMeta.from_dict(run.meta.to_dict())
+        early.provenance = {k: v for k, v in early.provenance.items() if k != "wall_time_s"} | {"settle_wall_time_s": 5.0}
+        late.provenance = {k: v for k, v in late.provenance.items() if not k.startswith("settle")} | {
+            "wall_time_s": 99.0, "first_frame": 50}
+        first = RunStatistics.of_frames(run[:50], early)
+        second = RunStatistics.of_frames([run[k] for k in range(50, 121)], late)
+    assert second.timeseries["frame"].tolist() == list(range(50, 121))
+    for joined in (first.join(second), second.join(first)):
+        assert joined.meta.provenance["wall_time_s"] == 99.0 and joined.meta.provenance["settle_wall_time_s"] == 5.0
+        assert "first_frame" not in joined.meta.provenance and joined.timeseries["frame"].tolist() == list(range(121))
+
+
 def test_compare_cg_takes_kept_statistics_as_the_run_they_were_made_of(kept):
     with pytest.warns(UserWarning):
         from_files = ga.compare_cg([CG2, CG3])

@@ -218,6 +218,8 @@ def test_resume_from_a_kept_checkpoint_starts_a_part_and_refuses_what_does_not_m
     refused(cli("p.h5", "--resume-from", str(kept), "--seed", "1"), "kept.ckpt.npz", "other parameters", "seed")
     refused(cli("p.h5", "--resume-from", str(kept), "--revolutions", "0.003"), "after 4 frames, the requested run has 4")
     refused(cli("a.h5", "--resume-from", str(kept), "--revolutions", "0.006"), "a.h5 exists", "--overwrite")
+    refused(cli("a.h5", "--resume-from", str(tmp_path / "a.h5.ckpt.npz"), "--overwrite", "--revolutions", "0.006"),
+            "a.h5's own checkpoint", "--resume")
     refused(cli("p.h5", "--resume-from", str(tmp_path / "none.npz"), "--revolutions", "0.006"), "no checkpoint")
     assert not (tmp_path / "p.h5").exists()
     # the part holds the run's frames 4-6 of a run extended to 0.006 revolution, as a run made at once

@@ -95,7 +95,8 @@ class RunStatistics:
         """The statistics of ``frames`` (a Run, a RunSlice or snapshots) of a run with ``meta``.
 
         ``frame_indices`` are their indices in the run (default: those the frames give, their
-        position in a plain sequence); ``method`` and ``params`` identify the granules, as for
+        position in a plain sequence, after the part's first frame where ``meta`` is a part's,
+        ``provenance["first_frame"]``); ``method`` and ``params`` identify the granules, as for
         :func:`~granalytics.run_stats`.
         """
         from granalytics.analysis.confinement import confinement_timeseries
@@ -103,6 +104,8 @@ class RunStatistics:
         table, sizes = confinement_timeseries(frames, meta, method, progress=progress, return_sizes=True, **params)
         if frame_indices is not None:
             table["frame"] = np.asarray(frame_indices, dtype=np.int64)
+        else:
+            table["frame"] = table["frame"].to_numpy(dtype=np.int64) + int(meta.provenance.get("first_frame", 0))
         table = table.drop(columns=[c for c in ("method", "cohesion") if c in table])
         return cls(meta, table, [np.asarray(s, dtype=np.int64) for s in sizes], method, _identification(method, params),
                    path)
@@ -120,7 +123,13 @@ class RunStatistics:
 
     def join(self, other: "RunStatistics") -> "RunStatistics":
         """These statistics and ``other``'s (more frames of the same run, identified alike), by
-        frame; a frame in both is refused."""
+        frame; a frame in both is refused.
+
+        The metadata is that of the side whose frames reach further (the run as it stood last: its
+        cost so far, a finished run's wall time), with the provenance entries only the other side
+        has (a part begun from a checkpoint does not record the settling) and without a part's
+        ``first_frame``.
+        """
         if other.meta.sim_config.get("params") != self.meta.sim_config.get("params"):
             raise ParameterError(f"{other.path}: statistics of another run than {self.path}")
         other.check_identification(self.method, self.params)
@@ -130,7 +139,12 @@ class RunStatistics:
         table = pd.concat([self.timeseries, other.timeseries], ignore_index=True)
         order = np.argsort(table["frame"].to_numpy(), kind="stable")
         sizes = [*self.sizes, *other.sizes]
-        return RunStatistics(self.meta, table.iloc[order].reset_index(drop=True), [sizes[k] for k in order],
+        last = lambda stats: stats.timeseries["frame"].max() if len(stats) else -1  # noqa: E731
+        later, earlier = (other, self) if last(other) > last(self) else (self, other)
+        meta = RunMeta.from_dict(later.meta.to_dict())
+        meta.provenance = {**earlier.meta.provenance, **later.meta.provenance}
+        meta.provenance.pop("first_frame", None)
+        return RunStatistics(meta, table.iloc[order].reset_index(drop=True), [sizes[k] for k in order],
                              self.method, self.params, self.path)
 
     def identity(self) -> dict:
