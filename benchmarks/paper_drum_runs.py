@@ -587,8 +587,9 @@ def _join_parts(folder, stem):
     if missing:
         print(f"{stem}: cannot write its subset, frames {missing} were neither kept nor made here", flush=True)
         return
-    with ga.open_run(parts[-1][1]) as last:
+    with ga.open_run(parts[-1][1]) as last, ga.open_run(sources[frames[0]][0], validate=False) as earliest:
         meta = RunMeta.from_dict(last.meta.to_dict())
+        meta.provenance = {**earliest.meta.provenance, **meta.provenance}  # the settling, which a part lacks
     meta.provenance.pop("first_frame", None)
     meta.provenance.update(planned_frames=len(frames), subset_of={
         "file": f"{stem}.h5, made in parts ({', '.join(os.path.basename(p) for _, p in parts)} and earlier)",

@@ -168,10 +168,14 @@ def test_a_series_run_made_on_two_machines_gets_the_subset_of_the_uninterrupted_
     assert os.listdir(tmp_path / "subsets" / "unfinished") == []
     with ga.open_run(tmp_path / "subsets" / "paper-cg3-weber-seed1.h5") as joined, ga.open_run(full) as run:
         assert joined.unfinished is None and "first_frame" not in joined.meta.provenance
+        # the settling, which only the run's first machine recorded (a part begun from a checkpoint does not)
+        assert {"settle_wall_time_s", "settle_cpu_time_s"} <= set(joined.meta.provenance)
         assert joined.meta.provenance["subset_of"]["frames_kept"] == [0, 3, 6, 8, 9, 10]
         assert [int(s) for s in joined.steps] == [k * FRAME_EVERY for k in (0, 3, 6, 8, 9, 10)]
         for frame, k in zip(joined, (0, 3, 6, 8, 9, 10)):
             assert np.allclose(frame.position, run[k].position, rtol=1e-6, atol=0)
+    with ga.open_run(part) as made_on_b:
+        assert "settle_wall_time_s" not in made_on_b.meta.provenance
     subset = tmp_path / "subsets" / "paper-cg3-weber-seed1.h5"
     assert driver._finished_run(str(machine_b / "paper-cg3-weber-seed1.h5")) == str(subset)
     # a finished paper-drum CG run: its last checkpoint is kept for the load-free speed-ups
