@@ -70,6 +70,24 @@ def test_joined_statistics_carry_the_metadata_of_the_run_as_it_stood_last():
         assert "first_frame" not in joined.meta.provenance and joined.timeseries["frame"].tolist() == list(range(121))
 
 
+def test_compare_cg_says_when_kept_statistics_are_of_an_unfinished_run(kept):
+    import dataclasses
+    import warnings
+
+    from granalytics import RunMeta
+
+    running = RunMeta.from_dict(kept.meta.to_dict())
+    running.provenance = {k: v for k, v in running.provenance.items() if k != "wall_time_s"}
+    assert kept.unfinished is None and "reach frame 120" in dataclasses.replace(kept, meta=running).unfinished
+    for statistics, warned in ((dataclasses.replace(kept, meta=running), True), (kept, False)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            ga.compare_cg([statistics, CG2], window=(3.0, 6.0))
+        said = [str(w.message) for w in caught if "unfinished" in str(w.message)]
+        assert said == (["lab-cg3 kept: statistics of an unfinished run: the simulator recorded no end (no wall time); "
+                         "the statistics reach frame 120; its steady state is that of the frames kept"] if warned else [])
+
+
 def test_compare_cg_takes_kept_statistics_as_the_run_they_were_made_of(kept):
     with pytest.warns(UserWarning):
         from_files = ga.compare_cg([CG2, CG3])

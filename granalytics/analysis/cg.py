@@ -280,6 +280,9 @@ def _analyse_member(item, window, method, cohesion, progress, params) -> dict:
         item.check_identification(method, {**params, "cohesion": cohesion})
         if len(item) == 0:
             raise ParameterError(f"{item.path}: the run statistics hold no frames")
+        if item.unfinished:
+            warnings.warn(f"{item.path}: statistics of an unfinished run: {item.unfinished}; its steady state is "
+                          "that of the frames kept", stacklevel=user_stacklevel())
         meta, identity, frame_sizes = item.meta, item.identity(), item.sizes
         ts = item.timeseries.drop(columns=[c for c in BED_COLUMNS if c in item.timeseries])
         ts["method"], ts["cohesion"] = method, cohesion
