@@ -643,8 +643,9 @@ def table(args):
         print(f"| {label} | {fit.y_inf:.3f} ± {np.sqrt(fit.covariance[0, 0]):.3f} | {fit.b:.2f} ± "
               f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {float(fit(133.3)):.3f} ± "
               f"{float(fit.error(133.3)):.3f} |")
-    _paper_cg_table(args, window, fits)
-    _cost_table(args)
+    cg_groups = _finished_paper_cg(args.dir)
+    _paper_cg_table(cg_groups, window, fits)
+    _cost_table({**{f"α = 1, D/d {r}": g for r, g in groups.items()}, **cg_groups})
     _cg1_against_law(window, fits)
 
 
@@ -652,12 +653,6 @@ def _law_errors(t, metric):
     """The errors the law weighs ``confinement_table`` row's ``metric`` by: the larger of the replica
     s.e. and the block s.e.m., so that two seeds that agree by chance do not pin the fit."""
     return np.fmax(t[f"{metric}_err"], t[f"{metric}_block_sem"])  # one NaN (too few blocks): the other
-
-
-def _plus_minus(value, error) -> str:
-    """``value ± error``, the error to two significant digits and the value to the same decimal."""
-    decimals = max(0, 1 - int(np.floor(np.log10(error)))) if error > 0 else 4
-    return f"{value:.{decimals}f} ± {error:.{decimals}f}"
 
 
 def _cg1_against_law(window, fits):
@@ -691,14 +686,15 @@ def _cg1_against_law(window, fits):
           f"{int(steady.loc['yield_fraction', 'n_frames'])} frames")
 
 
-def _paper_cg_table(args, window, fits):
-    """The paper drum's CG runs (mean ± replica s.e., one seed: block s.e.m.) beside the α = 1 law
+def _paper_cg_table(groups, window, fits):
+    """The paper drum's finished CG runs (``groups``, :func:`_finished_paper_cg`; mean ± the larger
+    of replica s.e. and block s.e.m.) beside the α = 1 law
     at their D/(αd): the scaling rule's error at equal confinement. A Bond run at α is the α = 1
     system in a drum D/α turning at Ω√α, so for it the law (measured at Ω) is not at its drum
     speed; the table says so."""
     import granalytics as ga
+    from granalytics.report.tables import plus_minus
 
-    groups = _finished_paper_cg(args.dir)
     if not groups:
         print("\n(no finished paper-drum CG run yet)")
         return
@@ -709,20 +705,21 @@ def _paper_cg_table(args, window, fits):
           f"{window[1]:g}] (± the larger of replica s.e. and block s.e.m., as the law weighs its points)\n")
     print("| run | α | N | seeds | D/(αd) | yield | law | ⟨V_g⟩/V_p | law | N_g/N | law | bed angle [°] |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    errors = {metric: _law_errors(t, metric) for metric, _ in LAW_METRICS}
     for k, r in enumerate(t.itertuples(index=False)):
         cells = []
         for metric, _ in LAW_METRICS:
-            fit, mean, err = fits[metric], getattr(r, metric), _law_errors(t, metric).iloc[k]
+            fit, mean, err = fits[metric], getattr(r, metric), errors[metric].iloc[k]
             law, law_err = float(fit(r.drum_ratio)), float(fit.error(r.drum_ratio))
             deviation = mean / law - 1
-            cells += [_plus_minus(mean, err), f"{_plus_minus(law, law_err)} ({100 * deviation:+.0f} % ± "
+            cells += [plus_minus(mean, err), f"{plus_minus(law, law_err)} ({100 * deviation:+.0f} % ± "
                       f"{100 * np.hypot(err / law, mean * law_err / law**2):.0f} %)"]
         print(f"| {r.label}{' (twin: Ω√α)' if 'bond' in r.label else ''} | {r.alpha:g} | {r.n_particles} | "
               f"{r.n_replicas} | {r.drum_ratio:.1f} | {' | '.join(cells)} | {r.bed_angle_deg:.1f} |")
 
 
-def _cost_table(args):
-    """What each finished run cost: CPU seconds per simulated second (of the rotating drum, the
+def _cost_table(runs):
+    """What each finished run (``runs``: {label: paths}) cost: CPU seconds per simulated second (of the rotating drum, the
     settling apart) as its simulator recorded them, per particle, and CG1's cost over it (CG1's
     rate from its newest checkpoint, so far). Runs made before the simulator recorded CPU time are
     left out. The series' runs are made on one thread beside CG1; CG1 on one thread beside them,
@@ -731,7 +728,6 @@ def _cost_table(args):
     import granalytics as ga
 
     rows = []
-    runs = {**{f"α = 1, D/d {r}": g for r, g in _finished_series(args.dir).items()}, **_finished_paper_cg(args.dir)}
     for label, paths in runs.items():
         rates = []
         for path in paths:

@@ -279,8 +279,6 @@ def test_the_core_is_not_handed_to_a_cg1_that_is_settling(driver, tmp_path, monk
 def test_the_law_weighs_each_point_by_the_larger_of_its_replica_and_block_errors(driver):
     t = pd.DataFrame({"yield_fraction_err": [0.0003, 0.004], "yield_fraction_block_sem": [0.004, 0.002]})
     assert driver._law_errors(t, "yield_fraction").tolist() == [0.004, 0.004]
-    assert driver._plus_minus(0.61234, 0.000061) == "0.612340 ± 0.000061"
-    assert driver._plus_minus(6.617, 0.14) == "6.62 ± 0.14" and driver._plus_minus(0.5, 0.0) == "0.5000 ± 0.0000"
 
 
 def test_the_cost_table_gives_cg1s_cpu_rate_over_each_runs(driver, tmp_path, monkeypatch, capsys):
@@ -291,10 +289,8 @@ def test_the_cost_table_gives_cg1s_cpu_rate_over_each_runs(driver, tmp_path, mon
     Simulation(PARAMS, ORIGINAL).run(cg1, revolutions(3), frame_every=FRAME_EVERY, checkpoint_every=3, progress=False)
     other = tmp_path / "cg3.h5"
     Simulation(PARAMS, ORIGINAL).run(other, revolutions(2), frame_every=FRAME_EVERY, checkpoint_every=None, progress=False)
-    monkeypatch.setattr(driver, "_finished_series", lambda folder: {})
-    monkeypatch.setattr(driver, "_finished_paper_cg", lambda folder: {"paper-cg3 weber": [str(other)]})
     capsys.readouterr()
-    driver._cost_table(type("Args", (), {"dir": str(tmp_path / "no-series")}))
+    driver._cost_table({"paper-cg3 weber": [str(other)]})
     rows = {line.split("|")[1].strip(): line.split("|")[2:-1] for line in capsys.readouterr().out.splitlines()
             if line.startswith("| paper-cg")}
     _, step, info = driver._checkpoint_point(checkpoint_path(cg1))

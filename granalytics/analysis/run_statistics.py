@@ -150,13 +150,10 @@ class RunStatistics:
     @property
     def unfinished(self) -> str | None:
         """Why the run was unfinished when these statistics were kept (one phrase), or None when
-        nothing says so: a simulator run that recorded no end (no wall time; its last kept part
-        was still running), as :attr:`granalytics.core.reader.Run.unfinished` says of a run file."""
-        provenance = self.meta.provenance
-        if provenance.get("code") == "sim" and provenance.get("wall_time_s") is None:
-            last = int(self.timeseries["frame"].max()) if len(self) else -1
-            return f"the simulator recorded no end (no wall time); the statistics reach frame {last}"
-        return None
+        nothing says so (:meth:`RunMeta.stopped_early <granalytics.RunMeta.stopped_early>`, as a run
+        file's :attr:`~granalytics.core.reader.Run.unfinished` says it)."""
+        last = int(self.timeseries["frame"].max()) if len(self) else -1
+        return "; ".join(self.meta.stopped_early(held=f"; the statistics reach frame {last}")) or None
 
     def identity(self) -> dict:
         """What tells this run from another (as :func:`~granalytics.analysis.run_systems.run_identity`

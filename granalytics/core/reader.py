@@ -317,10 +317,7 @@ class Run(HDF5Handle, _FrameSequence):
             reasons.append(f"it holds {len(self)} of the {planned} frames planned")
         if self._writer_open:
             reasons.append("its writer did not close it (killed, or still writing)")
-        if self._meta.provenance.get("interrupted"):
-            reasons.append(str(self._meta.provenance["interrupted"]))
-        if self._meta.provenance.get("code") == "sim" and self._meta.provenance.get("wall_time_s") is None:
-            reasons.append(f"the simulator recorded no end (no wall time) after its {len(self)} frames")
+        reasons += self._meta.stopped_early(held=f" after its {len(self)} frames")
         return "; ".join(reasons) or None
 
     def info(self) -> dict:

@@ -141,6 +141,17 @@ class RunMeta:
         """
         self.__post_init__()
 
+    def stopped_early(self, held="") -> list:
+        """What the provenance says of a run that did not finish (phrases; none if nothing): its
+        producer's ``provenance["interrupted"]``, or a simulator run that recorded no wall time
+        (``sim`` writes it after the last frame), ``held`` added to that phrase (what the reader
+        holds of it). :attr:`Run.unfinished <granalytics.core.reader.Run.unfinished>` and
+        :attr:`RunStatistics.unfinished <granalytics.RunStatistics.unfinished>` say it."""
+        reasons = [str(self.provenance["interrupted"])] if self.provenance.get("interrupted") else []
+        if self.provenance.get("code") == "sim" and self.provenance.get("wall_time_s") is None:
+            reasons.append(f"the simulator recorded no end (no wall time){held}")
+        return reasons
+
     def to_dict(self) -> dict:
         """Plain-dict form (JSON-serialisable)."""
         out = dataclasses.asdict(self)
