@@ -136,7 +136,8 @@ def replica_table():
     names = CG_SETS["lab drum"]
     groups = [replica_paths(n) if n in REPLICAS else dataset_path(n) for n in names]
     print("\n**lab drum, CG deviations with replicas** (lab-cg1: one run; lab-cg2, lab-cg3: three seeds each; "
-          "deviation ± its standard error from the replica errors of the CG run and the block s.e.m. of lab-cg1)\n")
+          "deviation ± its standard error from the larger of the CG run's replica s.e. and block s.e.m., and the "
+          "block s.e.m. of lab-cg1)\n")
     print("| run | cohesion | yield (dev.) | ⟨V_g⟩/V_p (dev.) | N_g/N (dev.) | KS D |")
     print("| --- | --- | --- | --- | --- | --- |")
     for cohesion in ga.COHESION_CONVENTIONS:

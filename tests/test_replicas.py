@@ -73,6 +73,18 @@ def test_a_group_of_replicas_is_compared_by_its_mean_with_the_replica_error(repl
     assert grouped.runs.iloc[1]["path"].count(";") == 2
 
 
+def test_replicas_that_agree_by_chance_keep_their_block_error(tmp_path, replica_runs):
+    """Two replicas whose means agree far closer than their frames scatter: the deviation's error
+    is their block s.e.m., not the chance replica s.e. (it printed "± 0 %")."""
+    cg1 = replica_runs[0]
+    twins = [write_run(tmp_path / f"cg3-{k}.h5", 300, 3.0, wall_per_sim_s=2.0, seed=20 + k) for k in range(2)]
+    ref, row = (r for _, r in compare_cg([cg1, twins], window=(2, 4), c_agg=0.6, a_agg_deg=20).table.iterrows())
+    assert row["yield_fraction_replica_sem"] < row["yield_fraction_sem"]
+    ratio = row["yield_fraction_mean"] / ref["yield_fraction_mean"]
+    assert row["yield_fraction_rel_dev_se"] == pytest.approx(ratio * math.hypot(
+        row["yield_fraction_sem"] / row["yield_fraction_mean"], ref["yield_fraction_sem"] / ref["yield_fraction_mean"]))
+
+
 def test_replica_bands_are_drawn_and_bad_groups_are_refused(replica_runs):
     import matplotlib.pyplot as plt
 

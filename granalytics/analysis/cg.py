@@ -371,8 +371,8 @@ def compare_cg(runs, labels=None, *, window=DEFAULT_WINDOW_REV, method="gna", co
         Its table has, per metric, ``_mean`` (over the replicas of a group), ``_std`` (over
         frames, averaged over replicas), ``_sem`` (block s.e.m., combined over replicas as
         √(Σ sem²)/n), ``_replica_sem`` (standard deviation of the replica means / √n; NaN for a
-        single run), ``_rel_dev`` and ``_rel_dev_se`` (its standard error, from each side's replica
-        s.e. where it has replicas and its block s.e.m. where not), and ``n_replicas``.
+        single run), ``_rel_dev`` and ``_rel_dev_se`` (its standard error, from each side's larger
+        of replica s.e. and block s.e.m.; a single run's block s.e.m.), and ``n_replicas``.
     """
     groups = [_replica_group(item) for item in _run_list(runs, "compare_cg")]
     if len(groups) < 2:
@@ -462,6 +462,13 @@ def _warn_if_not_one_system(infos, systems, mixed_systems) -> None:
                       + "); their differences mix coarse-graining with the change of physics", stacklevel=user_stacklevel())
 
 
+def _side_error(table, metric) -> float:
+    """The standard error of one side of a deviation: the larger of its replica s.e. and its block
+    s.e.m. (the block s.e.m. alone for a single run). Two or three replicas that agree by chance
+    give a replica s.e. far below what each run's frames allow; the block s.e.m. is the floor."""
+    return float(np.fmax(table.loc[metric, "replica_sem"], table.loc[metric, "block_sem"]))
+
+
 def _comparison_row(row, steady, sizes, reference, ref_row) -> dict:
     """The row of the comparison table of run ``row`` against the ``reference`` run: every CG
     metric's steady state and its relative deviation (each side with its run-to-run error where it
@@ -470,8 +477,6 @@ def _comparison_row(row, steady, sizes, reference, ref_row) -> dict:
 
     table, ref = steady[row.run], steady[reference]
     out = {"run": row.run, "alpha": row.alpha, "n_particles": row.n_particles, "n_replicas": row.n_replicas}
-    error = "replica_sem" if row.n_replicas > 1 else "block_sem"
-    ref_error = "replica_sem" if ref_row["n_replicas"] > 1 else "block_sem"
     for metric in CG_METRICS:
         mean = table.loc[metric, "mean"]
         out[f"{metric}_mean"] = mean
@@ -481,8 +486,8 @@ def _comparison_row(row, steady, sizes, reference, ref_row) -> dict:
         if row.run == reference:
             dev, dev_se = (0.0, math.nan) if ref.loc[metric, "mean"] else (math.nan, math.nan)
         else:
-            dev, dev_se = _relative_deviation(mean, table.loc[metric, error], ref.loc[metric, "mean"],
-                                              ref.loc[metric, ref_error])
+            dev, dev_se = _relative_deviation(mean, _side_error(table, metric), ref.loc[metric, "mean"],
+                                              _side_error(ref, metric))
         out[f"{metric}_rel_dev"] = dev
         out[f"{metric}_rel_dev_se"] = dev_se
     a, b = sizes[row.run], sizes[reference]
