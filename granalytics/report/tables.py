@@ -79,8 +79,8 @@ def format_cg_table(comparison) -> str:
     if replicas:
         lines.append("± replica s.e.: standard deviation of a group's replica means / √n (the run-to-run error); "
                      "block s.e.m.: standard error of the mean from the means of blocks of the window, combined "
-                     "over the replicas as √(Σ sem²)/n; deviation ± s.e.: from each side's replica s.e., or its "
-                     "block s.e.m. for a single run")
+                     "over the replicas as √(Σ sem²)/n; deviation ± s.e.: from each side's larger of replica s.e. "
+                     "and block s.e.m. (a single run's block s.e.m.)")
     else:
         lines.append("± block s.e.m.: standard error of the mean from the means of blocks of the window; "
                      "deviation ± s.e.: from the two runs' block s.e.m.")
