@@ -39,8 +39,9 @@ goes on from the kept checkpoint in a new part, ``paper-cg1-fromNNN.h5`` (``sim 
 writes the float32 subset of each finished run into ``benchmarks/paper_family_runs/`` (those there
 are kept); where this machine has not a run, the series counts its subset there as finished.
 ``table`` prints the series' steady state per D/d (mean ± replica s.e.) and the confinement law y =
-y∞·(1 − b/(D/d)) fitted to it, with its errors scaled by √(χ²/dof) when χ²/dof > 1, the law's value
-at the paper CG1's D/d = 133 with that band, the paper drum's CG runs beside the law at their
+y∞·(1 − b/(D/d)) fitted to it over every D/d and from D/d 33 on, with its errors scaled by √(χ²/dof)
+when χ²/dof > 1, the law's values at the paper CG1's D/d = 133 with that band (``--figure FILE``
+draws it all against D/(αd)), the paper drum's CG runs beside the law at their
 D/(αd), and the paper's CG1 (from its kept statistics) beside the law's prediction once they
 cover the window.
 ``figures`` writes the paper's Figs 3–6 for the paper drum (``ga.save`` of ``ga.compare_cg``): its
@@ -614,6 +615,8 @@ def table(args):
     import granalytics as ga
 
     window = tuple(float(x) for x in args.window.split(":"))
+    if args.figure and os.path.exists(args.figure) and not args.overwrite:
+        sys.exit(f"{args.figure}: exists; pass --overwrite to replace it")
     groups = _finished_series(args.dir)
     if not groups:
         print(f"no finished run in {args.dir}")
@@ -632,21 +635,103 @@ def table(args):
     if len(t) < 3:
         print("\n(the law needs three D/d or more)")
         return
-    fits = {}
+    laws = _fit_laws(t)
     print("\nEach point weighs by the larger of its replica s.e. and its block s.e.m. (a few seeds may agree by "
           "chance far better than their frames scatter); the law's errors are scaled by √(χ²/dof) where it "
-          "exceeds 1 (`fit_confinement_curve` does it).\n")
-    print("| metric | y∞ | b [d] | χ²/dof | at D/d 133 (band: scaled 1σ) |")
-    print("| --- | --- | --- | --- | --- |")
-    for metric, label in LAW_METRICS:
-        fit = fits[metric] = ga.fit_confinement_curve(t["drum_ratio"], t[metric], _law_errors(t, metric))
-        print(f"| {label} | {fit.y_inf:.3f} ± {np.sqrt(fit.covariance[0, 0]):.3f} | {fit.b:.2f} ± "
-              f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {float(fit(133.3)):.3f} ± "
-              f"{float(fit.error(133.3)):.3f} |")
+          "exceeds 1 (`fit_confinement_curve` does it). The law is fitted over every D/d and from D/d "
+          f"{LAW_RANGES[1][1]:g} on (the most confined drum may lie off it).\n")
+    print("| D/d fitted | metric | y∞ | b [d] | χ²/dof | at D/d 133 (band: scaled 1σ) |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name, fits in laws.items():
+        for metric, label in LAW_METRICS:
+            fit = fits[metric]
+            print(f"| {name} | {label} | {fit.y_inf:.3f} ± {np.sqrt(fit.covariance[0, 0]):.3f} | {fit.b:.2f} ± "
+                  f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {float(fit(PAPER_DRUM_RATIO)):.3f} ± "
+                  f"{float(fit.error(PAPER_DRUM_RATIO)):.3f} |")
+    print("\nPredicted for the paper's CG1 (D/d 133): " + "; ".join(
+        f"{label} {low:.3g}–{high:.3g} ± {band:.1g}" for (_, label), (low, high, band) in
+        zip(LAW_METRICS, (_prediction(laws, metric) for metric, _ in LAW_METRICS))) + " (the fits' values; the band the widest fit's)")
+    fits = laws["all"]
     cg_groups = _finished_paper_cg(args.dir)
-    _paper_cg_table(cg_groups, window, fits)
+    cg_table = _paper_cg_table(cg_groups, window, fits)
     _cost_table({**{f"α = 1, D/d {r}": g for r, g in groups.items()}, **cg_groups})
-    _cg1_against_law(window, fits)
+    cg1 = _cg1_against_law(window, fits)
+    if args.figure:
+        _law_figure(t, laws, cg_table, cg1, args.figure)
+        print(f"\nwrote {args.figure}")
+
+
+#: the paper's CG1: D/d = 133 (its 1.5 mm particles in its 0.2 m drum)
+PAPER_DRUM_RATIO = 133.3
+#: the law is fitted over every D/d of the series, and from D/d 33 on: D/d 22, the most confined
+#: drum (its bed at 62°), lies off the curve the others follow
+LAW_RANGES = (("all", 0.0), ("from 33", 33.0))
+
+
+def _fit_laws(t) -> dict:
+    """The law fitted to ``confinement_table`` rows ``t`` over each range of :data:`LAW_RANGES` that
+    has three D/d or more and other D/d than the ranges before it: {range: {metric: ConfinementFit}}."""
+    import granalytics as ga
+
+    laws, fitted = {}, []
+    for name, lowest in LAW_RANGES:
+        part = t[t["drum_ratio"] >= lowest]
+        if len(part) >= 3 and len(part) not in fitted:  # ranges are nested: equal counts, equal points
+            fitted.append(len(part))
+            laws[name] = {metric: ga.fit_confinement_curve(part["drum_ratio"], part[metric], _law_errors(part, metric))
+                          for metric, _ in LAW_METRICS}
+    return laws
+
+
+def _prediction(laws, metric, drum_ratio=PAPER_DRUM_RATIO):
+    """(lowest, highest, band) of the fits' values of ``metric`` at ``drum_ratio``; the band is the
+    largest of their (χ²-scaled) errors."""
+    values = [float(fits[metric](drum_ratio)) for fits in laws.values()]
+    return min(values), max(values), max(float(fits[metric].error(drum_ratio)) for fits in laws.values())
+
+
+def _law_figure(t, laws, cg_table, cg1, path):
+    """Yield, ⟨V_g⟩/V_p and N_g/N against D/(αd): the α = 1 series (± the errors the law weighs them
+    by), each fit of the law with its scaled 1σ band carried to the paper's CG1 at D/d 133, the
+    paper drum's CG runs at their D/(αd) (``cg_table``, a ``confinement_table``, or None), the
+    paper's CG1 once measured (``cg1``: (D/d, steady state) or None) and the paper's "slightly
+    above 55 %". Written atomically (``table`` refuses an existing file without ``--overwrite``)."""
+    import matplotlib.pyplot as plt
+
+    from granalytics.base.files import write_atomically
+
+    fig, axes = plt.subplots(1, 3, figsize=(14, 5.2), layout="constrained")
+    x = np.geomspace(18, 150, 200)
+    for ax, (metric, label) in zip(axes, LAW_METRICS):
+        ax.errorbar(t["drum_ratio"], t[metric], yerr=_law_errors(t, metric), fmt="o", color="k", capsize=3,
+                    label="α = 1, paper drum's family (seeds: replica s.e. or block s.e.m.)")
+        for (name, fits), colour in zip(laws.items(), ("C0", "C1")):
+            fit = fits[metric]
+            ax.plot(x, fit(x), color=colour, lw=1, label=f"law y∞·(1 − b/(D/d)), {'every D/d' if name == 'all' else 'D/d ' + name}: χ²/dof {fit.chi2:.1f}/{fit.dof}")
+            ax.fill_between(x, fit(x) - fit.error(x), fit(x) + fit.error(x), color=colour, alpha=0.15, lw=0)
+        if cg_table is not None:
+            errors = _law_errors(cg_table, metric)
+            for k, r in enumerate(cg_table.itertuples(index=False)):
+                bond = "bond" in r.label
+                ax.errorbar(r.drum_ratio, getattr(r, metric), yerr=errors.iloc[k], fmt="^" if bond else "s",
+                            mfc="none" if bond else None, color="C3" if bond else "C2", capsize=3,
+                            label=f"{r.label} ({r.n_replicas} seed{'s' if r.n_replicas > 1 else ''}) at D/(αd)")
+        if cg1 is not None:
+            drum_ratio, steady = cg1
+            ax.errorbar(drum_ratio, steady.loc[metric, "mean"], yerr=steady.loc[metric, "sem"], fmt="*", ms=12,
+                        color="C4", capsize=3, label="paper-cg1 (block s.e.m.)")
+        if metric == "yield_fraction":
+            ax.plot([PAPER_DRUM_RATIO], [0.55], marker="_", ms=20, mew=2, color="C5", ls="none",
+                    label="the paper's CG1: \"slightly above 55 %\"")
+        ax.axvline(PAPER_DRUM_RATIO, color="0.7", lw=0.8, ls=":")
+        ax.set_xscale("log")
+        ax.set_xticks([22, 33, 44, 66, PAPER_DRUM_RATIO], ["22", "33", "44", "66", "133"])
+        ax.minorticks_off()
+        ax.set_xlabel("D/(αd): drum diameter over simulated particle diameter")
+        ax.set_ylabel(label)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=8)
+    write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=120, format=os.path.splitext(path)[1][1:] or "png"))
+    plt.close(fig)
 
 
 def _law_errors(t, metric):
@@ -658,7 +743,7 @@ def _law_errors(t, metric):
 def _cg1_against_law(window, fits):
     """The paper's CG1 (window, block s.e.m., from the statistics ``keep`` kept of every frame)
     beside the law's prediction at its D/d and the paper's "slightly above 55 %": issue 54's
-    verdict, once the run covers the window."""
+    verdict, once the run covers the window. Returns (its D/d, its steady state), or None before."""
     from granalytics.analysis.confinement import BED_COLUMNS, confinement_of_run
     from granalytics.analysis.metrics import HEADLINE
     from granalytics.analysis.stats import steady_state
@@ -668,7 +753,7 @@ def _cg1_against_law(window, fits):
     if last < window[1] - 1e-3:
         print(f"\n(paper-cg1 has {last:.2f} revolutions kept, the window [{window[0]:g}, {window[1]:g}] needs "
               f"{window[1]:g}; its verdict waits)")
-        return
+        return None
     meta = kept.meta
     drum_ratio = confinement_of_run(meta).drum_ratio
     steady = steady_state(kept.timeseries, window, columns=(*HEADLINE, *BED_COLUMNS), source="paper-cg1")
@@ -684,6 +769,7 @@ def _cg1_against_law(window, fits):
     print(f"\nbed angle {steady.loc['bed_angle_deg', 'mean']:.1f}°, coordination "
           f"{steady.loc['coordination', 'mean']:.2f}, {meta.n_particles} particles, "
           f"{int(steady.loc['yield_fraction', 'n_frames'])} frames")
+    return drum_ratio, steady
 
 
 def _paper_cg_table(groups, window, fits):
@@ -691,13 +777,13 @@ def _paper_cg_table(groups, window, fits):
     of replica s.e. and block s.e.m.) beside the α = 1 law
     at their D/(αd): the scaling rule's error at equal confinement. A Bond run at α is the α = 1
     system in a drum D/α turning at Ω√α, so for it the law (measured at Ω) is not at its drum
-    speed; the table says so."""
+    speed; the table says so. Returns their ``confinement_table`` (None without runs)."""
     import granalytics as ga
     from granalytics.report.tables import plus_minus
 
     if not groups:
         print("\n(no finished paper-drum CG run yet)")
-        return
+        return None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t = ga.confinement_table(list(groups.values()), window, labels=list(groups))
@@ -716,6 +802,7 @@ def _paper_cg_table(groups, window, fits):
                       f"{100 * np.hypot(err / law, mean * law_err / law**2):.0f} %)"]
         print(f"| {r.label}{' (twin: Ω√α)' if 'bond' in r.label else ''} | {r.alpha:g} | {r.n_particles} | "
               f"{r.n_replicas} | {r.drum_ratio:.1f} | {' | '.join(cells)} | {r.bed_angle_deg:.1f} |")
+    return t
 
 
 def _cost_table(runs):
@@ -795,9 +882,13 @@ def main(argv=None):
             p.add_argument("--series-dir", default=SERIES_DIR)
         p.add_argument("--dt-factor", type=float, default=DEFAULT_FACTOR)
         p.add_argument("--window", default="2:4")
+        if name == "table":
+            p.add_argument("--figure", help="also draw the law, the CG runs and CG1 against D/(αd) into this "
+                           "file (PNG or PDF)")
+        if name in ("table", "figures"):
+            p.add_argument("--overwrite", action="store_true")
         if name == "figures":
             p.add_argument("--out", required=True, help="folder of the tables and Figs 3-6")
-            p.add_argument("--overwrite", action="store_true")
             p.add_argument("--size-unit", choices=("original", "particles"), default="original",
                            help="Fig 5's sizes: original-particle equivalents α³·n (the paper's unit, to "
                            "compare CG levels of one drum; default) or each run's particles (to compare "

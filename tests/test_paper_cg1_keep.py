@@ -299,3 +299,33 @@ def test_the_cost_table_gives_cg1s_cpu_rate_over_each_runs(driver, tmp_path, mon
         rate = run.meta.provenance["cpu_time_per_simulated_s"]
     assert rows["paper-cg1 (so far)"][2].strip() == f"{cg1_rate:.0f}" and rows["paper-cg3 weber"][2].strip() == f"{rate:.0f}"
     assert rows["paper-cg3 weber"][4].strip() == f"{cg1_rate / rate:.1f}×"
+
+
+def test_the_law_is_fitted_over_every_drum_and_without_the_most_confined_and_drawn(driver, tmp_path):
+    """The CG1 prediction rests on two fits of the law (every D/d; from D/d 33 on): `table` prints
+    both and the range of their values with the widest band, and draws them with the CG runs."""
+    ratios = np.array([22.0, 33.0, 44.0, 66.0])
+    law = {"yield_fraction": (0.7, 8.0), "mean_volume_norm": (8.0, 12.0), "n_granules_norm": (0.086, -10.0)}
+    columns = {"drum_ratio": ratios, "label": [f"D/d {r:g}" for r in ratios], "n_replicas": [3, 3, 3, 1]}
+    for metric, (y_inf, b) in law.items():
+        values = y_inf * (1 - b / ratios)
+        values[0] *= 1.1  # the most confined drum off the curve
+        columns.update({metric: values, f"{metric}_err": 0.01 * values, f"{metric}_block_sem": 0.005 * values})
+    t = pd.DataFrame(columns)
+    laws = driver._fit_laws(t)
+    assert list(laws) == ["all", "from 33"]
+    for metric, (y_inf, b) in law.items():
+        exact = laws["from 33"][metric]
+        assert exact.y_inf == pytest.approx(y_inf) and exact.b == pytest.approx(b) and exact.chi2 < 1e-12
+        assert laws["all"][metric].chi2 > 1  # D/d 22 pulls the fit over every drum off the law
+        low, high, band = driver._prediction(laws, metric)
+        values = [float(fits[metric](133.3)) for fits in laws.values()]
+        assert (low, high) == (min(values), max(values))
+        assert band == max(float(fits[metric].error(133.3)) for fits in laws.values()) and band > 0
+    assert list(driver._fit_laws(t.iloc[1:])) == ["all"]  # three D/d from 33 on: one fit; fewer: none
+    assert driver._fit_laws(t.iloc[2:]) == {}
+    cg = t.iloc[[2]].assign(label="paper-cg3 bond", drum_ratio=44.4)
+    steady = pd.DataFrame({"mean": [0.66, 7.0, 0.093], "sem": [0.01, 0.2, 0.002]}, index=list(law))
+    path = tmp_path / "law.png"
+    driver._law_figure(t, laws, cg, (133.3, steady), str(path))
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
