@@ -646,11 +646,12 @@ def table(args):
         for metric, label in LAW_METRICS:
             fit = fits[metric]
             print(f"| {name} | {label} | {fit.y_inf:.3f} ± {np.sqrt(fit.covariance[0, 0]):.3f} | {fit.b:.2f} ± "
-                  f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | {float(fit(PAPER_DRUM_RATIO)):.3f} ± "
-                  f"{float(fit.error(PAPER_DRUM_RATIO)):.3f} |")
-    print("\nPredicted for the paper's CG1 (D/d 133): " + "; ".join(
-        f"{label} {low:.3g}–{high:.3g} ± {band:.1g}" for (_, label), (low, high, band) in
-        zip(LAW_METRICS, (_prediction(laws, metric) for metric, _ in LAW_METRICS))) + " (the fits' values; the band the widest fit's)")
+                  f"{np.sqrt(fit.covariance[1, 1]):.2f} | {fit.chi2:.1f}/{fit.dof} | "
+                  f"{float(fit(PAPER_DRUM_RATIO)):.3f} ± {float(fit.error(PAPER_DRUM_RATIO)):.3f} |")
+    predicted = [f"{label} {low:.3g}–{high:.3g} ± {band:.1g}"
+                 for (low, high, band), (_, label) in zip((_prediction(laws, m) for m, _ in LAW_METRICS), LAW_METRICS)]
+    print(f"\nPredicted for the paper's CG1 (D/d 133): {'; '.join(predicted)} (the fits' values; the band the "
+          "widest fit's)")
     fits = laws["all"]
     cg_groups = _finished_paper_cg(args.dir)
     cg_table = _paper_cg_table(cg_groups, window, fits)
@@ -707,7 +708,9 @@ def _law_figure(t, laws, cg_table, cg1, path):
                     label="α = 1, paper drum's family (seeds: replica s.e. or block s.e.m.)")
         for (name, fits), colour in zip(laws.items(), ("C0", "C1")):
             fit = fits[metric]
-            ax.plot(x, fit(x), color=colour, lw=1, label=f"law y∞·(1 − b/(D/d)), {'every D/d' if name == 'all' else 'D/d ' + name}: χ²/dof {fit.chi2:.1f}/{fit.dof}")
+            fitted = "every D/d" if name == "all" else f"D/d {name}"
+            ax.plot(x, fit(x), color=colour, lw=1,
+                    label=f"law y∞·(1 − b/(D/d)), {fitted}: χ²/dof {fit.chi2:.1f}/{fit.dof}")
             ax.fill_between(x, fit(x) - fit.error(x), fit(x) + fit.error(x), color=colour, alpha=0.15, lw=0)
         if cg_table is not None:
             errors = _law_errors(cg_table, metric)
