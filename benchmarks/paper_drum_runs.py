@@ -46,7 +46,8 @@ D/(αd), and the paper's CG1 (from its kept statistics) beside the law's predict
 cover the window.
 ``figures`` writes the paper's Figs 3–6 for the paper drum (``ga.save`` of ``ga.compare_cg``): its
 finished CG runs, one group per preset and rule (seeds as replicas), beside the largest finished α =
-1 run of the family (D/d 66 once it is in), or beside ``--reference``: an α = 1 run file, or the
+1 run of the family (D/d 66 once it is in), or beside ``--reference``: α = 1 run files (seeds of one
+system, as replicas), or the
 paper's CG1 from the statistics kept of it (``benchmarks/paper_cg1_run``, ``ga.RunStatistics``), with the table of each against it and the speed-up from the recorded wall times (the
 load-free one, also per particle-step, from the runs' checkpoints: ``benchmarks/cg_speedup.py``).
 """
@@ -847,10 +848,11 @@ def figures(args):
     import granalytics as ga
     from granalytics.report.tables import format_cg_table
 
-    if args.reference:  # a run file, or statistics kept in place of one (CG1's: CG1_KEPT)
-        reference = ga.RunStatistics.read(args.reference) if os.path.isdir(args.reference) else args.reference
-        name = "paper-cg1" if os.path.isdir(args.reference) else os.path.splitext(os.path.basename(args.reference))[0]
-        groups, labels = [[reference]], [name]
+    if args.reference:  # run files (seeds of one system), or statistics kept in place of one (CG1's: CG1_KEPT)
+        reference = [ga.RunStatistics.read(p) if os.path.isdir(p) else p for p in args.reference]
+        first = args.reference[0]
+        name = "paper-cg1" if os.path.isdir(first) else os.path.splitext(os.path.basename(first))[0]
+        groups, labels = [reference], [name if len(reference) == 1 else f"{name.split('-seed')[0]}, {len(reference)} seeds"]
     else:
         done = _finished_series(args.dir)
         if not done:
@@ -896,9 +898,10 @@ def main(argv=None):
                            help="Fig 5's sizes: original-particle equivalents α³·n (the paper's unit, to "
                            "compare CG levels of one drum; default) or each run's particles (to compare "
                            "runs at equal confinement D/(αd))")
-            p.add_argument("--reference", help="the α = 1 run the CG runs are compared with, a run file or "
-                           "statistics kept in place of one (the paper's CG1: benchmarks/paper_cg1_run; default: "
-                           "the family's largest finished D/d)")
+            p.add_argument("--reference", nargs="+", help="the α = 1 run the CG runs are compared with: run "
+                           "files (several: seeds of one system, compared as replicas) or statistics kept in place "
+                           "of one (the paper's CG1: benchmarks/paper_cg1_run; default: the family's largest "
+                           "finished D/d)")
     args = parser.parse_args(argv)
     {"series": series, "cg1": cg1, "progress": progress, "keep": keep, "subset": subset, "table": table,
      "figures": figures, "start": start, "stop": stop}[args.what](args)
