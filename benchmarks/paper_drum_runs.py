@@ -744,6 +744,12 @@ def _law_errors(t, metric):
     return np.fmax(t[f"{metric}_err"], t[f"{metric}_block_sem"])  # one NaN (too few blocks): the other
 
 
+def _deviation(mean, err, law, law_err) -> str:
+    """``mean``'s deviation from the law's value ``law`` in per cent, ± its standard error from both
+    errors (``+4 % ± 1 %``)."""
+    return f"{100 * (mean / law - 1):+.0f} % ± {100 * np.hypot(err / law, mean * law_err / law**2):.0f} %"
+
+
 def _cg1_against_law(window, fits):
     """The paper's CG1 (window, block s.e.m., from the statistics ``keep`` kept of every frame)
     beside the law's prediction at its D/d and the paper's "slightly above 55 %": issue 54's
@@ -768,8 +774,8 @@ def _cg1_against_law(window, fits):
         fit, mean, err = fits[metric], steady.loc[metric, "mean"], steady.loc[metric, "sem"]
         law, law_err = float(fit(drum_ratio)), float(fit.error(drum_ratio))
         paper = "slightly above 0.55" if metric == "yield_fraction" else ""
-        print(f"| {label} | {mean:.4g} ± {err:.2g} | {law:.4g} ± {law_err:.2g} | {100 * (mean / law - 1):+.0f} % ± "
-              f"{100 * np.hypot(err / law, mean * law_err / law**2):.0f} % | {paper} |")
+        print(f"| {label} | {mean:.4g} ± {err:.2g} | {law:.4g} ± {law_err:.2g} | "
+              f"{_deviation(mean, err, law, law_err)} | {paper} |")
     print(f"\nbed angle {steady.loc['bed_angle_deg', 'mean']:.1f}°, coordination "
           f"{steady.loc['coordination', 'mean']:.2f}, {meta.n_particles} particles, "
           f"{int(steady.loc['yield_fraction', 'n_frames'])} frames")
@@ -801,17 +807,15 @@ def _paper_cg_table(groups, window, fits):
         for metric, _ in LAW_METRICS:
             fit, mean, err = fits[metric], getattr(r, metric), errors[metric].iloc[k]
             law, law_err = float(fit(r.drum_ratio)), float(fit.error(r.drum_ratio))
-            deviation = mean / law - 1
-            cells += [plus_minus(mean, err), f"{plus_minus(law, law_err)} ({100 * deviation:+.0f} % ± "
-                      f"{100 * np.hypot(err / law, mean * law_err / law**2):.0f} %)"]
+            cells += [plus_minus(mean, err), f"{plus_minus(law, law_err)} ({_deviation(mean, err, law, law_err)})"]
         print(f"| {r.label}{' (twin: Ω√α)' if 'bond' in r.label else ''} | {r.alpha:g} | {r.n_particles} | "
               f"{r.n_replicas} | {r.drum_ratio:.1f} | {' | '.join(cells)} | {r.bed_angle_deg:.1f} |")
     return t
 
 
 def _cost_table(runs):
-    """What each finished run (``runs``: {label: paths}) cost: CPU seconds per simulated second (of the rotating drum, the
-    settling apart) as its simulator recorded them, per particle, and CG1's cost over it (CG1's
+    """What each finished run (``runs``: {label: paths}) cost: CPU seconds per simulated second (of
+    the rotating drum, the settling apart) as its simulator recorded them, per particle, and CG1's cost over it (CG1's
     rate from its newest checkpoint, so far). Runs made before the simulator recorded CPU time are
     left out. The series' runs are made on one thread beside CG1; CG1 on one thread beside them,
     then on ``auto`` threads once the series is done, its CPU time summed over its threads: the
@@ -852,7 +856,8 @@ def figures(args):
         reference = [ga.RunStatistics.read(p) if os.path.isdir(p) else p for p in args.reference]
         first = args.reference[0]
         name = "paper-cg1" if os.path.isdir(first) else os.path.splitext(os.path.basename(first))[0]
-        groups, labels = [reference], [name if len(reference) == 1 else f"{name.split('-seed')[0]}, {len(reference)} seeds"]
+        label = name if len(reference) == 1 else f"{name.split('-seed')[0]}, {len(reference)} seeds"
+        groups, labels = [reference], [label]
     else:
         done = _finished_series(args.dir)
         if not done:

@@ -471,8 +471,8 @@ def _side_error(table, metric) -> float:
 
 def _comparison_row(row, steady, sizes, reference, ref_row) -> dict:
     """The row of the comparison table of run ``row`` against the ``reference`` run: every CG
-    metric's steady state and its relative deviation (each side with its run-to-run error where it
-    has one), the size distributions' distances and the speed-up."""
+    metric's steady state and its relative deviation (each side's error: :func:`_side_error`), the
+    size distributions' distances and the speed-up."""
     from scipy.stats import ks_2samp, wasserstein_distance
 
     table, ref = steady[row.run], steady[reference]
