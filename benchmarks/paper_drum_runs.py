@@ -653,13 +653,23 @@ def table(args):
                  for (low, high, band), (_, label) in zip((_prediction(laws, m) for m, _ in LAW_METRICS), LAW_METRICS)]
     print(f"\nPredicted for the paper's CG1 (D/d 133): {'; '.join(predicted)} (the fits' values; the band the "
           "widest fit's)")
+    logs = _fit_logs(t)
+    print("\nA curve that does not saturate, y = a + c·ln(D/d) (`fit_logarithmic_curve`), over every D/d: the "
+          "law's form is what carries it from D/d 66 to 133\n")
+    print("| metric | a | c | χ²/dof | at D/d 133 (scaled 1σ) | the law's χ²/dof (every D/d) |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for metric, label in LAW_METRICS:
+        log, law = logs[metric], laws["all"][metric]
+        print(f"| {label} | {log.a:.4g} | {log.c:.4g} | {log.chi2:.1f}/{log.dof} | {float(log(PAPER_DRUM_RATIO)):.3f} ± "
+              f"{float(log.error(PAPER_DRUM_RATIO)):.3f} | {law.chi2:.1f}/{law.dof} |")
     fits = laws["all"]
+    _check_rule(fits["yield_fraction"])
     cg_groups = _finished_paper_cg(args.dir)
     cg_table = _paper_cg_table(cg_groups, window, fits)
     _cost_table({**{f"α = 1, D/d {r}": g for r, g in groups.items()}, **cg_groups})
     cg1 = _cg1_against_law(window, fits)
     if args.figure:
-        _law_figure(t, laws, cg_table, cg1, args.figure)
+        _law_figure(t, laws, logs, cg_table, cg1, args.figure)
         print(f"\nwrote {args.figure}")
 
 
@@ -685,6 +695,29 @@ def _fit_laws(t) -> dict:
     return laws
 
 
+def _fit_logs(t) -> dict:
+    """The non-saturating curve a + c·ln(D/d) fitted to every row of ``t``: {metric: LogarithmicFit}."""
+    import granalytics as ga
+
+    return {metric: ga.fit_logarithmic_curve(t["drum_ratio"], t[metric], _law_errors(t, metric))
+            for metric, _ in LAW_METRICS}
+
+
+def _check_rule(fit):
+    """Print where the law over every D/d puts the yield within 10 % and 5 % of y∞, and whether
+    ``CONFINEMENT_RULE['paper drum']`` (what `granalytics info` and `compare-cg` warn by) holds it."""
+    import granalytics as ga
+
+    kept = ga.CONFINEMENT_RULE["paper drum"]
+    cells = []
+    for key, fraction in (("within_10pc", 0.10), ("within_5pc", 0.05)):
+        x, err = fit.within(fraction)
+        agrees = kept[key] == (round(x), round(err))
+        cells.append(f"within {100 * fraction:.0f} % above D/d {x:.0f} ± {err:.0f} (CONFINEMENT_RULE['paper drum'] "
+                     f"{kept[key][0]:.0f} ± {kept[key][1]:.0f}: {'agrees' if agrees else 'DIFFERS'})")
+    print(f"\nThe yield by the law over every D/d: {'; '.join(cells)}")
+
+
 def _prediction(laws, metric, drum_ratio=PAPER_DRUM_RATIO):
     """(lowest, highest, band) of the fits' values of ``metric`` at ``drum_ratio``; the band is the
     largest of their (χ²-scaled) errors."""
@@ -692,9 +725,10 @@ def _prediction(laws, metric, drum_ratio=PAPER_DRUM_RATIO):
     return min(values), max(values), max(float(fits[metric].error(drum_ratio)) for fits in laws.values())
 
 
-def _law_figure(t, laws, cg_table, cg1, path):
+def _law_figure(t, laws, logs, cg_table, cg1, path):
     """Yield, ⟨V_g⟩/V_p and N_g/N against D/(αd): the α = 1 series (± the errors the law weighs them
     by), each fit of the law with its scaled 1σ band carried to the paper's CG1 at D/d 133, the
+    non-saturating curve (``logs``, :func:`_fit_logs`) dashed, the
     paper drum's CG runs at their D/(αd) (``cg_table``, a ``confinement_table``, or None), the
     paper's CG1 once measured (``cg1``: (D/d, steady state) or None) and the paper's "slightly
     above 55 %". Written atomically (``table`` refuses an existing file without ``--overwrite``)."""
@@ -713,6 +747,9 @@ def _law_figure(t, laws, cg_table, cg1, path):
             ax.plot(x, fit(x), color=colour, lw=1,
                     label=f"law y∞·(1 − b/(D/d)), {fitted}: χ²/dof {fit.chi2:.1f}/{fit.dof}")
             ax.fill_between(x, fit(x) - fit.error(x), fit(x) + fit.error(x), color=colour, alpha=0.15, lw=0)
+        log = logs[metric]
+        ax.plot(x, log(x), color="0.4", lw=1, ls="--",
+                label=f"no saturation, a + c·ln(D/d), every D/d: χ²/dof {log.chi2:.1f}/{log.dof}")
         if cg_table is not None:
             errors = _law_errors(cg_table, metric)
             for k, r in enumerate(cg_table.itertuples(index=False)):

@@ -25,7 +25,8 @@ Public API (SI units throughout; angles in degrees only where a name says ``_deg
 - the drum's confinement (D/d, L/d, bed depth, wall contacts): :func:`confinement_of_drum`,
   :func:`confinement_of_run`, :func:`wall_touching`; the confinement curve and the split of a CG
   deviation into confinement and scaling rules: :func:`confinement_table`,
-  :func:`fit_confinement_curve`, :func:`decompose_cg`, :data:`CONFINEMENT_RULE`
+  :func:`fit_confinement_curve` (and the non-saturating :func:`fit_logarithmic_curve` to set beside
+  it), :func:`decompose_cg`, :data:`CONFINEMENT_RULE`
 - run subsets (fewer frames, float32): :func:`subset_run`
 - granule life histories (tracking, coalescence and breakage events, population-balance rates):
   :func:`track_granules`, :func:`track_run`, :class:`GranuleTracks`, :func:`event_rates`
@@ -66,7 +67,8 @@ _EXPORTS = {
     **dict.fromkeys(("FILL_PACKING", "PLANAR_FRACTION", "BedStructure", "DrumConfinement", "bed_structure",
                      "confinement_of_drum"), ".analysis.bed"),
     **dict.fromkeys(("confinement_of_run", "wall_touching", "CONFINEMENT_RULE", "ConfinementFit", "confinement_table", "decompose_cg",
-                     "fit_confinement_curve", "bed_flow"), ".analysis.confinement"),
+                     "fit_confinement_curve", "LogarithmicFit", "fit_logarithmic_curve", "bed_flow"),
+                    ".analysis.confinement"),
     **dict.fromkeys(("PARTICLE_COLUMNS", "granule_track_table", "particle_table"), ".analysis.particle_tables"),
     "RunStatistics": ".analysis.run_statistics",
     **dict.fromkeys(("frame_stats", "granule_table", "replica_steady_state", "run_stats", "size_distribution",
@@ -108,6 +110,7 @@ __all__ = [
     "Snapshot", "RunMeta",
     "bed_structure", "BedStructure", "PLANAR_FRACTION", "DrumConfinement", "confinement_of_drum", "confinement_of_run",
     "wall_touching", "FILL_PACKING", "confinement_table", "fit_confinement_curve", "ConfinementFit", "decompose_cg",
+    "fit_logarithmic_curve", "LogarithmicFit",
     "CONFINEMENT_RULE", "bed_flow", "cg_rule_of", "particle_table", "granule_track_table", "PARTICLE_COLUMNS",
     "RunWriter", "open_run", "Run", "RunSlice", "subset_run", "WriterLock",
     "identify", "IdentificationResult",

@@ -11,7 +11,8 @@ import pytest
 import granalytics as ga
 from granalytics import ParameterError
 from granalytics.identification import BACKENDS
-from granalytics.analysis.confinement import ConfinementFit, confinement_warning, decompose_cg, fit_confinement_curve
+from granalytics.analysis.confinement import (ConfinementFit, confinement_warning, decompose_cg, fit_confinement_curve,
+                                              fit_logarithmic_curve)
 from granalytics.identification.contacts import co_moving, co_moving_rigid, contact_strength, rigid_residual
 from granalytics.datasets.synthetic import synthetic_meta, synthetic_snapshot
 from sim.params import DrumRule, preset, preset_original, sized_drum
@@ -264,6 +265,29 @@ def test_the_fit_recovers_the_finite_size_law_and_its_thresholds():
         fit_confinement_curve(x[:2], [0.5, 0.6], [0.01, 0.01])
 
 
+def test_the_logarithmic_curve_recovers_its_line_and_parts_from_the_law_beyond_the_data():
+    x = np.array([22.0, 33.0, 44.0, 66.0])
+    fit = fit_logarithmic_curve(x, 0.13 + 0.12 * np.log(x), np.full(4, 0.005))
+    assert (fit.a, fit.c) == (pytest.approx(0.13, rel=1e-10), pytest.approx(0.12, rel=1e-10))
+    assert fit.chi2 == pytest.approx(0.0, abs=1e-12) and fit.dof == 2
+    # unscaled covariance: the error at a point is the weighted regression's, σ/√n at the log-mean
+    assert fit.error(np.exp(np.log(x).mean())) == pytest.approx(0.005 / 2, rel=1e-10)
+    # a saturating curve: both fit four points closely, the law far better; they part beyond them
+    y = 0.7 * (1 - 7.0 / x)
+    law, log = fit_confinement_curve(x, y, np.full(4, 0.002)), fit_logarithmic_curve(x, y, np.full(4, 0.002))
+    assert law.chi2 < 1e-12 < log.chi2
+    assert log(133.0) - law(133.0) > 0.02 and log.error(133.0) > log.error(40.0)
+    # χ²/dof above 1 scales the covariance, as the law's fit does
+    scattered = y + np.array([0.01, -0.01, 0.01, -0.01])
+    loose = fit_logarithmic_curve(x, scattered, np.full(4, 0.002))
+    assert loose.chi2 / loose.dof > 1
+    unit = fit_logarithmic_curve(x, scattered, np.full(4, 1.0))  # χ²/dof below 1: not scaled
+    assert unit.chi2 / unit.dof < 1
+    assert loose.error(40.0) == pytest.approx(unit.error(40.0) * 0.002 * np.sqrt(loose.chi2 / loose.dof), rel=1e-9)
+    with pytest.raises(ParameterError, match="fit_logarithmic_curve: needs three"):
+        fit_logarithmic_curve(x[:2], [0.5, 0.6], [0.01, 0.01])
+
+
 def test_the_decomposition_splits_a_deviation_at_equal_d_over_d_from_one_at_equal_drum():
     import pandas as pd
 
@@ -276,11 +300,30 @@ def test_the_decomposition_splits_a_deviation_at_equal_d_over_d_from_one_at_equa
 
 
 def test_the_warning_names_the_threshold_it_falls_below():
-    rule = {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)}
+    rule = {"a drum": {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)}}
     assert "10 %" in confinement_warning(11.0, rule) and "25" in confinement_warning(11.0, rule)
     assert "5-10 %" in confinement_warning(33.0, rule)
     assert confinement_warning(60.0, rule) is None
-    assert confinement_warning(11.0, {"within_5pc": (None, None), "within_10pc": (None, None)}) is None
+    assert confinement_warning(11.0, {"a drum": {"within_5pc": (None, None), "within_10pc": (None, None)}}) is None
+
+
+def test_the_warning_holds_a_run_to_the_strictest_family_and_names_the_others():
+    rule = {"lab drum": {"within_5pc": (62.0, 9.0), "within_10pc": (31.0, 4.0)},
+            "paper drum": {"within_5pc": (139.0, 21.0), "within_10pc": (70.0, 11.0)}}
+    warning = confinement_warning(44.4, rule)  # above the lab family's 10 %, below the paper family's
+    assert warning.startswith("D/d = 44.4 is below 70 ± 11") and "more than 10 %" in warning
+    assert "paper drum's family, 31 ± 4 in the lab drum's" in warning
+    warning = confinement_warning(100.0, rule)
+    assert warning.startswith("D/d = 100.0 is below 139 ± 21") and "5-10 %" in warning and "62 ± 9" in warning
+    assert confinement_warning(140.0, rule) is None
+
+
+def test_the_rule_holds_the_strictest_family_at_the_paper_drums_cg_runs():
+    """paper-cg3 (D/(αd) 44.4) and paper-cg2 (66.7) lie below the paper drum family's 10 % threshold:
+    its measured α = 1 yields at D/d 44 and 66 are 16 % and 10 % below its y∞."""
+    for drum_ratio in (44.4, 66.7):
+        assert "more than 10 %" in confinement_warning(drum_ratio)
+    assert confinement_warning(1000.0) is None
 
 
 # ----------------------------------------------------------------------------- the command line, the warnings
@@ -290,7 +333,7 @@ def test_info_prints_the_confinement_and_warns_below_the_rule(monkeypatch, capsy
     from granalytics.datasets import dataset_path
 
     path = str(dataset_path("lab-cg3"))
-    monkeypatch.setattr(confinement, "CONFINEMENT_RULE", {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)})
+    monkeypatch.setattr(confinement, "CONFINEMENT_RULE", {"a drum": {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)}})
     assert main(["info", path]) == 0
     captured = capsys.readouterr()
     assert "D/d = 11.2, L/d = 3.9" in captured.out
@@ -303,7 +346,7 @@ def test_compare_cg_warns_once_for_each_system_below_the_rule(monkeypatch):
     import granalytics.analysis.confinement as confinement
     from granalytics.datasets import dataset_path, replica_paths
 
-    monkeypatch.setattr(confinement, "CONFINEMENT_RULE", {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)})
+    monkeypatch.setattr(confinement, "CONFINEMENT_RULE", {"a drum": {"within_5pc": (50.0, 5.0), "within_10pc": (25.0, 3.0)}})
     runs = [dataset_path("lab-cg1"), replica_paths("lab-cg3")]
     with pytest.warns(UserWarning, match=r"lab-cg3.h5 \(and its 2 replica\(s\)\): D/d = 11.2 is below 25") as caught:
         ga.compare_cg(runs, window=(3.0, 3.5))

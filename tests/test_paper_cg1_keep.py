@@ -327,5 +327,20 @@ def test_the_law_is_fitted_over_every_drum_and_without_the_most_confined_and_dra
     cg = t.iloc[[2]].assign(label="paper-cg3 bond", drum_ratio=44.4)
     steady = pd.DataFrame({"mean": [0.66, 7.0, 0.093], "sem": [0.01, 0.2, 0.002]}, index=list(law))
     path = tmp_path / "law.png"
-    driver._law_figure(t, laws, cg, (133.3, steady), str(path))
+    logs = driver._fit_logs(t)
+    assert all(logs[metric].dof == 2 and logs[metric].chi2 > 0 for metric in law)  # the law's points: not a line in ln
+    driver._law_figure(t, laws, logs, cg, (133.3, steady), str(path))
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+
+
+def test_table_checks_the_paper_drum_rule_against_the_law_it_prints(driver, capsys, monkeypatch):
+    import granalytics as ga
+
+    fit = ga.ConfinementFit(y_inf=0.7, b=7.0, covariance=np.diag([0.0, 1.1**2]), chi2=0.0, dof=2)
+    monkeypatch.setitem(ga.CONFINEMENT_RULE, "paper drum", {"within_5pc": (140.0, 22.0), "within_10pc": (70.0, 11.0)})
+    driver._check_rule(fit)
+    out = capsys.readouterr().out
+    assert "within 10 % above D/d 70 ± 11 (CONFINEMENT_RULE['paper drum'] 70 ± 11: agrees)" in out
+    monkeypatch.setitem(ga.CONFINEMENT_RULE, "paper drum", {"within_5pc": (139.0, 21.0), "within_10pc": (70.0, 11.0)})
+    driver._check_rule(fit)
+    assert "within 5 % above D/d 140 ± 22 (CONFINEMENT_RULE['paper drum'] 139 ± 21: DIFFERS)" in capsys.readouterr().out
