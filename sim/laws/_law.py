@@ -25,7 +25,7 @@ class LawParameter:
     Attributes
     ----------
     name : str
-        The field's name (a run's ``sim_config`` key, a sweep key, ``--set NAME=VALUE``).
+        The field's name (a run's ``sim_config`` key, a sweep key, ``--law-parameter NAME=VALUE``).
     default : float
         Its value in the paper's Table 1 system (α = 1).
     unit : str
