@@ -23,6 +23,8 @@ from __future__ import annotations
 import argparse
 import os
 
+import numpy as np
+
 import granalytics as ga
 from granalytics.datasets import DATASETS, REPLICAS, SWEEPS, dataset_path, replica_paths, sweep_path
 
@@ -70,6 +72,7 @@ def gamma_check_table(paths, window=(2, 3)):
     print(f"\n**paper drum, CG3, γ check** (window {window[0]}–{window[1]} revolutions; γ of the original system)\n")
     print("| γ [N/m] | run | cohesion | yield | ⟨V_g⟩/V_p | N_g/N | paper law ⟨V_g⟩/V_p |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
+    points = {cohesion: [] for cohesion in ga.COHESION_CONVENTIONS}
     for path in paths:
         with ga.open_run(path) as run:
             gamma = run.meta.sim_config["original"]["surface_tension"]
@@ -82,6 +85,31 @@ def gamma_check_table(paths, window=(2, 3)):
                       f"{pm(s.loc['yield_fraction', 'mean'], s.loc['yield_fraction', 'sem'], 3)} | "
                       f"{pm(s.loc['mean_volume_norm', 'mean'], s.loc['mean_volume_norm', 'sem'], 2)} | "
                       f"{pm(s.loc['n_granules_norm', 'mean'], s.loc['n_granules_norm', 'sem'], 4)} | {law:.2f} |")
+                points[cohesion].append((gamma, s.loc["mean_volume_norm", "mean"], s.loc["mean_volume_norm", "sem"]))
+    for cohesion, rows in points.items():
+        if len(rows) >= 3:
+            growth_fits(*(np.array(column) for column in zip(*sorted(rows))), cohesion)
+
+
+def growth_fits(gamma, mean_volume_norm, sem, cohesion):
+    """Print the two fits of ⟨V_g⟩/V_p against γ: the paper's hinge β(γ − γ₁), weighted by 1/sem²
+    (``ga.fit_granule_growth``; returned, None where it fails), and the unweighted straight line
+    through every point (slope, its 95 % t-interval, p, and its zero γ₁)."""
+    from scipy.stats import linregress
+    from scipy.stats import t as student_t
+
+    try:
+        fit = ga.fit_granule_growth(gamma, mean_volume_norm, sem)
+        print(f"\ngrowth fit ({cohesion}, weighted by 1/sem²): {fit.summary()}")
+    except ga.GranalyticsError as exc:
+        fit = None
+        print(f"\ngrowth fit ({cohesion}): none: {exc}")
+    slope = linregress(gamma, mean_volume_norm)
+    half = student_t.ppf(0.975, len(gamma) - 2) * slope.stderr
+    print(f"straight line through all points ({cohesion}, unweighted): d⟨V_g⟩/V_p / dγ = {slope.slope:.2f} ± "
+          f"{slope.stderr:.2f} [{slope.slope - half:.2f}, {slope.slope + half:.2f}] per N/m (95 %; the paper's "
+          f"β ≈ 70), p = {slope.pvalue:.2g}, zero at γ = {-slope.intercept / slope.slope:.2g} N/m")
+    return fit
 
 
 def cg_threshold_table(figures=None):
@@ -96,9 +124,9 @@ def cg_threshold_table(figures=None):
                                      window=CG_WINDOW).table
     print(f"\n**CG deviation at every threshold pair** (lab drum, acting cohesion, window {CG_WINDOW[0]}–"
           f"{CG_WINDOW[1]}; C_agg = 0.2 … 0.9, A_agg = 10°, 20°, 45°; |deviation| from lab-cg1 over the "
-          f"{len(c_agg) * len(a_agg)} pairs)\n")
-    print("| run | statistic | median \\|dev.\\| | largest \\|dev.\\| (at C_agg, A_agg) | at the paper's 0.6, 20° |")
-    print("| --- | --- | --- | --- | --- |")
+          f"pairs of the {len(c_agg) * len(a_agg)} where both runs have granules)\n")
+    print("| run | statistic | pairs | median \\|dev.\\| | largest \\|dev.\\| (at C_agg, A_agg) | at the paper's 0.6, 20° |")
+    print("| --- | --- | --- | --- | --- | --- |")
     for run in names[1:]:
         part = table[table.run == run]
         for metric in BY_FIGURE:
@@ -107,7 +135,7 @@ def cg_threshold_table(figures=None):
                 continue
             worst = part.loc[dev.idxmax()]
             paper = part[(part.c_agg == 0.6) & (part.a_agg_deg == 20.0)][f"{metric}_rel_dev"].iloc[0]
-            print(f"| {run} | {METRICS[metric].label} | {100 * dev.median():.0f} % | {100 * dev.max():.0f} % "
+            print(f"| {run} | {METRICS[metric].label} | {dev.notna().sum()} | {100 * dev.median():.0f} % | {100 * dev.max():.0f} % "
                   f"({worst.c_agg:g}, {worst.a_agg_deg:g}°) | {100 * paper:+.0f} % |")
     if figures:
         import matplotlib.pyplot as plt
@@ -232,8 +260,6 @@ SWEEP_WINDOW = (3, 6)
 
 def sweep_tables(figures=None):
     import matplotlib.pyplot as plt
-    from scipy.stats import linregress
-    from scipy.stats import t as student_t
 
     from granalytics.report.figures import growth_figure
 
@@ -249,17 +275,7 @@ def sweep_tables(figures=None):
                   f"{pm(row.n_granules_norm_mean, row.n_granules_norm_sem, 4)} |")
         for cohesion in ga.COHESION_CONVENTIONS:
             rows = table[table.cohesion == cohesion]
-            try:
-                fit = ga.fit_granule_growth(rows.gamma, rows.mean_volume_norm_mean, rows.mean_volume_norm_sem)
-                print(f"\ngrowth fit ({cohesion}): {fit.summary()}")
-            except ga.GranalyticsError as exc:
-                fit = None
-                print(f"\ngrowth fit ({cohesion}): none: {exc}")
-            slope = linregress(rows.gamma, rows.mean_volume_norm_mean)
-            half = student_t.ppf(0.975, len(rows) - 2) * slope.stderr
-            print(f"straight line through all points ({cohesion}): d⟨V_g⟩/V_p / dγ = {slope.slope:.2f} "
-                  f"[{slope.slope - half:.2f}, {slope.slope + half:.2f}] per N/m (95 %; the paper's β ≈ 70), "
-                  f"p = {slope.pvalue:.2g}")
+            fit = growth_fits(rows.gamma, rows.mean_volume_norm_mean, rows.mean_volume_norm_sem, cohesion)
             surrogate = ga.fit_surrogate(table, inputs=("gamma", "omega"), cohesion=cohesion)
             print(f"\nsurrogate ({cohesion}), leave-one-out error:\n")
             loo = surrogate.loo
