@@ -1,6 +1,7 @@
 """Where a simulator time step goes: per-component cost at several system sizes.
 
 Usage: python benchmarks/profile_step.py [--sizes 2435,20000,120000] [--threads 1,2] [--steps N] [--beds DIR]
+       python benchmarks/profile_step.py --checkpoint CKPT [CKPT ...] [--threads 1,2] [--steps N]
 
 The system is the wet drum of ``benchmarks/yade_drum_throughput.py`` (a 3-D lattice of spacing
 1.85 mm in the lower part of the drum, every other row nested into the one below, random offsets, radii 0.75 mm ± 20 %, films of 3 % V_p, Table 1 physics,
@@ -22,6 +23,8 @@ count it prints, in ns per particle-step:
 
 The 20 000 and 120 000-particle beds collapse under 10 g before relaxing at 1 g (printed), so
 that they settle in minutes; contacts and bridges per particle are printed beside the costs.
+``--checkpoint`` profiles the states of real runs instead (their own drum, liquid and step), e.g.
+the paper's CG1 as kept in ``benchmarks/paper_cg1_run/``.
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 from _bench import SIZES, drum_system, live_counts, run_segment  # noqa: E402
 
 from granalytics import RunWriter
+from sim.checkpoint import read_checkpoint
 from sim.threads import configure_threading
 from sim import _kernels
 from sim.drum import baffle_directions
@@ -160,6 +164,9 @@ def main():
     parser.add_argument("--threads", default="1,2")
     parser.add_argument("--steps", type=int, default=2000, help="steps of the run segment (default 2000)")
     parser.add_argument("--beds", metavar="DIR", help="save the settled beds here, and restore them on later runs")
+    parser.add_argument("--checkpoint", nargs="+", metavar="CKPT",
+                        help="profile these simulator checkpoints (a real run's wet, sprayed state, e.g. "
+                        "benchmarks/paper_cg1_run/paper-cg1.ckpt.npz) instead of the lattice beds of --sizes")
     args = parser.parse_args()
     configure_threading()  # before the first parallel kernel, as the simulator does
     sizes = [int(x) for x in args.sizes.split(",")]
@@ -173,13 +180,18 @@ def main():
         numba.set_num_threads(thr)
         print(f"# a parallel region's start costs {region_start_cost() * 1e6:.1f} µs at {thr} thread(s); "
               "a step has four", flush=True)
-    for size in sizes:
+    for system in args.checkpoint or sizes:
         t0 = time.perf_counter()
-        sim, settle = drum_system(size, args.beds)
+        if args.checkpoint:
+            sim, info = read_checkpoint(system)
+            origin = (f"checkpoint {system} at {sim.time:.3f} s of its run ({info.get('frames', '?')} frames), "
+                      f"Δt = {sim.params.dt:.3g} s")
+        else:
+            sim, settle = drum_system(system, args.beds)
+            origin = f"lattice in R_d = {SIZES[system][0]} m, L = {SIZES[system][1]} m, settled: {settle}"
         n = sim.state.n_particles
         ips, bps = live_counts(sim)
-        print(f"# N = {n}: lattice in R_d = {SIZES[size][0]} m, L = {SIZES[size][1]} m, settled: {settle}, "
-              f"set up in {time.perf_counter() - t0:.0f} s", flush=True)
+        print(f"# N = {n}: {origin}, set up in {time.perf_counter() - t0:.0f} s", flush=True)
         frame_steps = max(1, round(0.05 * sim.params.revolution_period / sim.params.dt))
         for thr in threads:
             numba.set_num_threads(thr)
