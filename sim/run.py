@@ -435,8 +435,17 @@ class Simulation:
             """Frames of the run written so far, this part's and those of the parts before it."""
             return first + writer.n_frames
 
-        bar = tqdm(total=n_frames, initial=done(), unit="frame", disable=not progress,
-                   desc=f"{p.n_particles} particles α={p.alpha:g}")
+        def progressed():
+            """Frames made, in fractions: those written (frame k at step k·frame_every, the settled
+            bed frame 0) and the part of the next one simulated."""
+            return self.state.step / frame_every + 1
+
+        # a run resumed part-way into a frame starts its bar there, so that the rate and the time
+        # left are of this sitting's work only
+        bar = tqdm(total=n_frames, initial=progressed(), unit="frame", disable=not progress,
+                   desc=f"{p.n_particles} particles α={p.alpha:g}",
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total} [{elapsed}<{remaining}, "
+                              "{rate_fmt}{postfix}]")
         import numba
 
         # with checkpoint_minutes a frame is simulated in pieces of 1/20 of it, the clock read between
@@ -457,6 +466,7 @@ class Simulation:
                 frame_step = done() * frame_every
                 while self.state.step < frame_step:
                     self.advance(min(piece, frame_step - self.state.step))
+                    bar.update(progressed() - bar.n)
                     if self.state.step < frame_step and _time.perf_counter() - last_checkpoint >= between_s:
                         self._check_finite()
                         checkpoint()  # between frames: the state at this step, the frames written so far
@@ -465,7 +475,6 @@ class Simulation:
                 writer.append(self.snapshot(meta))
                 if checkpoint_every is not None and done() % checkpoint_every == 0:
                     checkpoint()
-                bar.update(1)
                 # the rate of the frame just simulated (the machine's load changes as the run goes)
                 rate = (self.state.step - frame_step0) * p.n_particles / max(frame_wall, 1e-9)
                 bar.set_postfix_str(f"t={self.time:.3f} s rev={self.time / p.revolution_period:.2f} "
