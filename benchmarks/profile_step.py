@@ -166,7 +166,8 @@ def main():
     parser.add_argument("--beds", metavar="DIR", help="save the settled beds here, and restore them on later runs")
     parser.add_argument("--checkpoint", nargs="+", metavar="CKPT",
                         help="profile these simulator checkpoints (a real run's wet, sprayed state, e.g. "
-                        "benchmarks/paper_cg1_run/paper-cg1.ckpt.npz) instead of the lattice beds of --sizes")
+                        "benchmarks/paper_cg1_run/paper-cg1.ckpt.npz) instead of the lattice beds (--sizes and --beds are "
+                        "then not used)")
     args = parser.parse_args()
     configure_threading()  # before the first parallel kernel, as the simulator does
     sizes = [int(x) for x in args.sizes.split(",")]

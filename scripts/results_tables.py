@@ -21,6 +21,7 @@ they were made).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 
 import numpy as np
@@ -92,9 +93,9 @@ def gamma_check_table(paths, window=(2, 3)):
 
 
 def growth_fits(gamma, mean_volume_norm, sem, cohesion):
-    """Print the two fits of ⟨V_g⟩/V_p against γ: the paper's hinge β(γ − γ₁), weighted by 1/sem²
-    (``ga.fit_granule_growth``; returned, None where it fails), and the unweighted straight line
-    through every point (slope, its 95 % t-interval, p, and its zero γ₁)."""
+    """Print the two fits of ⟨V_g⟩/V_p against γ [N/m]: the paper's hinge β(γ − γ₁), weighted by
+    1/sem² (``ga.fit_granule_growth``; returned, None where it fails), and the unweighted straight
+    line through every point (slope, its 95 % t-interval, p, and where the line is zero, γ₀)."""
     from scipy.stats import linregress
     from scipy.stats import t as student_t
 
@@ -108,7 +109,8 @@ def growth_fits(gamma, mean_volume_norm, sem, cohesion):
     half = student_t.ppf(0.975, len(gamma) - 2) * slope.stderr
     print(f"straight line through all points ({cohesion}, unweighted): d⟨V_g⟩/V_p / dγ = {slope.slope:.2f} ± "
           f"{slope.stderr:.2f} [{slope.slope - half:.2f}, {slope.slope + half:.2f}] per N/m (95 %; the paper's "
-          f"β ≈ 70), p = {slope.pvalue:.2g}, zero at γ = {-slope.intercept / slope.slope:.2g} N/m")
+          f"β ≈ 70), p = {slope.pvalue:.2g}, zero at γ₀ = "
+          f"{-slope.intercept / slope.slope if slope.slope else math.nan:.2g} N/m")
     return fit
 
 

@@ -116,7 +116,6 @@ def swallow_an_interrupt_in_import(monkeypatch, module):
     """Make ``import module`` (``from module import ...``) receive a Ctrl-C that it swallows, as a
     library does with a bare ``except:`` around an optional import."""
     import builtins
-    import os
     import signal
     import time
 
@@ -125,7 +124,7 @@ def swallow_an_interrupt_in_import(monkeypatch, module):
     def swallowing_import(name, *args, **kwargs):
         if name == module:
             try:
-                os.kill(os.getpid(), signal.SIGINT)
+                signal.raise_signal(signal.SIGINT)
                 time.sleep(0.05)
             except BaseException:  # noqa: BLE001 - what a bare except around an optional import does
                 pass

@@ -286,6 +286,9 @@ def test_the_logarithmic_curve_recovers_its_line_and_parts_from_the_law_beyond_t
     assert loose.error(40.0) == pytest.approx(unit.error(40.0) * 0.002 * np.sqrt(loose.chi2 / loose.dof), rel=1e-9)
     with pytest.raises(ParameterError, match="fit_logarithmic_curve: needs three"):
         fit_logarithmic_curve(x[:2], [0.5, 0.6], [0.01, 0.01])
+    for fit_curve in (fit_logarithmic_curve, fit_confinement_curve):  # a singular fit, not NaN errors
+        with pytest.raises(ParameterError, match="needs two different D/d or more, got only 33"):
+            fit_curve([33.0] * 3, [0.5, 0.6, 0.55], [0.01] * 3)
 
 
 def test_the_decomposition_splits_a_deviation_at_equal_d_over_d_from_one_at_equal_drum():
@@ -316,6 +319,8 @@ def test_the_warning_holds_a_run_to_the_strictest_family_and_names_the_others():
     warning = confinement_warning(100.0, rule)
     assert warning.startswith("D/d = 100.0 is below 139 ± 21") and "5-10 %" in warning and "62 ± 9" in warning
     assert confinement_warning(140.0, rule) is None
+    rule["paper drum"]["within_10pc"] = (70.0, None)  # a threshold without its error
+    assert confinement_warning(44.4, rule).startswith("D/d = 44.4 is below 70, where")
 
 
 def test_the_rule_holds_the_strictest_family_at_the_paper_drums_cg_runs():

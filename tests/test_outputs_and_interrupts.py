@@ -420,7 +420,7 @@ def test_a_sigint_that_the_process_ignores_stays_ignored_while_the_commands_load
     try:
         with interrupts_held() as held:
             assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
-            os.kill(os.getpid(), signal.SIGINT)
+            signal.raise_signal(signal.SIGINT)
             time.sleep(0.05)
         assert held == [] and signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     finally:
@@ -495,7 +495,7 @@ def test_a_real_sigint_during_the_swap_is_held_and_undoes_it(tmp_path, monkeypat
 
     def replace(src, dst):
         if dst == os.fspath(targets[1]):
-            os.kill(os.getpid(), signal.SIGINT)  # delivered at once: held until the swap is done
+            signal.raise_signal(signal.SIGINT)  # to this thread, at once: held until the swap is done
         return real(src, dst)
 
     monkeypatch.setattr(files.os, "replace", replace)
@@ -775,7 +775,7 @@ def test_sigterm_is_cleaned_up_as_a_ctrl_c(tmp_path, capsys):
         with terminate_as_interrupt(), staged_outputs() as stage:
             with open(stage(str(target)), "w") as f:
                 f.write("half")
-            os.kill(os.getpid(), signal.SIGTERM)
+            signal.raise_signal(signal.SIGTERM)
     assert not list(tmp_path.iterdir())  # no staging folder, no output
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored
 

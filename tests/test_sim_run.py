@@ -190,8 +190,10 @@ def test_a_resumed_runs_progress_bar_starts_part_way_into_its_frame(tmp_path, ca
             raise KeyboardInterrupt
 
     sim.advance = stopped_in_the_third_frame
+    capsys.readouterr()
     with pytest.raises(KeyboardInterrupt):
-        sim.run(out, revs, frame_every=frame_every, checkpoint_minutes=1e-9, progress=False)
+        sim.run(out, revs, frame_every=frame_every, checkpoint_minutes=1e-9, progress=True)
+    assert re.search(r"\| 1\.00/5 \[", capsys.readouterr().err)  # a new run: the settled bed's frame made
     resumed = resume_run(out)
     step = resumed.state.step
     assert step % frame_every and step // frame_every == 2  # checkpointed part-way into frame 3

@@ -166,7 +166,16 @@ def bed_flow(snapshot, meta) -> tuple[float, float]:
 def confinement_warning(drum_ratio, rule=None) -> str | None:
     """One line when a run's D/d is below the strictest family's :data:`CONFINEMENT_RULE`
     threshold for 10 % (or 5 %), naming the other families' thresholds; None above it (or when no
-    family has the threshold measured)."""
+    family has the threshold measured).
+
+    Parameters
+    ----------
+    drum_ratio : float
+        The run's D/(α·d) (dimensionless); NaN (an unknown drum) gives None.
+    rule : dict, optional
+        ``{family: {"within_5pc": (D/d, error), "within_10pc": (D/d, error)}}`` (D/d dimensionless;
+        a threshold of None is not measured); default :data:`CONFINEMENT_RULE`.
+    """
     rule = CONFINEMENT_RULE if rule is None else rule
     if not math.isfinite(drum_ratio):
         return None
@@ -176,14 +185,19 @@ def confinement_warning(drum_ratio, rule=None) -> str | None:
         if not measured:
             continue
         strictest = max(measured, key=lambda family: measured[family][0])
-        x, err = measured[strictest]
-        if drum_ratio < x:
-            others = "".join(f", {o:.0f} ± {e:.0f} in the {family}'s" for family, (o, e) in measured.items()
+        if drum_ratio < measured[strictest][0]:
+            others = "".join(f", {_threshold(measured[family])} in the {family}'s" for family in measured
                              if family != strictest)
-            return (f"D/d = {drum_ratio:.1f} is below {x:.0f} ± {err:.0f}, where the drum's confinement lowers the "
-                    f"yield by {loss} against a large drum in the {strictest}'s family{others} (docs/results.md, "
-                    f"'Confinement'){consequence}")
+            return (f"D/d = {drum_ratio:.1f} is below {_threshold(measured[strictest])}, where the drum's confinement "
+                    f"lowers the yield by {loss} against a large drum in the {strictest}'s family{others} "
+                    f"(docs/results.md, 'Confinement'){consequence}")
     return None
+
+
+def _threshold(measured) -> str:
+    """``70 ± 11`` for a threshold (D/d, error); the D/d alone without an error."""
+    x, err = measured
+    return f"{x:.0f}" if err is None else f"{x:.0f} ± {err:.0f}"
 
 
 @validate_params({"meta": [META], "progress": [FLAG]})
@@ -344,8 +358,8 @@ def fit_confinement_curve(drum_ratio, values, errors) -> ConfinementFit:
     Raises
     ------
     ParameterError
-        Fewer than three points, points of unequal lengths, or a D/d or an error not a finite
-        number > 0.
+        Fewer than three points, points of unequal lengths, one D/d only, or a D/d or an error
+        not a finite number > 0.
     """
     x, y, s = _curve_points("fit_confinement_curve", drum_ratio, values, errors)
     coef, cov_lin, chi2, dof = _weighted_linear_fit(np.column_stack([np.ones_like(x), -1 / x]), y, s)
@@ -393,6 +407,19 @@ def fit_logarithmic_curve(drum_ratio, values, errors) -> LogarithmicFit:
     """Weighted least-squares fit of y = a + c·ln(x) to points (x = D/d, y ± error): the curve
     that keeps rising, to set beside :func:`fit_confinement_curve`'s before extrapolating.
 
+    Parameters
+    ----------
+    drum_ratio : array-like
+        D/(α·d) of each point (dimensionless, > 0).
+    values, errors : array-like
+        The metric at each point and its standard error (the metric's units; errors > 0), e.g.
+        the steady yield of :func:`confinement_table` and its replica error.
+
+    Returns
+    -------
+    LogarithmicFit
+        Its covariance scaled by χ²/dof where that exceeds 1, as :func:`fit_confinement_curve`'s.
+
     Raises
     ------
     ParameterError
@@ -406,7 +433,10 @@ def fit_logarithmic_curve(drum_ratio, values, errors) -> LogarithmicFit:
 def _curve_points(caller, drum_ratio, values, errors):
     x, y, s = (np.asarray(a, dtype=float) for a in (drum_ratio, values, errors))
     if not (x.shape == y.shape == s.shape) or x.size < 3:
-        raise ParameterError(f"{caller}: needs three or more points of equal length, got {x.size}")
+        raise ParameterError(f"{caller}: needs three or more points of equal length, got {x.size} D/d, {y.size} "
+                             f"values and {s.size} errors")
+    if np.unique(x).size < 2:
+        raise ParameterError(f"{caller}: needs two different D/d or more, got only {x[0]:g}")
     return x, y, s
 
 
