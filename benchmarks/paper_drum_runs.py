@@ -667,7 +667,7 @@ def table(args):
     cg_groups = _finished_paper_cg(args.dir)
     cg_table = _paper_cg_table(cg_groups, window, fits)
     _cost_table({**{f"α = 1, D/d {r}": g for r, g in groups.items()}, **cg_groups})
-    cg1 = _cg1_against_law(window, fits)
+    cg1 = _cg1_against_law(window, fits, logs)
     if args.figure:
         _law_figure(t, laws, logs, cg_table, cg1, args.figure)
         print(f"\nwrote {args.figure}")
@@ -787,10 +787,11 @@ def _deviation(mean, err, law, law_err) -> str:
     return f"{100 * (mean / law - 1):+.0f} % ± {100 * np.hypot(err / law, mean * law_err / law**2):.0f} %"
 
 
-def _cg1_against_law(window, fits):
+def _cg1_against_law(window, fits, logs):
     """The paper's CG1 (window, block s.e.m., from the statistics ``keep`` kept of every frame)
-    beside the law's prediction at its D/d and the paper's "slightly above 55 %": issue 54's
-    verdict, once the run covers the window. Returns (its D/d, its steady state), or None before."""
+    beside the predictions at its D/d of the law (``fits``) and of the curve without saturation
+    (``logs``), and the paper's "slightly above 55 %": which curve holds, once the run covers the
+    window. Returns (its D/d, its steady state), or None before."""
     from granalytics.analysis.confinement import BED_COLUMNS, confinement_of_run
     from granalytics.analysis.metrics import HEADLINE
     from granalytics.analysis.stats import steady_state
@@ -805,14 +806,17 @@ def _cg1_against_law(window, fits):
     drum_ratio = confinement_of_run(meta).drum_ratio
     steady = steady_state(kept.timeseries, window, columns=(*HEADLINE, *BED_COLUMNS), source="paper-cg1")
     print(f"\n### The paper's CG1 against the α = 1 law's prediction, window [{window[0]:g}, {window[1]:g}]\n")
-    print(f"| metric | CG1 (± block s.e.m.) | law at D/d {drum_ratio:.1f} | deviation | paper |")
-    print("| --- | --- | --- | --- | --- |")
+    print(f"| metric | CG1 (± block s.e.m.) | law at D/d {drum_ratio:.1f} | deviation | no saturation | deviation "
+          "| paper |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     for metric, label in LAW_METRICS:
-        fit, mean, err = fits[metric], steady.loc[metric, "mean"], steady.loc[metric, "sem"]
-        law, law_err = float(fit(drum_ratio)), float(fit.error(drum_ratio))
+        mean, err = steady.loc[metric, "mean"], steady.loc[metric, "sem"]
+        cells = []
+        for curve in (fits[metric], logs[metric]):
+            value, value_err = float(curve(drum_ratio)), float(curve.error(drum_ratio))
+            cells += [f"{value:.4g} ± {value_err:.2g}", _deviation(mean, err, value, value_err)]
         paper = "slightly above 0.55" if metric == "yield_fraction" else ""
-        print(f"| {label} | {mean:.4g} ± {err:.2g} | {law:.4g} ± {law_err:.2g} | "
-              f"{_deviation(mean, err, law, law_err)} | {paper} |")
+        print(f"| {label} | {mean:.4g} ± {err:.2g} | {' | '.join(cells)} | {paper} |")
     print(f"\nbed angle {steady.loc['bed_angle_deg', 'mean']:.1f}°, coordination "
           f"{steady.loc['coordination', 'mean']:.2f}, {meta.n_particles} particles, "
           f"{int(steady.loc['yield_fraction', 'n_frames'])} frames")

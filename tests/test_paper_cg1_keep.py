@@ -350,3 +350,43 @@ def test_table_checks_the_paper_drum_rule_against_the_law_it_prints(driver, caps
     monkeypatch.setitem(ga.CONFINEMENT_RULE, "paper drum", {"within_5pc": (139.0, 21.0), "within_10pc": (70.0, 11.0)})
     driver._check_rule(fit)
     assert "within 5 % above D/d 140 ± 22 (CONFINEMENT_RULE['paper drum'] 139 ± 21: DIFFERS)" in capsys.readouterr().out
+
+
+def test_cg1s_verdict_waits_for_the_window_then_sets_it_beside_both_curves(driver, monkeypatch, capsys):
+    """`table`'s CG1 verdict: nothing until the kept statistics reach the window's end, then CG1's
+    steady state (block s.e.m.) beside the law and the curve without saturation at its D/d."""
+    import types
+
+    from granalytics.datasets import dataset_path
+
+    with ga.open_run(dataset_path("paper-cg3")) as run:
+        meta = run.meta  # any run's metadata: its drum gives the D/d the curves are read at
+    revolutions = np.arange(0, 81) * 0.05
+    rng = np.random.default_rng(3)
+    series = {"revolutions": revolutions, "yield_fraction": 0.68 + 0.01 * rng.standard_normal(81),
+              "mean_volume_norm": 7.5 + 0.1 * rng.standard_normal(81), "n_granules_norm": np.full(81, 0.09),
+              "wall_share": np.full(81, 0.05), "coordination": np.full(81, 4.6), "bed_angle_deg": np.full(81, 45.0),
+              "kinetic_energy_norm": np.full(81, 0.5)}
+    ratios = np.array([22.0, 33.0, 44.0, 66.0])
+    t = pd.DataFrame({"drum_ratio": ratios, **{m: y * (1 - b / ratios) for m, (y, b) in
+                                               {"yield_fraction": (0.7, 7.0), "mean_volume_norm": (7.9, 12.0),
+                                                "n_granules_norm": (0.086, -10.0)}.items()}})
+    for metric in ("yield_fraction", "mean_volume_norm", "n_granules_norm"):
+        t[f"{metric}_err"] = t[f"{metric}_block_sem"] = 0.01 * t[metric]
+    fits, logs = driver._fit_laws(t)["all"], driver._fit_logs(t)
+    partial = types.SimpleNamespace(timeseries=pd.DataFrame(series).iloc[:40], meta=meta)
+    monkeypatch.setattr(driver, "_kept_statistics", lambda: partial)
+    assert driver._cg1_against_law((2.0, 4.0), fits, logs) is None
+    assert "paper-cg1 has 1.95 revolutions kept" in capsys.readouterr().out
+    monkeypatch.setattr(driver, "_kept_statistics", lambda: types.SimpleNamespace(timeseries=pd.DataFrame(series),
+                                                                                   meta=meta))
+    drum_ratio, steady = driver._cg1_against_law((2.0, 4.0), fits, logs)
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("| yield"))
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    mean = steady.loc["yield_fraction", "mean"]
+    assert mean == pytest.approx(series["yield_fraction"][40:].mean())  # the window [2, 4]: frames 40-80
+    law, log = float(fits["yield_fraction"](drum_ratio)), float(logs["yield_fraction"](drum_ratio))
+    assert cells[2].startswith(f"{law:.4g} ±") and cells[4].startswith(f"{log:.4g} ±")
+    assert cells[3].startswith(f"{100 * (mean / law - 1):+.0f} %") and cells[5].startswith(f"{100 * (mean / log - 1):+.0f} %")
+    assert cells[6] == "slightly above 0.55" and "45.0°" in out
