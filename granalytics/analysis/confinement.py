@@ -17,7 +17,7 @@ questions, which this module separates:
 
 :data:`CONFINEMENT_RULE` holds, for each drum family measured, the smallest D/d at which the yield
 is within 5 % and 10 % of its large-drum value (docs/results.md, "Confinement"); the families
-disagree by a factor of two, so :func:`confinement_warning`, the one-line warning `granalytics
+disagree by over a factor of two, so :func:`confinement_warning`, the one-line warning `granalytics
 info` and :func:`~granalytics.compare_cg` give, names the strictest and the others.
 """
 
@@ -129,7 +129,7 @@ def wall_touching(snapshot: Snapshot, meta, overlap_tolerance: float = 0.0) -> n
 #: χ²-scaled covariance; measured on α = 1 runs (docs/results.md, "Confinement"): the lab drum's
 #: family (D/d 11-50, window [3, 6]; ``scripts/confinement_study.py --check-rule``) and the paper
 #: drum's (D/d 22-66, window [2, 4]; ``benchmarks/paper_drum_runs.py table``). The finite-size
-#: law's b differs between them by a factor of two, so neither threshold carries to another drum.
+#: law's b differs between them by more than a factor of two, so neither threshold carries to another drum.
 CONFINEMENT_RULE = {
     "lab drum": {"within_5pc": (62.0, 9.0), "within_10pc": (31.0, 4.0)},
     "paper drum": {"within_5pc": (139.0, 21.0), "within_10pc": (70.0, 11.0)},
