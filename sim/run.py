@@ -441,7 +441,7 @@ class Simulation:
             return self.state.step / frame_every + 1
 
         # a run resumed part-way into a frame starts its bar there, so that the rate and the time
-        # left are of this sitting's work only
+        # left are of the work since the resume
         bar = tqdm(total=n_frames, initial=progressed(), unit="frame", disable=not progress,
                    desc=f"{p.n_particles} particles α={p.alpha:g}",
                    bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total} [{elapsed}<{remaining}, "
