@@ -653,16 +653,15 @@ def table(args):
                  for (low, high, band), (_, label) in zip((_prediction(laws, m) for m, _ in LAW_METRICS), LAW_METRICS)]
     print(f"\nPredicted for the paper's CG1 (D/d 133): {'; '.join(predicted)} (the fits' values; the band the "
           "widest fit's)")
-    logs = _fit_logs(t)
+    fits, logs = laws["all"], _fit_logs(t)
     print("\nA curve that does not saturate, y = a + c·ln(D/d) (`fit_logarithmic_curve`), over every D/d: the "
           "law's form is what carries it from D/d 66 to 133\n")
     print("| metric | a | c | χ²/dof | at D/d 133 (scaled 1σ) | the law's χ²/dof (every D/d) |")
     print("| --- | --- | --- | --- | --- | --- |")
     for metric, label in LAW_METRICS:
-        log, law = logs[metric], laws["all"][metric]
+        log, law = logs[metric], fits[metric]
         print(f"| {label} | {log.a:.4g} | {log.c:.4g} | {log.chi2:.1f}/{log.dof} | {float(log(PAPER_DRUM_RATIO)):.3f} ± "
               f"{float(log.error(PAPER_DRUM_RATIO)):.3f} | {law.chi2:.1f}/{law.dof} |")
-    fits = laws["all"]
     _check_rule(fits["yield_fraction"])
     cg_groups = _finished_paper_cg(args.dir)
     cg_table = _paper_cg_table(cg_groups, window, fits)
@@ -712,7 +711,7 @@ def _check_rule(fit):
     cells = []
     for key, fraction in (("within_10pc", 0.10), ("within_5pc", 0.05)):
         x, err = fit.within(fraction)
-        agrees = kept[key] == (round(x), round(err))
+        agrees = kept[key] == fit.rule()[key]
         cells.append(f"within {100 * fraction:.0f} % above D/d {x:.0f} ± {err:.0f} (CONFINEMENT_RULE['paper drum'] "
                      f"{kept[key][0]:.0f} ± {kept[key][1]:.0f}: {'agrees' if agrees else 'DIFFERS'})")
     print(f"\nThe yield by the law over every D/d: {'; '.join(cells)}")

@@ -338,13 +338,19 @@ class ConfinementFit:
         """Standard error of :meth:`__call__` at ``drum_ratio`` (from the covariance)."""
         x = np.asarray(drum_ratio, dtype=float)
         grad = np.stack([1 - self.b / x, -self.y_inf / x])
-        return np.sqrt(np.einsum("i...,ij,j...->...", grad, self.covariance, grad))
+        return _propagated_error(grad, self.covariance)
 
     @validate_params({"fraction": [Interval(Real, 0, 1, closed="neither")]})
     def within(self, fraction) -> tuple[float, float]:
         """The smallest D/d at which y is within ``fraction`` of y∞ (b/fraction), with its
         standard error."""
         return self.b / fraction, math.sqrt(self.covariance[1, 1]) / fraction
+
+    def rule(self) -> dict:
+        """This fit's entry of :data:`CONFINEMENT_RULE`: ``{"within_5pc": (D/d, error),
+        "within_10pc": (D/d, error)}`` from :meth:`within`, rounded to whole D/d."""
+        return {key: tuple(float(round(v)) for v in self.within(fraction))
+                for key, fraction in (("within_5pc", 0.05), ("within_10pc", 0.10))}
 
 
 @validate_params({"drum_ratio": [Array(ndim=1, within=POSITIVE)], "values": [Array(ndim=1, finite=True)],
@@ -398,7 +404,7 @@ class LogarithmicFit:
         """Standard error of :meth:`__call__` at ``drum_ratio`` (from the covariance)."""
         x = np.asarray(drum_ratio, dtype=float)
         grad = np.stack([np.ones_like(x), np.log(x)])
-        return np.sqrt(np.einsum("i...,ij,j...->...", grad, self.covariance, grad))
+        return _propagated_error(grad, self.covariance)
 
 
 @validate_params({"drum_ratio": [Array(ndim=1, within=POSITIVE)], "values": [Array(ndim=1, finite=True)],
@@ -428,6 +434,11 @@ def fit_logarithmic_curve(drum_ratio, values, errors) -> LogarithmicFit:
     x, y, s = _curve_points("fit_logarithmic_curve", drum_ratio, values, errors)
     (a, c), cov, chi2, dof = _weighted_linear_fit(np.column_stack([np.ones_like(x), np.log(x)]), y, s)
     return LogarithmicFit(a=float(a), c=float(c), covariance=cov, chi2=chi2, dof=dof)
+
+
+def _propagated_error(grad, covariance):
+    """√(gᵀ·C·g) for each column of the gradient ``grad`` (parameters first, then the points)."""
+    return np.sqrt(np.einsum("i...,ij,j...->...", grad, covariance, grad))
 
 
 def _curve_points(caller, drum_ratio, values, errors):
