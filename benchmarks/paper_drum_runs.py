@@ -22,7 +22,7 @@ is running already, CG1 at normal priority and the series at nice 5, their outpu
 ``series`` makes, one after the other on one thread, the α = 1 runs of the paper drum's family
 (``python -m sim run --preset paper-cg1 --drum-ratio D``: its aspect, fill, baffles and spray zone,
 sized for D/d of the particles) at D/d 22, 33 and 44 (539, 1 819 and 4 312 particles; seeds 0-2) and
-66 (14 554 particles; seed 0, then seed 1), and, interleaved with them, the paper drum's CG runs
+66 (14 554 particles; seed 0, and seed 1 once CG1 is done), and, interleaved with them, the paper drum's CG runs
 under both rules (paper-cg3 ``weber`` and ``bond`` seeds 0-1, paper-cg2 ``weber`` seed 1 beside the
 bundled seed 0, paper-cg2 ``bond`` seed 0), 4 revolutions each, the largest last; a run already
 finished is skipped and an interrupted one resumes from its checkpoint. ``cg1`` starts the paper's
@@ -95,15 +95,18 @@ def _queue():
     """The runs of ``series`` in the order they are made: (file name, options of ``sim run``,
     frames between checkpoints). The α = 1 series and the paper drum's CG runs are interleaved, so
     that a queue stopped part-way has a little of each; D/d 66 seed 0 comes after the first CG pair
-    (the law's fourth D/d and the α = 1 run beside the paper drum's Figs 3–6), the rest of the
-    largest runs last."""
+    (the law's fourth D/d and the α = 1 run beside the paper drum's Figs 3–6), the paper-cg2 runs
+    last, and D/d 66 seed 1 only once CG1 has run its revolutions: CG1, days long, takes the second
+    core as soon as the CG runs are done."""
     alpha1 = {(ratio, seed): (f"dd{ratio}-seed{seed}.h5", ["--preset", "paper-cg1", "--drum-ratio", str(ratio),
                                                           "--seed", str(seed)]) for ratio, seed in SERIES}
     cg = {key: (f"{key[0]}-{key[1]}-seed{key[2]}.h5", ["--preset", key[0], "--cg-rule", key[1], "--seed", str(key[2])])
           for key in PAPER_CG}
     order = [alpha1[r] for r in SERIES if r[0] <= 33]
     order += [alpha1[(44, 0)], cg[PAPER_CG[0]], cg[PAPER_CG[1]], alpha1[(66, 0)], alpha1[(44, 1)], cg[PAPER_CG[2]],
-              cg[PAPER_CG[3]], alpha1[(44, 2)], cg[PAPER_CG[4]], cg[PAPER_CG[5]], alpha1[(66, 1)]]
+              cg[PAPER_CG[3]], alpha1[(44, 2)], cg[PAPER_CG[4]], cg[PAPER_CG[5]]]
+    if _cg1_done():  # until then CG1 takes the second core the series leaves
+        order.append(alpha1[(66, 1)])
     return [(name, [*options, "--quiet"], 2 if "66" in name or "paper-cg2" in name else 4) for name, options in order]
 
 
@@ -120,6 +123,13 @@ def series(args):
         subprocess.run(cmd, check=True)
         _join_parts(args.dir, stem)
     _hand_the_core_to_cg1(args)
+
+
+def _cg1_done() -> bool:
+    """Whether the paper's CG1 has run its ``REVOLUTIONS`` (its newest checkpoint, here or kept,
+    covers every frame)."""
+    newest = _newest(CG1_DIR, "paper-cg1", CG1_KEPT_CHECKPOINT)
+    return newest is not None and newest[1][0] >= round(REVOLUTIONS / FRAME_EVERY_REV)
 
 
 def _series_done() -> bool:

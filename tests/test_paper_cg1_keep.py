@@ -390,3 +390,19 @@ def test_cg1s_verdict_waits_for_the_window_then_sets_it_beside_both_curves(drive
     assert cells[2].startswith(f"{law:.4g} ±") and cells[4].startswith(f"{log:.4g} ±")
     assert cells[3].startswith(f"{100 * (mean / law - 1):+.0f} %") and cells[5].startswith(f"{100 * (mean / log - 1):+.0f} %")
     assert cells[6] == "slightly above 0.55" and "45.0°" in out
+
+
+def test_the_series_leaves_the_second_core_to_cg1_until_cg1_is_done(monkeypatch):
+    """D/d 66 seed 1 joins the series' queue only once CG1's newest checkpoint covers all its
+    frames; before that the series is done after the paper-cg2 runs (and CG1 gets its core)."""
+    spec = importlib.util.spec_from_file_location("paper_drum_runs_queue", os.path.join(BENCH, "paper_drum_runs.py"))
+    fresh = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fresh)
+    frames = round(fresh.REVOLUTIONS / fresh.FRAME_EVERY_REV)
+    for covered, expected in ((frames - 1, False), (frames, True)):
+        monkeypatch.setattr(fresh, "_newest", lambda folder, stem, kept, c=covered: ("ckpt", (c, 1, {}), None))
+        names = [name for name, _, _ in fresh._queue()]
+        assert ("dd66-seed1.h5" in names) is expected
+        assert names[-1 - expected] == "paper-cg2-bond-seed0.h5"
+    monkeypatch.setattr(fresh, "_newest", lambda folder, stem, kept: None)  # no CG1 at all
+    assert "dd66-seed1.h5" not in [name for name, _, _ in fresh._queue()]
