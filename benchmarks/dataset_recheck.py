@@ -65,7 +65,7 @@ def steady(paths, window):
 
 def table(args):
     window = tuple(float(x) for x in args.window.split(":"))
-    print(f"| set | physics | " + " | ".join(HEADLINE) + " | largest |difference| / s.e. |")
+    print("| set | physics | " + " | ".join(HEADLINE) + " | largest |difference| / s.e. |")
     print("| --- | --- | " + "--- | " * len(HEADLINE) + "--- |")
     for replica_set in args.sets.split(","):
         bundled, _ = steady(replica_paths(replica_set), window)

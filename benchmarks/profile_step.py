@@ -54,13 +54,6 @@ from sim.drum import baffle_directions
 from sim.liquid import migrate_events
 
 
-
-
-
-
-
-
-
 @njit
 def _repeat_slot_forces(reps, block_lo, block_hi, baffle_dir, omega_drum, block_events, kernel_params, arrays):
     for _ in range(reps):
@@ -139,8 +132,6 @@ def component_costs(sim, reps):
            "migration": _best(lambda r: _repeat_migration(r, *mig), reps)}
     out["gather+integrate"] = _best(lambda r: _repeat_gather(r, kernel_params, arrays), reps)
     return out
-
-
 
 
 def output_cost(sim):

@@ -42,10 +42,6 @@ from sim.run import Simulation  # noqa: E402
 from _bench import drum_lattice, live_counts, rate  # noqa: E402
 
 
-
-
-
-
 def compile_time():
     code = (
         "import time, dataclasses; t0=time.perf_counter();"
@@ -63,8 +59,6 @@ def compile_time():
                                  cwd=os.path.dirname(HERE))
             out[label] = float(res.stdout.split()[1])
     return out
-
-
 
 
 def run_yade(threads, rd, length, settle, measure, spincount):

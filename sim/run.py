@@ -37,7 +37,6 @@ FRAME_BYTES_PER_PARTICLE = 50
 STATE_BYTES_PER_PARTICLE = 4000
 
 
-
 def _kernels_cached() -> bool:
     """Whether numba's cache holds the step kernel (``sim/__pycache__/_kernels.advance-*.nbi``)."""
     import glob

@@ -48,7 +48,7 @@ def test_bundled_dataset_matches_registry_and_its_recipe(name):
     with open_dataset(name) as run:
         meta = run.meta
         assert meta.sim_config["params"]["alpha"] == meta.alpha
-        preset, seed = _option(sim_command, "--preset"), int(_option(sim_command, "--seed"))
+        seed = int(_option(sim_command, "--seed"))
         assert name == _expected_name(sim_command) and meta.provenance["code"] == "sim"
         assert meta.sim_config["params"]["seed"] == seed  # a replica is the preset at another seed
         revolutions = float(_option(sim_command, "--revolutions"))
@@ -237,7 +237,6 @@ def test_thinning_a_thinned_copy_keeps_the_frames_one_thinning_would():
     again = copy[ga.core.thinned_frames(raw[copy], 4, (3.0, 6.0))]
     assert list(again) == list(direct)
     assert len(direct) == 8 + 31 and raw[60] < 3.0 and 60 in direct  # the frame at 2.99997 is in [3, 6]
-
 
 
 @pytest.mark.parametrize("name", sorted(__import__("granalytics.datasets", fromlist=["SWEEPS"]).SWEEPS))

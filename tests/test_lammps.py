@@ -542,7 +542,7 @@ def test_convert_shows_the_bytes_read_while_it_reads(tmp_path, frames, capsys):
                  "--dt-s", str(DT), "--out", str(tmp_path / "run.h5")]) == 0
     err = capsys.readouterr().err
     total = pf[0].stat().st_size + cf[0].stat().st_size
-    assert f"convert: 100%" in err and "3 frames" in err and f"{total / 1e3:.0f}k/{total / 1e3:.0f}k" in err
+    assert "convert: 100%" in err and "3 frames" in err and f"{total / 1e3:.0f}k/{total / 1e3:.0f}k" in err
 
 
 def test_liggghts_vtk_dumps_give_the_frames_and_granules_of_its_text_dumps():

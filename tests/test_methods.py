@@ -157,7 +157,6 @@ def test_a_parameter_assigned_after_a_first_identify_is_checked_at_the_next():
     assert gna.identify(frame).params["c_agg"] == 0.5
 
 
-
 def test_compare_methods_and_identical_methods_refuse_their_arguments_at_the_door():
     frames = [synthetic_snapshot(30, seed=1)]
     for methods in ({"gna": ("gna", {})}, {"a": "gna", "b": "dbscan"}):

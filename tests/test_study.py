@@ -374,7 +374,6 @@ def test_one_rule_for_no_growth_reported_and_never_drawn():
         fit_granule_growth(gamma, 50 * np.maximum(0, gamma - 0.03) + 1, np.r_[np.nan, np.full(gamma.size - 1, 0.1)])
 
 
-
 def test_a_replaced_point_file_or_one_outside_the_folder_is_refused(sweep_dir, tmp_path):
     """Round four, B2: study read a sweep whose point file was replaced by another point (γ 0.03
     twice, γ 0.01 gone) and followed a manifest entry ../outside/x.h5."""

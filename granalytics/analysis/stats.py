@@ -454,7 +454,6 @@ def blocking_sem(block_sums, block_counts, *, min_blocks=4) -> tuple:
     return best
 
 
-
 #: Units of granule sizes (:func:`size_distribution`, :func:`~granalytics.coalescence_kernel`):
 #: ``"particles"``, the run's own particles; ``"original"``, original-particle equivalents α³·n
 #: (a CG particle of factor α has the volume of α³ original ones), the unit in which runs at

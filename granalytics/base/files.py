@@ -145,7 +145,6 @@ def check_not_open_elsewhere(path) -> None:
                                "replaced)") from None
 
 
-
 _LOCK_SUFFIX = ".lock"
 
 

@@ -11,7 +11,6 @@ from granalytics.base.errors import ParameterError
 from granalytics.base.files import WriterLock
 
 
-
 def add_pbm_parser(sub):
     """Add the ``pbm`` command to ``sub`` (``ArgumentParser.add_subparsers``).
 

@@ -136,7 +136,6 @@ def format_steady_table(steady, by="revolutions", *, replicas=False) -> str:
     return "\n".join(lines)
 
 
-
 def format_sensitivity_means(summary, window, cohesion, *, rigid=False) -> str:
     """A sensitivity summary (:func:`granalytics.sensitivity_summary`) as text: a line that says
     what is averaged, then each threshold pair's mean of every headline metric over the frames of
