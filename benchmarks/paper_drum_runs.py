@@ -734,6 +734,10 @@ def _prediction(laws, metric, drum_ratio=PAPER_DRUM_RATIO):
     return min(values), max(values), max(float(fits[metric].error(drum_ratio)) for fits in laws.values())
 
 
+#: the marker of each CG level in the law's figure (its rule is the colour)
+CG_MARKERS = {2.0: "D", 3.0: "s"}
+
+
 def _law_figure(t, laws, logs, cg_table, cg1, path):
     """Yield, ⟨V_g⟩/V_p and N_g/N against D/(αd): the α = 1 series (± the errors the law weighs them
     by), each fit of the law with its scaled 1σ band carried to the paper's CG1 at D/d 133, the
@@ -762,8 +766,8 @@ def _law_figure(t, laws, logs, cg_table, cg1, path):
         if cg_table is not None:
             errors = _law_errors(cg_table, metric)
             for k, r in enumerate(cg_table.itertuples(index=False)):
-                bond = "bond" in r.label
-                ax.errorbar(r.drum_ratio, getattr(r, metric), yerr=errors.iloc[k], fmt="^" if bond else "s",
+                bond = "bond" in r.label  # the rule by colour (Bond hollow), the level by marker
+                ax.errorbar(r.drum_ratio, getattr(r, metric), yerr=errors.iloc[k], fmt=CG_MARKERS.get(r.alpha, "o"),
                             mfc="none" if bond else None, color="C3" if bond else "C2", capsize=3,
                             label=f"{r.label} ({r.n_replicas} seed{'s' if r.n_replicas > 1 else ''}) at D/(αd)")
         if cg1 is not None:
