@@ -324,7 +324,7 @@ def test_the_law_is_fitted_over_every_drum_and_without_the_most_confined_and_dra
         assert band == max(float(fits[metric].error(133.3)) for fits in laws.values()) and band > 0
     assert list(driver._fit_laws(t.iloc[1:])) == ["all"]  # three D/d from 33 on: one fit; fewer: none
     assert driver._fit_laws(t.iloc[2:]) == {}
-    cg = t.iloc[[2]].assign(label="paper-cg3 bond", drum_ratio=44.4)
+    cg = t.iloc[[2]].assign(label="paper-cg3 bond", drum_ratio=44.4, alpha=3.0)  # a confinement_table row
     steady = pd.DataFrame({"mean": [0.66, 7.0, 0.093], "sem": [0.01, 0.2, 0.002]}, index=list(law))
     path = tmp_path / "law.png"
     logs = driver._fit_logs(t)
