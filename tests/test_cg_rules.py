@@ -242,3 +242,21 @@ def test_info_and_compare_cg_warn_where_a_rule_is_measured_outside_the_tolerance
     assert "CG rule" not in capsys.readouterr().err
     with small_run_warnings(), pytest.warns(UserWarning, match="lab-cg3.h5 \\(and its 2 replica\\(s\\)\\): CG rule weber at α = 3"):
         ga.compare_cg([dataset_path("lab-cg1"), ga.datasets.replica_paths("lab-cg3")], window=(3.0, 3.5))
+
+
+def test_a_rule_is_judged_by_the_most_open_drum_that_measured_its_alpha(monkeypatch):
+    """A more open confinement measured at smaller α only (CG2 alone) does not hide a larger α's
+    measurement in a more confined drum: a Table 2 α = 3 run in a drum more open than both is
+    judged by the one that measured α = 3."""
+    from granalytics.analysis import cg
+    from granalytics.analysis.cg import cg_rule_warning
+
+    weber = {**cg.CG_RULE_DEVIATION["weber"], 66.7: {1.0: (0.0, 0.0), 2.0: (0.01, 0.01)}}
+    monkeypatch.setitem(cg.CG_RULE_DEVIATION, "weber", weber)
+    monkeypatch.setitem(cg._CG_RULE_MEASURED_IN, 66.7, "paper drum, one seed")
+    assert cg_rule_warning("weber", 3.0, 80.0) is None  # 44.4's α = 3: within the tolerance
+    assert cg_rule_warning("weber", 2.0, 80.0) is None
+    assert "D/(αd) 11.2" in cg_rule_warning("weber", 3.0, 30.0)  # below 44.4: the lab drum's, as before
+    assert "measured up to α = 2 only at D/(αd) 66.7" in cg_rule_warning("weber", 4.0, 80.0)
+    monkeypatch.setitem(weber, 66.7, {1.0: (0.0, 0.0), 3.0: (-0.2, 0.01)})  # measured at α = 3 there: it rules
+    assert "moved the steady yield by about -20 %" in cg_rule_warning("weber", 3.0, 80.0)

@@ -224,8 +224,9 @@ def cg_rule_warning(rule, alpha, drum_ratio=None) -> str | None:
     code, whose rule is unknown).
 
     The measurement used is that of the most open measured confinement D/(αd) not above the run's
-    ``drum_ratio`` (the most confined one where ``drum_ratio`` is unknown or below them all): a
-    rule's error shrinks as the drum opens, so a run is judged by no more open a drum than its own."""
+    ``drum_ratio`` that measured the run's α or a larger one (the most open not above it where none
+    did; the most confined one where ``drum_ratio`` is unknown or below them all): a rule's error
+    shrinks as the drum opens, so a run is judged by no more open a drum than its own."""
     if rule is None or alpha is None or alpha <= 1 or rule not in CG_RULE_DEVIATION:
         return None
     if drum_ratio is not None and not math.isfinite(drum_ratio):
@@ -233,7 +234,8 @@ def cg_rule_warning(rule, alpha, drum_ratio=None) -> str | None:
     confinements = sorted(CG_RULE_DEVIATION[rule])
     # the table's confinements are rounded to three digits
     below = [c for c in confinements if drum_ratio is not None and c <= drum_ratio * 1.001]
-    where = below[-1] if below else confinements[0]
+    covering = [c for c in below if max(CG_RULE_DEVIATION[rule][c]) >= alpha - 1e-9]
+    where = covering[-1] if covering else below[-1] if below else confinements[0]
     top = max(CG_RULE_DEVIATION[rule][where])
     if alpha > top + 1e-9:
         return (f"CG rule {rule} at α = {alpha:g}: the rules are measured up to α = {top:g} only at D/(αd) {where:g} "
