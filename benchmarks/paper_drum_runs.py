@@ -718,10 +718,10 @@ def _check_rule(fit):
     import granalytics as ga
 
     kept = ga.CONFINEMENT_RULE["paper drum"]
-    cells = []
+    cells, rule = [], fit.rule()
     for key, fraction in (("within_10pc", 0.10), ("within_5pc", 0.05)):
         x, err = fit.within(fraction)
-        agrees = kept[key] == fit.rule()[key]
+        agrees = kept[key] == rule[key]
         cells.append(f"within {100 * fraction:.0f} % above D/d {x:.0f} ± {err:.0f} (CONFINEMENT_RULE['paper drum'] "
                      f"{kept[key][0]:.0f} ± {kept[key][1]:.0f}: {'agrees' if agrees else 'DIFFERS'})")
     print(f"\nThe yield by the law over every D/d: {'; '.join(cells)}")

@@ -226,10 +226,11 @@ def check_rule() -> int:
 
     failed = 0
     fit = fits(tables((3.0, 6.0))["angle"])["yield_fraction"]
+    rule = fit.rule()
     for key, fraction in (("within_5pc", 0.05), ("within_10pc", 0.10)):
         x, err = fit.within(fraction)
         kept = confinement.CONFINEMENT_RULE["lab drum"][key]
-        ok = kept == fit.rule()[key]
+        ok = kept == rule[key]
         failed += not ok
         print(f"{key}: fit {x:.0f} ± {err:.0f}, CONFINEMENT_RULE['lab drum'] {kept}: "
               f"{'agrees' if ok else 'DIFFERS'}")
