@@ -367,7 +367,7 @@ def progress(args):
     """One line for ``benchmarks/paper_cg1_progress.md``: where CG1 stands (this machine's newest
     checkpoint, or the repository's kept one), its pace and CPU time, the machine."""
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    machine = f"{platform.node()}, {os.cpu_count()} cores"
+    machine = _machine()
     newest = _newest(args.dir, "paper-cg1", CG1_KEPT_CHECKPOINT)
     if newest is None:
         doing = "started, settling (no checkpoint yet)" if _simulations(args.dir) else "no CG1 run"
@@ -382,6 +382,18 @@ def progress(args):
     cpu = info.get("cpu_s")
     print(f"| {stamp} | {revolutions:.2f} revolutions, {frames} frames (Δt factor {params.get('dt_factor', 1):g}; "
           f"{where}){_pace(info, step)} | {'' if cpu is None else f'{cpu / 3600:.2f} CPU h{running}'} | {machine} |")
+
+
+def _machine() -> str:
+    """This machine in words: host name, cores and, where /proc/cpuinfo names it, the CPU model (hosts
+    differ between working periods, and so does the pace)."""
+    model = ""
+    try:
+        with open("/proc/cpuinfo") as f:
+            model = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), "")
+    except OSError:
+        pass
+    return f"{platform.node()}, {os.cpu_count()} cores" + (f", {model}" if model else "")
 
 
 def _pace(info, step) -> str:

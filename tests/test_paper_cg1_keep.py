@@ -7,6 +7,7 @@ import dataclasses
 import importlib.util
 import os
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -138,6 +139,12 @@ def test_cg1_goes_on_from_what_the_repository_kept_when_a_machine_lost_the_run(d
     driver.progress(type("Args", (), {"dir": str(machine_b)}))
     line = capsys.readouterr().out
     assert "11 frames" in line and "the kept one: this machine has none newer" in line
+    # the machine column names the cores and, where Linux tells it, the CPU model (paces differ by host)
+    machine = line.split("|")[4]
+    assert f"{os.cpu_count()} cores" in machine
+    model = [row.split(":", 1)[1].strip() for row in Path("/proc/cpuinfo").read_text().splitlines()
+             if row.startswith("model name")][:1] if Path("/proc/cpuinfo").exists() else []
+    assert all(name in machine for name in model)
 
 
 def test_a_series_run_made_on_two_machines_gets_the_subset_of_the_uninterrupted_run(driver, tmp_path, monkeypatch):
