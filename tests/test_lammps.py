@@ -1,6 +1,8 @@
 """LIGGGHTS / LAMMPS dump reader: round trip, clear errors, fuzzing."""
 
 import gzip
+import re
+import warnings
 
 import numpy as np
 import pytest
@@ -593,3 +595,119 @@ def test_an_error_in_the_reading_worker_reaches_the_command_line_as_one_line(tmp
     err = capsys.readouterr().err.strip()
     assert "duplicate contact pair" in err and "pairs.dump" in err and "\n" not in err
     assert not (tmp_path / "run.h5").exists()
+
+
+# --- real dump variants: %g ids, periodic boxes, UNITS / TIME items, sparse first contact blocks ---
+
+PAIR_MAPPING = dict(surface_tension=0.1, density=2500.0, drum_omega=2.0, contact_id_i="c_p[1]", contact_id_j="c_p[2]",
+                    contact_f_normal=["c_p[3]", "c_p[4]", "c_p[5]"], contact_overlap="c_p[6]")
+
+
+def _pair_dumps(tmp_path, box_item, box_lines, atoms, pairs):
+    """A one-timestep particle dump of ``atoms`` (id, x, y, z; radius 1 mm) and local dump of
+    ``pairs`` (text rows), both under ``box_item`` / ``box_lines``."""
+    def head(kind, n):
+        return ["ITEM: TIMESTEP", "0", f"ITEM: NUMBER OF {kind}", str(n), f"ITEM: BOX BOUNDS {box_item}", *box_lines]
+
+    a = head("ATOMS", len(atoms)) + ["ITEM: ATOMS id x y z vx vy vz omegax omegay omegaz radius"]
+    a += [f"{i} {x!r} {y!r} {z!r} 0 0 0 0 0 0 0.001" for i, x, y, z in atoms]
+    p = head("ENTRIES", len(pairs)) + ["ITEM: ENTRIES " + " ".join(f"c_p[{k}]" for k in range(1, 7))]
+    (tmp_path / "a.dump").write_text("\n".join(a) + "\n")
+    (tmp_path / "p.dump").write_text("\n".join(p + pairs) + "\n")
+    return [tmp_path / "a.dump"], [tmp_path / "p.dump"]
+
+
+@pytest.mark.parametrize("box_item, box_lines, atoms, force, periodic", [
+    # z periodic, 10 mm: particle 2 at z = 9.8 mm touches particle 1 (0.2 mm) through the face; the
+    # force on 1 points +z, away from 2's image at -0.2 mm: repulsive
+    ("ff ff pp", ["-0.01 0.01", "-0.01 0.01", "0 0.01"], [(1, 0.0, 0.0, 0.0002), (2, 0.0, 0.0, 0.0098)], "0 0 0.5", "z"),
+    # the same box but not periodic: the pair's branch points +z, so the force on 1 pulls (a bridge)
+    ("ff ff ff", ["-0.01 0.01", "-0.01 0.01", "0 0.01"], [(1, 0.0, 0.0, 0.0002), (2, 0.0, 0.0, 0.0098)], "0 0 0.5", ""),
+    # restricted triclinic, all periodic, tilts xy = 2 mm, xz = -1 mm, yz = 1.5 mm (the bounds widen by
+    # them as LAMMPS writes): 2 lies one y-edge (2 mm, 20 mm, 0) from 1's touching image, 1.6 mm off in x
+    ("xy xz yz pp pp pp", ["-0.001 0.012 0.002", "0 0.0215 -0.001", "0 0.03 0.0015"],
+     [(1, 0.0010, 0.0005, 0.01), (2, 0.0046, 0.0205, 0.01)], "-0.5 0 0", "xyz"),
+])
+def test_a_contact_through_a_periodic_face_is_taken_between_nearest_images(tmp_path, box_item, box_lines, atoms,
+                                                                            force, periodic):
+    """The normal-force sign came from the wrapped positions: a compressed contact through a
+    periodic face became a bridge pulling with its repulsion (F_coh = 0.5 N)."""
+    pf, cf = _pair_dumps(tmp_path, box_item, box_lines, atoms, [f"1 2 {force} 0.0004"])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        snapshots, meta = read_liggghts(pf, cf, DumpMapping(**PAIR_MAPPING), dt=DT)
+    s = snapshots[0]
+    expected = 0.5 if periodic else -0.5
+    assert s.f_normal.tolist() == [pytest.approx(expected)] and s.f_cap.tolist() == [pytest.approx(max(-expected, 0))]
+    assert meta.provenance["periodic_axes"] == periodic
+    said = [str(w.message) for w in caught if "periodic" in str(w.message)]
+    assert (said and f"periodic along {periodic}" in said[0] and "a.dump" in said[0]) if periodic else not said
+
+
+def test_the_nearest_image_of_a_tilted_periodic_box_is_the_shortest_of_its_images():
+    from granalytics.convert.lammps import Box
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        lengths = rng.uniform(1, 2, 3)
+        xy, xz, yz = rng.uniform(-0.3, 0.3, 3) * lengths[[0, 0, 1]]
+        box = Box(np.array([[lengths[0], xy, xz], [0, lengths[1], yz], [0, 0, lengths[2]]]), (True, True, True))
+        near = rng.uniform(-0.2, 0.2, (50, 3))  # short vectors seen through random images
+        far = near + (box.edges @ rng.integers(-3, 4, (3, 50))).T
+        back = box.minimum_image(far)
+        np.testing.assert_allclose(back, near, atol=1e-12)
+    half = Box(np.diag([1.0, 1.0, 1.0]), (False, True, False)).minimum_image(np.array([[0.9, 0.9, 0.9]]))
+    assert half.tolist() == [[0.9, pytest.approx(-0.1), 0.9]]  # only the periodic axis folds
+
+
+@pytest.mark.parametrize("written, ok", [("1.23457e+06", False), ("1e+06", False), ("1234567.0", True),
+                                         ("1.234567e+06", True), ("0.0", True), ("1.2e3", True)])
+def test_contact_ids_written_with_fewer_digits_than_they_have_are_refused(tmp_path, written, ok):
+    """dump local writes ids with %g: 1234567 as 1.23457e+06, read as 1234570, another particle."""
+    exact = int(float(written)) if ok else 1234567
+    pf, cf = _pair_dumps(tmp_path, "ff ff ff", ["-0.01 0.01"] * 3,
+                         [(exact, 0.0, 0.0, 0.0), (1234580, 0.0019, 0.0, 0.0), (1234570, 0.005, 0.005, 0.005)],
+                         [f"{written} 1234580 0 0 0 0.0001"])
+    if ok:
+        snapshots, _ = read_liggghts(pf, cf, DumpMapping(**PAIR_MAPPING), dt=DT)
+        s = snapshots[0]
+        assert sorted(s.ids[[s.contact_i[0], s.contact_j[0]]].tolist()) == sorted([exact, 1234580])
+        return
+    with pytest.raises(DumpFormatError, match=rf"p.dump, line 10: c_p\[1\] '{re.escape(written)}' is written with \d significant "
+                                              r"digits, fewer than the id's 7: .*format float %.16g"):
+        read_liggghts(pf, cf, DumpMapping(**PAIR_MAPPING), dt=DT)
+
+
+def test_units_and_time_items_before_each_timestep_are_read_past(tmp_path, frames):
+    """dump_modify units yes / time yes: valid dumps were refused ("expected 'ITEM: TIMESTEP'")."""
+    pf, cf = write_dumps(tmp_path, frames)
+    corrupt(pf[0], lambda ls: ["ITEM: UNITS", "si"] + [x for l in ls for x in
+                                                       (["ITEM: TIME", "0.25", l] if l == "ITEM: TIMESTEP" else [l])])
+    snapshots, _ = read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
+    assert_same_run(snapshots, frames)
+    corrupt(pf[0], lambda ls: ["ITEM: UNITS", "lj"] + ls[2:])
+    with pytest.raises(DumpFormatError, match=r"atoms.dump, line 2: the dump is in LAMMPS units 'lj'"):
+        read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)
+
+
+def test_the_memory_estimate_counts_contacts_when_the_first_contact_block_is_empty(tmp_path, frames):
+    from granalytics.convert.lammps import open_liggghts
+
+    pf, cf = write_dumps(tmp_path, frames)
+    full = open_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT).frame_bytes()
+    first = frames[0].n_contacts
+    corrupt(cf[0], lambda ls: ls[:3] + ["0"] + ls[4:9] + ls[9 + first:])  # a run starting at insertion: no contacts yet
+    assert open_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT).frame_bytes() >= 0.9 * full
+    particles_only = 40 * 300 * len(ATOM_COLUMNS)
+    assert full > particles_only
+
+
+def test_an_error_about_a_vtk_dump_names_the_file_without_a_line():
+    """VTK files have no lines: errors said "atoms_5000.vtu, line -8"."""
+    pytest.importorskip("vtk")
+    from pathlib import Path
+
+    vtk = Path(__file__).parent / "data" / "liggghts_wet_drum" / "vtk"
+    with pytest.raises(DumpFormatError, match=r"atoms_5000\.vtu: no contact dump for timestep 5000$"):
+        read_liggghts([vtk / "atoms_5000.vtu", vtk / "atoms_10000.vtu"], [vtk / "pairs_10000.vtp"],
+                      DumpMapping.from_toml(vtk / "mapping.toml"), dt=2e-6)

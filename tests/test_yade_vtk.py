@@ -90,3 +90,17 @@ def test_what_the_folder_lacks_is_named_with_the_recorder_to_add(tmp_path):
         read_run_files("yade-vtk", [broken], [], MAPPING, DT)
     with pytest.raises(ga.GranalyticsError, match="time step"):
         read_run_files("yade-vtk", [DATA / "single"], [], MAPPING, None)
+
+
+@pytest.mark.parametrize("prefix", ["", "drum_", "drum"])
+def test_a_recorder_whose_file_name_does_not_end_in_a_dash_is_read(tmp_path, prefix):
+    """VTKRecorder writes fileName + "spheres." + iter + ".vtu": fileName="out/" (YADE's examples)
+    was refused ("no VTKRecorder frames")."""
+    import shutil
+
+    for path in (DATA / "single").iterdir():
+        shutil.copy(path, tmp_path / path.name.replace("drum-", prefix))
+    expected, _ = read_run_files("yade-vtk", [DATA / "single"], [], MAPPING, DT)
+    snapshots, _ = read_run_files("yade-vtk", [tmp_path], [], MAPPING, DT)
+    assert [s.step for s in snapshots] == [s.step for s in expected]
+    np.testing.assert_array_equal(snapshots[-1].contact_i, expected[-1].contact_i)

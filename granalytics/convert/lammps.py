@@ -18,12 +18,14 @@ import io
 import math
 import os
 import zlib
+import warnings
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
-from granalytics.base.errors import ValidationError
+from granalytics.base.errors import ValidationError, user_stacklevel
 from granalytics.base.files import regular_input
 from granalytics.core.snapshot import RunMeta, Snapshot
 from granalytics.convert._text import DumpFormatError, load_toml, warn_unused_contact_steps
@@ -31,6 +33,10 @@ from granalytics.convert.registry import StreamedSource
 
 __all__ = ["DumpMapping", "DumpFile", "integer_column", "LiggghtsRun", "open_liggghts", "read_liggghts"]
 
+
+#: ids from here on are checked for lost digits: LAMMPS writes ``dump local`` columns with ``%g``
+#: (six significant digits), which writes an integer from 10**6 on in exponent form
+FEW_DIGITS_ABOVE = 10**6
 
 #: the radii a dump in SI units may hold [m]: outside them it is in another unit
 MIN_RADIUS_M, MAX_RADIUS_M = 1e-7, 0.5
@@ -133,6 +139,52 @@ class DumpMapping:
             raise exc.located(path) from None
 
 
+@dataclass(frozen=True)
+class Box:
+    """The simulation box of a dump block, as its ``ITEM: BOX BOUNDS`` gives it.
+
+    Attributes
+    ----------
+    edges : ndarray (3, 3) [m]
+        The box's edge vectors as columns (LAMMPS' restricted triclinic form: ``[[lx, xy, xz],
+        [0, ly, yz], [0, 0, lz]]``; the tilts are 0 for an orthogonal box).
+    periodic : tuple of 3 bool
+        Which of x, y, z are periodic (the ``pp`` flags).
+    """
+
+    edges: np.ndarray
+    periodic: tuple
+
+    def minimum_image(self, branch):
+        """The vectors ``branch`` (n×3 [m], between wrapped positions) to their nearest periodic
+        image along the periodic axes, in LAMMPS' order (z, then y, then x)."""
+        branch = np.array(branch, dtype=np.float64)
+        for axis in (2, 1, 0):
+            if self.periodic[axis]:
+                branch -= np.rint(branch[:, axis] / self.edges[axis, axis])[:, None] * self.edges[:, axis]
+        return branch
+
+
+class Block(NamedTuple):
+    """One timestep of a dump, as :meth:`DumpFile.blocks` yields it."""
+
+    #: the timestep
+    step: int
+    #: its rows (a DataFrame), or None where passed over unparsed
+    table: object
+    #: the 0-based line of its first row (the 1-based line of its ``ITEM: ATOMS``/``ENTRIES``); 0 in a VTK file
+    first_line: int
+    #: the 1-based line of its ``ITEM: TIMESTEP``; 0 in a VTK file
+    step_line: int
+    #: its simulation box, None where the file does not give one (VTK) or gives no periodic axis
+    box: Box | None = None
+
+
+def _at(path, line) -> str:
+    """``PATH, line N`` for an error, or ``PATH`` where there is no line (a VTK file)."""
+    return f"{path}, line {line}" if line else f"{path}"
+
+
 class DumpFile:
     """One dump file, read block by block (``dump custom`` or ``dump local``; plain or gzip).
 
@@ -160,16 +212,17 @@ class DumpFile:
         with _BlockReader(self, peek=True) as reader:
             return reader.peek_step()
 
-    def first_counts(self):
-        """``(rows, columns)`` of the file's first block, from its header (``(0, 0)`` if empty)."""
+    def first_counts(self, blocks=1, enough=0):
+        """``(rows, columns)`` of the file's first block, from its header (``(0, 0)`` if empty); of
+        the largest of its first ``blocks`` while they hold fewer than ``enough`` rows."""
         with _BlockReader(self, peek=True) as reader:
-            return reader.peek_counts()
+            return reader.peek_counts(blocks, enough)
 
     def blocks(self, int_columns=(), after=None):
-        """Yield ``(timestep, table, first_line)`` for every block: ``table`` a DataFrame of the
-        block's columns (float64; the ``int_columns`` present read exactly as int64, see
-        :func:`integer_column`), ``first_line`` the 0-based line of its first row. Blocks of
-        timesteps up to ``after`` are passed over unparsed (``table`` None)."""
+        """Yield a :class:`Block` for every timestep: its ``table`` a DataFrame of the block's
+        columns (float64; the ``int_columns`` present read exactly as int64, see
+        :func:`integer_column`). Blocks of timesteps up to ``after`` are passed over unparsed
+        (``table`` None)."""
         with _BlockReader(self) as reader:
             yield from reader.blocks(int_columns, after)
 
@@ -286,45 +339,104 @@ class _BlockReader:
         except (TypeError, ValueError):
             self.fail(self.line - (text is not None), f"{what} is not an integer")
 
-    def header(self):
-        """``(timestep, rows, columns)`` of the next block, or None at the end of the file."""
-        count_item = "NUMBER OF ATOMS" if self.dump.kind == "ATOMS" else "NUMBER OF ENTRIES"
+    def timestep_item(self):
+        """The next block's ``ITEM: TIMESTEP`` line (None at the end of the file), past the
+        ``ITEM: UNITS`` and ``ITEM: TIME`` that LAMMPS writes before it with ``dump_modify units
+        yes`` / ``time yes`` (units other than ``si`` are refused)."""
         text = self.next_item()
+        while text is not None and " ".join(text.split()) in ("ITEM: UNITS", "ITEM: TIME"):
+            value = self.readline()
+            if value is None:
+                self.fail(self.line, f"file ends after {text.strip()!r}")
+            if text.split()[1] == "UNITS" and value.strip() != "si":
+                self.fail(self.line - 1, f"the dump is in LAMMPS units {value.strip()!r}: only 'units si' dumps are read")
+            text = self.next_item()
+        return text
+
+    def header(self):
+        """``(timestep, rows, columns, box)`` of the next block, or None at the end of the file;
+        ``self.step_line`` is then the 1-based line of its ``ITEM: TIMESTEP``."""
+        count_item = "NUMBER OF ATOMS" if self.dump.kind == "ATOMS" else "NUMBER OF ENTRIES"
+        text = self.timestep_item()
         if text is None:
             return None
         self.expect(text, "TIMESTEP")
+        self.step_line = self.line
         step = self.integer_line("timestep")
         self.expect(self.readline(), count_item)
         n = self.integer_line(count_item.lower())
         if n < 0:
             self.fail(self.line - 1, f"negative {count_item.lower()} {n}")
-        self.expect(self.readline(), "BOX BOUNDS")
-        for _ in range(3):
-            if self.readline() is None:
-                self.fail(self.line, "file ends inside the box bounds")
+        self.expect(text := self.readline(), "BOX BOUNDS")
+        box = self.box(text.split()[3:])
         self.expect(text := self.readline(), self.dump.kind)
         columns = text.split()[2:]
         if len(set(columns)) != len(columns):
             self.fail(self.line - 1, f"repeated column names {columns}")
-        return step, n, columns
+        return step, n, columns, box
+
+    def box(self, words):
+        """The :class:`Box` of the three lines after ``ITEM: BOX BOUNDS`` (``words``: the item's
+        words after ``BOUNDS``), or None where no axis is periodic (the lines are then only
+        passed over). Restricted triclinic boxes (``xy xz yz``) are read; LAMMPS' general
+        triclinic output (``abc origin``) of a periodic box is refused."""
+        lines = []
+        for _ in range(3):
+            if (line := self.readline()) is None:
+                self.fail(self.line, "file ends inside the box bounds")
+            lines.append(line)
+        tilted = words[:3] == ["xy", "xz", "yz"]
+        flags = words[3:] if tilted else words[2:] if words[:2] == ["abc", "origin"] else words
+        periodic = tuple(len(flags) == 3 and flag.startswith("p") for flag in flags) or (False,) * 3
+        if not any(periodic):
+            return None
+        if words[:2] == ["abc", "origin"]:
+            self.fail(self.line - 4, "a periodic general triclinic box ('abc origin') is not read: dump the "
+                                     "restricted box (dump_modify triclinic/general no)")
+        try:
+            values = [[float(x) for x in line.split()] for line in lines]
+            if any(len(v) != (3 if tilted else 2) for v in values) or not np.isfinite(sum(values, [])).all():
+                raise ValueError
+        except ValueError:
+            self.fail(self.line - 3, f"the box bounds are not {3 if tilted else 2} finite numbers a line: "
+                                     f"{' | '.join(line.strip() for line in lines)!r}")
+        xy, xz, yz = (values[0][2], values[1][2], values[2][2]) if tilted else (0.0, 0.0, 0.0)
+        # the bounds of a tilted box enclose it: LAMMPS widens x by the tilts and y by yz
+        lx = (values[0][1] - max(0.0, xy, xz, xy + xz)) - (values[0][0] - min(0.0, xy, xz, xy + xz))
+        ly = (values[1][1] - max(0.0, yz)) - (values[1][0] - min(0.0, yz))
+        lz = values[2][1] - values[2][0]
+        if min(lx, ly, lz) <= 0:
+            self.fail(self.line - 3, f"box edges {lx:g}, {ly:g}, {lz:g} m: not a box")
+        return Box(np.array([[lx, xy, xz], [0.0, ly, yz], [0.0, 0.0, lz]]), periodic)
 
     def peek_step(self):
-        text = self.next_item()
+        text = self.timestep_item()
         if text is None:
             return None
         self.expect(text, "TIMESTEP")
         return self.integer_line("timestep")
 
-    def peek_counts(self):
-        head = self.header()
-        return (0, 0) if head is None else (head[1], len(head[2]))
+    def peek_counts(self, blocks=1, enough=0):
+        """``(rows, columns)`` of the largest of the file's first ``blocks`` blocks (``(0, 0)`` if
+        empty), from their headers; the next block's header is read only while the largest so
+        far has fewer than ``enough`` rows (a run's first contact blocks may hold few or none)."""
+        most = (0, 0)
+        for k in range(blocks):
+            if k and most[0] >= enough:
+                break
+            if (head := self.header()) is None:
+                break
+            most = max(most, (head[1], len(head[2])))
+            self.read_lines(head[1])
+            self.line += head[1]
+        return most
 
     def blocks(self, int_columns, after):
         seen = set()
         while (head := self.header()) is not None:
-            step, n, columns = head
+            step, n, columns, box = head
             if step in seen:
-                self.fail(self.line - 9, f"timestep {step} appears twice")
+                self.fail(self.step_line - 1, f"timestep {step} appears twice")
             seen.add(step)
             first = self.line
             data = self.read_lines(n)
@@ -333,13 +445,13 @@ class _BlockReader:
                 if data.count(b"\n") != n:
                     self.fail(first + data.count(b"\n"), f"file ends inside the rows of timestep {step}")
                 self.line = first + n
-                yield step, None, first
+                yield Block(step, None, first, self.step_line, box)
                 continue
             table = _parse_rows(data, columns, [c for c in int_columns if c in columns], n)
             if table is None:  # pandas could not: read it again line by line, naming the fault
                 table = _parse_rows_slowly(data, columns, n, self.path, first, int_columns)
             self.line = first + n
-            yield step, table, first
+            yield Block(step, table, first, self.step_line, box)
 
 
 def _parse_rows(data: bytes, columns, int_columns, n):
@@ -360,6 +472,12 @@ def _parse_rows(data: bytes, columns, int_columns, n):
         return None
     if any((np.abs(table[c].to_numpy()) > 2**53).any() for c in int_columns):
         return None  # pandas reads 1e16 as an integer: only the written text says whether it was one
+    large = [c for c in int_columns if (np.abs(table[c].to_numpy()) >= FEW_DIGITS_ABOVE).any()]
+    if large:  # pandas reads 1.23457e+06 as 1234570: was it written whole?
+        texts = pd.read_csv(io.BytesIO(data), sep=r"\s+", header=None, names=columns, usecols=large, dtype=str,
+                            index_col=False, engine="c", skip_blank_lines=False, na_filter=False)
+        if any(texts[c].str.contains(r"[.eE]").any() for c in large):
+            return None
     return table
 
 
@@ -397,8 +515,11 @@ def _parse_rows_slowly(data: bytes, columns, n, path, first, int_columns):
 def integer_column(texts, path, first_line, what) -> np.ndarray:
     """The fields ``texts`` of one column (as written, rows from ``first_line``, 0-based) as exact
     int64: an integer is read as written (never through float64, which rounds above 2**53); a
-    number written as a float (``12.0``, ``1.2e3``) only when it is whole and at most 2**53, where
-    float64 is exact. Anything else raises :class:`DumpFormatError` naming the line."""
+    number written as a float (``12.0``, ``1.2e3``) only when it is whole, at most 2**53, where
+    float64 is exact, and, from :data:`FEW_DIGITS_ABOVE` on, written with as many significant
+    digits as the integer has (LAMMPS' ``dump local`` writes every column with ``%g``, six digits:
+    id 1234567 as ``1.23457e+06``, another particle's id). Anything else raises
+    :class:`DumpFormatError` naming the line."""
     out = np.empty(len(texts), dtype=np.int64)
     for r, text in enumerate(texts):
         try:
@@ -408,18 +529,26 @@ def integer_column(texts, path, first_line, what) -> np.ndarray:
             problem = "is beyond the 64-bit integers"
         except ValueError:
             value = float(text)  # a number: read_dump_blocks checked it
-            if value.is_integer() and abs(value) <= 2**53:
+            digits = len(text.lower().split("e")[0].lstrip("+-").replace(".", "").lstrip("0"))
+            needed = len(str(abs(int(value)))) if value.is_integer() and abs(value) >= FEW_DIGITS_ABOVE else 0
+            if value.is_integer() and abs(value) <= 2**53 and digits >= needed:
                 out[r] = int(value)
                 continue
-            problem = ("is written as a float above 2**53, where floats skip integers: write ids as integers"
-                       if value.is_integer() else "is not a whole number")
-        raise DumpFormatError(f"{path}, line {first_line + r + 1}: {what} {text!r} {problem}")
+            if not value.is_integer():
+                problem = "is not a whole number"
+            elif abs(value) > 2**53:
+                problem = "is written as a float above 2**53, where floats skip integers: write ids as integers"
+            else:
+                problem = (f"is written with {digits} significant digits, fewer than the id's {needed}: "
+                           "the digits are lost, and the contact may name another particle (dump local writes "
+                           "with %g, six digits, by default): add 'dump_modify DUMP-ID format float %.16g'")
+        raise DumpFormatError(f"{path}, line {first_line + r + 1}: {what} {str(text)!r} {problem}")
     return out
 
 
 def _column(table, name, path, line, what):
     if name not in table.columns:
-        raise DumpFormatError(f"{path}, line {line}: no column {name!r} for {what} (columns: {' '.join(table.columns)})")
+        raise DumpFormatError(f"{_at(path, line)}: no column {name!r} for {what} (columns: {' '.join(table.columns)})")
     return table[name].to_numpy()
 
 
@@ -432,10 +561,10 @@ def _particles(table, path, line, mapping):
     elif "diameter" in table.columns:
         radius = col("diameter", "diameter") / 2
     else:
-        raise DumpFormatError(f"{path}, line {line}: the particle dump needs a 'radius' or 'diameter' column")
+        raise DumpFormatError(f"{_at(path, line)}: the particle dump needs a 'radius' or 'diameter' column")
     if len(radius) and not (MIN_RADIUS_M <= radius.min() and radius.max() <= MAX_RADIUS_M):
         bad = radius.min() if radius.min() < MIN_RADIUS_M else radius.max()
-        raise DumpFormatError(f"{path}, line {line}: a particle radius of {bad:g} m is not a DEM particle's in SI units "
+        raise DumpFormatError(f"{_at(path, line)}: a particle radius of {bad:g} m is not a DEM particle's in SI units "
                               f"([{MIN_RADIUS_M:g}, {MAX_RADIUS_M:g}] m are read): the dump is likely in "
                               f"{'millimetres or micrometres' if bad > MAX_RADIUS_M else 'another unit'}; the mapping "
                               "reads 'units si' dumps only")
@@ -455,17 +584,19 @@ def _particles(table, path, line, mapping):
     return out
 
 
-def _contacts(table, path, line, mapping, ids, order, position):
+def _contacts(table, path, line, mapping, ids, order, position, box=None):
     def col(name, what):
         return _column(table, name, path, line, what).astype(np.float64, copy=False)
 
     def signed_normal(name, what):
         """Signed normal force [N], positive = repulsive: a column as is, or −F·n̂ of a vector
-        on particle i (n̂ from i to j)."""
+        on particle i (n̂ from i to j, to j's nearest image in a periodic box)."""
         if not isinstance(name, (list, tuple)):
             return col(name, what)
         force = np.column_stack([col(c, what) for c in name])
         branch = position[rows[1]] - position[rows[0]]
+        if box is not None:
+            branch = box.minimum_image(branch)
         length = np.linalg.norm(branch, axis=1)
         length[length == 0] = np.inf  # coincident centres: no direction, no normal force
         return -(force * branch).sum(axis=1) / length
@@ -478,7 +609,7 @@ def _contacts(table, path, line, mapping, ids, order, position):
         missing = sorted_ids[at] != named
         if missing.any():
             k = int(np.flatnonzero(missing)[0])
-            raise DumpFormatError(f"{path}, line {line + k + 1}: contact names particle id {int(named[k])}, "
+            raise DumpFormatError(f"{_at(path, line and line + k + 1)}: contact names particle id {int(named[k])}, "
                                   "which is not in the particle dump of this timestep")
         rows.append(order[at])
     ci, cj = np.minimum(*rows), np.maximum(*rows)
@@ -512,21 +643,22 @@ def _in_step_order(files, kind):
 
 
 def _stream(dumps, int_columns, after=None):
-    """``(timestep, table, first_line, path)`` of every block of ``dumps`` in turn, refusing a
-    timestep read before (in this file or another) or one that goes back in time; the blocks up
-    to timestep ``after`` are not parsed (``table`` None)."""
+    """``(block, path)`` of every :class:`Block` of ``dumps`` in turn, refusing a timestep read
+    before (in this file or another) or one that goes back in time; the blocks up to timestep
+    ``after`` are not parsed (``table`` None)."""
     seen = {}
     last = None
     for dump in dumps:
-        for step, table, line in dump.blocks(int_columns, after):
+        for block in dump.blocks(int_columns, after):
+            step, where = block.step, _at(dump.path, block.step_line)
             if step in seen:
-                raise DumpFormatError(f"{dump.path}, line {line - 8}: timestep {step} already read from {seen[step]}")
+                raise DumpFormatError(f"{where}: timestep {step} already read from {seen[step]}")
             if last is not None and step < last:
-                raise DumpFormatError(f"{dump.path}, line {line - 8}: timestep {step} comes after timestep {last}: "
+                raise DumpFormatError(f"{where}: timestep {step} comes after timestep {last}: "
                                       "the timesteps of a dump (and of its files, taken in the order of their first "
                                       "timestep) must increase")
             seen[step], last = dump.path, step
-            yield step, table, line, dump.path
+            yield block, dump.path
 
 
 class LiggghtsRun(StreamedSource):
@@ -554,13 +686,18 @@ class LiggghtsRun(StreamedSource):
         return sum(d.bytes_read for d in self._particles + self._contacts)
 
     def frame_bytes(self) -> int:
-        """Estimated memory of one frame while it is read [bytes], from the first blocks' headers
-        (text, parsed table and snapshot: about 40 bytes per value)."""
-        values = 0
-        for dumps in (self._particles, self._contacts):
-            if dumps:
-                rows, columns = dumps[0].first_counts()
-                values += rows * max(columns, 14)
+        """Estimated memory of one frame while it is read [bytes] (text, parsed table and snapshot:
+        about 40 bytes per value), from the headers of the first particle block and of the
+        largest contact block among the first few (up to one with as many rows as there are
+        particles: a run's first contact blocks may be empty) and the last file's first."""
+        if not self._particles:
+            return 0
+        rows, columns = self._particles[0].first_counts()
+        values = rows * max(columns, 14)
+        if self._contacts:
+            ends = {id(d): d for d in (self._contacts[0], self._contacts[-1])}.values()
+            contacts, width = max(d.first_counts(blocks=5, enough=rows) for d in ends)
+            values += contacts * max(width, 14)
         return 40 * values
 
     def _nothing_read(self):
@@ -572,33 +709,34 @@ class LiggghtsRun(StreamedSource):
         contacts = _stream(self._contacts, (mapping.contact_id_i, mapping.contact_id_j), self._after)
         pending = next(contacts, None)
         unused, particle_steps, n0 = [], [], None
-        for step, table, line, path in _stream(self._particles, ("id",), self._after):
-            while pending is not None and pending[0] < step:
-                unused.append(pending[0])
+        for block, path in _stream(self._particles, ("id",), self._after):
+            step, line = block.step, block.first_line
+            while pending is not None and pending[0].step < step:
+                unused.append(pending[0].step)
                 pending = next(contacts, None)
-            if pending is None or pending[0] != step:
-                raise DumpFormatError(f"{path}, line {line - 8}: no contact dump for timestep {step}")
-            if table is None:  # up to start_after: passed over
+            if pending is None or pending[0].step != step:
+                raise DumpFormatError(f"{_at(path, block.step_line)}: no contact dump for timestep {step}")
+            if block.table is None:  # up to start_after: passed over
                 particle_steps.append(step)
                 pending = next(contacts, None)
                 continue
-            part = _particles(table, path, line, mapping)
-            del table
+            part = _particles(block.table, path, line, mapping)
+            block = block._replace(table=None)
             ids = part["ids"]
             if not len(ids):
-                raise DumpFormatError(f"{path}, line {line - 8}: timestep {step} has no particles")
+                raise DumpFormatError(f"{_at(path, block.step_line)}: timestep {step} has no particles")
             order = np.argsort(ids, kind="stable")
             if (ids[order[1:]] == ids[order[:-1]]).any():
-                raise DumpFormatError(f"{path}, line {line}: duplicate particle ids in timestep {step}")
-            _, ctable, cline, cpath = pending
-            cont = _contacts(ctable, cpath, cline, mapping, ids, order, part["position"])
-            pending = ctable = None
+                raise DumpFormatError(f"{_at(path, line)}: duplicate particle ids in timestep {step}")
+            cblock, cpath = pending
+            cont = _contacts(cblock.table, cpath, cblock.first_line, mapping, ids, order, part["position"], block.box)
+            pending = cblock = None
             n0 = n0 or len(ids)
             if len(ids) != n0:
-                raise DumpFormatError(f"{path}, line {line}: timestep {step} has {len(ids)} particles, the first "
+                raise DumpFormatError(f"{_at(path, line)}: timestep {step} has {len(ids)} particles, the first "
                                       f"timestep {n0}; a run keeps its particles")
             if self.meta is None:
-                self.meta = self._run_meta(n0, float(part["radius"].mean()))
+                self.meta = self._run_meta(n0, float(part["radius"].mean()), block.box, path)
             try:
                 snapshot = Snapshot(time=step * self.dt, step=step, **part, **cont, meta=self.meta)
             except ValidationError as exc:
@@ -606,18 +744,25 @@ class LiggghtsRun(StreamedSource):
             particle_steps.append(step)
             yield snapshot
             pending = next(contacts, None)
-        unused += ([pending[0]] if pending is not None else []) + [c[0] for c in contacts]
+        unused += ([pending[0].step] if pending is not None else []) + [c[0].step for c in contacts]
         if particle_steps:
             warn_unused_contact_steps(unused, particle_steps, self.contact_files)
 
-    def _run_meta(self, n_particles, mean_radius) -> RunMeta:
+    def _run_meta(self, n_particles, mean_radius, box, path) -> RunMeta:
         mapping = self.mapping
+        periodic = "".join(axis for axis, p in zip("xyz", box.periodic) if p) if box is not None else ""
+        if periodic:
+            warnings.warn(f"{path}: the box is periodic along {periodic}: contact normals are taken between nearest "
+                          "images, but positions are kept as dumped (wrapped into the box), so what uses positions "
+                          "(the dbscan method, granule centres and extents) sees a granule across a periodic face "
+                          "as cut", stacklevel=user_stacklevel())
         return RunMeta(
             surface_tension=mapping.surface_tension, density=mapping.density, drum_omega=mapping.drum_omega,
             n_particles=n_particles, mean_radius=mean_radius, alpha=mapping.alpha,
             contact_angle=mapping.contact_angle, capillary_in_contact=mapping.capillary_in_contact,
             provenance={"source": "LIGGGHTS/LAMMPS dumps", "particle_files": list(map(str, self.particle_files)),
                         "contact_files": list(map(str, self.contact_files)), "mapping": dataclasses.asdict(mapping),
+                        "periodic_axes": periodic,
                         "not_in_dumps": [k for k, v in (("f_normal", mapping.contact_f_normal),
                                                         ("bridge_volume", mapping.contact_bridge_volume),
                                                         ("film_volume", mapping.film_column)) if v is None]},

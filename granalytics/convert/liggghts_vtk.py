@@ -54,17 +54,19 @@ class VtkDumpFile:
     def first_step(self):
         return self.step
 
-    def first_counts(self):
+    def first_counts(self, blocks=1, enough=0):
         return (max(1, self.size // 100), 14)  # a bound from the file size: the header says nothing cheaper
 
     def blocks(self, int_columns=(), after=None):
+        from granalytics.convert.lammps import Block
+
         if after is not None and self.step <= after:
             self.bytes_read = self.size
-            yield self.step, None, 0
+            yield Block(self.step, None, 0, 0)
             return
         table = self._table(int_columns)
         self.bytes_read = self.size
-        yield self.step, table, 0
+        yield Block(self.step, table, 0, 0)
 
     def _table(self, int_columns):
         from granalytics.convert.yade_vtk import _update, _vtk

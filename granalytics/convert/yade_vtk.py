@@ -2,9 +2,9 @@
 
 YADE users keep the recorder's folder, not our CSV export. A frame is either
 
-- one multiblock file ``PREFIX-ITER.vtm`` (``multiblock=True``) naming an unstructured grid of
+- one multiblock file ``<fileName>ITER.vtm`` (``multiblock=True``) naming an unstructured grid of
   the spheres and a poly-data file of the interactions, or
-- ``PREFIX-spheres.ITER.vtu`` and ``PREFIX-intrs.ITER.vtp`` (the default layout; in YADE
+- ``<fileName>spheres.ITER.vtu`` and ``<fileName>intrs.ITER.vtp`` (the default layout; in YADE
   2023.02a its ``intr`` recorder writes one frame and then crashes, so keep ``multiblock=True``).
 
 What the recorders write (read off YADE 2023.02a's files):
@@ -55,8 +55,9 @@ from granalytics.convert.yade import _CAPILLARY_TYPES, read_yade_mapping
 __all__ = ["YadeVtkRun", "open_yade_vtk", "find_vtk_frames"]
 
 _MULTIBLOCK = re.compile(r"^(?P<prefix>.*?)-?(?P<iter>\d+)\.vtm$")
-_SPHERES = re.compile(r"^(?P<prefix>.*)-spheres\.(?P<iter>\d+)\.vtu$")
-_INTRS = re.compile(r"^(?P<prefix>.*)-intrs\.(?P<iter>\d+)\.vtp$")
+#: VTKRecorder writes ``fileName + "spheres." + iter + ".vtu"``: any prefix, "-" or not
+_SPHERES = re.compile(r"^(?P<prefix>.*?)spheres\.(?P<iter>\d+)\.vtu$")
+_INTRS = re.compile(r"^(?P<prefix>.*?)intrs\.(?P<iter>\d+)\.vtp$")
 
 
 def _vtk():
@@ -98,8 +99,8 @@ def find_vtk_frames(paths):
                 entry[key] = path
                 break
     if not frames:
-        raise DumpFormatError(f"no VTKRecorder frames (PREFIX-ITER.vtm, or PREFIX-spheres.ITER.vtu and "
-                              f"PREFIX-intrs.ITER.vtp) in {', '.join(map(str, paths))}")
+        raise DumpFormatError(f"no VTKRecorder frames (<fileName>ITER.vtm, or <fileName>spheres.ITER.vtu and "
+                              f"<fileName>intrs.ITER.vtp) in {', '.join(map(str, paths))}")
     if len(prefixes) > 1:
         raise DumpFormatError(f"the recordings of {len(prefixes)} VTKRecorders are mixed ({', '.join(sorted(prefixes))}): "
                               "give the files of one")
@@ -109,7 +110,7 @@ def find_vtk_frames(paths):
         if "multiblock" in entry and len(entry) > 1:
             raise DumpFormatError(f"iteration {iteration} is both a multiblock file and separate files")
         if "multiblock" not in entry and "spheres" not in entry:
-            raise DumpFormatError(f"{entry['intrs']}: no spheres file (PREFIX-spheres.{iteration}.vtu) beside it: "
+            raise DumpFormatError(f"{entry['intrs']}: no spheres file (<fileName>spheres.{iteration}.vtu) beside it: "
                                   "add 'spheres' to the VTKRecorder's recorders")
         out.append((iteration, {"intrs": None, **entry}))
     return out
