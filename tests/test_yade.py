@@ -128,3 +128,26 @@ def test_a_fractional_particle_or_contact_id_is_refused_naming_the_line(tmp_path
                    + "\n")
     with pytest.raises(GranalyticsError, match=r"c.csv, line 6: id1 .*\.5 is not a whole number"):
         read_yade_csv(PARTICLES[-1:], [bad], DATA / "meta.toml")
+
+
+def test_the_csv_export_is_read_one_frame_at_a_time(monkeypatch):
+    """read_yade_csv read every file before it gave the first frame (and the memory check was
+    told 0 bytes): a production run did not fit in memory."""
+    import granalytics.convert.yade as yade
+
+    parsed = []
+    real = yade._read
+    monkeypatch.setattr(yade, "_read", lambda path, columns: parsed.append(path) or real(path, columns))
+    run = yade.open_yade_csv(PARTICLES[::-1], CONTACTS, DATA / "meta.toml")  # ordered by their steps
+    assert parsed == [] and run.bytes_read == 0 and run.frame_bytes() > 8 * PARTICLES[0].stat().st_size
+    first = run.first()
+    assert first.step == 12000 and len(parsed) == 2 and run.meta.n_particles == 246
+    assert 0 < run.bytes_read < run.total_bytes
+    assert [s.step for s in run] == [12000, 16000] and run.bytes_read == run.total_bytes
+    later = yade.open_yade_csv(PARTICLES, CONTACTS, DATA / "meta.toml")
+    later.start_after(12000)
+    assert [s.step for s in later] == [16000]
+    none = yade.open_yade_csv(PARTICLES, CONTACTS, DATA / "meta.toml")
+    none.start_after(16000)
+    with pytest.raises(GranalyticsError, match="no frames after step 16000 in"):
+        none.first()

@@ -104,3 +104,17 @@ def test_a_recorder_whose_file_name_does_not_end_in_a_dash_is_read(tmp_path, pre
     snapshots, _ = read_run_files("yade-vtk", [tmp_path], [], MAPPING, DT)
     assert [s.step for s in snapshots] == [s.step for s in expected]
     np.testing.assert_array_equal(snapshots[-1].contact_i, expected[-1].contact_i)
+
+
+def test_the_disk_check_of_a_folder_counts_the_files_in_it(tmp_path, monkeypatch):
+    """the disk a conversion needs was estimated from os.path.getsize(folder), 4 kB."""
+    import granalytics.base.resources as resources
+    from granalytics.cli import main
+
+    asked = []
+    monkeypatch.setattr(resources, "check_disk", lambda what, size, path: asked.append(size))
+    folder = DATA / "multiblock"
+    assert main(["convert", str(folder), "--from", "yade-vtk", "--mapping", str(MAPPING), "--dt-s", str(DT),
+                 "--out", str(tmp_path / "run.h5"), "--quiet"]) == 0
+    files = sum(p.stat().st_size for p in folder.rglob("*.vt?"))
+    assert files > 5e4 and asked == [int(0.6 * files)]

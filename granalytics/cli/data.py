@@ -156,7 +156,7 @@ def cmd_convert(args):
         check_new_file(args.out, args.overwrite)  # before reading the dumps
     source = open_run_files(args.source, args.particles, args.contacts, args.mapping, args.dt_s)  # headers only
     check_memory(f"converting {args.particles[0]} (three frames at a time)", 3 * source.frame_bytes())
-    check_disk(f"the converted run {args.out}", _converted_size(inputs), args.out)
+    check_disk(f"the converted run {args.out}", _converted_size(source, inputs), args.out)
     if args.append:
         return _convert_append(args, source)
     existed, kept = os.path.exists(args.out), None
@@ -181,11 +181,11 @@ def cmd_convert(args):
     return 0
 
 
-def _converted_size(inputs) -> int:
-    """The disk a converted run needs [bytes], estimated from its inputs: about 0.6 of their
-    text, which gzip keeps in about a third of it."""
-    text = sum(os.path.getsize(p) * (3 if str(p).endswith(".gz") else 1) for p in inputs)
-    return int(0.6 * text)
+def _converted_size(source, inputs) -> int:
+    """The disk a converted run needs [bytes], estimated from the files its reader reads (those
+    of a folder included): about 0.6 of their text, which gzip keeps in about a third of it."""
+    gzipped = any(str(p).endswith(".gz") for p in inputs)
+    return int(0.6 * source.total_bytes * (3 if gzipped else 1))
 
 
 class _ReadingBar:

@@ -4,6 +4,6 @@ read frame by frame (:func:`open_run_files`; :mod:`.prefetch` reads ahead), behi
 :mod:`._text`. ``granalytics convert --from NAME`` turns their files into a native run file
 (:mod:`granalytics.core`). Above the core layer, below the analysis."""
 
-from granalytics.convert.registry import READERS, FrameSource, InMemorySource, Reader, open_run_files, read_run_files
+from granalytics.convert.registry import READERS, FrameSource, Reader, open_run_files, read_run_files
 
-__all__ = ["READERS", "Reader", "FrameSource", "InMemorySource", "open_run_files", "read_run_files"]
+__all__ = ["READERS", "Reader", "FrameSource", "open_run_files", "read_run_files"]

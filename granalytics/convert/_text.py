@@ -10,14 +10,15 @@ import warnings
 from granalytics.base.errors import GranalyticsError, user_stacklevel
 from granalytics.base.files import regular_input
 
-__all__ = ["DumpFormatError", "read_complete_lines", "load_toml", "warn_unused_contact_steps"]
+__all__ = ["DumpFormatError", "open_text", "read_complete_lines", "load_toml", "warn_unused_contact_steps"]
 
 
 class DumpFormatError(GranalyticsError, ValueError):
     """A dump file is malformed; the message names the file and line."""
 
 
-def _open_text(path):
+def open_text(path):
+    """A text file, plain or gzip (by its ``.gz`` ending), opened for reading."""
     path = str(path)
     return gzip.open(path, "rt") if path.endswith(".gz") else open(path)
 
@@ -32,7 +33,7 @@ def read_complete_lines(path) -> list:
     """
     regular_input(path)  # a FIFO would block for ever
     try:
-        with _open_text(path) as f:
+        with open_text(path) as f:
             text = f.read()
     except (OSError, EOFError, UnicodeDecodeError, gzip.BadGzipFile) as exc:
         raise DumpFormatError(f"{path}: cannot read ({' '.join(str(exc).split())})") from None

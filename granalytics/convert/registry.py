@@ -11,11 +11,10 @@ its example files to the shared tests.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from typing import Callable, Iterator, Protocol
 
-__all__ = ["Reader", "READERS", "FrameSource", "StreamedSource", "InMemorySource", "open_run_files", "read_run_files"]
+__all__ = ["Reader", "READERS", "FrameSource", "StreamedSource", "open_run_files", "read_run_files"]
 
 
 class FrameSource(Protocol):
@@ -81,46 +80,6 @@ class StreamedSource:
             self._frames.close()
 
 
-class InMemorySource:
-    """A :class:`FrameSource` over frames a reader read whole (formats of small files, such as
-    the YADE export's one pair of CSVs per frame)."""
-
-    def __init__(self, read, files):
-        self._read, self._snapshots, self._after = read, None, None
-        self.total_bytes = sum(os.path.getsize(path) for path in files)
-        self.meta = None
-
-    def _frames(self):
-        if self._snapshots is None:
-            self._snapshots, self.meta = self._read()
-            if self._after is not None:
-                self._snapshots = [s for s in self._snapshots if s.step > self._after]
-                if not self._snapshots:
-                    from granalytics.convert._text import DumpFormatError
-
-                    raise DumpFormatError(f"no frames after timestep {self._after} in the files")
-        return self._snapshots
-
-    def start_after(self, step) -> None:
-        self._after = int(step)
-
-    @property
-    def bytes_read(self) -> int:
-        return self.total_bytes if self._snapshots is not None else 0
-
-    def first(self):
-        return self._frames()[0]
-
-    def frame_bytes(self) -> int:
-        return 0  # read whole by the reader, which checks its own sizes
-
-    def __iter__(self):
-        return iter(self._frames())
-
-    def close(self) -> None:
-        """Nothing to release (the frames were read whole)."""
-
-
 @dataclass(frozen=True)
 class Reader:
     """One code's reader.
@@ -154,10 +113,9 @@ def _liggghts(particle_files, contact_files, mapping_path, dt_s):
 
 
 def _yade(particle_files, contact_files, mapping_path, dt_s):
-    from granalytics.convert.yade import read_yade_csv
+    from granalytics.convert.yade import open_yade_csv
 
-    return InMemorySource(lambda: read_yade_csv(particle_files, contact_files, mapping_path),
-                          [*particle_files, *contact_files])
+    return open_yade_csv(particle_files, contact_files, mapping_path)
 
 
 def _yade_vtk(particle_files, contact_files, mapping_path, dt_s):

@@ -283,7 +283,13 @@ class YadeVtkRun(StreamedSource):
 
 
 def _frame_files(entry):
-    return [f for f in (entry.get("multiblock"), entry.get("spheres"), entry.get("intrs")) if f]
+    """The files of a frame: its spheres and interactions, or its ``.vtm`` and the block files VTK
+    writes into the folder of the same name beside it (for the progress and the size checks)."""
+    files = [f for f in (entry.get("multiblock"), entry.get("spheres"), entry.get("intrs")) if f]
+    if entry.get("multiblock"):
+        blocks = os.path.splitext(entry["multiblock"])[0]
+        files += sorted(glob.glob(os.path.join(glob.escape(blocks), "*.vt[up]"))) if os.path.isdir(blocks) else []
+    return files
 
 
 def _update(reader, path):
