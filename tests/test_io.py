@@ -185,3 +185,12 @@ def test_sigkilled_writer_leaves_every_complete_frame_readable(tmp_path):
         if trial >= 2 and mid_frame_kills:
             break
     assert mid_frame_kills, "no kill landed inside a frame: the test did not exercise partial frames"
+
+
+def test_every_dataset_of_a_run_file_states_its_unit(run_path):
+    """docs/format.md: units on every dataset (`/contacts/count` had none)."""
+    missing = []
+    with h5py.File(run_path, "r") as f:
+        f.visititems(lambda name, obj: missing.append(name)
+                     if isinstance(obj, h5py.Dataset) and "unit" not in obj.attrs else None)
+    assert missing == []

@@ -427,7 +427,8 @@ class RunWriter(HDF5Handle):
                 **self._filter,
             )
             ds.attrs["unit"] = unit
-        contacts.create_dataset("count", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,), **checksum)
+        count = contacts.create_dataset("count", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(4096,), **checksum)
+        count.attrs["unit"] = "1"
         self._n_particles = n
         f.swmr_mode = True
 

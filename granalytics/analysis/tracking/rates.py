@@ -74,7 +74,7 @@ def event_rates(tracks: GranuleTracks, revolution_period_s=None, *, bin_width=No
     if dt.max() > 1.5 * dt.min():
         warnings.warn(f"the tracked frames are {dt.min():.3g}–{dt.max():.3g} s apart (a run thinned outside a "
                       "window?): events between frames further apart go uncounted, so rates of bins with other "
-                      "frame spacings are not comparable; track the evenly spaced part (--window)", stacklevel=user_stacklevel())
+                      "frame spacings are not comparable; track the evenly spaced part (window=, --window-rev)", stacklevel=user_stacklevel())
     if revolution_period_s is not None:
         period = float(revolution_period_s)
         x = t / period
