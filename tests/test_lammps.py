@@ -711,3 +711,11 @@ def test_an_error_about_a_vtk_dump_names_the_file_without_a_line():
     with pytest.raises(DumpFormatError, match=r"atoms_5000\.vtu: no contact dump for timestep 5000$"):
         read_liggghts([vtk / "atoms_5000.vtu", vtk / "atoms_10000.vtu"], [vtk / "pairs_10000.vtp"],
                       DumpMapping.from_toml(vtk / "mapping.toml"), dt=2e-6)
+
+
+def test_rows_with_a_value_more_than_the_header_names_are_refused(tmp_path, frames):
+    """pandas dropped the extra value of every row, with only its own ParserWarning."""
+    pf, cf = write_dumps(tmp_path, frames)
+    corrupt(pf[0], lambda ls: [l + " 7" if l and l[0] in "-0123456789" and len(l.split()) > 3 else l for l in ls])
+    with pytest.raises(DumpFormatError, match=r"atoms.dump, line 10: 14 values for 13 columns"):
+        read_liggghts(pf, cf, DumpMapping(**MAPPING), dt=DT)

@@ -462,11 +462,15 @@ def _parse_rows(data: bytes, columns, int_columns, n):
     if n == 0:
         return pd.DataFrame({c: np.empty(0, dtype=np.int64 if c in int_columns else np.float64) for c in columns})
     try:
-        table = pd.read_csv(io.BytesIO(data), sep=r"\s+", header=None, names=columns, index_col=False,
-                            dtype={c: (np.int64 if c in int_columns else np.float64) for c in columns},
-                            engine="c", skip_blank_lines=False, na_filter=False)
+        with warnings.catch_warnings(record=True) as caught:  # rows longer than the header: a ParserWarning
+            warnings.simplefilter("always", pd.errors.ParserWarning)
+            table = pd.read_csv(io.BytesIO(data), sep=r"\s+", header=None, names=columns, index_col=False,
+                                dtype={c: (np.int64 if c in int_columns else np.float64) for c in columns},
+                                engine="c", skip_blank_lines=False, na_filter=False)
     except (ValueError, pd.errors.ParserError, OverflowError, UnicodeDecodeError):
         return None
+    if any(issubclass(w.category, pd.errors.ParserWarning) for w in caught):
+        return None  # pandas dropped values: the slow reader names the row
     if len(table) != n or any(not np.isfinite(table[c].to_numpy()).all()
                               for c in columns if c not in int_columns):
         return None

@@ -19,8 +19,8 @@ What the recorders write (read off YADE 2023.02a's files):
   or bridge flag.
 
 The reader recovers the rest: each line's particles from its end points (the exact points of
-the spheres), the surface gap from the centres and radii (to about a nanometre: the points are
-single precision), and the cohesive force of YADE's ``ViscElCapPhys`` bridges: ``−forceN`` of a
+the spheres), the surface gap from the centres and radii (the points are single precision: good
+to about 10⁻⁷ of the coordinates, a few nanometres in a drum of 10 cm about the origin), and the cohesive force of YADE's ``ViscElCapPhys`` bridges: ``−forceN`` of a
 separated pair whose normal force pulls (YADE applies the capillary force only to an active
 bridge, gap > 0), and Willett's force at contact F_cap(0⁺) from the mapping's bridge volume for
 a touching pair, which YADE neither applies nor writes (as the CSV reader does;
@@ -275,7 +275,7 @@ class YadeVtkRun(StreamedSource):
                                        "bridge_volume": self.bridge_volume, "dt_s": self.dt,
                                        "f_cap_in_contact": "Willett F_cap(0+) at the mapping's bridge_volume, "
                                                            "filled in by the reader",
-                                       "gap": "from single-precision centres (about 1 nm)",
+                                       "gap": "from single-precision centres (about 1e-7 of the coordinates)",
                                        "files": [f for _, e in self.frames for f in _frame_files(e)][:1000]},
                            **self._meta_data)
         except TypeError as exc:
