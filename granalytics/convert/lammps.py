@@ -477,7 +477,7 @@ def _parse_rows(data: bytes, columns, int_columns, n):
     if any((np.abs(table[c].to_numpy()) > 2**53).any() for c in int_columns):
         return None  # pandas reads 1e16 as an integer: only the written text says whether it was one
     large = [c for c in int_columns if (np.abs(table[c].to_numpy()) >= FEW_DIGITS_ABOVE).any()]
-    if large:  # pandas reads 1.23457e+06 as 1234570: was it written whole?
+    if large and (b"e+" in data or b"E+" in data):  # pandas reads 1.23457e+06 as 1234570: was it written whole?
         texts = pd.read_csv(io.BytesIO(data), sep=r"\s+", header=None, names=columns, usecols=large, dtype=str,
                             index_col=False, engine="c", skip_blank_lines=False, na_filter=False)
         if any(texts[c].str.contains(r"[.eE]").any() for c in large):
