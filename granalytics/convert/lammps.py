@@ -31,7 +31,7 @@ from granalytics.core.snapshot import RunMeta, Snapshot
 from granalytics.convert._text import DumpFormatError, load_toml, warn_unused_contact_steps
 from granalytics.convert.registry import StreamedSource
 
-__all__ = ["DumpMapping", "DumpFile", "integer_column", "LiggghtsRun", "open_liggghts", "read_liggghts"]
+__all__ = ["DumpMapping", "DumpFile", "Block", "Box", "integer_column", "LiggghtsRun", "open_liggghts", "read_liggghts"]
 
 
 #: ids from here on are checked for lost digits: LAMMPS writes ``dump local`` columns with ``%g``
