@@ -127,9 +127,9 @@ def series(args):
 
 def _cg1_done() -> bool:
     """Whether the paper's CG1 has run its ``REVOLUTIONS`` (its newest checkpoint, here or kept,
-    covers every frame)."""
+    covers every frame: those of revolution 0 to ``REVOLUTIONS``, both included)."""
     newest = _newest(CG1_DIR, "paper-cg1", CG1_KEPT_CHECKPOINT)
-    return newest is not None and newest[1][0] >= round(REVOLUTIONS / FRAME_EVERY_REV)
+    return newest is not None and newest[1][0] >= round(REVOLUTIONS / FRAME_EVERY_REV) + 1
 
 
 def _series_done() -> bool:
@@ -276,6 +276,9 @@ def _snapshot(checkpoint):
 
 
 def cg1(args):
+    if _cg1_done():
+        print(f"paper-cg1 has its {REVOLUTIONS:g} revolutions: nothing to run", flush=True)
+        return
     os.makedirs(args.dir, exist_ok=True)
     # one thread beside the series; once it is done, `auto`: the second core while it is free, and
     # near one thread's rate under other work (a fixed 2 would crawl beside a test suite)

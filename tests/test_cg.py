@@ -244,3 +244,30 @@ def test_threshold_grid_deviations_carry_their_standard_error():
                                 / table[table["alpha"] == 2.0]["yield_fraction_mean"].to_numpy())
     assert np.allclose(cg3["yield_fraction_rel_dev_se"], expected)
     assert table[table["alpha"] == 2.0]["yield_fraction_rel_dev_se"].isna().all()
+
+
+def test_a_threshold_pairs_error_is_the_one_steady_state_gives_its_frames():
+    """compare_cg_thresholds cut its own blocks, without the window's tolerance: lab-cg3's frame of
+    revolution 3 (stamped 2.99995) became a block of its own, and its errors were up to 1.35x
+    those of stats for the same frames."""
+    from granalytics import compare_cg_thresholds
+    from granalytics.datasets import dataset_path
+
+    paths = [dataset_path("lab-cg2"), dataset_path("lab-cg3")]
+    table = compare_cg_thresholds(paths, [0.6], [20], window=(3, 6)).table
+    for path, alpha in zip(paths, (2.0, 3.0)):
+        with ga.open_run(path) as run:
+            steady = ga.steady_state(ga.run_stats(run.select(revolutions=(3, 6)), c_agg=0.6, a_agg_deg=20), (3, 6))
+        row = table[table["alpha"] == alpha].iloc[0]
+        for metric in ("yield_fraction", "mean_volume_norm", "n_granules_norm"):
+            assert row[f"{metric}_sem"] == pytest.approx(steady.loc[metric, "sem"], rel=1e-12)
+
+
+def test_a_cg_run_without_granules_keeps_the_error_of_its_deviation():
+    """(m - r)/r at m = 0 had the error |m/r|·hypot(se/m, ...) = 0·inf = NaN; it is se/|r|."""
+    from granalytics.analysis.cg import _relative_deviation
+
+    dev, se = _relative_deviation(0.0, 0.002, 0.05, 0.004)
+    assert dev == -1.0 and se == pytest.approx(0.04)
+    dev, se = _relative_deviation(0.04, 0.002, 0.05, 0.004)
+    assert se == pytest.approx(0.8 * math.hypot(0.002 / 0.04, 0.004 / 0.05))  # as before where m != 0

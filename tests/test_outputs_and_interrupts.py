@@ -442,19 +442,22 @@ def test_ctrl_c_inside_a_numba_kernel_is_an_interrupt_too(run_file, tmp_path, mo
 
 
 def _interrupt_the_swap_at(monkeypatch, call):
-    """Ctrl-C at the ``call``-th rename of the swap that puts staged outputs in place."""
+    """Ctrl-C at the ``call``-th rename or link of the swap that puts staged outputs in place."""
     import granalytics.report.files as files
 
-    real, seen = os.replace, []
+    seen = []
 
-    def replace(src, dst):
-        if ".staging-" in os.fspath(src) or ".staging-" in os.fspath(dst):
-            seen.append(dst)
-            if len(seen) == call:
-                raise KeyboardInterrupt
-        return real(src, dst)
+    def interrupting(real):
+        def step(src, dst, **kwargs):
+            if ".staging-" in os.fspath(src) or ".staging-" in os.fspath(dst):
+                seen.append(dst)
+                if len(seen) == call:
+                    raise KeyboardInterrupt
+            return real(src, dst, **kwargs)
+        return step
 
-    monkeypatch.setattr(files.os, "replace", replace)
+    monkeypatch.setattr(files.os, "replace", interrupting(os.replace))
+    monkeypatch.setattr(files.os, "link", interrupting(os.link))
     return seen
 
 

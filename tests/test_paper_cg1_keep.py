@@ -405,7 +405,7 @@ def test_the_series_leaves_the_second_core_to_cg1_until_cg1_is_done(monkeypatch)
     spec = importlib.util.spec_from_file_location("paper_drum_runs_queue", os.path.join(BENCH, "paper_drum_runs.py"))
     fresh = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(fresh)
-    frames = round(fresh.REVOLUTIONS / fresh.FRAME_EVERY_REV)
+    frames = round(fresh.REVOLUTIONS / fresh.FRAME_EVERY_REV) + 1  # revolutions 0, 0.05, ..., 4
     for covered, expected in ((frames - 1, False), (frames, True)):
         monkeypatch.setattr(fresh, "_newest", lambda folder, stem, kept, c=covered: ("ckpt", (c, 1, {}), None))
         names = [name for name, _, _ in fresh._queue()]

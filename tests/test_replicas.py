@@ -222,3 +222,16 @@ def test_a_sweep_and_its_replicas_in_another_folder_are_one_table(replica_sweep,
     pd.testing.assert_frame_equal(together[columns], whole[columns])
     with pytest.raises(ParameterError, match="no sweep folder"):
         study_table([], cohesion="acting")
+
+
+def test_a_replica_without_a_value_is_left_out_of_that_metric_and_said():
+    """A replica with no granule in its window has no <V_g>/V_p: pandas skipped it in the mean and
+    std but n counted it, so the replica s.e. was std(2 means)/sqrt(3)."""
+    means = pd.DataFrame({"a": [0.5, 3.0], "b": [0.6, 3.4], "c": [0.7, math.nan]}, index=["yield", "volume"])
+    sems = pd.DataFrame({"a": [0.01, 0.1], "b": [0.01, 0.1], "c": [0.01, math.nan]}, index=means.index)
+    with pytest.warns(UserWarning, match=r"volume has no value in replica\(s\) c: .*over the replicas that have one"):
+        out = combine_replicas(means, sems)
+    assert out.loc["volume", "n_replicas"] == 2 and out.loc["yield", "n_replicas"] == 3
+    assert out.loc["volume", "replica_sem"] == pytest.approx(np.std([3.0, 3.4], ddof=1) / math.sqrt(2))
+    assert out.loc["volume", "block_sem"] == pytest.approx(math.sqrt(2 * 0.1**2) / 2)
+    assert out.loc["yield", "replica_sem"] == pytest.approx(np.std([0.5, 0.6, 0.7], ddof=1) / math.sqrt(3))

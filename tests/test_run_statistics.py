@@ -116,3 +116,29 @@ def test_compare_cg_on_the_command_line_reads_a_folder_of_kept_statistics(kept, 
     code = main(["compare-cg", CG2, str(tmp_path / "cg3-stats"), "--c-agg", "0.4,0.6", "--out", str(tmp_path / "grid"),
                  "--quiet"])
     assert code == 2 and "holds statistics kept at one threshold pair" in capsys.readouterr().err
+
+
+def test_a_resave_keeps_every_file_in_place_and_renames_the_frames_in_last(kept, tmp_path, monkeypatch):
+    """A process killed during the save (a stop during `keep`) left frames.csv with frames whose
+    sizes were not yet in sizes.csv (read back as no granules, never made again), or no sizes.csv
+    at all (moved aside): every later read failed."""
+    import granalytics.report.files as files
+
+    folder = tmp_path / "kept"
+    with ga.open_run(ga.datasets.dataset_path("lab-cg3")) as run:
+        ga.save(RunStatistics.of_frames(run[:3], run.meta), folder)
+    targets = [str(folder / name) for name in ("frames.csv", "sizes.csv", "meta.json")]
+    renamed, missing = [], []
+    real = os.replace
+
+    def replace(src, dst):
+        missing.extend(t for t in targets if not os.path.exists(t))  # what a kill at this moment leaves
+        renamed.append(os.path.basename(dst))
+        return real(src, dst)
+
+    monkeypatch.setattr(files.os, "replace", replace)
+    ga.save(kept, folder, overwrite=True)
+    assert missing == []
+    assert [name for name in renamed if name in ("frames.csv", "sizes.csv", "meta.json")][-1] == "frames.csv"
+    back = RunStatistics.read(folder)
+    assert back.timeseries.equals(kept.timeseries)

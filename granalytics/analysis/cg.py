@@ -327,7 +327,8 @@ def _relative_deviation(mean, se, ref_mean, ref_se):
     if not ref_mean:
         return math.nan, math.nan
     ratio = mean / ref_mean
-    se_ratio = abs(ratio) * math.hypot(se / mean if mean else math.nan, ref_se / ref_mean)
+    # first order, written so that a mean of 0 (no granule in the CG run) keeps its error se/|ref|
+    se_ratio = math.hypot(se, ratio * ref_se) / abs(ref_mean)
     return ratio - 1.0, se_ratio
 
 
@@ -440,6 +441,8 @@ def _combine_group(members, label, min_size=2):
         ts.insert(0, "alpha", first["alpha"])
         ts.insert(0, "run", label)
         series.append(ts)
+    # every granule of every window frame counts once: a replica with more frames gives more of them
+    # (its steady means, above, count each replica once)
     pooled = np.concatenate([m["sizes"] for m in members])
     dist = size_distribution(pooled, min_size=min_size)  # bins from the smallest size that can occur
     dist.insert(0, "alpha", first["alpha"])
@@ -504,21 +507,17 @@ def _comparison_row(row, steady, sizes, reference, ref_row) -> dict:
     return out
 
 
-def _grid_block_sems(table, lo) -> pd.DataFrame:
-    """The block s.e.m. of each headline metric at every threshold pair of a sensitivity table
-    (blocks of a quarter revolution from the window's start ``lo``, :func:`blocking_sem`)."""
-    from granalytics.analysis.stats import blocking_sem
-
+def _grid_block_sems(table, window) -> pd.DataFrame:
+    """The block s.e.m. of each headline metric at every threshold pair of a sensitivity table over
+    ``window`` [revolutions]: :func:`steady_state`'s own blocks (its window tolerance, clipping and
+    closing edge), so that a pair's error is the one ``stats`` gives it. Its drift warnings are
+    left out: they would repeat for every pair."""
     rows = []
     for (a_agg, c_agg), part in table.groupby(["a_agg_deg", "c_agg"]):
-        block = np.floor((part["revolutions"].to_numpy() - lo + 1e-9) / 0.25).astype(int)
-        row = {"a_agg_deg": a_agg, "c_agg": c_agg}
-        for metric in BY_FIGURE:
-            values = part[metric].to_numpy(dtype=float)
-            ok = np.isfinite(values)
-            grouped = pd.Series(values[ok]).groupby(block[ok])
-            row[f"{metric}_sem"] = blocking_sem(grouped.sum().to_numpy(), grouped.size().to_numpy())[0]
-        rows.append(row)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            steady = steady_state(part, window, BY_FIGURE)
+        rows.append({"a_agg_deg": a_agg, "c_agg": c_agg, **{f"{m}_sem": steady.loc[m, "sem"] for m in BY_FIGURE}})
     return pd.DataFrame(rows)
 
 
@@ -600,7 +599,7 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
             if not len(frames):
                 raise ParameterError(f"{run.path}: no frame in the window [{lo:g}, {hi:g}] revolutions")
             table = sensitivity(frames, c_agg, a_agg_deg, radius=radius, cohesion=cohesion, progress=progress)
-            summary = sensitivity_summary(table).merge(_grid_block_sems(table, lo), on=["a_agg_deg", "c_agg"])
+            summary = sensitivity_summary(table).merge(_grid_block_sems(table, (lo, hi)), on=["a_agg_deg", "c_agg"])
             summary.insert(0, "alpha", run.meta.alpha)
             summary.insert(0, "run", label)
             rows.append(summary)
@@ -617,7 +616,7 @@ def compare_cg_thresholds(runs, c_agg, a_agg_deg, labels=None, *, window=DEFAULT
             out[f"{metric}_rel_dev"] = ratio - 1
             # the finest run's own row has no error of the deviation (it is 0 by definition)
             out[f"{metric}_rel_dev_se"] = np.where(out["run"] == finest, np.nan,
-                                                   np.abs(ratio) * np.hypot(se / mean, base_se / base))
+                                                   np.hypot(se, ratio * base_se) / np.abs(base))
     columns = ["run", "alpha", "c_agg", "a_agg_deg", "n_frames"]
     columns += [f"{m}_{s}" for m in BY_FIGURE for s in ("mean", "sem", "rel_dev", "rel_dev_se")]
     table = out[columns].sort_values(["alpha", "a_agg_deg", "c_agg"]).reset_index(drop=True)

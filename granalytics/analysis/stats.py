@@ -395,21 +395,33 @@ def combine_replicas(means, sems) -> pd.DataFrame:
     DataFrame (index of ``means``) with ``mean`` (over replicas), ``replica_sem`` (standard
     deviation of the replica means / √n: the run-to-run error; NaN for one replica),
     ``block_sem`` (√(Σ sem_i²)/n: what the replicas' block errors say of the same mean; NaN when
-    a replica has none), ``replica_std`` and ``n_replicas``.
+    a replica has none), ``replica_std`` and ``n_replicas``; n counts, metric by metric, the
+    replicas with a value (a replica with no granule in its window has no ⟨V_g⟩/V_p: it is left
+    out of that metric, with a warning).
     """
     means, sems = pd.DataFrame(means), pd.DataFrame(sems)
     n = means.shape[1]
     if n < 1 or sems.shape != means.shape:
         raise ParameterError(f"combine_replicas: means {means.shape} and sems {sems.shape} must be metrics × replicas, "
                              "with at least one replica")
-    std = means.std(axis=1, ddof=1) if n > 1 else pd.Series(math.nan, index=means.index)
-    return pd.DataFrame({
-        "mean": means.mean(axis=1),
-        "replica_sem": std / math.sqrt(n),
-        "block_sem": np.sqrt((sems.to_numpy(dtype=float) ** 2).sum(axis=1)) / n,
-        "replica_std": std,
-        "n_replicas": n,
-    }, index=means.index)
+    finite = means.notna().to_numpy()
+    counts = finite.sum(axis=1)
+    short = [(metric, [str(c) for c, ok in zip(means.columns, row) if not ok])
+             for metric, row in zip(means.index, finite) if not row.all()]
+    if short:  # a replica without a value (no granule in its window): the others' statistics, said
+        warnings.warn("combine_replicas: " + "; ".join(f"{metric} has no value in replica(s) {', '.join(names)}"
+                                                        for metric, names in short)
+                      + ": its mean and errors are over the replicas that have one", stacklevel=user_stacklevel())
+    std = means.std(axis=1, ddof=1).where(counts > 1)
+    block_sq = np.where(finite, sems.to_numpy(dtype=float) ** 2, 0.0).sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return pd.DataFrame({
+            "mean": means.mean(axis=1),
+            "replica_sem": std / np.sqrt(counts),
+            "block_sem": np.where(counts > 0, np.sqrt(block_sq) / counts, np.nan),
+            "replica_std": std,
+            "n_replicas": counts,
+        }, index=means.index)
 
 
 def blocking_sem(block_sums, block_counts, *, min_blocks=4) -> tuple:

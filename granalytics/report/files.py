@@ -73,9 +73,11 @@ def staged_outputs(folder=None):
 
 
 def _swap_in(staging) -> None:
-    """Rename each staged file over its target as one change: an existing target is first moved
-    beside its staged file (``….old``), and if any rename fails (or Ctrl-C arrives during the
-    swap) every target done so far is put back as it was and the error (the interrupt) raised."""
+    """Rename each staged file over its target as one change: an existing target is first kept
+    beside its staged file (``….old``, a hard link where the file system has them, so that a
+    process killed meanwhile leaves every target in place, old or new), and if any rename fails
+    (or Ctrl-C arrives during the swap) every target done so far is put back as it was and the
+    error (the interrupt) raised."""
     done = []  # (target, where its earlier version was set aside, or None if it had none)
     raise_dropped_interrupt()
     with interrupts_held() as held:
@@ -84,7 +86,10 @@ def _swap_in(staging) -> None:
                 old = None
                 if os.path.lexists(target):
                     old = tmp + ".old"
-                    os.replace(target, old)
+                    try:
+                        os.link(target, old, follow_symlinks=False)
+                    except OSError:  # no hard links here: moved aside
+                        os.replace(target, old)
                 done.append((target, old))
                 os.replace(tmp, target)
             if held:

@@ -229,12 +229,14 @@ def _save_calibration(calibration: Calibration, folder, *, overwrite=False) -> l
 @save.register
 def _save_run_statistics(statistics: RunStatistics, folder, *, overwrite=False) -> list:
     """The kept statistics' ``frames.csv``, ``sizes.csv`` and ``meta.json``
-    (:meth:`RunStatistics.tables`), written into ``folder`` as one."""
+    (:meth:`RunStatistics.tables`), written into ``folder`` as one, ``frames.csv`` renamed in last:
+    a process killed between the renames leaves sizes of frames that ``frames.csv`` does not list
+    yet (which reading ignores), never frames without their sizes."""
     folder = _output_path(folder)
     paths = output_paths(RunStatistics, folder, overwrite=overwrite)
     tables = statistics.tables()
     with _written_as_one(folder) as stage:
-        for name, path in zip(RUN_STATISTICS_FILES, paths):
+        for name, path in sorted(zip(RUN_STATISTICS_FILES, paths), key=lambda item: item[0] == "frames.csv"):
             (write_json if name.endswith(".json") else write_table)(tables[name], path, stage)
     return paths
 
