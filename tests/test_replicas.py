@@ -235,3 +235,16 @@ def test_a_replica_without_a_value_is_left_out_of_that_metric_and_said():
     assert out.loc["volume", "replica_sem"] == pytest.approx(np.std([3.0, 3.4], ddof=1) / math.sqrt(2))
     assert out.loc["volume", "block_sem"] == pytest.approx(math.sqrt(2 * 0.1**2) / 2)
     assert out.loc["yield", "replica_sem"] == pytest.approx(np.std([0.5, 0.6, 0.7], ddof=1) / math.sqrt(3))
+
+
+def test_a_metric_no_replica_has_is_undefined_without_a_warning():
+    import warnings
+
+    means = pd.DataFrame({"a": [0.5, math.nan], "b": [0.6, math.nan]}, index=["yield", "volume"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = combine_replicas(means, means * 0.1)
+    assert math.isnan(out.loc["volume", "mean"]) and out.loc["volume", "n_replicas"] == 0
+    tables = [pd.DataFrame({"mean": [0.5, v], "sem": [0.01, 0.1]}, index=["yield", "volume"]) for v in (3.0, math.nan)]
+    with pytest.warns(UserWarning, match=r"volume has no value in replica\(s\) 2:"):
+        ga.analysis.stats.combine_steady_states(tables)

@@ -373,9 +373,10 @@ def replica_steady_state(timeseries, window=DEFAULT_WINDOW_REV, columns=_STEADY_
 
 def combine_steady_states(tables) -> pd.DataFrame:
     """:func:`combine_replicas` of the :func:`steady_state` tables of replicas (their ``mean``
-    and ``sem`` columns, one table per replica)."""
-    return combine_replicas(pd.concat([t["mean"] for t in tables], axis=1),
-                            pd.concat([t["sem"] for t in tables], axis=1))
+    and ``sem`` columns, one table per replica, numbered from 1 in the order given)."""
+    numbers = range(1, len(tables) + 1)
+    return combine_replicas(pd.concat([t["mean"] for t in tables], axis=1, keys=numbers),
+                            pd.concat([t["sem"] for t in tables], axis=1, keys=numbers))
 
 
 def combine_replicas(means, sems) -> pd.DataFrame:
@@ -407,7 +408,7 @@ def combine_replicas(means, sems) -> pd.DataFrame:
     finite = means.notna().to_numpy()
     counts = finite.sum(axis=1)
     short = [(metric, [str(c) for c, ok in zip(means.columns, row) if not ok])
-             for metric, row in zip(means.index, finite) if not row.all()]
+             for metric, row in zip(means.index, finite) if 0 < row.sum() < n]  # none at all: undefined, not short
     if short:  # a replica without a value (no granule in its window): the others' statistics, said
         warnings.warn("combine_replicas: " + "; ".join(f"{metric} has no value in replica(s) {', '.join(names)}"
                                                         for metric, names in short)
