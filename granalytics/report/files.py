@@ -88,7 +88,7 @@ def _swap_in(staging) -> None:
                     old = tmp + ".old"
                     try:
                         os.link(target, old, follow_symlinks=False)
-                    except OSError:  # no hard links here: moved aside
+                    except (OSError, NotImplementedError):  # no hard links here: moved aside
                         os.replace(target, old)
                 done.append((target, old))
                 os.replace(tmp, target)
