@@ -165,12 +165,10 @@ class YadeCsvRun(StreamedSource):
 
     def _read(self):
         for step, path, cpath in self._pairs:
-            if self._after is not None and step <= self._after:
-                self._bytes_read += os.path.getsize(path) + os.path.getsize(cpath)
-                continue
-            snapshot = self._snapshot(path, cpath)
+            snapshot = None if self._after is not None and step <= self._after else self._snapshot(path, cpath)
             self._bytes_read += os.path.getsize(path) + os.path.getsize(cpath)
-            yield snapshot
+            if snapshot is not None:
+                yield snapshot
 
     def _snapshot(self, path, cpath) -> Snapshot:
         time, step, p = _read(path, PARTICLE_COLUMNS)
